@@ -1,0 +1,93 @@
+"""axiswatch: predictive maintenance of robot axes that does not cry wolf when the task changes.
+
+A capture of one axis (position, speed, torque) becomes |STFT| features; a detector compares them
+with a healthy baseline (PCA subspace distance, or the paper's Low Rank Alignment); a half-Laplace
+fit of healthy distances gives the alarm threshold.
+
+>>> import axiswatch as aw
+>>> day1, *rest = aw.lab_dataset(seed=0)
+>>> spec = aw.FeatureSpec(combinations="none")
+>>> model = aw.HealthModel(spec, aw.LRADetector()).fit(day1.capture)
+>>> model = model.calibrate([d.capture for d in rest if not d.anomalous])
+>>> [(d.label, model.assess(d.capture).alarm) for d in rest][:4]
+[('O1', False), ('O1', False), ('A', True), ('O1', False)]
+"""
+
+from axiswatch._alignment import (
+    LowRankBasis,
+    LRAResult,
+    low_rank_basis,
+    low_rank_representation,
+    lra_dense,
+    lra_embedding,
+    lra_structured,
+)
+from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
+from axiswatch._capture import (
+    DEFAULT_SIGNALS,
+    Capture,
+    as_capture,
+    capture_to_frame,
+    read_capture,
+    write_capture,
+)
+from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch._features import (
+    Features,
+    FeatureSpec,
+    extract_features,
+    features_from_signals,
+    stft_features,
+)
+from axiswatch._model import Assessment, HealthModel
+from axiswatch._preprocessing import (
+    align_phase,
+    integer_factor,
+    phase_lag,
+    resample_capture,
+    upsample_pchip,
+)
+from axiswatch._simulate import LAB_DAYS, LabDay, lab_dataset
+from axiswatch.exceptions import AxiswatchError, CalibrationError, CaptureError, StoreError
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Assessment",
+    "AxiswatchError",
+    "BaselineDetector",
+    "CalibrationError",
+    "Capture",
+    "CaptureError",
+    "DEFAULT_SIGNALS",
+    "FeatureSpec",
+    "Features",
+    "HalfLaplaceFit",
+    "HealthModel",
+    "LAB_DAYS",
+    "LRADetector",
+    "LRAResult",
+    "LabDay",
+    "LowRankBasis",
+    "PCADetector",
+    "StoreError",
+    "align_phase",
+    "as_capture",
+    "capture_to_frame",
+    "extract_features",
+    "features_from_signals",
+    "fit_half_laplace",
+    "integer_factor",
+    "lab_dataset",
+    "low_rank_basis",
+    "low_rank_representation",
+    "lra_dense",
+    "lra_embedding",
+    "lra_structured",
+    "phase_lag",
+    "read_capture",
+    "resample_capture",
+    "stft_features",
+    "upsample_pchip",
+    "write_capture",
+]

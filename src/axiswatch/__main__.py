@@ -1,0 +1,5 @@
+"""``python -m axiswatch``: the command-line tool."""
+
+from axiswatch.cli import main
+
+main()

@@ -1,0 +1,497 @@
+"""Low Rank Alignment (LRA): a joint embedding of baseline and test features.
+
+Pipeline stage 3. Paper, section "Proposed Method", eqs. (2)-(8), after Boucher, Carey, Mahadevan
+& Dyar, "Aligning mixed manifolds", AAAI 2015.
+
+Notation. ``X_s, X_t`` are ``N x K`` feature matrices (rows are samples). The low-rank
+representation of ``X`` minimises ``1/2 ||X - R X||_F^2 + lambda ||R||_*``; ``R`` is ``N x N`` and
+acts on the rows, and its closed form (Favaro et al. 2011) is ``R = V (I - lambda S^-2) V^T``
+where ``S`` holds the singular values of ``X`` above ``sqrt(lambda)`` and ``V`` the matching left
+singular vectors of ``X`` (the paper's right-singular vectors of ``X^T``); ``lambda = 1`` is the
+paper's form. With ``R = blockdiag(R_s, R_t)`` and the correspondence ``C = [[0, I], [I, 0]]``
+whose Laplacian is ``L = [[I, -I], [-I, I]]``, the embedding ``F = [F_s; F_t]`` holds the
+eigenvectors of
+
+    M = (1 - mu) (I - R)^T (I - R) + 2 mu L                                   (paper eq. 7)
+
+for the ``d`` smallest eigenvalues after the trivial (smallest) one, and
+``delta = ||F_s - F_t||_F``.
+
+Exact structured solver. Because ``R`` is symmetric, ``(I - R)^T (I - R) = I - U`` with
+``U = V diag(1 - lambda^2 / s^4) V^T``, a matrix of rank ``r`` (the number of kept singular
+values). In the orthogonal basis ``Q = [[I, I], [I, -I]] / sqrt(2)`` of symmetric and
+antisymmetric combinations of source and target rows, ``Q L Q = blockdiag(0, 2 I)`` and
+
+    Q M Q = (1 - mu) I + blockdiag(0, 4 mu I)
+            - (1 - mu)/2 [[U_s + U_t, U_s - U_t], [U_s - U_t, U_s + U_t]].
+
+Let ``B`` (``N x k``) be an orthonormal basis of ``W = span(V_s) + span(V_t)``, ``k <= r_s + r_t``.
+``U_s`` and ``U_t`` vanish on the complement of ``W``, so ``Q M Q`` splits into
+
+* a ``2k x 2k`` block on ``W (+) W``: the same formula with ``U`` replaced by ``B^T U B``;
+* eigenvalue ``1 - mu`` with multiplicity ``N - k`` (vectors ``[a; a]/sqrt(2)``, ``a`` orthogonal
+  to ``W``): source and target rows coincide, so they add 0 to ``delta^2``;
+* eigenvalue ``1 + 3 mu`` with multiplicity ``N - k`` (vectors ``[b; -b]/sqrt(2)``): each adds
+  exactly 2 to ``delta^2``.
+
+An eigenvector ``Q [y1; y2]`` has ``F_s - F_t = sqrt(2) y2``, so
+``delta^2 = sum over selected eigenvectors f of f^T L f = 2 ||y2||^2``. The cost is one SVD per
+matrix plus ``O(N k^2 + k^3)``; no ``N x N`` matrix is formed.
+
+Degenerate eigenvalues. ``delta`` depends only on the span of the selected eigenvectors, not on
+their signs. When an eigenvalue cluster (eigenvalues within ``degeneracy_tol``) straddles a cut,
+the span is not determined by ``M``; both solvers then take, inside the cluster, the eigenvectors
+with the smallest correspondence cost ``f^T L f`` first (the limit of ``M + eps L`` as ``eps -> 0+``),
+so ``delta`` is defined in every case. Every result reports ``eigengap``: the smaller gap at the
+two cuts. Where it is below ``degeneracy_tol`` the tie-break was used (``tie_broken``).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+__all__ = [
+    "LRAResult",
+    "LowRankBasis",
+    "low_rank_basis",
+    "low_rank_representation",
+    "lra_dense",
+    "lra_embedding",
+    "lra_structured",
+]
+
+#: Eigenvalues of M closer than this are one degenerate cluster (M's spectrum lies in [0, 1 + 3 mu]).
+DEGENERACY_TOL = 1e-9
+#: Columns of [V_s, V_t] whose singular value falls below this are linearly dependent (W's basis).
+_SPAN_RTOL = 1e-10
+
+
+@dataclass(frozen=True)
+class LowRankBasis:
+    """The part of ``X``'s SVD that enters the low-rank representation ``R``.
+
+    Attributes
+    ----------
+    vectors : ndarray of shape (n_rows, rank)
+        Left singular vectors of ``X`` whose singular value exceeds ``sqrt(noise_level)``.
+    singular_values : ndarray of shape (rank,)
+    noise_level : float
+        The ``lambda`` of the objective.
+    """
+
+    vectors: NDArray[np.float64]
+    singular_values: NDArray[np.float64]
+    noise_level: float
+
+    @property
+    def rank(self) -> int:
+        """Number of singular values kept."""
+        return int(self.singular_values.size)
+
+    @property
+    def weights(self) -> NDArray[np.float64]:
+        """``1 - lambda^2 / s^4``: the eigenvalues of ``U = I - (I - R)^T (I - R)`` on ``vectors``."""
+        return 1.0 - (self.noise_level / self.singular_values**2) ** 2
+
+
+@dataclass(frozen=True)
+class LRAResult:
+    """Outcome of one Low Rank Alignment.
+
+    Attributes
+    ----------
+    delta : float
+        ``||F_s - F_t||_F``, the paper's distance.
+    F_s, F_t : ndarray of shape (n_rows, n_components)
+        Embedding of source (baseline) and target (test) rows. Column signs are fixed so that the
+        largest-magnitude entry of each column of ``[F_s; F_t]`` is positive.
+    eigenvalues : ndarray of shape (n_components + 2,)
+        The smallest eigenvalues of ``M``: the trivial one, the selected ones, the next one.
+    eigengap : float
+        ``min(nu_1 - nu_0, nu_{d+1} - nu_d)``: how well the selected span is determined.
+    tie_broken : bool
+        True when a cluster straddling a cut was resolved by the correspondence tie-break.
+    rank_source, rank_target : int
+        Singular values kept in ``R_s`` and ``R_t``.
+    """
+
+    delta: float
+    F_s: NDArray[np.float64]
+    F_t: NDArray[np.float64]
+    eigenvalues: NDArray[np.float64]
+    eigengap: float
+    tie_broken: bool
+    rank_source: int
+    rank_target: int
+
+
+def _check_features(X: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    array = np.asarray(X, dtype=np.float64)
+    if array.ndim != 2 or array.shape[0] < 1 or array.shape[1] < 1:
+        raise ValueError(f"{name} must have shape (n_rows, n_features); got shape {array.shape}.")
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} contains NaN or inf; expected finite features.")
+    return array
+
+
+def _check_parameters(mu: float, n_components: int, noise_level: float, n_rows: int) -> None:
+    if not (isinstance(mu, int | float | np.floating) and 0.0 <= float(mu) <= 1.0):
+        raise ValueError(f"The 'mu' parameter must be a float in [0, 1]. Got {mu!r} instead.")
+    if not (isinstance(n_components, int | np.integer) and n_components >= 1):
+        raise ValueError(
+            f"The 'n_components' parameter must be an int >= 1. Got {n_components!r} instead."
+        )
+    if 2 * n_rows < n_components + 2:
+        raise ValueError(
+            f"The 'n_components' parameter must be <= 2 * n_rows - 2 = {2 * n_rows - 2} "
+            f"(one trivial and one following eigenvalue are needed). Got {n_components} instead."
+        )
+    if not (isinstance(noise_level, int | float | np.floating) and float(noise_level) > 0.0):
+        raise ValueError(
+            f"The 'noise_level' parameter must be a float > 0. Got {noise_level!r} instead."
+        )
+
+
+def low_rank_basis(X: NDArray[np.float64], noise_level: float = 1.0) -> LowRankBasis:
+    """Singular vectors and values of ``X`` that enter ``R`` (those above ``sqrt(noise_level)``).
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_rows, n_features)
+    noise_level : float, default=1.0
+        ``lambda`` of the objective ``1/2 ||X - R X||_F^2 + lambda ||R||_*``.
+
+    Returns
+    -------
+    LowRankBasis
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> basis = low_rank_basis(np.diag([3.0, 2.0, 0.5]))
+    >>> basis.rank, basis.singular_values.tolist()
+    (2, [3.0, 2.0])
+    """
+    X = _check_features(X, "X")
+    if not float(noise_level) > 0.0:
+        raise ValueError(
+            f"The 'noise_level' parameter must be a float > 0. Got {noise_level!r} instead."
+        )
+    left, singular, _ = scipy.linalg.svd(X, full_matrices=False, check_finite=False)
+    keep = singular > np.sqrt(noise_level)
+    return LowRankBasis(left[:, keep], singular[keep], float(noise_level))
+
+
+def low_rank_representation(
+    X: NDArray[np.float64], noise_level: float = 1.0
+) -> NDArray[np.float64]:
+    """The ``N x N`` reconstruction matrix ``R = V (I - lambda S^-2) V^T`` (paper eqs. 3-4).
+
+    Dense; for inspection and tests. The solvers use :func:`low_rank_basis` instead.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> R = low_rank_representation(np.diag([2.0, 0.5]))
+    >>> np.round(R, 3)
+    array([[0.75, 0.  ],
+           [0.  , 0.  ]])
+    """
+    basis = low_rank_basis(X, noise_level)
+    shrink = 1.0 - noise_level / basis.singular_values**2
+    return (basis.vectors * shrink) @ basis.vectors.T
+
+
+def _clusters(values: NDArray[np.float64], tol: float) -> list[tuple[int, int]]:
+    """Half-open index ranges of runs of sorted values whose neighbours differ by <= tol."""
+    bounds = [0, *(np.flatnonzero(np.diff(values) > tol) + 1).tolist(), values.size]
+    return list(itertools.pairwise(bounds))
+
+
+def _fix_signs(F: NDArray[np.float64]) -> NDArray[np.float64]:
+    pivot = np.abs(F).argmax(axis=0)
+    signs = np.sign(F[pivot, np.arange(F.shape[1])])
+    signs[signs == 0] = 1.0
+    return np.asarray(F * signs, dtype=np.float64)
+
+
+def _result(
+    values: NDArray[np.float64],
+    F: NDArray[np.float64],
+    l_forms: NDArray[np.float64],
+    n_components: int,
+    tol: float,
+    ranks: tuple[int, int],
+) -> LRAResult:
+    n_rows = F.shape[0] // 2
+    d = n_components
+    gap = float(min(values[1] - values[0], values[d + 1] - values[d]))
+    selected = slice(1, d + 1)
+    F = _fix_signs(F[:, selected])
+    return LRAResult(
+        delta=float(np.sqrt(max(float(l_forms[selected].sum()), 0.0))),
+        F_s=F[:n_rows],
+        F_t=F[n_rows:],
+        eigenvalues=values[: d + 2].copy(),
+        eigengap=gap,
+        tie_broken=gap <= tol,
+        rank_source=ranks[0],
+        rank_target=ranks[1],
+    )
+
+
+def lra_dense(
+    X_s: NDArray[np.float64],
+    X_t: NDArray[np.float64],
+    *,
+    mu: float = 0.5,
+    n_components: int = 2,
+    noise_level: float = 1.0,
+    degeneracy_tol: float = DEGENERACY_TOL,
+) -> LRAResult:
+    """LRA by the literal dense eigenproblem of size ``2N x 2N``: the reference solver.
+
+    ``O(N^3)`` time and ``O(N^2)`` memory; see :func:`lra_structured` for the exact fast form.
+    Parameters and result as in :func:`lra_embedding`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.normal(size=(40, 6))
+    >>> round(lra_dense(X, X).delta, 12)
+    0.0
+    """
+    X_s = _check_features(X_s, "X_s")
+    X_t = _check_features(X_t, "X_t")
+    if X_s.shape != X_t.shape:
+        raise ValueError(
+            f"X_s and X_t must have the same shape (rows are paired); got {X_s.shape} and "
+            f"{X_t.shape}."
+        )
+    n_rows = X_s.shape[0]
+    _check_parameters(mu, n_components, noise_level, n_rows)
+    identity = np.eye(n_rows)
+    R = scipy.linalg.block_diag(
+        low_rank_representation(X_s, noise_level), low_rank_representation(X_t, noise_level)
+    )
+    residual = np.eye(2 * n_rows) - R
+    laplacian = np.block([[identity, -identity], [-identity, identity]])
+    M = (1.0 - mu) * residual.T @ residual + 2.0 * mu * laplacian
+    # Enough eigenpairs to see every cluster that touches the cuts; widened until the last cluster
+    # ends inside the computed range.
+    count = min(2 * n_rows, n_components + 10)
+    while True:
+        values, vectors = scipy.linalg.eigh(M, subset_by_index=[0, count - 1])
+        runs = _clusters(values, degeneracy_tol)
+        if count == 2 * n_rows or runs[-1][0] > n_components + 1:
+            break
+        count = min(2 * n_rows, 2 * count)
+    l_forms = np.einsum("ij,ij->j", vectors, laplacian @ vectors)
+    for start, stop in runs:
+        if stop - start > 1:
+            block = vectors[:, start:stop]
+            l_forms[start:stop], rotation = np.linalg.eigh(block.T @ laplacian @ block)
+            vectors[:, start:stop] = block @ rotation
+    basis_ranks = (
+        low_rank_basis(X_s, noise_level).rank,
+        low_rank_basis(X_t, noise_level).rank,
+    )
+    return _result(values, vectors, l_forms, n_components, degeneracy_tol, basis_ranks)
+
+
+def _complement_vectors(B: NDArray[np.float64], n_rows: int, count: int) -> NDArray[np.float64]:
+    """``count`` orthonormal vectors orthogonal to the columns of ``B``: canonical, from e_0, e_1, ..."""
+    if count == 0:
+        return np.zeros((n_rows, 0))
+    width = min(n_rows, count + B.shape[1])
+    candidates = np.eye(n_rows, width)
+    candidates -= B @ (B.T @ candidates)
+    q, r = np.linalg.qr(candidates)
+    good = np.abs(np.diag(r)) > 1e-8
+    return q[:, good][:, :count]
+
+
+def lra_structured(
+    source: LowRankBasis,
+    target: LowRankBasis,
+    *,
+    mu: float = 0.5,
+    n_components: int = 2,
+    degeneracy_tol: float = DEGENERACY_TOL,
+) -> LRAResult:
+    """Exact LRA from the two low-rank bases, in ``O(N k^2 + k^3)`` (see the module docstring).
+
+    Parameters
+    ----------
+    source, target : LowRankBasis
+        From :func:`low_rank_basis` of ``X_s`` and ``X_t`` (same ``noise_level`` and row count).
+        The source basis can be computed once per baseline and reused for every test capture.
+    mu, n_components, degeneracy_tol
+        As in :func:`lra_embedding`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X_s, X_t = rng.normal(size=(2, 50, 8)) * 3
+    >>> fast = lra_structured(low_rank_basis(X_s), low_rank_basis(X_t))
+    >>> bool(np.isclose(fast.delta, lra_dense(X_s, X_t).delta, rtol=1e-8))
+    True
+    """
+    if source.vectors.shape[0] != target.vectors.shape[0]:
+        raise ValueError(
+            "source and target must have the same number of rows (rows are paired); got "
+            f"{source.vectors.shape[0]} and {target.vectors.shape[0]}."
+        )
+    if source.noise_level != target.noise_level:
+        raise ValueError(
+            f"source and target were computed with different noise levels "
+            f"({source.noise_level} and {target.noise_level})."
+        )
+    n_rows = source.vectors.shape[0]
+    _check_parameters(mu, n_components, source.noise_level, n_rows)
+    stacked = np.hstack([source.vectors, target.vectors])
+    if stacked.shape[1]:
+        left, singular, _ = scipy.linalg.svd(stacked, full_matrices=False, check_finite=False)
+        B = left[:, singular > _SPAN_RTOL * max(1.0, float(singular[0]))]
+    else:
+        B = np.zeros((n_rows, 0))
+    k = B.shape[1]
+    P_s, P_t = B.T @ source.vectors, B.T @ target.vectors
+    G_s = (P_s * source.weights) @ P_s.T
+    G_t = (P_t * target.weights) @ P_t.T
+    small = np.eye(2 * k) * (1.0 - mu)
+    small[k:, k:] += 4.0 * mu * np.eye(k)
+    small -= 0.5 * (1.0 - mu) * np.block([[G_s + G_t, G_s - G_t], [G_s - G_t, G_s + G_t]])
+    small_values, Z = np.linalg.eigh(small)
+    # Closed-form part: only the first few copies of each bulk eigenvalue can reach the cuts.
+    n_bulk = min(n_rows - k, n_components + 2)
+    values = np.concatenate(
+        [small_values, np.full(n_bulk, 1.0 - mu), np.full(n_bulk, 1.0 + 3.0 * mu)]
+    )
+    kind = np.concatenate([np.zeros(2 * k, int), np.ones(n_bulk, int), np.full(n_bulk, 2)])
+    l_forms = np.concatenate(
+        [2.0 * np.einsum("ij,ij->j", Z[k:], Z[k:]), np.zeros(n_bulk), np.full(n_bulk, 2.0)]
+    )
+    column = np.concatenate([np.arange(2 * k), np.arange(n_bulk), np.arange(n_bulk)])
+    # Sort by eigenvalue, then by correspondence cost inside exact ties (bulk copies are identical).
+    order = np.lexsort((l_forms, values))
+    values, kind, l_forms, column = values[order], kind[order], l_forms[order], column[order]
+    Z = Z.copy()
+    for start, stop in _clusters(values, degeneracy_tol):
+        members = np.arange(start, stop)[kind[start:stop] == 0]
+        if members.size > 1:
+            cols = column[members]
+            block = Z[:, cols]
+            forms, rotation = np.linalg.eigh(2.0 * block[k:].T @ block[k:])
+            Z[:, cols] = block @ rotation
+            l_forms[members] = forms
+        if stop - start > 1:
+            inner = np.argsort(l_forms[start:stop], kind="stable") + start
+            kind[start:stop], l_forms[start:stop], column[start:stop] = (
+                kind[inner],
+                l_forms[inner],
+                column[inner],
+            )
+    # Embedding vectors, only for the columns we return (indices 0 .. d).
+    wanted = n_components + 1
+    n_sym = int((kind[:wanted] == 1).sum())
+    n_anti = int((kind[:wanted] == 2).sum())
+    complement = _complement_vectors(B, n_rows, n_sym + n_anti)
+    F = np.zeros((2 * n_rows, n_components + 2))
+    used_sym, used_anti = 0, 0
+    for j in range(wanted):
+        if kind[j] == 0:
+            y1, y2 = B @ Z[:k, column[j]], B @ Z[k:, column[j]]
+        elif kind[j] == 1:
+            y1, y2 = complement[:, used_sym], np.zeros(n_rows)
+            used_sym += 1
+        else:
+            y1, y2 = np.zeros(n_rows), complement[:, n_sym + used_anti]
+            used_anti += 1
+        F[:n_rows, j] = (y1 + y2) / np.sqrt(2.0)
+        F[n_rows:, j] = (y1 - y2) / np.sqrt(2.0)
+    return _result(values, F, l_forms, n_components, degeneracy_tol, (source.rank, target.rank))
+
+
+def lra_embedding(
+    X_s: NDArray[np.float64],
+    X_t: NDArray[np.float64],
+    *,
+    mu: float = 0.5,
+    n_components: int = 2,
+    noise_level: float = 1.0,
+    solver: Literal["structured", "dense"] = "structured",
+    degeneracy_tol: float = DEGENERACY_TOL,
+) -> LRAResult:
+    """Embed baseline and test features in a common subspace and measure their distance.
+
+    Paper eqs. (2)-(8). Rows of ``X_s`` and ``X_t`` are paired by index (the correspondence
+    ``C = [[0, I], [I, 0]]``).
+
+    Parameters
+    ----------
+    X_s : ndarray of shape (n_rows, n_features)
+        Baseline (source) features.
+    X_t : ndarray of shape (n_rows, n_features)
+        Test (target) features.
+    mu : float in [0, 1], default=0.5
+        Weight of the correspondence term against the local geometry.
+    n_components : int, default=2
+        Embedding dimension ``d``; eigenvectors ``1 .. d`` (0-based) are used, the smallest one
+        being the trivial one.
+    noise_level : float, default=1.0
+        ``lambda``: only singular values above ``sqrt(lambda)`` enter ``R``.
+    solver : {"structured", "dense"}, default="structured"
+        The exact fast reduction or the literal ``2N x 2N`` eigenproblem.
+    degeneracy_tol : float, default=1e-9
+        Eigenvalues of ``M`` closer than this are treated as one degenerate cluster.
+
+    Returns
+    -------
+    LRAResult
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X_s = rng.normal(size=(60, 5)) * 2
+    >>> res = lra_embedding(X_s, X_s + rng.normal(scale=0.5, size=X_s.shape))
+    >>> res.F_s.shape, res.delta > 0, res.eigengap > 0
+    ((60, 2), True, True)
+    """
+    if solver == "dense":
+        return lra_dense(
+            X_s,
+            X_t,
+            mu=mu,
+            n_components=n_components,
+            noise_level=noise_level,
+            degeneracy_tol=degeneracy_tol,
+        )
+    if solver != "structured":
+        raise ValueError(
+            f"The 'solver' parameter must be 'structured' or 'dense'. Got {solver!r} instead."
+        )
+    X_s = _check_features(X_s, "X_s")
+    X_t = _check_features(X_t, "X_t")
+    if X_s.shape != X_t.shape:
+        raise ValueError(
+            f"X_s and X_t must have the same shape (rows are paired); got {X_s.shape} and "
+            f"{X_t.shape}."
+        )
+    _check_parameters(mu, n_components, noise_level, X_s.shape[0])
+    return lra_structured(
+        low_rank_basis(X_s, noise_level),
+        low_rank_basis(X_t, noise_level),
+        mu=mu,
+        n_components=n_components,
+        degeneracy_tol=degeneracy_tol,
+    )

@@ -1,0 +1,405 @@
+"""A capture: the signals of one robot axis over a few seconds, and its file format.
+
+Pipeline stage 0. A :class:`Capture` maps signal names to 1-D float64 arrays, each with its own
+sampling rate (the paper's robots log position at 250 Hz and speed and torque at 2 kHz).
+
+File format (the project's public data format, see README): one Parquet (``.parquet``) or CSV
+(``.csv``) file per capture. Column ``time`` holds seconds, strictly increasing; every other
+numeric column is a signal. A signal sampled more slowly than the file's time grid has values only
+at its own instants and is blank (NaN) elsewhere. Rates are inferred from the time stamps.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from axiswatch.exceptions import CaptureError
+
+__all__ = [
+    "DEFAULT_SIGNALS",
+    "Capture",
+    "as_capture",
+    "capture_to_frame",
+    "read_capture",
+    "write_capture",
+]
+
+DEFAULT_SIGNALS: tuple[str, ...] = ("position", "speed", "torque")
+
+#: Relative tolerance on the spacing of time stamps of one signal: loggers jitter a little, but a
+#: step that is 1.5 periods or more means a missing (NaN) sample.
+_SPACING_RTOL = 0.25
+_METADATA_KEY = b"axiswatch"
+
+
+@dataclass(frozen=True)
+class Capture:
+    """Signals of one robot axis recorded over one capture window.
+
+    Parameters
+    ----------
+    signals : mapping of str to array-like of shape (n_samples_of_that_signal,)
+        Signal values, converted to float64. Each must be finite and non-empty.
+    rates_hz : mapping of str to float
+        Sampling rate of every signal, in Hz.
+    start_s : float, default=0.0
+        Time of the first sample of every signal, in seconds.
+    source : str, default="<memory>"
+        Where the capture comes from (a file path); used in error messages.
+    metadata : mapping of str to str, default={}
+        Free-form labels (robot, axis, task, ...). Stored in Parquet files.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cap = Capture({"position": np.zeros(250), "torque": np.ones(2000)},
+    ...               {"position": 250.0, "torque": 2000.0})
+    >>> cap.names
+    ('position', 'torque')
+    >>> cap.duration_s("position")
+    1.0
+    """
+
+    signals: Mapping[str, NDArray[np.float64]]
+    rates_hz: Mapping[str, float]
+    start_s: float = 0.0
+    source: str = "<memory>"
+    metadata: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.signals:
+            raise CaptureError(f"{self.source}: a capture needs at least one signal; got none.")
+        missing = [name for name in self.signals if name not in self.rates_hz]
+        if missing:
+            raise CaptureError(
+                f"{self.source}: no sampling rate given for signal(s) {missing}; "
+                f"rates_hz has {sorted(self.rates_hz)}."
+            )
+        converted: dict[str, NDArray[np.float64]] = {}
+        for name, values in self.signals.items():
+            array = np.asarray(values, dtype=np.float64)
+            if array.ndim != 1:
+                raise CaptureError(
+                    f"{self.source}: signal '{name}' must be 1-D; got shape {array.shape}."
+                )
+            if array.size == 0:
+                raise CaptureError(f"{self.source}: signal '{name}' is empty.")
+            bad = np.flatnonzero(~np.isfinite(array))
+            if bad.size:
+                raise CaptureError(
+                    f"{self.source}: signal '{name}' has {bad.size} non-finite value(s) "
+                    f"(NaN or inf), first at sample {bad[0]}; expected finite numbers."
+                )
+            rate = float(self.rates_hz[name])
+            if not (math.isfinite(rate) and rate > 0):
+                raise CaptureError(
+                    f"{self.source}: rate of signal '{name}' must be a positive number of Hz; "
+                    f"got {self.rates_hz[name]!r}."
+                )
+            array.setflags(write=False)
+            converted[name] = array
+        object.__setattr__(self, "signals", converted)
+        object.__setattr__(
+            self, "rates_hz", {name: float(self.rates_hz[name]) for name in converted}
+        )
+        object.__setattr__(self, "metadata", dict(self.metadata))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Signal names, in insertion order."""
+        return tuple(self.signals)
+
+    def duration_s(self, name: str) -> float:
+        """Length of signal ``name`` in seconds (number of samples / rate)."""
+        return len(self.signals[name]) / self.rates_hz[name]
+
+    def select(self, names: Sequence[str]) -> Capture:
+        """Return a capture with only the signals ``names``, in that order.
+
+        Raises
+        ------
+        CaptureError
+            If a name is not a signal of this capture.
+        """
+        missing = [name for name in names if name not in self.signals]
+        if missing:
+            raise CaptureError(
+                f"{self.source}: missing signal column(s) {missing}; "
+                f"the capture has {list(self.names)}."
+            )
+        return Capture(
+            {name: self.signals[name] for name in names},
+            {name: self.rates_hz[name] for name in names},
+            start_s=self.start_s,
+            source=self.source,
+            metadata=self.metadata,
+        )
+
+
+def _time_grid(capture: Capture) -> NDArray[np.int64]:
+    """Union of every signal's sample instants, in integer nanoseconds."""
+    stamps = [
+        np.round((capture.start_s + np.arange(len(v)) / capture.rates_hz[n]) * 1e9).astype(np.int64)
+        for n, v in capture.signals.items()
+    ]
+    return np.unique(np.concatenate(stamps))
+
+
+def capture_to_frame(capture: Capture) -> pd.DataFrame:
+    """Lay a capture out as the file format's table: ``time`` then one column per signal.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cap = Capture({"position": [0.0, 1.0], "speed": [0.0, 0.5, 1.0, 1.5]},
+    ...               {"position": 1.0, "speed": 2.0})
+    >>> capture_to_frame(cap)
+       time  position  speed
+    0   0.0       0.0    0.0
+    1   0.5       NaN    0.5
+    2   1.0       1.0    1.0
+    3   1.5       NaN    1.5
+    """
+    grid_ns = _time_grid(capture)
+    frame = pd.DataFrame({"time": grid_ns / 1e9})
+    for name, values in capture.signals.items():
+        own_ns = np.round(
+            (capture.start_s + np.arange(len(values)) / capture.rates_hz[name]) * 1e9
+        ).astype(np.int64)
+        column = np.full(grid_ns.shape, np.nan)
+        column[np.searchsorted(grid_ns, own_ns)] = values
+        frame[name] = column
+    return frame
+
+
+def write_capture(capture: Capture, path: str | Path) -> Path:
+    """Write a capture to ``path`` (``.parquet`` or ``.csv``) in the project's file format.
+
+    Parquet files also keep ``capture.metadata``. Returns the path written.
+    """
+    path = Path(path)
+    frame = capture_to_frame(capture)
+    suffix = path.suffix.lower()
+    if suffix == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.Table.from_pandas(frame, preserve_index=False)
+        meta = dict(table.schema.metadata or {})
+        meta[_METADATA_KEY] = json.dumps(dict(capture.metadata)).encode()
+        pq.write_table(table.replace_schema_metadata(meta), path)
+    elif suffix == ".csv":
+        frame.to_csv(path, index=False, float_format="%.17g")
+    else:
+        raise CaptureError(
+            f"{path}: unknown capture file type '{suffix}'; expected .parquet or .csv."
+        )
+    return path
+
+
+def _read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+    suffix = path.suffix.lower()
+    if suffix not in (".parquet", ".csv"):
+        raise CaptureError(
+            f"{path}: unknown capture file type '{suffix}'; expected .parquet or .csv."
+        )
+    if not path.is_file():
+        raise CaptureError(f"{path}: no such capture file.")
+    if path.stat().st_size == 0:
+        raise CaptureError(f"{path}: file is empty (0 bytes).")
+    metadata: dict[str, str] = {}
+    try:
+        if suffix == ".parquet":
+            import pyarrow.parquet as pq
+
+            table = pq.read_table(path)
+            raw = (table.schema.metadata or {}).get(_METADATA_KEY)
+            if raw:
+                metadata = {str(k): str(v) for k, v in json.loads(raw).items()}
+            frame = table.to_pandas()
+        else:
+            frame = pd.read_csv(path)
+    except Exception as exc:  # pyarrow/pandas raise many types for truncated or corrupt files
+        kind = "Parquet" if suffix == ".parquet" else "CSV"
+        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CaptureError(
+            f"{path}: cannot read {kind} file (truncated or corrupt?): {message}"
+        ) from exc
+    if frame.shape[0] == 0:
+        raise CaptureError(f"{path}: file has a header but no rows.")
+    return frame, metadata
+
+
+def _numeric_column(frame: pd.DataFrame, name: str, path: Path) -> NDArray[np.float64]:
+    column = frame[name]
+    if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
+        converted = pd.to_numeric(column, errors="coerce")
+        bad = converted.isna() & column.notna()
+        first = column[bad].iloc[0] if bool(bad.any()) else None
+        raise CaptureError(
+            f"{path}: column '{name}' must be numeric; found non-numeric value {first!r} "
+            f"(dtype {column.dtype})."
+        )
+    return np.asarray(column, dtype=np.float64)
+
+
+def _signal_from_column(
+    time_s: NDArray[np.float64], column: NDArray[np.float64], name: str, path: Path
+) -> tuple[NDArray[np.float64], float, float]:
+    """Values, rate and start of one signal column; NaN marks instants it does not sample."""
+    if np.isinf(column).any():
+        raise CaptureError(
+            f"{path}: column '{name}' has an infinite value; expected finite numbers."
+        )
+    present = ~np.isnan(column)
+    count = int(present.sum())
+    if count < 2:
+        raise CaptureError(
+            f"{path}: column '{name}' has {count} value(s); a signal needs at least 2 to have a rate."
+        )
+    first, last = np.flatnonzero(present)[[0, -1]]
+    stamps = time_s[present]
+    steps = np.diff(stamps)
+    period = float(np.median(steps))
+    off = np.flatnonzero(np.abs(steps - period) > _SPACING_RTOL * period)
+    if off.size:
+        k = off[0]
+        raise CaptureError(
+            f"{path}: column '{name}' is not uniformly sampled: step of {steps[k]:.6g} s after "
+            f"t={stamps[k]:.6g} s where the signal's period is {period:.6g} s "
+            f"(a NaN inside the signal, or a jump in time)."
+        )
+    # A signal sampled on a coarser grid than the file's rows: every row between its first and last
+    # sample that lies on its own grid must hold a value.
+    window = slice(first, last + 1)
+    on_grid = np.abs(
+        ((time_s[window] - stamps[0]) / period) - np.round((time_s[window] - stamps[0]) / period)
+    )
+    holes = np.flatnonzero((on_grid < 1e-3) & np.isnan(column[window]))
+    if holes.size:
+        raise CaptureError(
+            f"{path}: column '{name}' has NaN inside the signal at t={time_s[first + holes[0]]:.6g} s; "
+            "expected a value at each of the signal's own sampling instants."
+        )
+    return column[present], 1.0 / period, float(stamps[0])
+
+
+def read_capture(
+    path: str | Path,
+    signals: Sequence[str] | None = None,
+    *,
+    expected_rates_hz: Mapping[str, float] | None = None,
+) -> Capture:
+    """Read and validate one capture file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.parquet`` or ``.csv`` file in the project's capture format.
+    signals : sequence of str, optional
+        Signal columns to read, in this order. Default: :data:`DEFAULT_SIGNALS` when the file
+        has them all, otherwise every column except ``time`` (each must be numeric).
+    expected_rates_hz : mapping of str to float, optional
+        Rates the signals must have (for instance the baseline's); a mismatch beyond 0.1 % is an
+        error.
+
+    Returns
+    -------
+    Capture
+
+    Raises
+    ------
+    CaptureError
+        Naming the file, the column and what was expected: unreadable, empty or truncated file,
+        missing ``time`` or signal column, non-numeric values, NaN inside a signal, non-increasing
+        time, or a rate that differs from ``expected_rates_hz``.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> cap = Capture({"speed": np.arange(4.0)}, {"speed": 2000.0})
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> back = read_capture(write_capture(cap, folder / "2026-03-01.parquet"))
+    >>> back.rates_hz["speed"], back.signals["speed"].tolist()
+    (2000.0, [0.0, 1.0, 2.0, 3.0])
+    """
+    path = Path(path)
+    frame, metadata = _read_frame(path)
+    if "time" not in frame.columns:
+        raise CaptureError(
+            f"{path}: missing column 'time' (seconds, strictly increasing); "
+            f"found columns {list(map(str, frame.columns))}."
+        )
+    time_s = _numeric_column(frame, "time", path)
+    if not np.isfinite(time_s).all():
+        raise CaptureError(f"{path}: column 'time' has NaN or inf; expected finite seconds.")
+    steps = np.diff(time_s)
+    if (steps <= 0).any():
+        k = int(np.flatnonzero(steps <= 0)[0])
+        raise CaptureError(
+            f"{path}: column 'time' must be strictly increasing; row {k + 1} has "
+            f"t={time_s[k + 1]!r} after t={time_s[k]!r}."
+        )
+    available = [str(c) for c in frame.columns if c != "time"]
+    if signals is None:
+        if all(name in available for name in DEFAULT_SIGNALS):
+            names: list[str] = list(DEFAULT_SIGNALS)
+        else:
+            names = available
+            if not names:
+                raise CaptureError(f"{path}: no signal column besides 'time'.")
+    else:
+        names = list(signals)
+        missing = [name for name in names if name not in available]
+        if missing:
+            raise CaptureError(
+                f"{path}: missing signal column(s) {missing}; found columns {available}."
+            )
+    values: dict[str, NDArray[np.float64]] = {}
+    rates: dict[str, float] = {}
+    starts: list[float] = []
+    for name in names:
+        column = _numeric_column(frame, name, path)
+        values[name], rates[name], start = _signal_from_column(time_s, column, name, path)
+        starts.append(start)
+        if expected_rates_hz is not None and name in expected_rates_hz:
+            expected = float(expected_rates_hz[name])
+            if abs(rates[name] - expected) > 1e-3 * expected:
+                raise CaptureError(
+                    f"{path}: column '{name}' is sampled at {rates[name]:.6g} Hz; "
+                    f"expected {expected:.6g} Hz (the baseline's rate)."
+                )
+    if max(starts) - min(starts) > 1.0 / min(rates.values()):
+        raise CaptureError(
+            f"{path}: signals start at different times ({dict(zip(names, starts, strict=True))}); "
+            "expected them to start together."
+        )
+    return Capture(values, rates, start_s=min(starts), source=str(path), metadata=metadata)
+
+
+def as_capture(
+    signals: Mapping[str, ArrayLike], rates_hz: Mapping[str, float] | float, **kwargs: Any
+) -> Capture:
+    """Build a capture from arrays; ``rates_hz`` may be one rate shared by every signal.
+
+    Examples
+    --------
+    >>> as_capture({"speed": [0.0, 1.0], "torque": [1.0, 2.0]}, 2000.0).rates_hz
+    {'speed': 2000.0, 'torque': 2000.0}
+    """
+    if isinstance(rates_hz, Mapping):
+        rates = dict(rates_hz)
+    else:
+        rates = {name: float(rates_hz) for name in signals}
+    return Capture(
+        {k: np.asarray(v, dtype=np.float64) for k, v in signals.items()}, rates, **kwargs
+    )

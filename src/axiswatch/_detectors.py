@@ -1,0 +1,223 @@
+"""Detectors: distance between a test capture's features and the healthy baseline's.
+
+Pipeline stage 4. Both detectors follow one small interface, a scikit-learn estimator:
+
+* ``fit(X)`` stores the baseline features ``X`` of shape ``(n_rows, n_features)``;
+* ``distance(X)`` returns the paper's distance of a test feature matrix to the baseline;
+* ``transform(X)`` returns the test rows in the detector's subspace.
+
+Rows are paired by index, as in the paper (``X_s P - X_t P`` and the correspondence ``C``). When
+a test matrix has a different number of rows than the baseline, the first
+``min(n_baseline, n_test)`` rows of both are compared. A new method is one subclass of
+:class:`BaselineDetector` implementing ``_fit`` and ``_distance``.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.decomposition import PCA
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from axiswatch._alignment import LowRankBasis, LRAResult, low_rank_basis, lra_dense, lra_structured
+
+__all__ = ["BaselineDetector", "LRADetector", "PCADetector"]
+
+
+class BaselineDetector(TransformerMixin, BaseEstimator):  # type: ignore[misc]
+    """Base class: fit on baseline features, measure the distance of test features to them."""
+
+    def fit(self, X: Any, y: Any = None) -> BaselineDetector:
+        """Store the healthy baseline's features.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_rows, n_features)
+            Baseline features, one row per STFT time slice.
+        y : ignored
+
+        Returns
+        -------
+        self
+        """
+        X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
+        self.baseline_ = X
+        self._fit(X)
+        return self
+
+    def _check_test(self, X: Any) -> NDArray[np.float64]:
+        check_is_fitted(self)
+        return np.asarray(validate_data(self, X, dtype=np.float64, reset=False))
+
+    def _rows(self, X: NDArray[np.float64]) -> int:
+        return int(min(self.baseline_.shape[0], X.shape[0]))
+
+    def distance(self, X: Any) -> float:
+        """Distance of test features ``X`` to the baseline (larger = less like the baseline).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_rows, n_features)
+
+        Returns
+        -------
+        float
+        """
+        X = self._check_test(X)
+        return float(self._distance(X[: self._rows(X)]))
+
+    @abstractmethod
+    def _fit(self, X: NDArray[np.float64]) -> None: ...
+
+    @abstractmethod
+    def _distance(self, X: NDArray[np.float64]) -> float: ...
+
+    def __sklearn_tags__(self) -> Any:
+        tags = super().__sklearn_tags__()
+        tags.transformer_tags.preserves_dtype = ["float64"]
+        return tags
+
+
+class PCADetector(BaselineDetector):
+    """The classic detector: distance in the baseline's principal subspace (paper, "Detection").
+
+    ``d = ||X_s P - X_t P||_F^2`` where the columns of ``P`` are the principal components of the
+    baseline features ``X_s``.
+
+    Parameters
+    ----------
+    n_components : int or float, default=0.95
+        Number of principal components, or (float in (0, 1)) the share of the baseline's variance
+        they must explain, as in :class:`sklearn.decomposition.PCA`. The paper does not say.
+
+    Attributes
+    ----------
+    components_ : ndarray of shape (n_features, n_kept)
+        ``P``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.normal(size=(100, 6))
+    >>> det = PCADetector(n_components=3).fit(X)
+    >>> det.distance(X)
+    0.0
+    >>> det.distance(X + 1.0) > 0
+    True
+    """
+
+    def __init__(self, n_components: int | float = 0.95) -> None:
+        self.n_components = n_components
+
+    def _fit(self, X: NDArray[np.float64]) -> None:
+        pca = PCA(n_components=self.n_components, svd_solver="full").fit(X)
+        self.components_ = pca.components_.T
+        self.explained_variance_ratio_ = pca.explained_variance_ratio_
+
+    def _distance(self, X: NDArray[np.float64]) -> float:
+        n = X.shape[0]
+        projected = (self.baseline_[:n] - X) @ self.components_
+        return float(np.sum(projected**2))
+
+    def transform(self, X: Any) -> NDArray[np.float64]:
+        """Project ``X`` on the baseline's principal components (uncentred, as ``X P``)."""
+        X = self._check_test(X)
+        return np.asarray(X @ self.components_)
+
+
+class LRADetector(BaselineDetector):
+    """The paper's detector: distance in the common subspace found by Low Rank Alignment.
+
+    ``delta = ||F_s - F_t||_F`` (paper eq. 8) where ``[F_s; F_t]`` is the joint embedding of
+    baseline and test rows (see :func:`axiswatch.lra_embedding`). The baseline's SVD is computed
+    once, in ``fit``.
+
+    Parameters
+    ----------
+    mu : float in [0, 1], default=0.5
+        Weight of the row correspondence against the local geometry.
+    n_components : int, default=2
+        Embedding dimension ``d``.
+    noise_level : float, default=1.0
+        ``lambda``; only singular values above ``sqrt(lambda)`` enter ``R``. 1 is the paper's form.
+    solver : {"structured", "dense"}, default="structured"
+        Exact fast reduction or the literal ``2N x 2N`` eigenproblem (same result).
+
+    Attributes
+    ----------
+    basis_ : LowRankBasis
+        The baseline's low-rank basis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.normal(size=(80, 6)) * 3
+    >>> det = LRADetector().fit(X)
+    >>> round(det.distance(X), 12)
+    0.0
+    >>> det.distance(rng.normal(size=(80, 6)) * 3) > 0
+    True
+    """
+
+    def __init__(
+        self,
+        mu: float = 0.5,
+        n_components: int = 2,
+        noise_level: float = 1.0,
+        solver: Literal["structured", "dense"] = "structured",
+    ) -> None:
+        self.mu = mu
+        self.n_components = n_components
+        self.noise_level = noise_level
+        self.solver = solver
+
+    def _fit(self, X: NDArray[np.float64]) -> None:
+        if self.solver not in ("structured", "dense"):
+            raise ValueError(
+                f"The 'solver' parameter of LRADetector must be 'structured' or 'dense'. "
+                f"Got {self.solver!r} instead."
+            )
+        self.basis_ = low_rank_basis(X, self.noise_level)
+
+    def _source_basis(self, n_rows: int) -> LowRankBasis:
+        # Computed once in fit; a shorter test capture needs the SVD of the baseline's leading rows.
+        if n_rows == self.basis_.vectors.shape[0]:
+            return self.basis_
+        return low_rank_basis(self.baseline_[:n_rows], self.noise_level)
+
+    def align(self, X: Any) -> LRAResult:
+        """Full LRA outcome (embedding, eigenvalues, eigengap) of test features ``X``."""
+        X = self._check_test(X)
+        n = self._rows(X)
+        if self.solver == "dense":
+            result = lra_dense(
+                self.baseline_[:n],
+                X[:n],
+                mu=self.mu,
+                n_components=self.n_components,
+                noise_level=self.noise_level,
+            )
+        else:
+            result = lra_structured(
+                self._source_basis(n),
+                low_rank_basis(X[:n], self.noise_level),
+                mu=self.mu,
+                n_components=self.n_components,
+            )
+        return result
+
+    def distance(self, X: Any) -> float:
+        return self.align(X).delta
+
+    def _distance(self, X: NDArray[np.float64]) -> float:  # pragma: no cover - distance overrides
+        return self.align(X).delta
+
+    def transform(self, X: Any) -> NDArray[np.float64]:
+        """Embedding ``F_t`` of the test rows in the common subspace, shape (n_rows, d)."""
+        return self.align(X).F_t

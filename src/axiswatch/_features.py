@@ -1,0 +1,293 @@
+"""|STFT| features of a capture (paper, section "Feature Extraction").
+
+Pipeline stage 2. A row of the feature matrix is one STFT time slice (a "sample" in the paper);
+its columns are the magnitudes of every frequency bin of every channel, channel by channel. A
+capture thus becomes ``X`` of shape ``(n_rows, n_features)`` with
+``n_features = n_channels * (segment_length // 2 + 1)``.
+
+"Combinations" (the paper computes the STFT "of the three signals and their combinations" without
+saying which): here a combination is the sample-wise product of two signals. Products are the
+simplest combinations that carry information the separate spectra do not: ``speed * torque`` is
+the mechanical power, and a product's spectrum holds the sum and difference frequencies that
+couple two signals (a torque ripple locked to the motion shows up there, whatever the task). Sums
+and differences of signals would add nothing a linear method cannot already form from the
+separate spectra' complex values, and are therefore not offered.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.signal import ShortTimeFFT, get_window
+
+from axiswatch._capture import Capture
+from axiswatch._preprocessing import resample_capture
+from axiswatch.exceptions import CaptureError
+
+__all__ = [
+    "FeatureSpec",
+    "Features",
+    "extract_features",
+    "features_from_signals",
+    "stft_features",
+]
+
+Padding = Literal["circular", "zeros", "valid"]
+Scaling = Literal["magnitude", "psd", "none"]
+
+
+def _combined_channels(
+    signals: NDArray[np.float64],
+    names: Sequence[str],
+    combinations: Literal["products", "none"] | Sequence[tuple[str, str]],
+) -> tuple[NDArray[np.float64], list[str]]:
+    if isinstance(combinations, str):
+        if combinations == "none":
+            pairs: list[tuple[str, str]] = []
+        elif combinations == "products":
+            pairs = list(itertools.combinations(names, 2))
+        else:
+            raise ValueError(
+                "The 'combinations' parameter must be 'products', 'none' or a sequence of "
+                f"(name, name) pairs. Got {combinations!r} instead."
+            )
+    else:
+        pairs = [tuple(p) for p in combinations]  # type: ignore[misc]
+    index = {name: j for j, name in enumerate(names)}
+    extra, labels = [], []
+    for pair in pairs:
+        if len(pair) != 2 or any(p not in index for p in pair):
+            raise ValueError(f"Combination {pair!r} must name two of the channels {list(names)}.")
+        a, b = pair
+        extra.append(signals[:, index[a]] * signals[:, index[b]])
+        labels.append(f"{a}*{b}")
+    if extra:
+        return np.column_stack([signals, *extra]), [*names, *labels]
+    return signals, list(names)
+
+
+def stft_features(
+    signals: NDArray[np.float64],
+    rate_hz: float,
+    *,
+    segment_length: int = 128,
+    hop: int = 1,
+    window: str = "hann",
+    padding: Padding = "circular",
+    scaling: Scaling = "magnitude",
+) -> NDArray[np.float64]:
+    """|STFT| of every channel, one row per time slice, channels side by side.
+
+    Parameters
+    ----------
+    signals : ndarray of shape (n_samples, n_channels)
+        Channels on one common rate.
+    rate_hz : float
+        That rate.
+    segment_length : int, default=128
+        Window length in samples; ``segment_length // 2 + 1`` frequency bins per channel.
+    hop : int, default=1
+        Samples between slices. ``hop=1`` gives one row per sample, as in the paper.
+    window : str, default="hann"
+        Any name :func:`scipy.signal.get_window` knows.
+    padding : {"circular", "zeros", "valid"}, default="circular"
+        Edge handling. ``"circular"`` wraps the capture around (a row per sample, no artificial
+        edge: right for captures holding whole task cycles); ``"zeros"`` pads with zeros (a row
+        per sample, but edge rows see a step to zero that LRA treats as structure); ``"valid"``
+        keeps only windows fully inside the capture (``n_samples - segment_length + 1`` rows
+        at ``hop=1``).
+    scaling : {"magnitude", "psd", "none"}, default="magnitude"
+        Window scaling (:class:`scipy.signal.ShortTimeFFT` ``scale_to``); ``"magnitude"`` makes a
+        unit sine give a peak of 0.5 whatever the window length, which keeps the LRA noise level
+        ``lambda`` meaningful across settings.
+
+    Returns
+    -------
+    ndarray of shape (n_rows, n_channels * (segment_length // 2 + 1))
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(256) / 256.0
+    >>> X = stft_features(np.sin(2 * np.pi * 32 * t)[:, None], 256.0, segment_length=64)
+    >>> X.shape, int(X[0].argmax()), round(float(X[0].max()), 3)
+    ((256, 33), 8, 0.5)
+    """
+    data = np.asarray(signals, dtype=np.float64)
+    if data.ndim != 2:
+        raise CaptureError(
+            f"signals must have shape (n_samples, n_channels); got shape {data.shape}."
+        )
+    if not np.isfinite(data).all():
+        raise CaptureError("signals contain NaN or inf; expected finite values.")
+    if not (isinstance(segment_length, int | np.integer) and segment_length >= 2):
+        raise ValueError(
+            f"The 'segment_length' parameter must be an int >= 2. Got {segment_length!r} instead."
+        )
+    if not (isinstance(hop, int | np.integer) and hop >= 1):
+        raise ValueError(f"The 'hop' parameter must be an int >= 1. Got {hop!r} instead.")
+    if padding not in ("circular", "zeros", "valid"):
+        raise ValueError(
+            "The 'padding' parameter must be one of 'circular', 'zeros', 'valid'. "
+            f"Got {padding!r} instead."
+        )
+    if scaling not in ("magnitude", "psd", "none"):
+        raise ValueError(
+            "The 'scaling' parameter must be one of 'magnitude', 'psd', 'none'. "
+            f"Got {scaling!r} instead."
+        )
+    n_samples = data.shape[0]
+    if n_samples < segment_length:
+        raise CaptureError(
+            f"capture too short for one STFT window: {n_samples} samples at {rate_hz:g} Hz, "
+            f"expected at least segment_length={segment_length}."
+        )
+    stft = ShortTimeFFT(
+        get_window(window, segment_length),
+        hop=int(hop),
+        fs=float(rate_hz),
+        scale_to=None if scaling == "none" else scaling,
+    )
+    blocks = []
+    for channel in data.T:
+        if padding == "circular":
+            pad = -(-segment_length // hop) * hop
+            wrapped = np.concatenate([channel[-pad:], channel, channel[:pad]])
+            first = pad // hop
+            spectrum = stft.stft(wrapped, p0=first, p1=first + -(-n_samples // hop))
+        elif padding == "zeros":
+            spectrum = stft.stft(channel, p0=0, p1=-(-n_samples // hop))
+        else:
+            # Slice p covers samples p*hop - m//2 ... p*hop - m//2 + m - 1 (ShortTimeFFT's layout);
+            # keep those inside the capture. (ShortTimeFFT's own border properties ignore the
+            # zero end-points of a periodic window and would admit one slice too many.)
+            half = segment_length // 2
+            spectrum = stft.stft(
+                channel, p0=-(-half // hop), p1=(n_samples - segment_length + half) // hop + 1
+            )
+        blocks.append(np.abs(spectrum).T)
+    return np.hstack(blocks)
+
+
+@dataclass(frozen=True)
+class FeatureSpec:
+    """How a capture becomes a feature matrix: signals, rate, combinations and STFT settings.
+
+    Parameters
+    ----------
+    signals : tuple of str, default=("position", "speed", "torque")
+        Signals used, in column order.
+    combinations : "products", "none" or tuple of (str, str), default="products"
+        Extra channels: products of two signals (every pair for ``"products"``).
+    segment_length, hop, window, padding, scaling
+        As in :func:`stft_features`.
+    target_rate_hz : float or None, default=None
+        Common rate; default the fastest signal's.
+
+    Examples
+    --------
+    >>> FeatureSpec(signals=("speed", "torque")).channel_names()
+    ['speed', 'torque', 'speed*torque']
+    """
+
+    signals: tuple[str, ...] = ("position", "speed", "torque")
+    combinations: Literal["products", "none"] | tuple[tuple[str, str], ...] = "products"
+    segment_length: int = 128
+    hop: int = 1
+    window: str = "hann"
+    padding: Padding = "circular"
+    scaling: Scaling = "magnitude"
+    target_rate_hz: float | None = None
+
+    def channel_names(self) -> list[str]:
+        """Names of the feature channels: the signals, then their combinations."""
+        dummy = np.zeros((1, len(self.signals)))
+        return _combined_channels(dummy, self.signals, self.combinations)[1]
+
+
+@dataclass(frozen=True)
+class Features:
+    """A feature matrix and what its columns are.
+
+    Attributes
+    ----------
+    X : ndarray of shape (n_rows, n_features)
+    channels : tuple of str
+        Feature channels (signals then combinations); column ``j`` belongs to channel
+        ``channels[j // n_bins]``.
+    frequencies_hz : ndarray of shape (n_bins,)
+        Frequency of each bin within a channel.
+    rate_hz : float
+        Common rate of the signals.
+    """
+
+    X: NDArray[np.float64]
+    channels: tuple[str, ...]
+    frequencies_hz: NDArray[np.float64]
+    rate_hz: float
+
+    @property
+    def column_channel(self) -> NDArray[np.str_]:
+        """Channel of every column, shape (n_features,)."""
+        return np.repeat(np.array(self.channels), self.frequencies_hz.size)
+
+    @property
+    def column_frequency_hz(self) -> NDArray[np.float64]:
+        """Frequency of every column, shape (n_features,)."""
+        return np.tile(self.frequencies_hz, len(self.channels))
+
+
+def extract_features(capture: Capture, spec: FeatureSpec | None = None) -> Features:
+    """Resample a capture (PCHIP), add combinations and take |STFT| features.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> rng = np.random.default_rng(0)
+    >>> cap = Capture({"position": rng.normal(size=250), "speed": rng.normal(size=2000),
+    ...                "torque": rng.normal(size=2000)},
+    ...               {"position": 250.0, "speed": 2000.0, "torque": 2000.0})
+    >>> feats = extract_features(cap, FeatureSpec(segment_length=64))
+    >>> feats.X.shape, feats.channels
+    ((1993, 198), ('position', 'speed', 'torque', 'position*speed', 'position*torque', 'speed*torque'))
+    """
+    spec = FeatureSpec() if spec is None else spec
+    signals, rate = resample_capture(capture, spec.signals, target_rate_hz=spec.target_rate_hz)
+    return features_from_signals(signals, rate, spec, source=capture.source)
+
+
+def features_from_signals(
+    signals: NDArray[np.float64], rate_hz: float, spec: FeatureSpec, *, source: str = "<memory>"
+) -> Features:
+    """Features of signals already on one rate, columns in the order of ``spec.signals``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> spec = FeatureSpec(signals=("speed", "torque"), segment_length=16)
+    >>> features_from_signals(np.ones((100, 2)), 2000.0, spec).X.shape
+    (100, 27)
+    """
+    combined, channels = _combined_channels(signals, spec.signals, spec.combinations)
+    if combined.shape[0] < spec.segment_length:
+        raise CaptureError(
+            f"{source}: capture too short for one STFT window: {combined.shape[0]} samples "
+            f"at {rate_hz:g} Hz, expected at least segment_length={spec.segment_length}."
+        )
+    X = stft_features(
+        combined,
+        rate_hz,
+        segment_length=spec.segment_length,
+        hop=spec.hop,
+        window=spec.window,
+        padding=spec.padding,
+        scaling=spec.scaling,
+    )
+    frequencies = np.fft.rfftfreq(spec.segment_length, d=1.0 / rate_hz).astype(np.float64)
+    return Features(X, tuple(channels), frequencies, rate_hz)

@@ -1,0 +1,41 @@
+"""Shared, seeded fixtures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import axiswatch as aw
+
+SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def robot_capture(rng: np.random.Generator) -> aw.Capture:
+    """A 1 s capture with the paper's rates: position 250 Hz, speed and torque 2 kHz."""
+    t_slow = np.arange(250) / 250.0
+    t_fast = np.arange(2000) / 2000.0
+    return aw.Capture(
+        {
+            "position": np.sin(2 * np.pi * 2 * t_slow) + 0.01 * rng.normal(size=250),
+            "speed": np.cos(2 * np.pi * 2 * t_fast) + 0.01 * rng.normal(size=2000),
+            "torque": 0.5 * np.cos(2 * np.pi * 2 * t_fast) + 0.01 * rng.normal(size=2000),
+        },
+        {"position": 250.0, "speed": 2000.0, "torque": 2000.0},
+        metadata={"robot": "r1", "axis": "a4"},
+    )
+
+
+@pytest.fixture(scope="session")
+def lab_features() -> list[np.ndarray]:
+    """Real features: the lab dataset's ten days, as in the lab experiment."""
+    from axiswatch._experiments import LAB_FEATURES
+
+    return [aw.extract_features(d.capture, LAB_FEATURES).X for d in aw.lab_dataset(seed=3)]

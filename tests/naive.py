@@ -1,0 +1,128 @@
+"""Slow, obvious references for the fast or clever computations of axiswatch.
+
+Each one is written from the paper's (or the cited method's) formulas, with NumPy only, without
+calling axiswatch or the SciPy routine it wraps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def pchip_upsample(values: np.ndarray, factor: int) -> np.ndarray:
+    """Fritsch-Carlson monotone cubic Hermite interpolation on a unit grid, written out.
+
+    Slopes: weighted harmonic mean of neighbouring secants (0 at extrema), one-sided three-point
+    ends clipped for monotonicity (Fritsch & Butland 1984, as in SciPy's PCHIP and Moler's pchip).
+    """
+    y = np.asarray(values, dtype=float)
+    n = y.size
+    h = np.ones(n - 1)
+    m = np.diff(y) / h
+    d = np.zeros(n)
+    for k in range(1, n - 1):
+        if m[k - 1] * m[k] > 0:
+            w1, w2 = 2 * h[k] + h[k - 1], h[k] + 2 * h[k - 1]
+            d[k] = (w1 + w2) / (w1 / m[k - 1] + w2 / m[k])
+    for end, (m0, m1, h0, h1) in (
+        (0, (m[0], m[1] if n > 2 else m[0], h[0], h[1] if n > 2 else h[0])),
+        (n - 1, (m[-1], m[-2] if n > 2 else m[-1], h[-1], h[-2] if n > 2 else h[-1])),
+    ):
+        if n == 2:
+            d[end] = m0
+            continue
+        slope = ((2 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
+        if np.sign(slope) != np.sign(m0):
+            slope = 0.0
+        elif np.sign(m0) != np.sign(m1) and abs(slope) > abs(3 * m0):
+            slope = 3 * m0
+        d[end] = slope
+    out = []
+    for k in range(n - 1):
+        for j in range(factor):
+            t = j / factor
+            h00, h10 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t
+            h01, h11 = -2 * t**3 + 3 * t**2, t**3 - t**2
+            out.append(h00 * y[k] + h10 * d[k] + h01 * y[k + 1] + h11 * d[k + 1])
+    out.append(y[-1])
+    return np.array(out)
+
+
+def stft_magnitude(x: np.ndarray, m: int, hop: int, padding: str) -> np.ndarray:
+    """|STFT| of one channel frame by frame, Hann window, magnitude scaling (divide by sum(w)).
+
+    Frame ``p`` is centred on sample ``p * hop``: it covers samples ``p*hop - m//2 ...``.
+    """
+    n = x.size
+    w = 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(m) / m)  # periodic Hann, as get_window
+    if padding == "valid":
+        centres = [c for c in range(0, n, hop) if c - m // 2 >= 0 and c - m // 2 + m <= n]
+    else:
+        centres = list(range(0, n, hop))
+    rows = []
+    for c in centres:
+        idx = np.arange(c - m // 2, c - m // 2 + m)
+        if padding == "circular":
+            seg = x[idx % n]
+        else:
+            seg = np.where((idx >= 0) & (idx < n), x[np.clip(idx, 0, n - 1)], 0.0)
+        frame = seg * w
+        bins = np.arange(m // 2 + 1)
+        dft = np.array([np.sum(frame * np.exp(-2j * np.pi * f * np.arange(m) / m)) for f in bins])
+        rows.append(np.abs(dft) / w.sum())
+    return np.array(rows)
+
+
+def lra_delta(
+    X_s: np.ndarray, X_t: np.ndarray, mu: float, d: int, lam: float = 1.0, tol: float = 1e-9
+) -> tuple[float, np.ndarray]:
+    """Paper eqs. 2-8 literally: R from the right-singular vectors of X^T, M, its eigenvectors.
+
+    Returns (delta, eigenvalues). Degenerate clusters of M are resolved by taking the eigenvectors
+    of least correspondence cost f^T L f first (the documented tie-break).
+    """
+    N = X_s.shape[0]
+
+    def reconstruction(X: np.ndarray) -> np.ndarray:
+        _, s, vh = np.linalg.svd(X.T, full_matrices=False)  # X^T = U S V^T; V: N x rank
+        R = np.zeros((N, N))
+        for sigma, v in zip(s, vh, strict=True):
+            if sigma > np.sqrt(lam):
+                R += (1 - lam / sigma**2) * np.outer(v, v)
+        return R
+
+    R = np.zeros((2 * N, 2 * N))
+    R[:N, :N] = reconstruction(X_s)
+    R[N:, N:] = reconstruction(X_t)
+    C = np.zeros((2 * N, 2 * N))
+    for i in range(N):
+        C[i, N + i] = C[N + i, i] = 1.0
+    L = np.diag(C.sum(axis=1)) - C
+    eye = np.eye(2 * N)
+    M = (1 - mu) * (eye - R).T @ (eye - R) + 2 * mu * L
+    values, vectors = np.linalg.eigh(M)
+    start = 0
+    while start < values.size:
+        stop = start + 1
+        while stop < values.size and values[stop] - values[stop - 1] <= tol:
+            stop += 1
+        if stop - start > 1:
+            block = vectors[:, start:stop]
+            _, rot = np.linalg.eigh(block.T @ L @ block)
+            vectors[:, start:stop] = block @ rot
+        start = stop
+    F = vectors[:, 1 : d + 1]
+    return float(np.linalg.norm(F[:N] - F[N:])), values
+
+
+def pca_distance(X_s: np.ndarray, X_t: np.ndarray, n_components: int) -> float:
+    """d = ||X_s P - X_t P||_F^2 with P the top principal axes of the centred baseline."""
+    centred = X_s - X_s.mean(axis=0)
+    _, _, vh = np.linalg.svd(centred, full_matrices=False)
+    P = vh[:n_components].T
+    return float(np.sum((X_s @ P - X_t @ P) ** 2))
+
+
+def exponential_quantile(scale: float, q: float) -> float:
+    """Quantile q in (0, 1) of the exponential distribution, from its CDF 1 - exp(-x / scale)."""
+    return -scale * np.log(1 - q)

@@ -1,0 +1,164 @@
+"""Capture objects and the capture file format: round trips and every bad-input path."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import axiswatch as aw
+from axiswatch import CaptureError
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_round_trip_keeps_values_and_rates(
+    robot_capture: aw.Capture, tmp_path: Path, suffix: str
+) -> None:
+    path = aw.write_capture(robot_capture, tmp_path / f"2026-03-01{suffix}")
+    back = aw.read_capture(path)
+    assert back.names == ("position", "speed", "torque")
+    assert back.rates_hz == pytest.approx(robot_capture.rates_hz, rel=1e-9)
+    for name in back.names:
+        np.testing.assert_array_equal(back.signals[name], robot_capture.signals[name])
+    if suffix == ".parquet":
+        assert back.metadata == {"robot": "r1", "axis": "a4"}
+
+
+def test_slow_signal_is_blank_between_its_instants(robot_capture: aw.Capture) -> None:
+    frame = aw.capture_to_frame(robot_capture)
+    assert len(frame) == 2000
+    assert frame["position"].notna().sum() == 250
+    assert frame["position"].iloc[1:8].isna().all()
+
+
+def _write(tmp_path: Path, frame: pd.DataFrame, name: str = "cap.csv") -> Path:
+    path = tmp_path / name
+    frame.to_csv(path, index=False)
+    return path
+
+
+def _frame(n: int = 40) -> pd.DataFrame:
+    t = np.arange(n) / 2000.0
+    return pd.DataFrame({"time": t, "speed": np.sin(t), "torque": np.cos(t)})
+
+
+def test_missing_time_column(tmp_path: Path) -> None:
+    path = _write(tmp_path, _frame().drop(columns="time"))
+    with pytest.raises(CaptureError, match=r"cap\.csv: missing column 'time'"):
+        aw.read_capture(path)
+
+
+def test_missing_signal_column(tmp_path: Path) -> None:
+    path = _write(tmp_path, _frame())
+    with pytest.raises(CaptureError, match=r"missing signal column\(s\) \['position'\]"):
+        aw.read_capture(path, ["position", "speed"])
+
+
+def test_non_numeric_values(tmp_path: Path) -> None:
+    frame = _frame().astype({"torque": object})
+    frame.loc[5, "torque"] = "oops"
+    with pytest.raises(
+        CaptureError, match=r"column 'torque' must be numeric; found non-numeric value 'oops'"
+    ):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_nan_inside_fast_signal(tmp_path: Path) -> None:
+    frame = _frame()
+    frame.loc[10, "speed"] = np.nan
+    with pytest.raises(CaptureError, match=r"column 'speed' is not uniformly sampled"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_nan_inside_slow_signal(tmp_path: Path, robot_capture: aw.Capture) -> None:
+    frame = aw.capture_to_frame(robot_capture)
+    frame.loc[8 * 100, "position"] = np.nan
+    with pytest.raises(CaptureError, match=r"column 'position' is not uniformly sampled"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_non_increasing_time(tmp_path: Path) -> None:
+    frame = _frame()
+    frame.loc[7, "time"] = frame.loc[6, "time"]
+    with pytest.raises(CaptureError, match=r"'time' must be strictly increasing; row 7"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_rate_differs_from_expected(tmp_path: Path) -> None:
+    path = _write(tmp_path, _frame())
+    with pytest.raises(CaptureError, match=r"'speed' is sampled at 2000 Hz; expected 1000 Hz"):
+        aw.read_capture(path, ["speed"], expected_rates_hz={"speed": 1000.0})
+
+
+def test_empty_file(tmp_path: Path) -> None:
+    path = tmp_path / "empty.parquet"
+    path.write_bytes(b"")
+    with pytest.raises(CaptureError, match=r"empty\.parquet: file is empty"):
+        aw.read_capture(path)
+
+
+def test_header_only_file(tmp_path: Path) -> None:
+    path = tmp_path / "header.csv"
+    path.write_text("time,speed\n")
+    with pytest.raises(CaptureError, match=r"header but no rows"):
+        aw.read_capture(path)
+
+
+def test_truncated_parquet(tmp_path: Path, robot_capture: aw.Capture) -> None:
+    path = aw.write_capture(robot_capture, tmp_path / "cut.parquet")
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    with pytest.raises(CaptureError, match=r"cut\.parquet: cannot read Parquet file"):
+        aw.read_capture(path)
+
+
+def test_unknown_suffix(tmp_path: Path) -> None:
+    path = tmp_path / "cap.txt"
+    path.write_text("x")
+    with pytest.raises(CaptureError, match=r"unknown capture file type '\.txt'"):
+        aw.read_capture(path)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(CaptureError, match=r"no such capture file"):
+        aw.read_capture(tmp_path / "absent.csv")
+
+
+def test_signal_with_one_value(tmp_path: Path) -> None:
+    frame = _frame()
+    frame["torque"] = np.nan
+    frame.loc[0, "torque"] = 1.0
+    with pytest.raises(CaptureError, match=r"column 'torque' has 1 value\(s\)"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_capture_rejects_nan_array() -> None:
+    with pytest.raises(CaptureError, match=r"signal 'speed' has 1 non-finite value\(s\).*sample 2"):
+        aw.Capture({"speed": [0.0, 1.0, np.nan]}, {"speed": 10.0})
+
+
+def test_capture_rejects_missing_rate() -> None:
+    with pytest.raises(CaptureError, match=r"no sampling rate given for signal\(s\) \['torque'\]"):
+        aw.Capture({"torque": [0.0, 1.0]}, {"speed": 10.0})
+
+
+def test_capture_rejects_bad_rate() -> None:
+    with pytest.raises(CaptureError, match=r"rate of signal 'speed' must be a positive number"):
+        aw.Capture({"speed": [0.0, 1.0]}, {"speed": -1.0})
+
+
+def test_capture_rejects_2d_and_empty() -> None:
+    with pytest.raises(CaptureError, match=r"must be 1-D"):
+        aw.Capture({"speed": np.zeros((2, 2))}, {"speed": 1.0})
+    with pytest.raises(CaptureError, match=r"signal 'speed' is empty"):
+        aw.Capture({"speed": []}, {"speed": 1.0})
+    with pytest.raises(CaptureError, match=r"at least one signal"):
+        aw.Capture({}, {})
+
+
+def test_signals_not_starting_together(tmp_path: Path) -> None:
+    frame = _frame(80)
+    frame.loc[:40, "torque"] = np.nan
+    with pytest.raises(CaptureError, match=r"signals start at different times"):
+        aw.read_capture(_write(tmp_path, frame))

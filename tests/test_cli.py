@@ -1,0 +1,24 @@
+"""The command-line interface, run as a user runs it."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+
+def _run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "axiswatch", *args], capture_output=True, text=True
+    )
+
+
+def test_demo_prints_lab_verdicts() -> None:
+    result = _run("demo")
+    assert result.returncode == 0, result.stderr
+    assert "lra: alarms on ['A']" in result.stdout
+
+
+def test_unknown_option_is_a_usage_error() -> None:
+    result = _run("demo", "--colour", "red")
+    assert result.returncode == 2
+    assert "No such option" in result.stderr

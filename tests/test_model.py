@@ -1,0 +1,72 @@
+"""HealthModel: the public one-screen API, end to end on the lab dataset and on shifted captures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import axiswatch as aw
+from axiswatch._experiments import LAB_FEATURES
+
+
+def test_lab_dataset_flags_only_the_anomaly() -> None:
+    day1, *rest = aw.lab_dataset(seed=4)
+    model = aw.HealthModel(LAB_FEATURES, aw.LRADetector()).fit(day1.capture)
+    model.calibrate([d.capture for d in rest if not d.anomalous], percentile=99)
+    verdicts = {d.day: model.assess(d.capture) for d in rest}
+    assert [day for day, v in verdicts.items() if v.alarm] == [4]
+    assert verdicts[4].pvalue < 0.01
+
+
+def _cycle_capture(shift: int, rng: np.random.Generator, fault: float = 0.0) -> aw.Capture:
+    """Four whole 0.25 s task cycles at 2 kHz, starting ``shift`` samples into the cycle."""
+    k = np.arange(2000) + shift
+    t = k / 2000.0
+    speed = np.sin(2 * np.pi * 4 * t) + 0.3 * np.sin(2 * np.pi * 12 * t)
+    torque = 0.5 * np.cos(2 * np.pi * 4 * t) + fault * np.sin(2 * np.pi * 150 * t) * (
+        np.sin(2 * np.pi * 4 * t) > 0.9
+    )
+    return aw.Capture(
+        {
+            "speed": speed + 0.01 * rng.normal(size=2000),
+            "torque": torque + 0.01 * rng.normal(size=2000),
+        },
+        {"speed": 2000.0, "torque": 2000.0},
+    )
+
+
+def test_phase_alignment_removes_the_start_phase(rng: np.random.Generator) -> None:
+    spec = aw.FeatureSpec(
+        signals=("speed", "torque"), combinations="none", segment_length=64, hop=4
+    )
+    baseline = _cycle_capture(0, rng)
+    shifted = [_cycle_capture(int(s), rng) for s in rng.integers(0, 500, size=6)]
+    aligned = aw.HealthModel(spec, aw.PCADetector(n_components=5)).fit(baseline)
+    unaligned = aw.HealthModel(spec, aw.PCADetector(n_components=5), align_phase=False).fit(
+        baseline
+    )
+    with_alignment = np.array([aligned.distance(c) for c in shifted])
+    without = np.array([unaligned.distance(c) for c in shifted])
+    # Without alignment the start phase alone makes healthy captures look far from the baseline.
+    assert np.median(without) > 50 * np.median(with_alignment)
+    # With alignment, a fault stands out of healthy captures at random phase.
+    aligned.calibrate(shifted[:4])
+    assert aligned.assess(_cycle_capture(123, rng, fault=0.5)).alarm
+    assert not any(aligned.assess(c).alarm for c in shifted[4:])
+
+
+def test_assess_before_calibrate_is_an_error(rng: np.random.Generator) -> None:
+    model = aw.HealthModel(
+        aw.FeatureSpec(signals=("speed",), combinations="none", segment_length=64)
+    )
+    model.fit(_cycle_capture(0, rng))
+    with pytest.raises(aw.CalibrationError, match=r"not calibrated: call calibrate\(\)"):
+        model.assess(_cycle_capture(0, rng))
+
+
+def test_calibrate_on_distances(rng: np.random.Generator) -> None:
+    model = aw.HealthModel(
+        aw.FeatureSpec(signals=("speed",), combinations="none", segment_length=64)
+    )
+    model.fit(_cycle_capture(0, rng)).calibrate(np.array([1.0, 2.0, 3.0]), percentile=50)
+    assert model.threshold_ == pytest.approx(2.0 * np.log(2.0))
