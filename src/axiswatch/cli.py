@@ -14,11 +14,14 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
+experiment_app = typer.Typer(
+    help="Reproduce the paper's experiments and the real-data evaluations.",
+    no_args_is_help=True,
+)
+app.add_typer(experiment_app, name="experiment")
 
 
-@app.command()
-def demo(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -> None:
-    """Run the paper's lab experiment end to end and print every day's verdict."""
+def _print_lab(seed: int) -> None:
     from axiswatch._experiments import lab_distances
 
     table = lab_distances(seed=seed)
@@ -30,9 +33,16 @@ def demo(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -
         typer.echo(f"{method}: alarms on {flagged.get(method, [])}")
 
 
-@app.callback()
-def _root() -> None:
-    """axiswatch command-line tool."""
+@app.command()
+def demo(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -> None:
+    """Run the main job end to end (for now: the paper's lab experiment)."""
+    _print_lab(seed)
+
+
+@experiment_app.command("lab")
+def experiment_lab(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -> None:
+    """Distance of every day of the paper's lab dataset to day 1, with verdicts."""
+    _print_lab(seed)
 
 
 def main() -> None:
