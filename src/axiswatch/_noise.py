@@ -35,7 +35,7 @@ def marchenko_pastur_median(beta: float) -> float:
     Examples
     --------
     >>> round(marchenko_pastur_median(1.0), 4)
-    0.6498
+    0.6528
     """
     if not (isinstance(beta, int | float | np.floating) and 0.0 < beta <= 1.0):
         raise ValueError(f"The 'beta' parameter must be a float in (0, 1]. Got {beta!r} instead.")
