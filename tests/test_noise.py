@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
 from axiswatch._noise import marchenko_pastur_median, mp_noise_level
@@ -12,10 +13,10 @@ from tests import naive
 
 @pytest.mark.parametrize("beta", [0.25, 0.5, 1.0])
 def test_median_matches_monte_carlo(beta: float) -> None:
-    # Monte Carlo standard error of the median at n=1200 is ~0.015; tolerance 0.04.
-    assert marchenko_pastur_median(beta) == pytest.approx(
-        naive.marchenko_pastur_median(beta, n=1200, seed=0), abs=0.04
-    )
+    # Monte Carlo standard error of the median at n=800 is ~0.02; tolerance 0.05 (2.5 SE).
+    with threadpool_limits(limits=1, user_api="blas"):
+        reference = naive.marchenko_pastur_median(beta, n=800, seed=0)
+    assert marchenko_pastur_median(beta) == pytest.approx(reference, abs=0.05)
 
 
 def test_noise_level_of_pure_noise_is_its_top_singular_value() -> None:

@@ -74,8 +74,9 @@ def lab_distances(
     X = [extract_features(day.capture, features).X for day in data]
     rows = []
     for method in (_Method("lra", LRADetector()), _Method("pca", PCADetector())):
-        detector = method.detector.fit(X[0])
-        distances = np.array([detector.distance(x) for x in X[1:]])
+        with threadpool_limits(limits=1, user_api="blas"):
+            detector = method.detector.fit(X[0])
+            distances = np.array([detector.distance(x) for x in X[1:]])
         healthy = np.array([not day.anomalous for day in data[1:]])
         threshold = fit_half_laplace(distances[healthy]).threshold(percentile)
         for day, distance in zip(data[1:], distances, strict=True):
