@@ -126,3 +126,10 @@ def pca_distance(X_s: np.ndarray, X_t: np.ndarray, n_components: int) -> float:
 def exponential_quantile(scale: float, q: float) -> float:
     """Quantile q in (0, 1) of the exponential distribution, from its CDF 1 - exp(-x / scale)."""
     return -scale * np.log(1 - q)
+
+
+def marchenko_pastur_median(beta: float, *, n: int = 2000, seed: int = 0) -> float:
+    """Median eigenvalue of Y^T Y / n for one n x (beta n) Gaussian matrix (Monte Carlo)."""
+    rng = np.random.default_rng(seed)
+    Y = rng.normal(size=(n, round(beta * n)))
+    return float(np.median(np.linalg.eigvalsh(Y.T @ Y / n)))

@@ -47,6 +47,15 @@ from axiswatch._preprocessing import (
     resample_capture,
     upsample_pchip,
 )
+from axiswatch._robot import (
+    DEFAULT_FLEET_FAULTS,
+    TASKS,
+    Fault,
+    FleetFault,
+    Task,
+    simulate_capture,
+    simulate_fleet,
+)
 from axiswatch._simulate import LAB_DAYS, LabDay, lab_dataset
 from axiswatch.exceptions import AxiswatchError, CalibrationError, CaptureError, StoreError
 
@@ -59,9 +68,12 @@ __all__ = [
     "CalibrationError",
     "Capture",
     "CaptureError",
+    "DEFAULT_FLEET_FAULTS",
     "DEFAULT_SIGNALS",
+    "Fault",
     "FeatureSpec",
     "Features",
+    "FleetFault",
     "HalfLaplaceFit",
     "HealthModel",
     "LAB_DAYS",
@@ -71,6 +83,8 @@ __all__ = [
     "LowRankBasis",
     "PCADetector",
     "StoreError",
+    "TASKS",
+    "Task",
     "align_phase",
     "as_capture",
     "capture_to_frame",
@@ -87,6 +101,8 @@ __all__ = [
     "phase_lag",
     "read_capture",
     "resample_capture",
+    "simulate_capture",
+    "simulate_fleet",
     "stft_features",
     "upsample_pchip",
     "write_capture",

@@ -1,0 +1,557 @@
+"""A physically motivated simulator of one robot axis running pick-and-place tasks.
+
+Pipeline side-stage (data for the Robot A / Robot B experiments, the fleet demo and tests); the
+paper's robot data is confidential, so its figs. 3-4 are reproduced on this simulator.
+
+Model (all quantities referred to the link side of the gearbox; the motor angle is
+``GEAR_RATIO`` times the link-side motor angle ``q_m``):
+
+* motor: inertia ``J_m``, Coulomb + viscous friction ``F_c tanh(w_m / w_s) + F_v w_m``, a
+  gear-mesh torque ripple ``A sin(MESH_ORDER * motor angle)``;
+* gearbox: stiffness ``k`` and damping ``c`` with a backlash dead zone of half-width ``b``
+  between ``q_m`` and the link angle ``q_l`` (no torque is transmitted inside the gap);
+* link: inertia ``J_l`` plus the payload ``m_p L^2`` while it is carried, gravity
+  ``g (m_l l_c + m_p L) cos(q_l)``;
+* controller: PD on the motor encoder plus a feed-forward of the nominal (healthy, rigid) model
+  along a minimum-jerk pick-and-place reference.
+
+Measured: ``position`` (motor encoder, link side, rad) at 250 Hz; ``speed`` (rad/s) and
+``torque`` (the commanded motor torque, N m, link side) at 2 kHz; each with Gaussian sensor noise.
+Integration: semi-implicit Euler at 4 kHz (two steps per 2 kHz sample) after a 0.25 s warm-up,
+so a capture starts on a settled trajectory.
+
+Faults grow with a severity in [0, 1]:
+
+* ``backlash``: the gap's half-width grows from 0.3 mrad to 0.3 + 6 mrad;
+* ``friction``: motor-side Coulomb friction x (1 + 3 s) and viscous friction x (1 + 2 s);
+* ``tooth``: one damaged tooth of the intermediate gear (``TOOTH_STAGE_RATIO`` motor turns per
+  gear turn, ``TOOTH_COUNT`` teeth): a torque impact opposing the motion each time it meshes,
+  i.e. once per gear revolution;
+* ``bearing``: an inner-race defect of the motor bearing: impacts at ``BEARING_ORDER`` per motor
+  revolution, amplitude-modulated once per revolution as the defect passes the load zone.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from datetime import date, timedelta
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from axiswatch._capture import Capture, write_capture
+
+__all__ = [
+    "DEFAULT_FLEET_FAULTS",
+    "TASKS",
+    "Fault",
+    "FleetFault",
+    "Task",
+    "simulate_capture",
+    "simulate_fleet",
+]
+
+FaultKind = Literal["backlash", "friction", "tooth", "bearing"]
+FAULT_KINDS: tuple[str, ...] = ("backlash", "friction", "tooth", "bearing")
+
+POSITION_RATE_HZ = 250.0
+FAST_RATE_HZ = 2000.0
+_SUBSTEPS = 2
+_WARMUP_S = 0.25
+
+GEAR_RATIO = 100.0
+MESH_ORDER = 2.0  # ripple cycles per motor revolution (e.g. the two lobes of a strain-wave gear)
+TOOTH_STAGE_RATIO = 5.0  # motor revolutions per revolution of the gear with the damaged tooth
+TOOTH_COUNT = 24
+BEARING_ORDER = 5.43  # inner-race defect frequency, in orders of the motor speed
+
+# Nominal axis (link side units: kg m^2, N m, N m s/rad, rad).
+_J_MOTOR = 5.0
+_J_LINK = 4.0
+_ARM_M = 1.0  # payload lever L
+_LINK_MOMENT = 8.0 * 0.4  # m_l l_c, kg m
+_GRAVITY = 9.81
+_STIFFNESS = 6.0e4
+_DAMPING = 150.0
+_BACKLASH = 3e-4
+_COULOMB = 12.0
+_VISCOUS = 4.0
+_STRIBECK_SPEED = 0.02
+_RIPPLE = 1.5
+_KP = 2.5e4
+_KD = 7.0e2
+
+# Fault amplitudes at severity 1.
+_BACKLASH_GROWTH = 6e-3
+_COULOMB_GROWTH = 3.0
+_VISCOUS_GROWTH = 2.0
+_TOOTH_IMPACT = 40.0
+_BEARING_IMPACT = 15.0
+
+# Sensor noise (standard deviations).
+_NOISE_POSITION = 2e-5
+_NOISE_SPEED = 2e-3
+_NOISE_TORQUE = 0.3
+
+
+@dataclass(frozen=True)
+class Task:
+    """A pick-and-place task of one axis.
+
+    One cycle: move from the pick to the place position (carrying the payload), dwell at the
+    place, move back empty, dwell at the pick. Moves follow a minimum-jerk profile.
+
+    Parameters
+    ----------
+    name : str
+    amplitude_rad : float
+        Distance between pick and place positions (link side).
+    move_s : float
+        Duration of one move (sets the speed: peak speed is 1.875 amplitude / move).
+    dwell_place_s, dwell_pick_s : float
+        Dwell times at the place and pick positions.
+    payload_kg : float
+        Mass carried from pick to place, at the arm length of 1 m.
+    offset_rad : float
+        Pick position (0 = link horizontal, where gravity acts most).
+
+    Examples
+    --------
+    >>> TASKS["short_fast"].cycle_s
+    1.0
+    """
+
+    name: str
+    amplitude_rad: float
+    move_s: float
+    dwell_place_s: float
+    dwell_pick_s: float
+    payload_kg: float
+    offset_rad: float
+
+    @property
+    def cycle_s(self) -> float:
+        """Duration of one task cycle."""
+        return 2.0 * self.move_s + self.dwell_place_s + self.dwell_pick_s
+
+
+#: Eight pick-and-place tasks: amplitudes 0.4-1.5 rad, moves 0.3-1.0 s, dwells 0.1-0.6 s,
+#: payloads 0.5-10 kg, cycles 1.0-2.6 s.
+TASKS: dict[str, Task] = {
+    task.name: task
+    for task in (
+        Task("short_fast", 0.6, 0.35, 0.15, 0.15, 2.0, 0.3),
+        Task("short_slow", 0.6, 0.7, 0.2, 0.2, 2.0, 0.3),
+        Task("long_fast", 1.5, 0.6, 0.2, 0.2, 5.0, 0.0),
+        Task("long_slow", 1.5, 1.0, 0.3, 0.3, 5.0, 0.0),
+        Task("heavy", 1.0, 0.7, 0.3, 0.3, 10.0, 0.5),
+        Task("light", 1.0, 0.45, 0.1, 0.1, 0.5, -0.3),
+        Task("palletize", 1.2, 0.55, 0.5, 0.1, 8.0, 0.8),
+        Task("inspect", 0.4, 0.3, 0.6, 0.6, 1.0, 1.2),
+    )
+}
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A mechanical fault of the axis and how far it has developed.
+
+    Parameters
+    ----------
+    kind : {"backlash", "friction", "tooth", "bearing"}
+    severity : float in [0, 1]
+        0 is healthy, 1 is the most developed (just before breakdown).
+
+    Examples
+    --------
+    >>> Fault("tooth", 0.5)
+    Fault(kind='tooth', severity=0.5)
+    """
+
+    kind: FaultKind
+    severity: float
+
+    def __post_init__(self) -> None:
+        if self.kind not in FAULT_KINDS:
+            raise ValueError(
+                f"The 'kind' parameter of Fault must be one of {list(FAULT_KINDS)}. "
+                f"Got {self.kind!r} instead."
+            )
+        if not (
+            isinstance(self.severity, int | float | np.floating) and 0.0 <= self.severity <= 1.0
+        ):
+            raise ValueError(
+                f"The 'severity' parameter of Fault must be a float in [0, 1]. "
+                f"Got {self.severity!r} instead."
+            )
+
+
+@dataclass(frozen=True)
+class _Reference:
+    """Reference trajectory sampled on the integration grid."""
+
+    position: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    carrying: NDArray[np.bool_]
+
+
+def _reference(task: Task, time_s: NDArray[np.float64]) -> _Reference:
+    """Minimum-jerk pick-and-place reference at times ``time_s`` (0 = start of a forward move)."""
+    t = np.mod(time_s, task.cycle_s)
+    T, A = task.move_s, task.amplitude_rad
+    back_start = T + task.dwell_place_s
+    forward = t < T
+    back = (t >= back_start) & (t < back_start + T)
+    tau = np.where(forward, t / T, np.where(back, (t - back_start) / T, 0.0))
+    s = tau**3 * (10 - 15 * tau + 6 * tau**2)
+    ds = 30 * tau**2 * (1 - tau) ** 2 / T
+    dds = 60 * tau * (1 - tau) * (1 - 2 * tau) / T**2
+    at_place = (t >= T) & (t < back_start)
+    position = task.offset_rad + A * np.where(
+        forward, s, np.where(back, 1 - s, np.where(at_place, 1.0, 0.0))
+    )
+    speed = A * np.where(forward, ds, np.where(back, -ds, 0.0))
+    acceleration = A * np.where(forward, dds, np.where(back, -dds, 0.0))
+    return _Reference(position, speed, acceleration, forward | at_place)
+
+
+@dataclass(frozen=True)
+class _Trajectory:
+    """Noise-free states on the integration grid (for tests and diagnostics)."""
+
+    time_s: NDArray[np.float64]
+    motor_position: NDArray[np.float64]
+    motor_speed: NDArray[np.float64]
+    link_position: NDArray[np.float64]
+    motor_torque: NDArray[np.float64]
+    transmission_torque: NDArray[np.float64]
+    reference_position: NDArray[np.float64]
+
+
+def _simulate_axis(
+    task: Task, fault: Fault | None, duration_s: float, phase_s: float
+) -> _Trajectory:
+    """Integrate the axis over ``duration_s`` seconds of the task, starting ``phase_s`` into a cycle."""
+    dt = 1.0 / (FAST_RATE_HZ * _SUBSTEPS)
+    n_warm = round(_WARMUP_S / dt)
+    n_steps = n_warm + round(duration_s / dt)
+    time_s = phase_s - _WARMUP_S + np.arange(n_steps, dtype=np.float64) * dt
+    ref = _reference(task, time_s)
+    payload = np.where(ref.carrying, task.payload_kg, 0.0)
+    link_inertia = _J_LINK + payload * _ARM_M**2
+    gravity_moment = _GRAVITY * (_LINK_MOMENT + payload * _ARM_M)
+    feed_forward = (
+        (_J_MOTOR + link_inertia) * ref.acceleration
+        + _VISCOUS * ref.speed
+        + _COULOMB * np.tanh(ref.speed / _STRIBECK_SPEED)
+        + gravity_moment * np.cos(ref.position)
+    )
+    kind = fault.kind if fault is not None else None
+    severity = fault.severity if fault is not None else 0.0
+    backlash = _BACKLASH + (_BACKLASH_GROWTH * severity if kind == "backlash" else 0.0)
+    coulomb = _COULOMB * (1 + (_COULOMB_GROWTH * severity if kind == "friction" else 0.0))
+    viscous = _VISCOUS * (1 + (_VISCOUS_GROWTH * severity if kind == "friction" else 0.0))
+    tooth = _TOOTH_IMPACT * severity if kind == "tooth" else 0.0
+    bearing = _BEARING_IMPACT * severity if kind == "bearing" else 0.0
+    half_tooth = math.pi / TOOTH_COUNT
+    damaged_at = 1.0  # angle of the damaged tooth on its gear, rad
+
+    # Start on the reference, gearbox preloaded by the static load.
+    q_m = float(ref.position[0])
+    static = float(gravity_moment[0] * np.cos(ref.position[0]))
+    q_l = q_m - static / _STIFFNESS - math.copysign(backlash, static)
+    w_m = w_l = float(ref.speed[0])
+    out_qm = np.empty(n_steps)
+    out_wm = np.empty(n_steps)
+    out_ql = np.empty(n_steps)
+    out_tau = np.empty(n_steps)
+    out_ts = np.empty(n_steps)
+    # Plain floats in the loop: NumPy scalars would be several times slower.
+    q_ref, w_ref, ff = ref.position.tolist(), ref.speed.tolist(), feed_forward.tolist()
+    j_link, g_moment = link_inertia.tolist(), gravity_moment.tolist()
+    tanh, sin, cos = math.tanh, math.sin, math.cos
+    two_pi = 2.0 * math.pi
+    for i in range(n_steps):
+        torque = ff[i] + _KP * (q_ref[i] - q_m) + _KD * (w_ref[i] - w_m)
+        deflection = q_m - q_l
+        if deflection > backlash:
+            transmitted = _STIFFNESS * (deflection - backlash) + _DAMPING * (w_m - w_l)
+        elif deflection < -backlash:
+            transmitted = _STIFFNESS * (deflection + backlash) + _DAMPING * (w_m - w_l)
+        else:
+            transmitted = 0.0
+        motor_angle = GEAR_RATIO * q_m
+        direction = tanh(w_m / _STRIBECK_SPEED)
+        load = coulomb * direction + viscous * w_m + _RIPPLE * sin(MESH_ORDER * motor_angle)
+        if tooth:
+            gear = (motor_angle / TOOTH_STAGE_RATIO - damaged_at) % two_pi
+            gear = gear - two_pi if gear > math.pi else gear
+            if -half_tooth < gear < half_tooth:
+                load += tooth * direction * 0.5 * (1 + cos(math.pi * gear / half_tooth))
+        if bearing:
+            pulse = 0.5 * (1 + cos(BEARING_ORDER * motor_angle))
+            load += bearing * direction * pulse**3 * (0.6 + 0.4 * cos(motor_angle))
+        out_qm[i], out_wm[i], out_ql[i], out_tau[i], out_ts[i] = q_m, w_m, q_l, torque, transmitted
+        a_m = (torque - transmitted - load) / _J_MOTOR
+        a_l = (transmitted - g_moment[i] * cos(q_l)) / j_link[i]
+        w_m += a_m * dt
+        w_l += a_l * dt
+        q_m += w_m * dt
+        q_l += w_l * dt
+    keep = slice(n_warm, None)
+    return _Trajectory(
+        time_s[keep] - time_s[n_warm],
+        out_qm[keep],
+        out_wm[keep],
+        out_ql[keep],
+        out_tau[keep],
+        out_ts[keep],
+        ref.position[keep],
+    )
+
+
+def _resolve_task(task: Task | str) -> Task:
+    if isinstance(task, Task):
+        return task
+    if task not in TASKS:
+        raise ValueError(f"Unknown task {task!r}; expected a Task or one of {sorted(TASKS)}.")
+    return TASKS[task]
+
+
+def simulate_capture(
+    task: Task | str,
+    *,
+    fault: Fault | None = None,
+    duration_s: float = 3.0,
+    phase_s: float | None = None,
+    seed: int | np.random.Generator | None = 0,
+    metadata: Mapping[str, str] | None = None,
+) -> Capture:
+    """Simulate one capture of a robot axis doing ``task``, possibly with a developing fault.
+
+    Parameters
+    ----------
+    task : Task or str
+        A :class:`Task` or the name of one of :data:`TASKS`.
+    fault : Fault, optional
+        Mechanical fault and its severity; healthy when None.
+    duration_s : float, default=3.0
+        Capture length in seconds (at least 0.1).
+    phase_s : float, optional
+        Time into the task cycle at which the capture starts; drawn uniformly from one cycle
+        (with ``seed``) when None, as a logger that does not know the task would capture.
+    seed : int, Generator or None, default=0
+        Seeds the phase and the sensor noise.
+    metadata : mapping of str to str, optional
+        Added to (and overriding) the capture's metadata ``task``, ``fault``, ``severity``,
+        ``phase_s``.
+
+    Returns
+    -------
+    Capture
+        Signals ``position`` (250 Hz), ``speed`` and ``torque`` (2 kHz), ``start_s=0``.
+
+    Examples
+    --------
+    >>> cap = simulate_capture("heavy", fault=Fault("bearing", 0.5), seed=1)
+    >>> {name: cap.signals[name].size for name in cap.names}
+    {'position': 750, 'speed': 6000, 'torque': 6000}
+    >>> cap.metadata["task"], cap.metadata["fault"]
+    ('heavy', 'bearing')
+    """
+    resolved = _resolve_task(task)
+    if not (isinstance(duration_s, int | float) and duration_s >= 0.1):
+        raise ValueError(
+            f"The 'duration_s' parameter must be a float >= 0.1 (seconds). Got {duration_s!r} instead."
+        )
+    rng = np.random.default_rng(seed)
+    if phase_s is None:
+        phase_s = float(rng.uniform(0.0, resolved.cycle_s))
+    trajectory = _simulate_axis(resolved, fault, float(duration_s), float(phase_s))
+    n_fast = round(duration_s * FAST_RATE_HZ)
+    speed = trajectory.motor_speed[::_SUBSTEPS][:n_fast]
+    torque = trajectory.motor_torque[::_SUBSTEPS][:n_fast]
+    slow = round(FAST_RATE_HZ / POSITION_RATE_HZ) * _SUBSTEPS
+    position = trajectory.motor_position[::slow][: round(duration_s * POSITION_RATE_HZ)]
+    signals = {
+        "position": position + rng.normal(scale=_NOISE_POSITION, size=position.size),
+        "speed": speed + rng.normal(scale=_NOISE_SPEED, size=speed.size),
+        "torque": torque + rng.normal(scale=_NOISE_TORQUE, size=torque.size),
+    }
+    labels = {
+        "task": resolved.name,
+        "fault": fault.kind if fault is not None else "none",
+        "severity": f"{fault.severity if fault is not None else 0.0:g}",
+        "phase_s": f"{phase_s:.6f}",
+    }
+    labels.update(metadata or {})
+    return Capture(
+        signals,
+        {"position": POSITION_RATE_HZ, "speed": FAST_RATE_HZ, "torque": FAST_RATE_HZ},
+        source=f"simulated {resolved.name}",
+        metadata=labels,
+    )
+
+
+@dataclass(frozen=True)
+class FleetFault:
+    """A fault that develops on one axis of a simulated fleet.
+
+    Its severity is 0 before ``onset_day`` and grows linearly to ``final_severity`` on the last day.
+
+    Parameters
+    ----------
+    robot, axis : str
+        Folder names, e.g. ``"robot02"``, ``"axis1"``.
+    kind : {"backlash", "friction", "tooth", "bearing"}
+    onset_day : int
+        First day (1-based) with a non-zero severity.
+    final_severity : float in (0, 1], default=1.0
+    """
+
+    robot: str
+    axis: str
+    kind: FaultKind
+    onset_day: int
+    final_severity: float = 1.0
+
+    def severity(self, day: int, n_days: int) -> float:
+        """Severity on ``day`` (1-based) of an ``n_days`` run."""
+        if day < self.onset_day:
+            return 0.0
+        return self.final_severity * (day - self.onset_day + 1) / (n_days - self.onset_day + 1)
+
+
+#: The default fleet's faults: a bearing defect and a friction increase over the last days.
+DEFAULT_FLEET_FAULTS: tuple[FleetFault, ...] = (
+    FleetFault("robot02", "axis1", "bearing", onset_day=20),
+    FleetFault("robot03", "axis2", "friction", onset_day=24),
+)
+
+
+def simulate_fleet(
+    root: str | Path,
+    *,
+    n_robots: int = 3,
+    n_axes: int = 2,
+    n_days: int = 30,
+    start_date: str = "2026-03-01",
+    task_change_days: Sequence[int] = (15,),
+    faults: Sequence[FleetFault] | None = None,
+    seed: int = 0,
+    file_format: Literal["parquet", "csv"] = "parquet",
+    duration_s: float = 3.0,
+) -> pd.DataFrame:
+    """Simulate a fleet of robot axes, one capture a day, and write it in the fleet layout.
+
+    Files: ``ROOT/<robot>/<axis>/<YYYY-MM-DD>.<file_format>`` (the project's capture format, via
+    :func:`~axiswatch.write_capture`; robots ``robot01``, ..., axes ``axis1``, ...) and the labels
+    in ``ROOT/labels.csv``. Axis ``j`` (counting over the fleet) starts on task ``j`` of
+    :data:`TASKS` (cyclically) and moves on to the next task on each of ``task_change_days``.
+    Every capture starts at a random phase of the task cycle.
+
+    Parameters
+    ----------
+    root : str or Path
+        Output folder (created if needed).
+    n_robots, n_axes, n_days : int, default=3, 2, 30
+    start_date : str, default="2026-03-01"
+        ISO date of day 1.
+    task_change_days : sequence of int, default=(15,)
+        Days (1-based) on which every axis changes task.
+    faults : sequence of FleetFault, optional
+        Default: those of :data:`DEFAULT_FLEET_FAULTS` whose robot and axis exist in the fleet.
+    seed : int, default=0
+    file_format : {"parquet", "csv"}, default="parquet"
+    duration_s : float, default=3.0
+        Length of each capture.
+
+    Returns
+    -------
+    DataFrame
+        The labels, one row per capture: ``robot``, ``axis``, ``capture`` (the file name without
+        extension), ``date``, ``task``, ``fault`` (``"none"`` when healthy), ``severity``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> labels = simulate_fleet(tempfile.mkdtemp(), n_robots=1, n_axes=1, n_days=3,
+    ...                         duration_s=0.5)
+    >>> labels[["robot", "axis", "capture", "task", "fault"]].iloc[0].tolist()
+    ['robot01', 'axis1', '2026-03-01', 'short_fast', 'none']
+    """
+    for name, value, low in (
+        ("n_robots", n_robots, 1),
+        ("n_axes", n_axes, 1),
+        ("n_days", n_days, 1),
+    ):
+        if not (isinstance(value, int) and value >= low):
+            raise ValueError(
+                f"The '{name}' parameter must be an int >= {low}. Got {value!r} instead."
+            )
+    if file_format not in ("parquet", "csv"):
+        raise ValueError(
+            f"The 'file_format' parameter must be 'parquet' or 'csv'. Got {file_format!r} instead."
+        )
+    try:
+        first_day = date.fromisoformat(start_date)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"The 'start_date' parameter must be an ISO date such as '2026-03-01'. "
+            f"Got {start_date!r} instead."
+        ) from None
+    robots = [f"robot{r + 1:02d}" for r in range(n_robots)]
+    axes = [f"axis{a + 1}" for a in range(n_axes)]
+    if faults is None:
+        faults = [f for f in DEFAULT_FLEET_FAULTS if f.robot in robots and f.axis in axes]
+    schedule: dict[tuple[str, str], FleetFault] = {}
+    for fault in faults:
+        if fault.robot not in robots or fault.axis not in axes:
+            raise ValueError(
+                f"Fault on {fault.robot}/{fault.axis} names an axis outside the fleet "
+                f"(robots {robots[0]}..{robots[-1]}, axes {axes[0]}..{axes[-1]})."
+            )
+        schedule[(fault.robot, fault.axis)] = fault
+    root = Path(root)
+    task_names = list(TASKS)
+    children = np.random.SeedSequence(seed).spawn(n_robots * n_axes)
+    rows = []
+    for j, (robot, axis) in enumerate(itertools.product(robots, axes)):
+        folder = root / robot / axis
+        folder.mkdir(parents=True, exist_ok=True)
+        rng = np.random.default_rng(children[j])
+        developing = schedule.get((robot, axis))
+        for day in range(1, n_days + 1):
+            task = task_names[(j + sum(day >= c for c in task_change_days)) % len(task_names)]
+            severity = developing.severity(day, n_days) if developing is not None else 0.0
+            today = Fault(developing.kind, severity) if developing and severity > 0 else None
+            stamp = (first_day + timedelta(days=day - 1)).isoformat()
+            capture = simulate_capture(
+                task,
+                fault=today,
+                duration_s=duration_s,
+                seed=rng,
+                metadata={"robot": robot, "axis": axis},
+            )
+            write_capture(capture, folder / f"{stamp}.{file_format}")
+            rows.append(
+                {
+                    "robot": robot,
+                    "axis": axis,
+                    "capture": stamp,
+                    "date": stamp,
+                    "task": task,
+                    "fault": today.kind if today is not None else "none",
+                    "severity": severity,
+                }
+            )
+    labels = pd.DataFrame(rows)
+    labels.to_csv(root / "labels.csv", index=False)
+    return labels
