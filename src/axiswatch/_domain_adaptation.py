@@ -170,7 +170,8 @@ class CORALDetector(EnergyDetector):
             np.vstack([X, self.baseline_]), sample_domain=_domains(len(X), len(self.baseline_))
         )
         mapped = adapter.transform(X, sample_domain=np.ones(len(X), np.int64), allow_source=True)
-        return np.asarray(mapped, dtype=np.float64) + np.asarray(adapter.mean_target_)
+        shift: NDArray[np.float64] = np.asarray(adapter.mean_target_, dtype=np.float64)
+        return np.asarray(mapped, dtype=np.float64) + shift
 
 
 class SubspaceAlignmentDetector(EnergyDetector):
