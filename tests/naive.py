@@ -126,3 +126,16 @@ def pca_distance(X_s: np.ndarray, X_t: np.ndarray, n_components: int) -> float:
 def exponential_quantile(scale: float, q: float) -> float:
     """Quantile q in (0, 1) of the exponential distribution, from its CDF 1 - exp(-x / scale)."""
     return -scale * np.log(1 - q)
+
+
+def energy_distance(first: np.ndarray, second: np.ndarray) -> float:
+    """Szekely & Rizzo's energy distance (V-statistic), every pair written out."""
+
+    def mean_norm(a: np.ndarray, b: np.ndarray) -> float:
+        total = 0.0
+        for x in a:
+            for y in b:
+                total += float(np.sqrt(np.sum((x - y) ** 2)))
+        return total / (len(a) * len(b))
+
+    return 2 * mean_norm(first, second) - mean_norm(first, first) - mean_norm(second, second)
