@@ -6,6 +6,7 @@ baseline condition's recording, one other load and few methods so they take seco
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -62,7 +63,9 @@ def test_cwru_reduced_has_no_healthy_other_condition() -> None:
     distances, table = aw.evaluate_dataset(segments, aw.CWRU_FEATURES, methods=["energy"])
     row = table.iloc[0]
     assert row.baseline_condition == "load0hp"
-    assert math.isnan(row.auroc) and math.isnan(row.far95) and math.isnan(row.far99)
+    assert math.isnan(row.auroc)
+    assert math.isnan(row.far95)
+    assert math.isnan(row.far99)
     assert row.dr99 == 1.0
     calibration = distances[distances.role == "calibration"].distance
     faults = distances[distances.role.str.startswith("fault")].distance
@@ -126,7 +129,8 @@ def test_summary_of_a_dataset_without_healthy_other_condition() -> None:
         }
     )
     row = aw.summarize_distances(rows).iloc[0]
-    assert math.isnan(row.auroc) and math.isnan(row.far99)
+    assert math.isnan(row.auroc)
+    assert math.isnan(row.far99)
     assert (row.dr95, row.dr99) == (1.0, 0.0)
 
 
@@ -152,3 +156,30 @@ def test_cli_reports_an_absent_folder(tmp_path: Path) -> None:
     )
     assert result.exit_code == 1
     assert "dataset folder not found" in result.output
+
+
+def test_a_method_without_threshold_reports_nan() -> None:
+    rows = pd.DataFrame(
+        {
+            "method": "lra",
+            "baseline_condition": "c",
+            "role": ["calibration", "fault_same"],
+            "distance": [0.0, 0.0],
+            "threshold95": np.nan,
+            "threshold99": np.nan,
+        }
+    )
+    row = aw.summarize_distances(rows).iloc[0]
+    assert math.isnan(row.dr95)
+    assert math.isnan(row.dr99)
+
+
+def test_zero_calibration_distances_give_no_threshold(rng: np.random.Generator) -> None:
+    segments = _toy_segments(rng)
+    # Four copies of one healthy capture: the calibration distances are all 0.
+    copies = [dataclasses.replace(segments[0], start=k) for k in range(4)] + segments[4:]
+    spec = aw.FeatureSpec(
+        signals=("a",), combinations="none", segment_length=16, hop=16, padding="valid"
+    )
+    distances = aw.segment_distances(copies, spec, methods=["pca"], n_baseline_segments=2)
+    assert distances.threshold99.isna().all()

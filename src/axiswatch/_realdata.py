@@ -38,6 +38,7 @@ from axiswatch._datasets import Segment
 from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch._domain_adaptation import CORALDetector, EnergyDetector, SubspaceAlignmentDetector
 from axiswatch._features import FeatureSpec, extract_features
+from axiswatch.exceptions import CalibrationError
 
 __all__ = [
     "CWRU_FEATURES",
@@ -166,8 +167,13 @@ def segment_distances(
                     for m, r in zip(matrices, roles, strict=True)
                 ]
             )
-            calibration = distances[np.array(roles) == "calibration"]
-            fit = fit_half_laplace(calibration)
+            try:
+                fit = fit_half_laplace(distances[np.array(roles) == "calibration"])
+                thresholds = (fit.threshold(95), fit.threshold(99))
+            except CalibrationError:
+                # A method blind to these data (every healthy distance 0, e.g. LRA when no
+                # singular value exceeds sqrt(lambda)) gets no threshold: its far/dr are NaN.
+                thresholds = (np.nan, np.nan)
             for segment, role, distance in zip(segments, roles, distances, strict=True):
                 rows.append(
                     {
@@ -179,8 +185,8 @@ def segment_distances(
                         "healthy": segment.healthy,
                         "role": role,
                         "distance": float(distance),
-                        "threshold95": fit.threshold(95),
-                        "threshold99": fit.threshold(99),
+                        "threshold95": thresholds[0],
+                        "threshold99": thresholds[1],
                     }
                 )
     return pd.DataFrame(rows)
@@ -221,8 +227,13 @@ def summarize_distances(distances: pd.DataFrame) -> pd.DataFrame:
         )
         for q in (95, 99):
             threshold = float(group[f"threshold{q}"].iloc[0])
-            row[f"far{q}"] = float(np.mean(healthy > threshold)) if healthy.size else np.nan
-            row[f"dr{q}"] = float(np.mean(faulty > threshold)) if faulty.size else np.nan
+            measurable = not np.isnan(threshold)
+            row[f"far{q}"] = (
+                float(np.mean(healthy > threshold)) if healthy.size and measurable else np.nan
+            )
+            row[f"dr{q}"] = (
+                float(np.mean(faulty > threshold)) if faulty.size and measurable else np.nan
+            )
         table.append(row)
     return pd.DataFrame(table, columns=SUMMARY_COLUMNS)
 
