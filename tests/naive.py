@@ -133,3 +133,16 @@ def marchenko_pastur_median(beta: float, *, n: int = 2000, seed: int = 0) -> flo
     rng = np.random.default_rng(seed)
     Y = rng.normal(size=(n, round(beta * n)))
     return float(np.median(np.linalg.eigvalsh(Y.T @ Y / n)))
+
+
+def energy_distance(first: np.ndarray, second: np.ndarray) -> float:
+    """Szekely & Rizzo's energy distance (V-statistic), every pair written out."""
+
+    def mean_norm(a: np.ndarray, b: np.ndarray) -> float:
+        total = 0.0
+        for x in a:
+            for y in b:
+                total += float(np.sqrt(np.sum((x - y) ** 2)))
+        return total / (len(a) * len(b))
+
+    return 2 * mean_norm(first, second) - mean_norm(first, first) - mean_norm(second, second)

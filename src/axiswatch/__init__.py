@@ -22,6 +22,12 @@ from axiswatch._alignment import (
     lra_embedding,
     lra_structured,
 )
+from axiswatch._attribution import (
+    attribute,
+    difference_spectrogram,
+    pca_contributions,
+    plot_difference_spectrogram,
+)
 from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch._capture import (
     DEFAULT_SIGNALS,
@@ -31,7 +37,20 @@ from axiswatch._capture import (
     read_capture,
     write_capture,
 )
+from axiswatch._datasets import (
+    NOMINAL_RATE_HZ,
+    Segment,
+    default_data_dir,
+    read_dataset,
+    read_recording,
+)
 from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch._domain_adaptation import (
+    CORALDetector,
+    EnergyDetector,
+    SubspaceAlignmentDetector,
+    energy_distance,
+)
 from axiswatch._features import (
     Features,
     FeatureSpec,
@@ -47,6 +66,15 @@ from axiswatch._preprocessing import (
     resample_capture,
     upsample_pchip,
 )
+from axiswatch._realdata import (
+    CWRU_FEATURES,
+    GEARBOX_FEATURES,
+    REAL_DATA_METHODS,
+    evaluate_dataset,
+    plot_distances,
+    segment_distances,
+    summarize_distances,
+)
 from axiswatch._robot import (
     DEFAULT_FLEET_FAULTS,
     TASKS,
@@ -57,7 +85,13 @@ from axiswatch._robot import (
     simulate_fleet,
 )
 from axiswatch._simulate import LAB_DAYS, LabDay, lab_dataset
-from axiswatch.exceptions import AxiswatchError, CalibrationError, CaptureError, StoreError
+from axiswatch.exceptions import (
+    AxiswatchError,
+    CalibrationError,
+    CaptureError,
+    DataNotFoundError,
+    StoreError,
+)
 
 __version__ = "0.1.0"
 
@@ -65,15 +99,20 @@ __all__ = [
     "Assessment",
     "AxiswatchError",
     "BaselineDetector",
+    "CORALDetector",
+    "CWRU_FEATURES",
     "CalibrationError",
     "Capture",
     "CaptureError",
     "DEFAULT_FLEET_FAULTS",
     "DEFAULT_SIGNALS",
+    "DataNotFoundError",
+    "EnergyDetector",
     "Fault",
     "FeatureSpec",
     "Features",
     "FleetFault",
+    "GEARBOX_FEATURES",
     "HalfLaplaceFit",
     "HealthModel",
     "LAB_DAYS",
@@ -81,13 +120,22 @@ __all__ = [
     "LRAResult",
     "LabDay",
     "LowRankBasis",
+    "NOMINAL_RATE_HZ",
     "PCADetector",
+    "REAL_DATA_METHODS",
+    "Segment",
     "StoreError",
+    "SubspaceAlignmentDetector",
     "TASKS",
     "Task",
     "align_phase",
     "as_capture",
+    "attribute",
     "capture_to_frame",
+    "default_data_dir",
+    "difference_spectrogram",
+    "energy_distance",
+    "evaluate_dataset",
     "extract_features",
     "features_from_signals",
     "fit_half_laplace",
@@ -98,12 +146,19 @@ __all__ = [
     "lra_dense",
     "lra_embedding",
     "lra_structured",
+    "pca_contributions",
     "phase_lag",
+    "plot_difference_spectrogram",
+    "plot_distances",
     "read_capture",
+    "read_dataset",
+    "read_recording",
     "resample_capture",
+    "segment_distances",
     "simulate_capture",
     "simulate_fleet",
     "stft_features",
+    "summarize_distances",
     "upsample_pchip",
     "write_capture",
 ]

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 
@@ -100,6 +100,88 @@ def experiment_robot_b(
 
     table = robot_b(seed=seed, n_days=days, fault=fault)  # type: ignore[arg-type]
     _save(table, plot_robot_study(table, "Robot B"), out, "robot_b")
+
+
+def _real_data_experiment(
+    name: str,
+    data: Path | None,
+    out: Path,
+    baseline_conditions: list[str] | None,
+    methods: list[str] | None,
+) -> None:
+    from axiswatch._datasets import default_data_dir, read_dataset
+    from axiswatch._realdata import (
+        CWRU_FEATURES,
+        GEARBOX_FEATURES,
+        evaluate_dataset,
+        plot_distances,
+    )
+
+    folder = default_data_dir(name) if data is None else data
+    try:
+        segments = read_dataset(folder)
+        distances, table = evaluate_dataset(
+            segments,
+            GEARBOX_FEATURES if name.startswith("gearbox") else CWRU_FEATURES,
+            baseline_conditions=baseline_conditions or None,
+            methods=methods or None,
+        )
+    except (OSError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(1) from exc
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "summary.csv", index=False)
+    distances.to_csv(out / "distances.csv", index=False)
+    plot_distances(distances).savefig(out / "distances.png", dpi=80)
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'summary.csv'}, {out / 'distances.csv'}, {out / 'distances.png'}")
+
+
+_DATA_HELP = (
+    "Dataset folder (index.csv, days.csv, .npz); default ../shared/data/{} from the project root."
+)
+Out = Annotated[
+    Path, typer.Option("--out", help="Folder for summary.csv, distances.csv, distances.png.")
+]
+BaselineConditions = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--baseline-condition",
+        help="Baseline condition (repeat for several); default every condition with enough healthy data.",
+    ),
+]
+Methods = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--method", help="Method (repeat for several): pca, lra, energy, coral, sa; default all."
+    ),
+]
+
+
+@experiment_app.command("gearbox")
+def experiment_gearbox(
+    data: Annotated[
+        Path | None, typer.Option("--data", help=_DATA_HELP.format("gearbox_spectraquest"))
+    ] = None,
+    out: Out = Path("out"),
+    baseline_condition: BaselineConditions = None,
+    method: Methods = None,
+) -> None:
+    """Gearbox (healthy vs broken tooth at several loads): baseline on one load, test on all."""
+    _real_data_experiment("gearbox_spectraquest", data, out, baseline_condition, method)
+
+
+@experiment_app.command("cwru")
+def experiment_cwru(
+    data: Annotated[
+        Path | None, typer.Option("--data", help=_DATA_HELP.format("cwru_12k_de"))
+    ] = None,
+    out: Out = Path("out"),
+    baseline_condition: BaselineConditions = None,
+    method: Methods = None,
+) -> None:
+    """CWRU bearings (healthy only at 0 HP): fault sensitivity across loads."""
+    _real_data_experiment("cwru_12k_de", data, out, baseline_condition, method)
 
 
 def main() -> None:

@@ -10,6 +10,7 @@ __all__ = [
     "AxiswatchError",
     "CalibrationError",
     "CaptureError",
+    "DataNotFoundError",
     "StoreError",
 ]
 
@@ -24,6 +25,10 @@ class CaptureError(AxiswatchError, ValueError):
 
 class CalibrationError(AxiswatchError, ValueError):
     """Healthy distances cannot calibrate a threshold (too few, non-finite, negative)."""
+
+
+class DataNotFoundError(AxiswatchError, FileNotFoundError):
+    """A dataset folder, table or recording file that should exist does not."""
 
 
 class StoreError(AxiswatchError, RuntimeError):
