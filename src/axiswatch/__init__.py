@@ -40,6 +40,7 @@ from axiswatch._features import (
     stft_features,
 )
 from axiswatch._model import Assessment, HealthModel
+from axiswatch._parallel import parallel_map
 from axiswatch._preprocessing import (
     align_phase,
     integer_factor,
@@ -84,6 +85,7 @@ __all__ = [
     "lra_dense",
     "lra_embedding",
     "lra_structured",
+    "parallel_map",
     "phase_lag",
     "read_capture",
     "resample_capture",
