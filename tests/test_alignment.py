@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch._alignment as aw_alignment
 
 from .naive import lra_delta
 
@@ -174,3 +175,113 @@ def test_structured_rejects_mismatched_bases() -> None:
         aw.lra_structured(a, aw.low_rank_basis(np.eye(4) * 3, noise_level=2.0))
     with pytest.raises(ValueError, match=r"'noise_level' parameter must be a float > 0"):
         aw.low_rank_basis(np.eye(4), noise_level=-1.0)
+
+
+def _delta_tolerance(delta: float) -> float:
+    """The issue's target: the fast path's delta within 1e-9 + 1e-6 delta of the reference."""
+    return 1e-9 + 1e-6 * delta
+
+
+def _spectrum_matrix(rng: np.random.Generator, n: int, singular_values: np.ndarray) -> np.ndarray:
+    left = np.linalg.qr(rng.normal(size=(n, singular_values.size)))[0]
+    right = np.linalg.qr(rng.normal(size=(singular_values.size, singular_values.size)))[0]
+    return np.asarray((left * singular_values) @ right)
+
+
+@pytest.mark.parametrize(
+    "singular_values",
+    [
+        np.logspace(0, 3, 12)[::-1],  # condition 1e3, all above the threshold
+        np.array([50, 50, 50, 10, 10, 1 + 1e-7, 1.0, 1 - 1e-7, 0.5, 0.5, 1e-3, 0.0]),  # clusters
+        np.array([40.0, 8.0, 3.0, 0, 0, 0, 0, 0]),  # rank-deficient
+        np.array([3e4, 2.0, 1.5, 0.2]),  # lambda / s_max^2 = 1.1e-9, just above GRAM_RCOND
+    ],
+)
+@pytest.mark.parametrize("seed", range(3))
+def test_gram_basis_equals_direct_svd(singular_values: np.ndarray, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    X_s = _spectrum_matrix(rng, 300, singular_values)
+    X_t = X_s + rng.normal(size=X_s.shape) * 0.05
+    for lam, mu, d in [(1.0, 0.5, 2), (0.3, 0.2, 3)]:
+        gram = [aw.low_rank_basis(X, lam, method="gram") for X in (X_s, X_t)]
+        svd = [aw.low_rank_basis(X, lam, method="svd") for X in (X_s, X_t)]
+        for fast, reference in zip(gram, svd, strict=True):
+            # A singular value at the cut sqrt(lambda) may fall either side by a rounding error;
+            # its weight 1 - lambda^2 / s^4 is ~0 there, so the projector below does not care.
+            clear = reference.singular_values**2 > lam * (1 + 1e-6)
+            np.testing.assert_allclose(
+                fast.singular_values[: clear.sum()], reference.singular_values[clear], rtol=1e-10
+            )
+            # Same weighted projector U = V diag(w) V^T (signs and rotations inside clusters of
+            # equal singular values are free), applied to a probe instead of formed as N x N.
+            probe = rng.normal(size=(300, 3))
+            np.testing.assert_allclose(
+                fast.vectors @ ((fast.vectors.T @ probe) * fast.weights[:, None]),
+                reference.vectors @ ((reference.vectors.T @ probe) * reference.weights[:, None]),
+                atol=1e-9,
+            )
+        expected = aw.lra_structured(*svd, mu=mu, n_components=d).delta
+        got = aw.lra_structured(*gram, mu=mu, n_components=d).delta
+        assert abs(got - expected) <= _delta_tolerance(expected)
+
+
+def test_gram_basis_equals_direct_svd_on_real_features(lab_features: list[np.ndarray]) -> None:
+    for lam in (1.0, 1e-4):
+        source = aw.low_rank_basis(lab_features[0], lam, method="svd")
+        fast_source = aw.low_rank_basis(lab_features[0], lam, method="gram")
+        for X_t in lab_features[1:5]:
+            expected = aw.lra_structured(source, aw.low_rank_basis(X_t, lam, method="svd")).delta
+            got = aw.lra_structured(fast_source, aw.low_rank_basis(X_t, lam, method="gram")).delta
+            assert abs(got - expected) <= _delta_tolerance(expected)
+
+
+def test_gram_route_falls_back_to_svd_when_ill_conditioned(rng: np.random.Generator) -> None:
+    # lambda / s_max^2 = 1e-12 < GRAM_RCOND: the direct SVD's result, bit for bit.
+    X = _spectrum_matrix(rng, 200, np.array([1e6, 30.0, 2.0, 0.5]))
+    assert aw_alignment.GRAM_RCOND * 1e12 > 1.0
+    gram, svd = aw.low_rank_basis(X, method="gram"), aw.low_rank_basis(X, method="svd")
+    np.testing.assert_array_equal(gram.vectors, svd.vectors)
+    np.testing.assert_array_equal(gram.singular_values, svd.singular_values)
+
+
+def test_joint_basis_with_shared_and_nearly_shared_directions(rng: np.random.Generator) -> None:
+    # Target spans share one direction exactly and one up to an angle of 1e-7 with the source:
+    # both solvers and the literal equations agree.
+    X_s = _spectrum_matrix(rng, 60, np.array([20.0, 9.0, 4.0, 0.1]))
+    left = np.linalg.svd(X_s, full_matrices=False)[0]
+    tilted = left[:, 1] + 1e-7 * left[:, 3]
+    X_t = np.column_stack([left[:, 0] * 15, tilted / np.linalg.norm(tilted) * 6, left[:, 2] * 0])
+    X_t = X_t + np.outer(rng.normal(size=60), [0, 0, 3.0]) / 8
+    for d in (1, 2, 3):
+        fast = aw.lra_embedding(X_s[:, :3], X_t, n_components=d)
+        reference, _ = lra_delta(X_s[:, :3], X_t, 0.5, d)
+        dense = aw.lra_embedding(X_s[:, :3], X_t, n_components=d, solver="dense")
+        assert abs(fast.delta - dense.delta) <= _delta_tolerance(dense.delta)
+        assert abs(fast.delta - reference) <= _delta_tolerance(reference)
+
+
+def test_unknown_basis_method() -> None:
+    with pytest.raises(ValueError, match=r"'method' parameter must be 'auto', 'gram' or 'svd'"):
+        aw.low_rank_basis(np.eye(3), method="qr")  # type: ignore[arg-type]
+
+
+def test_memory_grows_linearly_no_n_by_n_matrix() -> None:
+    """Peak memory of the fast path at N = 40,000: far below one N x N float64 (12.8 GB)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(7)
+    n_rows, n_features = 40_000, 24
+    t = np.arange(n_rows)[:, None] / 500.0
+    X_s = np.abs(np.sin(t * rng.uniform(1, 40, n_features))) * 3 + rng.normal(size=(1, 24))
+    X_t = X_s + 0.1 * rng.normal(size=X_s.shape)
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        aw.lra_embedding(X_s, X_t, n_components=3)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    input_bytes = X_s.nbytes
+    # Measured 8x one input (full rank: V_s, V_t, B and their temporaries are 48 columns wide);
+    # a single N x N matrix would be 1,667 times one input.
+    assert peak < 20 * input_bytes < n_rows**2 * 8 / 80

@@ -83,3 +83,24 @@ def test_not_fitted() -> None:
 
     with pytest.raises(NotFittedError, match=r"This PCADetector instance is not fitted yet"):
         aw.PCADetector().distance(np.ones((4, 2)))
+
+
+def test_baseline_basis_is_computed_once(
+    rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import axiswatch._detectors as detectors
+
+    calls: list[int] = []
+    real = detectors.low_rank_basis
+
+    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw.LowRankBasis:
+        calls.append(X.shape[0])
+        return real(X, noise_level)
+
+    monkeypatch.setattr(detectors, "low_rank_basis", counting)
+    X_s = rng.normal(size=(50, 4)) * 3
+    det = aw.LRADetector().fit(X_s)
+    assert len(calls) == 1
+    for _ in range(3):
+        det.distance(X_s + rng.normal(size=X_s.shape))
+    assert len(calls) == 4  # one per test capture, none for the baseline

@@ -21,6 +21,67 @@ def test_matches_frame_by_frame_dft(rng: np.random.Generator, padding: str, hop:
     np.testing.assert_allclose(X, reference, rtol=1e-10, atol=1e-12)
 
 
+@pytest.mark.parametrize("padding", ["circular", "zeros"])
+@pytest.mark.parametrize(("n_samples", "hop"), [(64, 3), (64, 7), (65, 64), (70, 1)])
+def test_short_captures_match_frame_by_frame_dft(
+    rng: np.random.Generator, padding: str, n_samples: int, hop: int
+) -> None:
+    # Windows wider than what is left after the hop: the wrap-around reaches across the capture.
+    x = rng.normal(size=(n_samples, 1))
+    X = aw.stft_features(x, 1.0, segment_length=64, hop=hop, padding=padding)  # type: ignore[arg-type]
+    np.testing.assert_allclose(X, stft_magnitude(x[:, 0], 64, hop, padding), atol=1e-12)
+
+
+@pytest.mark.parametrize("scaling", ["magnitude", "psd", "none"])
+@pytest.mark.parametrize("padding", ["circular", "zeros", "valid"])
+@pytest.mark.parametrize(("segment_length", "hop"), [(16, 1), (17, 2), (32, 5)])
+def test_matches_scipy_short_time_fft(
+    rng: np.random.Generator, scaling: str, padding: str, segment_length: int, hop: int
+) -> None:
+    """Same values as the former ShortTimeFFT-based code (1e-12 relative to the largest)."""
+    from scipy.signal import ShortTimeFFT, get_window
+
+    x = rng.normal(size=(200, 2)) * 3
+    X = aw.stft_features(
+        x,
+        500.0,
+        segment_length=segment_length,
+        hop=hop,
+        padding=padding,  # type: ignore[arg-type]
+        scaling=scaling,  # type: ignore[arg-type]
+    )
+    stft = ShortTimeFFT(
+        get_window("hann", segment_length),
+        hop=hop,
+        fs=500.0,
+        scale_to=None if scaling == "none" else scaling,  # type: ignore[arg-type]
+    )
+    n, half = x.shape[0], segment_length // 2
+    blocks = []
+    for channel in x.T:
+        if padding == "circular":
+            # Slice p of three copies is centred on sample p * hop - n of the capture (every hop
+            # used here divides n = 200).
+            wrapped = np.concatenate([channel, channel, channel])
+            spectrum = stft.stft(wrapped, p0=n // hop, p1=n // hop + -(-n // hop))
+        elif padding == "zeros":
+            spectrum = stft.stft(channel, p0=0, p1=-(-n // hop))
+        else:
+            spectrum = stft.stft(
+                channel, p0=-(-half // hop), p1=(n - segment_length + half) // hop + 1
+            )
+        blocks.append(np.abs(spectrum).T)
+    reference = np.hstack(blocks)
+    np.testing.assert_allclose(X, reference, rtol=0, atol=1e-12 * np.abs(reference).max())
+
+
+def test_valid_padding_without_a_slice(rng: np.random.Generator) -> None:
+    with pytest.raises(
+        CaptureError, match=r"no STFT slice fits inside the capture with padding='valid'"
+    ):
+        aw.stft_features(rng.normal(size=(64, 1)), 1.0, segment_length=64, hop=3, padding="valid")
+
+
 def test_one_row_per_sample_and_valid_rows(rng: np.random.Generator) -> None:
     x = rng.normal(size=(300, 3))
     assert aw.stft_features(x, 2000.0, segment_length=64).shape == (300, 3 * 33)
@@ -99,3 +160,19 @@ def test_bad_signal_arrays() -> None:
         aw.stft_features(np.zeros(64), 1.0)
     with pytest.raises(CaptureError, match=r"signals contain NaN"):
         aw.stft_features(np.full((64, 1), np.nan), 1.0)
+
+
+def test_peak_memory_is_the_result_plus_a_block(rng: np.random.Generator) -> None:
+    """No complex spectrum or frame matrix of the whole capture is held (hop=1, 6 channels)."""
+    import tracemalloc
+
+    x = rng.normal(size=(20_000, 6))
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        X = aw.stft_features(x, 2000.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    # Measured X + 9 MB; one channel's complex spectrum alone would add 21 MB, its frames 20 MB.
+    assert peak < X.nbytes + 14e6

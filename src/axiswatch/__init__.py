@@ -59,6 +59,7 @@ from axiswatch._features import (
     stft_features,
 )
 from axiswatch._model import Assessment, HealthModel
+from axiswatch._parallel import parallel_map
 from axiswatch._preprocessing import (
     align_phase,
     integer_factor,
@@ -146,6 +147,7 @@ __all__ = [
     "lra_dense",
     "lra_embedding",
     "lra_structured",
+    "parallel_map",
     "pca_contributions",
     "phase_lag",
     "plot_difference_spectrogram",

@@ -22,8 +22,10 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import scipy.fft
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
-from scipy.signal import ShortTimeFFT, get_window
+from scipy.signal import get_window
 
 from axiswatch._capture import Capture
 from axiswatch._preprocessing import resample_capture
@@ -38,6 +40,10 @@ __all__ = [
 ]
 
 Padding = Literal["circular", "zeros", "valid"]
+
+#: Frame values windowed and transformed at a time (2 MB of float64): bounds the temporaries of a
+#: long capture at hop=1, where the frames overlap ``segment_length`` times, and stays in cache.
+_BLOCK_VALUES = 1 << 18
 Scaling = Literal["magnitude", "psd", "none"]
 
 
@@ -102,13 +108,22 @@ def stft_features(
         keeps only windows fully inside the capture (``n_samples - segment_length + 1`` rows
         at ``hop=1``).
     scaling : {"magnitude", "psd", "none"}, default="magnitude"
-        Window scaling (:class:`scipy.signal.ShortTimeFFT` ``scale_to``); ``"magnitude"`` makes a
+        Window scaling, as :class:`scipy.signal.ShortTimeFFT`'s ``scale_to`` (``"magnitude"``
+        divides by ``sum(w)``, ``"psd"`` by ``sqrt(rate_hz * sum(w**2))``); ``"magnitude"`` makes a
         unit sine give a peak of 0.5 whatever the window length, which keeps the LRA noise level
         ``lambda`` meaningful across settings.
 
     Returns
     -------
     ndarray of shape (n_rows, n_channels * (segment_length // 2 + 1))
+
+    Notes
+    -----
+    Channel by channel, the frames are strided views into the padded signal, windowed a block of
+    rows at a time into one reused buffer and transformed by :func:`scipy.fft.rfft`; only the
+    float64 magnitudes are written into the preallocated result. Peak memory is the result plus a
+    few MB, whatever the capture's length (a 60 s capture at 2 kHz with 6 channels: 375 MB).
+    Values equal those of :class:`scipy.signal.ShortTimeFFT` within 1e-12 of the largest (tested).
 
     Examples
     --------
@@ -147,31 +162,58 @@ def stft_features(
             f"capture too short for one STFT window: {n_samples} samples at {rate_hz:g} Hz, "
             f"expected at least segment_length={segment_length}."
         )
-    stft = ShortTimeFFT(
-        get_window(window, segment_length),
-        hop=int(hop),
-        fs=float(rate_hz),
-        scale_to=None if scaling == "none" else scaling,
-    )
-    blocks = []
-    for channel in data.T:
-        if padding == "circular":
-            pad = -(-segment_length // hop) * hop
-            wrapped = np.concatenate([channel[-pad:], channel, channel[:pad]])
-            first = pad // hop
-            spectrum = stft.stft(wrapped, p0=first, p1=first + -(-n_samples // hop))
-        elif padding == "zeros":
-            spectrum = stft.stft(channel, p0=0, p1=-(-n_samples // hop))
-        else:
-            # Slice p covers samples p*hop - m//2 ... p*hop - m//2 + m - 1 (ShortTimeFFT's layout);
-            # keep those inside the capture. (ShortTimeFFT's own border properties ignore the
-            # zero end-points of a periodic window and would admit one slice too many.)
-            half = segment_length // 2
-            spectrum = stft.stft(
-                channel, p0=-(-half // hop), p1=(n_samples - segment_length + half) // hop + 1
-            )
-        blocks.append(np.abs(spectrum).T)
-    return np.hstack(blocks)
+    window_values = get_window(window, segment_length)
+    if scaling == "magnitude":
+        window_values = window_values / abs(window_values.sum())
+    elif scaling == "psd":
+        window_values = window_values / np.sqrt(np.sum(window_values**2) * float(rate_hz))
+    half = segment_length // 2
+    if padding == "valid":
+        first = -(-half // hop) * hop - half
+        n_rows = (n_samples - segment_length + half) // hop - -(-half // hop) + 1
+    else:
+        first, n_rows = 0, -(-n_samples // hop)
+    n_bins = segment_length // 2 + 1
+    if n_rows == 0:
+        raise CaptureError(
+            f"no STFT slice fits inside the capture with padding='valid': {n_samples} samples, "
+            f"segment_length={segment_length}, hop={hop}; expected a slice centre (a multiple of "
+            "hop) with the whole window inside. Use a smaller hop or padding='circular'."
+        )
+    # Frames are views into the (padded) channel; they are windowed into one reused buffer, a
+    # block of rows at a time, and only the magnitudes are written: no frame matrix and no
+    # complex spectrum of the whole capture is ever held.
+    X = np.empty((n_rows, data.shape[1] * n_bins))
+    rows_per_block = max(1, min(n_rows, _BLOCK_VALUES // segment_length))
+    windowed = np.empty((rows_per_block, segment_length))
+    for c, channel in enumerate(data.T):
+        frames = sliding_window_view(_extended(channel, segment_length, padding), segment_length)
+        frames = frames[first :: int(hop)][:n_rows]
+        for start in range(0, n_rows, rows_per_block):
+            stop = min(start + rows_per_block, n_rows)
+            block = windowed[: stop - start]
+            np.multiply(frames[start:stop], window_values, out=block)
+            spectrum = scipy.fft.rfft(block, axis=1)
+            np.abs(spectrum, out=X[start:stop, c * n_bins : (c + 1) * n_bins])
+    return X
+
+
+def _extended(
+    channel: NDArray[np.float64], segment_length: int, padding: Padding
+) -> NDArray[np.float64]:
+    """The channel with its edges padded: frame ``p`` is ``extended[start_p : start_p + m]``.
+
+    Frame ``p`` is centred on sample ``p * hop`` and covers samples ``p * hop - m // 2`` ...
+    ``p * hop - m // 2 + m - 1`` (the layout of :class:`scipy.signal.ShortTimeFFT`).
+    """
+    if padding == "valid":
+        return np.ascontiguousarray(channel)
+    half = segment_length // 2
+    if padding == "circular":
+        before, after = channel[channel.size - half :], channel[: segment_length - half - 1]
+    else:
+        before, after = np.zeros(half), np.zeros(segment_length - half - 1)
+    return np.concatenate([before, channel, after])
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,18 @@
+"""benchmarks/run.py --quick keeps running (no assertion on timings: speed lives in the benchmark)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+RUN = Path(__file__).resolve().parents[1] / "benchmarks" / "run.py"
+
+
+def test_quick_benchmark_runs() -> None:
+    done = subprocess.run(
+        [sys.executable, str(RUN), "--quick"], capture_output=True, text=True, check=True
+    )
+    lines = done.stdout.splitlines()
+    assert lines[1].startswith("case")
+    assert [line.split()[0] for line in lines[2:]] == ["LRA", "3", "fleet"]

@@ -1,0 +1,91 @@
+"""parallel_map: serial, local processes and a Dask cluster give identical results."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+import axiswatch as aw
+
+
+def _score(seed: int) -> tuple[int, float, int]:
+    """The real scoring path on a small synthetic capture: features, LRA distance to a baseline."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(600) / 600.0
+    speed = np.sin(2 * np.pi * 3 * t) + 0.1 * seed * np.sin(2 * np.pi * 40 * t)
+    capture = aw.Capture({"speed": speed + 0.01 * rng.normal(size=600)}, {"speed": 600.0})
+    spec = aw.FeatureSpec(signals=("speed",), combinations="none", segment_length=32)
+    baseline = aw.extract_features(
+        aw.Capture({"speed": np.sin(2 * np.pi * 3 * t)}, {"speed": 600.0}), spec
+    ).X
+    distance = (
+        aw.LRADetector(noise_level=0.01)
+        .fit(baseline)
+        .distance(aw.extract_features(capture, spec).X)
+    )
+    return seed, distance, os.getpid()
+
+
+def _fail_on_three(value: int) -> int:
+    if value == 3:
+        raise ArithmeticError(f"item {value} failed")
+    return value
+
+
+ITEMS = list(range(6))
+
+
+@pytest.fixture(scope="module")
+def serial() -> dict[int, tuple[int, float]]:
+    results = list(aw.parallel_map(_score, ITEMS))
+    assert [index for index, _ in results] == ITEMS  # in order
+    assert {pid for _, (_, _, pid) in results} == {os.getpid()}  # in process
+    return {index: (seed, distance) for index, (seed, distance, _) in results}
+
+
+def test_processes_give_identical_results(serial: dict[int, tuple[int, float]]) -> None:
+    results = dict(aw.parallel_map(_score, iter(ITEMS), workers=2))
+    assert {i: (seed, distance) for i, (seed, distance, _) in results.items()} == serial
+    assert os.getpid() not in {pid for _, _, pid in results.values()}
+
+
+def test_dask_local_cluster_gives_identical_results(serial: dict[int, tuple[int, float]]) -> None:
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        by_client = dict(aw.parallel_map(_score, ITEMS, dask=client))
+        by_address = dict(aw.parallel_map(_score, ITEMS, dask=cluster.scheduler_address))
+        assert client.status == "running"  # a given client is left open
+    for results in (by_client, by_address):
+        assert {i: (seed, distance) for i, (seed, distance, _) in results.items()} == serial
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_errors_reach_the_caller(workers: int) -> None:
+    with pytest.raises(ArithmeticError, match=r"item 3 failed"):
+        dict(aw.parallel_map(_fail_on_three, range(5), workers=workers))
+
+
+@pytest.mark.parametrize("workers", [0, 1.5, True])
+def test_bad_workers(workers: object) -> None:
+    with pytest.raises(ValueError, match=r"'workers' parameter must be an int >= 1. Got"):
+        aw.parallel_map(abs, [1], workers=workers)  # type: ignore[arg-type]
+
+
+def test_bad_dask_option() -> None:
+    pytest.importorskip("distributed")
+    with pytest.raises(TypeError, match=r"'dask' parameter must be a scheduler address"):
+        aw.parallel_map(abs, [1], dask=8786)
+
+
+def test_dask_not_installed(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ImportError, match=r"The 'dask' option needs dask.distributed"):
+        aw.parallel_map(abs, [1], dask="tcp://127.0.0.1:8786")
