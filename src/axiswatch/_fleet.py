@@ -144,7 +144,7 @@ def discover_fleet(root: str | Path) -> tuple[list[FleetFile], list[LayoutProble
     >>> root = pathlib.Path(tempfile.mkdtemp())
     >>> for name in ("r1/a1/2026-03-02.csv", "r1/a1/2026-03-01.csv", "r1/loose.csv"):
     ...     (root / name).parent.mkdir(parents=True, exist_ok=True)
-    ...     (root / name).write_text("time,speed\\n")
+    ...     _ = (root / name).write_text("time,speed\\n")
     >>> files, problems = discover_fleet(root)
     >>> [f.capture for f in files]
     ['2026-03-01.csv', '2026-03-02.csv']

@@ -58,7 +58,7 @@ def plot_distance_trend(
     ...     "distance": [None, 1.0, 1.2, 5.0], "threshold": [None, 3.0, 3.0, 3.0],
     ...     "over": [False, False, False, True], "alarm": [False, False, False, True]})
     >>> ax = plot_distance_trend(rows, title="robot01/axis1 (lra)")
-    >>> ax.get_title()
+    >>> ax.get_title(loc="left")
     'robot01/axis1 (lra)'
     """
     if ax is None:
