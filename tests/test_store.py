@@ -22,10 +22,14 @@ def test_new_store_has_the_schema_and_wal(tmp_path: Path) -> None:
 
 
 def test_a_failed_transaction_is_rolled_back(tmp_path: Path) -> None:
-    with Store(tmp_path / "s.db") as store:
-        with pytest.raises(RuntimeError, match="boom"), store.write() as db:
+    def failing(store: Store) -> None:
+        with store.write() as db:
             db.execute("INSERT INTO schema_version VALUES (99)")
             raise RuntimeError("boom")
+
+    with Store(tmp_path / "s.db") as store:
+        with pytest.raises(RuntimeError, match="boom"):
+            failing(store)
         assert store.rows("SELECT max(version) FROM schema_version")[0][0] == SCHEMA_VERSION
 
 
