@@ -39,7 +39,17 @@ from axiswatch._features import (
     features_from_signals,
     stft_features,
 )
+from axiswatch._fleet import FleetFile, discover_fleet, parse_capture_time
 from axiswatch._model import Assessment, HealthModel
+from axiswatch._monitor import (
+    MonitorConfig,
+    MonitorSummary,
+    fleet_results,
+    fleet_summary,
+    monitor_fleet,
+    rebaseline,
+)
+from axiswatch._plotting import plot_distance_trend
 from axiswatch._preprocessing import (
     align_phase,
     integer_factor,
@@ -47,6 +57,7 @@ from axiswatch._preprocessing import (
     resample_capture,
     upsample_pchip,
 )
+from axiswatch._report import write_report
 from axiswatch._robot import (
     DEFAULT_FLEET_FAULTS,
     TASKS,
@@ -57,6 +68,7 @@ from axiswatch._robot import (
     simulate_fleet,
 )
 from axiswatch._simulate import LAB_DAYS, LabDay, lab_dataset
+from axiswatch._store import Store
 from axiswatch.exceptions import AxiswatchError, CalibrationError, CaptureError, StoreError
 
 __version__ = "0.1.0"
@@ -74,6 +86,7 @@ __all__ = [
     "FeatureSpec",
     "Features",
     "FleetFault",
+    "FleetFile",
     "HalfLaplaceFit",
     "HealthModel",
     "LAB_DAYS",
@@ -81,16 +94,22 @@ __all__ = [
     "LRAResult",
     "LabDay",
     "LowRankBasis",
+    "MonitorConfig",
+    "MonitorSummary",
     "PCADetector",
+    "Store",
     "StoreError",
     "TASKS",
     "Task",
     "align_phase",
     "as_capture",
     "capture_to_frame",
+    "discover_fleet",
     "extract_features",
     "features_from_signals",
     "fit_half_laplace",
+    "fleet_results",
+    "fleet_summary",
     "integer_factor",
     "lab_dataset",
     "low_rank_basis",
@@ -98,12 +117,17 @@ __all__ = [
     "lra_dense",
     "lra_embedding",
     "lra_structured",
+    "monitor_fleet",
+    "parse_capture_time",
     "phase_lag",
+    "plot_distance_trend",
     "read_capture",
+    "rebaseline",
     "resample_capture",
     "simulate_capture",
     "simulate_fleet",
     "stft_features",
     "upsample_pchip",
     "write_capture",
+    "write_report",
 ]

@@ -6,6 +6,7 @@ plotting function takes ``ax=None`` (a new figure on the Agg backend) and return
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,7 @@ def plot_distance_trend(
     ax: Any = None,
     title: str | None = None,
     fault_dates: pd.Series | None = None,
+    events: Sequence[tuple[str, str]] = (),
 ) -> Any:
     """Distance of every capture of one axis and method over time, with threshold and alarms.
 
@@ -44,6 +46,8 @@ def plot_distance_trend(
     fault_dates : Series of datetime, optional
         Ground truth (simulated fleets): dates of captures with a fault, drawn as a bar under the
         trend.
+    events : sequence of (date-time, label), optional
+        Known events (a task change, maintenance) drawn as dotted vertical lines.
 
     Returns
     -------
@@ -107,6 +111,12 @@ def plot_distance_trend(
         ax.plot(
             dates, np.zeros(len(dates)), "|", color="purple", ms=10,
             transform=ax.get_xaxis_transform(), label="fault (ground truth)",
+        )  # fmt: skip
+    for when, label in events:
+        ax.axvline(pd.Timestamp(when), color="purple", ls=":", lw=1)
+        ax.annotate(
+            label, (pd.Timestamp(when), 0.98), xycoords=("data", "axes fraction"),
+            va="top", ha="right", rotation=90, fontsize=7, color="purple",
         )  # fmt: skip
     ax.set_ylabel("distance")
     ax.legend(loc="upper left", fontsize=7, ncols=5, frameon=False, bbox_to_anchor=(0.0, -0.12))

@@ -40,7 +40,12 @@ _LEGEND = (
 )
 
 
-def _figure(axis_rows: pd.DataFrame, title: str, fault_dates: pd.Series | None) -> Any:
+def _figure(
+    axis_rows: pd.DataFrame,
+    title: str,
+    fault_dates: pd.Series | None,
+    events: list[tuple[str, str]],
+) -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -56,6 +61,7 @@ def _figure(axis_rows: pd.DataFrame, title: str, fault_dates: pd.Series | None) 
             ax=ax,
             title=f"{title} - {method}",
             fault_dates=fault_dates,
+            events=events,
         )
     figure.tight_layout()
     return figure
@@ -86,8 +92,8 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
     out : str or Path
         Folder (created if needed).
     labels : DataFrame, optional
-        Ground truth of a simulated fleet (``robot``, ``axis``, ``date``, ``fault``); faulty
-        captures are then marked under each trend.
+        Ground truth of a simulated fleet (``robot``, ``axis``, ``date``, ``task``, ``fault``);
+        task changes and faulty captures are then marked on each trend.
 
     Returns
     -------
@@ -121,12 +127,13 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
     parts += ["<h2>Axes</h2>", f"<p class='note'>{html.escape(_LEGEND)}</p>"]
     for (robot, axis), axis_rows in results.groupby(["robot", "axis"], sort=True):
         fault_dates = None
+        events: list[tuple[str, str]] = []
         if labels is not None:
-            faulty = labels[
-                (labels.robot == robot) & (labels.axis == axis) & (labels.fault != "none")
-            ]
-            fault_dates = faulty.date
-        figure = _figure(axis_rows, f"{robot}/{axis}", fault_dates)
+            own = labels[(labels.robot == robot) & (labels.axis == axis)].sort_values("date")
+            fault_dates = own[own.fault != "none"].date
+            changed = own.task.ne(own.task.shift()) & own.task.shift().notna()
+            events = [(str(r.date), f"task -> {r.task}") for r in own[changed].itertuples()]
+        figure = _figure(axis_rows, f"{robot}/{axis}", fault_dates, events)
         name = f"{robot}_{axis}.png"
         figure.savefig(out / name, dpi=90)
         buffer = io.BytesIO()
