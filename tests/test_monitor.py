@@ -11,15 +11,11 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-from axiswatch._monitor import (
-    MonitorConfig,
-    alarm_step,
-    fleet_results,
-    fleet_summary,
-    monitor_fleet,
-    rebaseline,
-)
+from axiswatch._ledger import alarm_step, rebaseline
+from axiswatch._monitor import monitor_fleet
+from axiswatch._results import fleet_results, fleet_summary
 from axiswatch._robot import TASKS, simulate_capture
+from axiswatch._scoring import MonitorConfig
 from axiswatch._store import Store
 from axiswatch.exceptions import StoreError
 from tests.naive import alarm_states_naive

@@ -40,15 +40,9 @@ from axiswatch._features import (
     stft_features,
 )
 from axiswatch._fleet import FleetFile, discover_fleet, parse_capture_time
+from axiswatch._ledger import rebaseline
 from axiswatch._model import Assessment, HealthModel
-from axiswatch._monitor import (
-    MonitorConfig,
-    MonitorSummary,
-    fleet_results,
-    fleet_summary,
-    monitor_fleet,
-    rebaseline,
-)
+from axiswatch._monitor import MonitorSummary, monitor_fleet
 from axiswatch._plotting import plot_distance_trend
 from axiswatch._preprocessing import (
     align_phase,
@@ -58,6 +52,7 @@ from axiswatch._preprocessing import (
     upsample_pchip,
 )
 from axiswatch._report import write_report
+from axiswatch._results import fleet_results, fleet_summary
 from axiswatch._robot import (
     DEFAULT_FLEET_FAULTS,
     TASKS,
@@ -67,6 +62,7 @@ from axiswatch._robot import (
     simulate_capture,
     simulate_fleet,
 )
+from axiswatch._scoring import MonitorConfig
 from axiswatch._simulate import LAB_DAYS, LabDay, lab_dataset
 from axiswatch._store import Store
 from axiswatch.exceptions import AxiswatchError, CalibrationError, CaptureError, StoreError

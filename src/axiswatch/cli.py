@@ -93,7 +93,7 @@ def _print_lab(seed: int) -> None:
 
 
 def _echo_summary(store: Any) -> None:
-    from axiswatch._monitor import fleet_summary
+    from axiswatch._results import fleet_summary
 
     summary = fleet_summary(store)
     if summary.empty:
@@ -130,7 +130,8 @@ def monitor(
     file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
     """
     from axiswatch._features import FeatureSpec
-    from axiswatch._monitor import MonitorConfig, monitor_fleet
+    from axiswatch._monitor import monitor_fleet
+    from axiswatch._scoring import MonitorConfig
     from axiswatch._store import Store
 
     with _failures(debug):
@@ -182,7 +183,7 @@ def results(
     debug: bool = DEBUG,
 ) -> None:
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm."""
-    from axiswatch._monitor import fleet_results
+    from axiswatch._results import fleet_results
     from axiswatch._store import Store
 
     with _failures(debug):
@@ -236,7 +237,7 @@ def rebaseline(
     debug: bool = DEBUG,
 ) -> None:
     """Retire an axis's baseline after maintenance; the next monitor run fits a new one."""
-    from axiswatch._monitor import rebaseline as retire
+    from axiswatch._ledger import rebaseline as retire
     from axiswatch._store import Store
 
     with _failures(debug):
@@ -300,9 +301,10 @@ def demo(
     """Simulate a fleet, monitor it with LRA and PCA, write the report; print the summary."""
     import tempfile
 
-    from axiswatch._monitor import MonitorConfig, monitor_fleet
+    from axiswatch._monitor import monitor_fleet
     from axiswatch._report import write_report
     from axiswatch._robot import simulate_fleet
+    from axiswatch._scoring import MonitorConfig
     from axiswatch._store import Store
 
     with _failures(debug):
@@ -318,9 +320,13 @@ def demo(
             _echo_summary(opened)
             page = write_report(opened, folder / "report", labels=labels)
         truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
-        typer.echo("\nGround truth (simulator labels): developing faults")
+        changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]
+        later = sorted(set(changes.date) - {labels.date.min()})
+        typer.echo("\nGround truth (simulator labels, not seen by the monitor):")
+        typer.echo(f"  task changes (must not alarm) on {', '.join(later) or 'no day'}")
+        typer.echo("  developing faults (should alarm):")
         for row in truth.reset_index().itertuples(index=False):
-            typer.echo(f"  {row.robot}/{row.axis} from {row.date}")
+            typer.echo(f"    {row.robot}/{row.axis} from {row.date}")
         typer.echo(f"\nReport: {page}")
 
 
