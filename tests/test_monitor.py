@@ -207,3 +207,21 @@ def _phase_alignment() -> None:
     assert found.distance > 10 * found.threshold
     assert not missed.alarm
     assert missed.distance < 0.8 * missed.threshold
+
+
+def test_chosen_baseline_and_a_changed_baseline_file(fleet: Path, tmp_path: Path) -> None:
+    config = MonitorConfig(method="pca", baseline="2026-03-03.parquet")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        results = fleet_results(store, axis="axis1")
+        assert results.capture.iloc[0] == "2026-03-03.parquet"
+        assert results.role.iloc[0] == "baseline"
+        assert len(results) == 7  # the two captures before the chosen baseline are not scored
+        baseline = fleet / "robot01/axis1/2026-03-03.parquet"
+        faulty_copy(baseline, baseline)
+        summary = monitor_fleet(fleet, store, config)
+    assert summary.axis_problems == [
+        "robot01/axis1/2026-03-03.parquet: baseline file changed after it was fitted; robot "
+        "robot01 axis axis1 is not scored (re-baseline it)"
+    ]
+    assert summary.exit_code == 8
