@@ -147,3 +147,10 @@ def alarm_states_naive(overs: list[bool], *, k: int, n: int, m: int) -> list[boo
                 alarm = False
         states.append(alarm)
     return states
+
+
+def marchenko_pastur_median(beta: float, *, n: int = 2000, seed: int = 0) -> float:
+    """Median eigenvalue of Y^T Y / n for one n x (beta n) Gaussian matrix (Monte Carlo)."""
+    rng = np.random.default_rng(seed)
+    Y = rng.normal(size=(n, round(beta * n)))
+    return float(np.median(np.linalg.eigvalsh(Y.T @ Y / n)))

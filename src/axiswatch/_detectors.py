@@ -24,6 +24,7 @@ from sklearn.decomposition import PCA
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from axiswatch._alignment import LowRankBasis, LRAResult, low_rank_basis, lra_dense, lra_structured
+from axiswatch._noise import mp_noise_level
 
 __all__ = ["BaselineDetector", "LRADetector", "PCADetector"]
 
@@ -143,8 +144,10 @@ class LRADetector(BaselineDetector):
         Weight of the row correspondence against the local geometry.
     n_components : int, default=2
         Embedding dimension ``d``.
-    noise_level : float, default=1.0
+    noise_level : float or "auto", default=1.0
         ``lambda``; only singular values above ``sqrt(lambda)`` enter ``R``. 1 is the paper's form.
+        ``"auto"`` sets it in ``fit`` from the baseline's own noise: ``sqrt(lambda)`` is the
+        Marchenko-Pastur edge of a robust noise estimate (:func:`axiswatch.mp_noise_level`).
     solver : {"structured", "dense"}, default="structured"
         Exact fast reduction or the literal ``2N x 2N`` eigenproblem (same result).
 
@@ -152,6 +155,8 @@ class LRADetector(BaselineDetector):
     ----------
     basis_ : LowRankBasis
         The baseline's low-rank basis.
+    noise_level_ : float
+        The ``lambda`` used (``noise_level`` or its estimate).
 
     Examples
     --------
@@ -169,7 +174,7 @@ class LRADetector(BaselineDetector):
         self,
         mu: float = 0.5,
         n_components: int = 2,
-        noise_level: float = 1.0,
+        noise_level: float | Literal["auto"] = 1.0,
         solver: Literal["structured", "dense"] = "structured",
     ) -> None:
         self.mu = mu
@@ -183,13 +188,22 @@ class LRADetector(BaselineDetector):
                 f"The 'solver' parameter of LRADetector must be 'structured' or 'dense'. "
                 f"Got {self.solver!r} instead."
             )
-        self.basis_ = low_rank_basis(X, self.noise_level)
+        if isinstance(self.noise_level, str):
+            if self.noise_level != "auto":
+                raise ValueError(
+                    "The 'noise_level' parameter of LRADetector must be a float > 0 or 'auto'. "
+                    f"Got {self.noise_level!r} instead."
+                )
+            self.noise_level_ = mp_noise_level(X)
+        else:
+            self.noise_level_ = float(self.noise_level)
+        self.basis_ = low_rank_basis(X, self.noise_level_)
 
     def _source_basis(self, n_rows: int) -> LowRankBasis:
         # Computed once in fit; a shorter test capture needs the SVD of the baseline's leading rows.
         if n_rows == self.basis_.vectors.shape[0]:
             return self.basis_
-        return low_rank_basis(self.baseline_[:n_rows], self.noise_level)
+        return low_rank_basis(self.baseline_[:n_rows], self.noise_level_)
 
     def align(self, X: Any) -> LRAResult:
         """Full LRA outcome (embedding, eigenvalues, eigengap) of test features ``X``."""
@@ -201,12 +215,12 @@ class LRADetector(BaselineDetector):
                 X[:n],
                 mu=self.mu,
                 n_components=self.n_components,
-                noise_level=self.noise_level,
+                noise_level=self.noise_level_,
             )
         else:
             result = lra_structured(
                 self._source_basis(n),
-                low_rank_basis(X[:n], self.noise_level),
+                low_rank_basis(X[:n], self.noise_level_),
                 mu=self.mu,
                 n_components=self.n_components,
             )

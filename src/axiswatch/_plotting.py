@@ -1,7 +1,8 @@
-"""Figures of the monitor: the distance trend of one axis (matplotlib, imported lazily).
+"""Figures (matplotlib imported lazily, Agg backend): the paper experiments and the monitor.
 
-Pipeline side-stage of the report. Importing this module does not import matplotlib; every
-plotting function takes ``ax=None`` (a new figure on the Agg backend) and returns the axes.
+Pipeline top stage, beside :mod:`axiswatch._experiments` and under :mod:`axiswatch._report`.
+Importing this module does not import matplotlib. Each function takes its table and an optional
+``ax`` (or axes), and never calls ``plt.show``.
 """
 
 from __future__ import annotations
@@ -12,17 +13,86 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-__all__ = ["plot_distance_trend"]
+__all__ = ["plot_distance_trend", "plot_roc", "plot_robot_study"]
 
 
-def _new_axes() -> Any:
+def _pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    _, ax = plt.subplots(figsize=(9, 3))
-    return ax
+    return plt
+
+
+def plot_roc(table: pd.DataFrame, ax: Any = None) -> Any:
+    """ROC points (FPR, TPR) of every method and protocol of :func:`~axiswatch._experiments.lab_roc`.
+
+    Examples
+    --------
+    >>> table = pd.DataFrame({"method": ["lra"] * 2, "protocol": ["same_run"] * 2,
+    ...                       "percentile": [50.0, 99.0], "fpr": [0.4, 0.0], "tpr": [1.0, 1.0],
+    ...                       "auroc": [1.0, 1.0]})
+    >>> plot_roc(table).axes[0].get_xlabel()
+    'false positive rate'
+    """
+    plt = _pyplot()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 5))
+    markers = dict(zip(sorted(table.protocol.unique()), "osD^v<>", strict=False))
+    colours = {"lra": "tab:blue", "pca": "tab:red"}
+    for (method, protocol), group in table.groupby(["method", "protocol"], sort=False):
+        ordered = group.sort_values("percentile", ascending=False)
+        ax.plot(
+            ordered.fpr,
+            ordered.tpr,
+            marker=markers[protocol],
+            color=colours.get(str(method)),
+            label=f"{method}, {protocol} (AUROC {ordered.auroc.iloc[0]:.2f})",
+            alpha=0.8,
+        )
+    ax.plot([0, 1], [0, 1], color="grey", linestyle=":", label="chance")
+    ax.set(xlabel="false positive rate", ylabel="true positive rate", xlim=(-0.02, 1.02))
+    ax.set_ylim(-0.02, 1.02)
+    ax.legend(fontsize="x-small")
+    ax.set_title("Lab dataset: ROC at the half-Laplace percentiles")
+    return ax.figure
+
+
+def plot_robot_study(table: pd.DataFrame, title: str, axes: Any = None) -> Any:
+    """delta(t) of each method side by side (paper figs. 3-4), with and without phase alignment.
+
+    Examples
+    --------
+    >>> table = pd.DataFrame({"day": [2, 3] * 2, "task": ["a", "b"] * 2,
+    ...                       "method": ["lra", "lra", "pca", "pca"], "alignment": ["none"] * 4,
+    ...                       "distance": [0.1, 0.2, 1.0, 3.0]})
+    >>> len(plot_robot_study(table, "demo").axes)
+    2
+    """
+    plt = _pyplot()
+    methods = list(dict.fromkeys(table.method))
+    if axes is None:
+        _, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4), squeeze=False)
+        axes = axes[0]
+    changes = table.drop_duplicates("day").sort_values("day")
+    change_days = changes.day[
+        changes.task.ne(changes.task.shift()) & (changes.day > changes.day.min())
+    ]
+    for ax, method in zip(axes, methods, strict=True):
+        for alignment, group in table[table.method == method].groupby("alignment"):
+            ax.plot(
+                group.day,
+                group.distance,
+                marker=".",
+                linewidth=0.8,
+                label=f"alignment: {alignment}",
+            )
+        for day in change_days:
+            ax.axvline(day, color="grey", linestyle="--", linewidth=0.8)
+        ax.set(xlabel="day", ylabel="distance delta(t)", title=f"{title}: {method}")
+        ax.legend(fontsize="small")
+    return axes[0].figure
 
 
 def plot_distance_trend(
@@ -66,7 +136,7 @@ def plot_distance_trend(
     'robot01/axis1 (lra)'
     """
     if ax is None:
-        ax = _new_axes()
+        _, ax = _pyplot().subplots(figsize=(9, 3))
     frame = results.copy()
     frame["when"] = pd.to_datetime(frame["captured_at"])
     day = pd.Timedelta(hours=12)

@@ -336,6 +336,61 @@ def experiment_lab(seed: int = typer.Option(0, help="Seed of the lab dataset's n
     _print_lab(seed)
 
 
+_OUT = typer.Option(..., "--out", help="Folder for the figure (PNG) and the table (CSV).")
+_SEED = typer.Option(0, "--seed", help="Seed of every random draw of the experiment.")
+
+
+def _save(table: Any, figure: Any, out: Path, stem: str) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / f"{stem}.csv", index=False)
+    figure.savefig(out / f"{stem}.png", dpi=120, bbox_inches="tight")
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    typer.echo(f"\nWrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
+
+
+@experiment_app.command("roc")
+def experiment_roc(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    repetitions: int = typer.Option(10, help="Runs with fresh noise averaged (paper: 10)."),
+) -> None:
+    """Lab dataset ROC (paper fig. 2): TPR/FPR of LRA and PCA per calibration protocol."""
+    from axiswatch._experiments import lab_roc
+    from axiswatch._plotting import plot_roc
+
+    table = lab_roc(seed=seed, n_repetitions=repetitions)
+    _save(table, plot_roc(table), out, "roc")
+
+
+@experiment_app.command("robot-a")
+def experiment_robot_a(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    days: int = typer.Option(190, help="Daily captures (paper: 190)."),
+) -> None:
+    """Robot A (paper fig. 3): healthy axis, task changes on days 30, 87 and 125."""
+    from axiswatch._experiments import robot_a
+    from axiswatch._plotting import plot_robot_study
+
+    table = robot_a(seed=seed, n_days=days)
+    _save(table, plot_robot_study(table, "Robot A"), out, "robot_a")
+
+
+@experiment_app.command("robot-b")
+def experiment_robot_b(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    days: int = typer.Option(148, help="Daily captures before the breakdown (paper: 148)."),
+    fault: str = typer.Option("bearing", help="backlash, friction, tooth or bearing."),
+) -> None:
+    """Robot B (paper fig. 4): one task, a fault growing until breakdown."""
+    from axiswatch._experiments import robot_b
+    from axiswatch._plotting import plot_robot_study
+
+    table = robot_b(seed=seed, n_days=days, fault=fault)  # type: ignore[arg-type]
+    _save(table, plot_robot_study(table, "Robot B"), out, "robot_b")
+
+
 def main() -> None:
     """Entry point of the ``axiswatch`` script."""
     sys.exit(app())

@@ -1,0 +1,92 @@
+"""A default for LRA's ``lambda`` from the baseline's own noise level (Marchenko-Pastur edge).
+
+Pipeline stage 3 helper. The low-rank representation keeps the singular values of ``X`` above
+``sqrt(lambda)`` (paper eqs. 3-4); the paper's ``lambda = 1`` ties that cut to the feature scale.
+If ``X = S + E`` with ``E`` of i.i.d. entries of standard deviation ``sigma``, the singular values of
+``E`` fill the Marchenko-Pastur bulk whose upper edge is ``sigma (sqrt(N) + sqrt(K))``; a singular
+value above the edge is structure, one below it is indistinguishable from noise. ``sigma`` is
+estimated robustly from the median singular value (Gavish & Donoho, "The optimal hard threshold
+for singular values is 4/sqrt(3)", IEEE Trans. Inf. Theory 60(8), 2014, eq. 10):
+``sigma = s_med / sqrt(max(N, K) mu_beta)`` with ``mu_beta`` the median of the Marchenko-Pastur law
+of aspect ratio ``beta = min(N, K) / max(N, K)``. Then ``lambda = (sigma (sqrt(N) + sqrt(K)))^2``.
+
+Caveat (measured in docs/paper-notes.md): |STFT| rows with ``hop=1`` overlap almost entirely, so
+the entries of ``E`` are far from independent and the estimate is a heuristic, not a guarantee.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+from scipy import integrate, optimize
+
+__all__ = ["marchenko_pastur_median", "mp_noise_level"]
+
+
+def marchenko_pastur_median(beta: float) -> float:
+    """Median of the Marchenko-Pastur law of aspect ratio ``beta`` in (0, 1] and unit variance.
+
+    The law of the eigenvalues of ``Y^T Y / n`` for an ``n x m`` matrix ``Y`` of i.i.d. unit
+    variance entries, ``beta = m / n``, as ``n`` grows.
+
+    Examples
+    --------
+    >>> round(marchenko_pastur_median(1.0), 4)
+    0.6528
+    """
+    if not (isinstance(beta, int | float | np.floating) and 0.0 < beta <= 1.0):
+        raise ValueError(f"The 'beta' parameter must be a float in (0, 1]. Got {beta!r} instead.")
+    lower, upper = (1 - math.sqrt(beta)) ** 2, (1 + math.sqrt(beta)) ** 2
+
+    def density(x: float) -> float:
+        return math.sqrt(max((upper - x) * (x - lower), 0.0)) / (2 * math.pi * beta * x)
+
+    def cdf(x: float) -> float:
+        return float(integrate.quad(density, lower, x, limit=200)[0])
+
+    return float(optimize.brentq(lambda x: cdf(x) - 0.5, lower, upper, xtol=1e-12))
+
+
+def mp_noise_level(X: NDArray[np.float64]) -> float:
+    """``lambda`` such that ``sqrt(lambda)`` is the Marchenko-Pastur edge of ``X``'s noise.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_rows, n_features)
+        Baseline features.
+
+    Returns
+    -------
+    float
+        ``(sigma (sqrt(n_rows) + sqrt(n_features)))^2`` with ``sigma`` estimated from the median
+        singular value (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> noise = 0.1 * rng.normal(size=(400, 100))
+    >>> edge = np.sqrt(mp_noise_level(noise))
+    >>> round(float(edge), 2), round(0.1 * (20 + 10), 2)
+    (3.0, 3.0)
+    """
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 2 or min(X.shape) < 2 or not np.isfinite(X).all():
+        raise ValueError(
+            f"X must be a finite matrix of shape (n_rows, n_features) with both >= 2; "
+            f"got shape {X.shape}."
+        )
+    singular = scipy.linalg.svdvals(X, check_finite=False)
+    n_large, n_small = max(X.shape), min(X.shape)
+    sigma = float(np.median(singular)) / math.sqrt(
+        n_large * marchenko_pastur_median(n_small / n_large)
+    )
+    if sigma == 0.0:
+        raise ValueError(
+            "X has a zero median singular value (rank below half its smaller dimension): no noise "
+            "level can be estimated; give a numeric noise_level instead."
+        )
+    return (sigma * (math.sqrt(X.shape[0]) + math.sqrt(X.shape[1]))) ** 2
