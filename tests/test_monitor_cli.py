@@ -295,3 +295,21 @@ def test_two_monitors_on_one_store(fleet: Path, tmp_path: Path) -> None:
     assert connection.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
     assert connection.execute("SELECT count(*) FROM baselines").fetchone()[0] == 2
     connection.close()
+
+
+def test_lra_noise_level_option(fleet: Path, tmp_path: Path) -> None:
+    store = str(tmp_path / "s.db")
+    bad = runner.invoke(app, ["monitor", str(fleet), "--store", store, "--lra-noise-level=-1"])
+    assert bad.exit_code == 2
+    words = " ".join(bad.output.replace("│", " ").split())  # rich wraps the message in a box
+    assert (
+        "Invalid value for '--lra-noise-level': expected a number > 0 or 'auto'; got '-1'" in words
+    )
+    auto = runner.invoke(
+        app, ["monitor", str(fleet), "--store", store, "--lra-noise-level", "auto"]
+    )
+    assert auto.exit_code == 0, auto.output
+    connection = sqlite3.connect(store)
+    params = json.loads(connection.execute("SELECT params FROM baselines").fetchone()[0])
+    connection.close()
+    assert params["detector"]["noise_level"] == "auto"

@@ -64,6 +64,9 @@ class MonitorConfig:
         File name of the capture to use as every new axis's baseline (axes without such a file
         start at their first capture).
     features : FeatureSpec, default=MONITOR_FEATURES
+    lra_noise_level : float or "auto", default=1.0
+        ``lambda`` of the LRA detector (:class:`LRADetector`'s ``noise_level``): 1 is the paper's
+        form; ``"auto"`` estimates it from each baseline's own noise.
     align_phase : bool, default=True
         Align every capture to the baseline's phase of the task cycle (``HealthModel``).
 
@@ -81,6 +84,7 @@ class MonitorConfig:
     clear_m: int = 1
     baseline: str | None = None
     features: FeatureSpec = MONITOR_FEATURES
+    lra_noise_level: float | Literal["auto"] = 1.0
     align_phase: bool = True
 
     def __post_init__(self) -> None:
@@ -108,7 +112,9 @@ class MonitorConfig:
 
     def detector(self) -> BaselineDetector:
         """A fresh detector of the configured method."""
-        return LRADetector() if self.method == "lra" else PCADetector()
+        if self.method == "lra":
+            return LRADetector(noise_level=self.lra_noise_level)
+        return PCADetector()
 
     def params(self) -> dict[str, Any]:
         """JSON-ready parameters: features, detector, calibration and alarm rule."""

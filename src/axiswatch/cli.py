@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import typer
 
@@ -118,6 +118,9 @@ def monitor(
     signals: str = typer.Option("position,speed,torque", help="Signal columns, comma-separated."),
     hop: int = typer.Option(8, help="Samples between STFT slices."),
     segment_length: int = typer.Option(128, help="STFT window length in samples."),
+    lra_noise_level: str = typer.Option(
+        "1.0", help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline)."
+    ),
     align: bool = typer.Option(True, help="Align each capture's phase to the baseline's."),
     workers: int = typer.Option(1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(None, help="Dask scheduler address for scoring."),
@@ -148,6 +151,7 @@ def monitor(
                 hop=hop,
                 segment_length=segment_length,
             ),
+            lra_noise_level=_noise_level(lra_noise_level),
             align_phase=align,
         )
         with Store(store) as opened, _progress(progress) as update:
@@ -201,6 +205,20 @@ def results(
             typer.echo(
                 frame[[*columns, "role"]].to_string(index=False, float_format=lambda v: f"{v:.4g}")
             )
+
+
+def _noise_level(text: str) -> float | Literal["auto"]:
+    if text == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0:
+        raise typer.BadParameter(
+            f"expected a number > 0 or 'auto'; got {text!r}.", param_hint="'--lra-noise-level'"
+        )
+    return value
 
 
 def _require_store(store: Path) -> None:
