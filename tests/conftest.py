@@ -39,3 +39,15 @@ def lab_features() -> list[np.ndarray]:
     from axiswatch._experiments import LAB_FEATURES
 
     return [aw.extract_features(d.capture, LAB_FEATURES).X for d in aw.lab_dataset(seed=3)]
+
+
+@pytest.fixture(scope="session")
+def small_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A healthy simulated fleet, 1 robot x 2 axes x 9 days of 0.5 s captures (copy before use)."""
+    from axiswatch._robot import simulate_fleet
+
+    root = tmp_path_factory.mktemp("fleet") / "fleet"
+    simulate_fleet(
+        root, n_robots=1, n_axes=2, n_days=9, task_change_days=(), faults=[], duration_s=0.5
+    )
+    return root

@@ -128,6 +128,27 @@ def exponential_quantile(scale: float, q: float) -> float:
     return -scale * np.log(1 - q)
 
 
+def alarm_states_naive(overs: list[bool], *, k: int, n: int, m: int) -> list[bool]:
+    """Alarm state after each capture, spelled out: raise on k of the last n over, clear after m
+    clean captures in a row."""
+    states: list[bool] = []
+    alarm = False
+    for i in range(len(overs)):
+        window = overs[max(0, i - n + 1) : i + 1]
+        if not alarm:
+            alarm = sum(window) >= k
+        else:
+            clean_run = 0
+            for value in reversed(overs[: i + 1]):
+                if value:
+                    break
+                clean_run += 1
+            if clean_run >= m:
+                alarm = False
+        states.append(alarm)
+    return states
+
+
 def marchenko_pastur_median(beta: float, *, n: int = 2000, seed: int = 0) -> float:
     """Median eigenvalue of Y^T Y / n for one n x (beta n) Gaussian matrix (Monte Carlo)."""
     rng = np.random.default_rng(seed)

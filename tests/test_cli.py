@@ -12,13 +12,13 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
-def test_demo_prints_lab_verdicts() -> None:
-    result = _run("demo")
+def test_experiment_lab_prints_lab_verdicts() -> None:
+    result = _run("experiment", "lab")
     assert result.returncode == 0, result.stderr
     assert "lra: alarms on ['A']" in result.stdout
 
 
 def test_unknown_option_is_a_usage_error() -> None:
-    result = _run("demo", "--colour", "red")
+    result = _run("experiment", "lab", "--colour", "red")
     assert result.returncode == 2
     assert "No such option" in result.stderr

@@ -58,8 +58,12 @@ from axiswatch._features import (
     features_from_signals,
     stft_features,
 )
+from axiswatch._fleet import FleetFile, discover_fleet, parse_capture_time
+from axiswatch._ledger import rebaseline
 from axiswatch._model import Assessment, HealthModel
+from axiswatch._monitor import MonitorSummary, monitor_fleet
 from axiswatch._parallel import parallel_map
+from axiswatch._plotting import plot_distance_trend
 from axiswatch._preprocessing import (
     align_phase,
     integer_factor,
@@ -76,6 +80,8 @@ from axiswatch._realdata import (
     segment_distances,
     summarize_distances,
 )
+from axiswatch._report import write_report
+from axiswatch._results import fleet_results, fleet_summary
 from axiswatch._robot import (
     DEFAULT_FLEET_FAULTS,
     TASKS,
@@ -85,7 +91,9 @@ from axiswatch._robot import (
     simulate_capture,
     simulate_fleet,
 )
+from axiswatch._scoring import MonitorConfig
 from axiswatch._simulate import LAB_DAYS, LabDay, lab_dataset
+from axiswatch._store import Store
 from axiswatch.exceptions import (
     AxiswatchError,
     CalibrationError,
@@ -113,6 +121,7 @@ __all__ = [
     "FeatureSpec",
     "Features",
     "FleetFault",
+    "FleetFile",
     "GEARBOX_FEATURES",
     "HalfLaplaceFit",
     "HealthModel",
@@ -121,10 +130,13 @@ __all__ = [
     "LRAResult",
     "LabDay",
     "LowRankBasis",
+    "MonitorConfig",
+    "MonitorSummary",
     "NOMINAL_RATE_HZ",
     "PCADetector",
     "REAL_DATA_METHODS",
     "Segment",
+    "Store",
     "StoreError",
     "SubspaceAlignmentDetector",
     "TASKS",
@@ -135,11 +147,14 @@ __all__ = [
     "capture_to_frame",
     "default_data_dir",
     "difference_spectrogram",
+    "discover_fleet",
     "energy_distance",
     "evaluate_dataset",
     "extract_features",
     "features_from_signals",
     "fit_half_laplace",
+    "fleet_results",
+    "fleet_summary",
     "integer_factor",
     "lab_dataset",
     "low_rank_basis",
@@ -147,14 +162,18 @@ __all__ = [
     "lra_dense",
     "lra_embedding",
     "lra_structured",
+    "monitor_fleet",
     "parallel_map",
+    "parse_capture_time",
     "pca_contributions",
     "phase_lag",
     "plot_difference_spectrogram",
+    "plot_distance_trend",
     "plot_distances",
     "read_capture",
     "read_dataset",
     "read_recording",
+    "rebaseline",
     "resample_capture",
     "segment_distances",
     "simulate_capture",
@@ -163,4 +182,5 @@ __all__ = [
     "summarize_distances",
     "upsample_pchip",
     "write_capture",
+    "write_report",
 ]

@@ -1,13 +1,18 @@
 """Command-line interface: maps options to library calls, no science here.
 
-Exit codes: 0 success; 1 a command failed (message on stderr); 2 usage error (unknown option).
+Exit codes: 0 success; 1 a command failed (message on stderr; traceback only with ``--debug``);
+2 usage error (unknown option). ``monitor`` adds 4 when an axis is in alarm and 8 when a capture
+was rejected, a scored file changed or an axis cannot be scored (so 4, 8 or 12).
 """
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import typer
 
@@ -21,6 +26,58 @@ experiment_app = typer.Typer(
     no_args_is_help=True,
 )
 app.add_typer(experiment_app, name="experiment")
+simulate_app = typer.Typer(
+    help="Write simulated captures in the fleet layout.", no_args_is_help=True
+)
+app.add_typer(simulate_app, name="simulate")
+
+DEBUG = typer.Option(False, "--debug", help="Show Python tracebacks of failures.")
+StorePath = Annotated[
+    Path, typer.Option("--store", help="SQLite store of the monitor (created if new).")
+]
+
+
+@contextmanager
+def _failures(debug: bool) -> Iterator[None]:
+    """Turn expected failures into one line on stderr and exit status 1 (unless ``--debug``)."""
+    from axiswatch.exceptions import AxiswatchError
+
+    try:
+        yield
+    except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
+        if debug:
+            raise
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@contextmanager
+def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
+    """A rich progress bar on stderr, shown only when stderr is a terminal."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    console = Console(stderr=True)
+    with Progress(console=console, disable=not (enabled and console.is_terminal)) as bar:
+        tasks: dict[str, Any] = {}
+
+        def update(stage: str, done: int, total: int) -> None:
+            if stage not in tasks:
+                tasks[stage] = bar.add_task(stage, total=total)
+            bar.update(tasks[stage], completed=done, total=total)
+
+        yield update
+
+
+class Method(StrEnum):
+    lra = "lra"
+    pca = "pca"
+
+
+class Format(StrEnum):
+    table = "table"
+    csv = "csv"
+    json = "json"
 
 
 def _print_lab(seed: int) -> None:
@@ -35,10 +92,260 @@ def _print_lab(seed: int) -> None:
         typer.echo(f"{method}: alarms on {flagged.get(method, [])}")
 
 
+def _echo_summary(store: Any) -> None:
+    from axiswatch._results import fleet_summary
+
+    summary = fleet_summary(store)
+    if summary.empty:
+        typer.echo("No axis has a baseline yet.")
+        return
+    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
 @app.command()
-def demo(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -> None:
-    """Run the main job end to end (for now: the paper's lab experiment)."""
-    _print_lab(seed)
+def monitor(
+    root: Annotated[Path, typer.Argument(help="Fleet folder ROOT/<robot>/<axis>/<capture>.<ext>.")],
+    store: StorePath,
+    method: Annotated[Method, typer.Option(help="Distance: the paper's LRA, or PCA.")] = Method.lra,
+    percentile: float = typer.Option(99.0, help="Threshold percentile of the half-Laplace fit."),
+    calibration: int = typer.Option(5, help="Captures after the baseline that set the threshold."),
+    alarm_k: int = typer.Option(1, help="Alarm when K of the last N captures are over..."),
+    alarm_n: int = typer.Option(1, help="...the threshold (K = N = 1 as in the paper)."),
+    clear_m: int = typer.Option(1, help="An alarm clears after M clean captures in a row."),
+    baseline: str | None = typer.Option(
+        None, help="File name of the baseline capture of new axes (default: their first)."
+    ),
+    signals: str = typer.Option("position,speed,torque", help="Signal columns, comma-separated."),
+    hop: int = typer.Option(8, help="Samples between STFT slices."),
+    segment_length: int = typer.Option(128, help="STFT window length in samples."),
+    lra_noise_level: str = typer.Option(
+        "1.0", help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline)."
+    ),
+    align: bool = typer.Option(True, help="Align each capture's phase to the baseline's."),
+    workers: int = typer.Option(1, help="Local worker processes for scoring."),
+    dask: str | None = typer.Option(None, help="Dask scheduler address for scoring."),
+    progress: bool = typer.Option(True, help="Progress bar on stderr (only on a terminal)."),
+    debug: bool = DEBUG,
+) -> None:
+    """Score every capture not scored yet; print the fleet's state.
+
+    Exit status: 0 nothing to report; 4 an axis is in alarm; 8 a capture was rejected, a scored
+    file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
+    """
+    from axiswatch._features import FeatureSpec
+    from axiswatch._monitor import monitor_fleet
+    from axiswatch._scoring import MonitorConfig
+    from axiswatch._store import Store
+
+    with _failures(debug):
+        config = MonitorConfig(
+            method=method.value,
+            percentile=percentile,
+            calibration_size=calibration,
+            alarm_k=alarm_k,
+            alarm_n=alarm_n,
+            clear_m=clear_m,
+            baseline=baseline,
+            features=FeatureSpec(
+                signals=tuple(s.strip() for s in signals.split(",") if s.strip()),
+                hop=hop,
+                segment_length=segment_length,
+            ),
+            lra_noise_level=_noise_level(lra_noise_level),
+            align_phase=align,
+        )
+        with Store(store) as opened, _progress(progress) as update:
+            result = monitor_fleet(
+                root, opened, config, workers=workers, dask=dask, progress=update
+            )
+            typer.echo(
+                f"{result.method}: {result.n_files} capture files, {result.new_baselines} new "
+                f"baseline(s), {result.scored} capture(s) scored in this run."
+            )
+            _echo_summary(opened)
+        for title, lines in (
+            ("Rejected captures", result.rejected),
+            ("Changed files", result.changed),
+            ("Axes not scored", result.axis_problems),
+        ):
+            if lines:
+                typer.echo(f"\n{title} ({len(lines)}):")
+                for line in lines:
+                    typer.echo(f"  {line}")
+        if result.alarms:
+            axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
+            typer.echo(f"\nALARM ({result.method}) on {axes}")
+    raise typer.Exit(result.exit_code)
+
+
+@app.command()
+def results(
+    store: StorePath,
+    robot: str | None = typer.Option(None, help="Only this robot."),
+    axis: str | None = typer.Option(None, help="Only this axis."),
+    output: Annotated[Format, typer.Option("--format", help="table, csv or json.")] = Format.table,
+    debug: bool = DEBUG,
+) -> None:
+    """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm."""
+    from axiswatch._results import fleet_results
+    from axiswatch._store import Store
+
+    with _failures(debug):
+        _require_store(store)
+        with Store(store) as opened:
+            frame = fleet_results(opened, robot=robot, axis=axis)
+        columns = ["robot", "axis", "capture", "method", "distance", "threshold", "alarm"]
+        if output is Format.csv:
+            typer.echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
+        elif output is Format.json:
+            typer.echo(frame.to_json(orient="records", indent=1))
+        elif frame.empty:
+            typer.echo("No scored captures.")
+        else:
+            typer.echo(
+                frame[[*columns, "role"]].to_string(index=False, float_format=lambda v: f"{v:.4g}")
+            )
+
+
+def _noise_level(text: str) -> float | Literal["auto"]:
+    if text == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0:
+        raise typer.BadParameter(
+            f"expected a number > 0 or 'auto'; got {text!r}.", param_hint="'--lra-noise-level'"
+        )
+    return value
+
+
+def _require_store(store: Path) -> None:
+    if not store.is_file():
+        raise FileNotFoundError(f"store '{store}' does not exist; run 'axiswatch monitor' first.")
+
+
+@app.command()
+def report(
+    store: StorePath,
+    out: Annotated[Path, typer.Option(help="Folder for index.html and the PNG figures.")],
+    debug: bool = DEBUG,
+) -> None:
+    """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
+    from axiswatch._report import write_report
+    from axiswatch._store import Store
+
+    with _failures(debug):
+        _require_store(store)
+        with Store(store) as opened:
+            page = write_report(opened, out)
+        typer.echo(f"Report: {page}")
+
+
+@app.command()
+def rebaseline(
+    store: StorePath,
+    robot: str = typer.Option(..., help="Robot folder name."),
+    axis: str = typer.Option(..., help="Axis folder name."),
+    method: Annotated[Method | None, typer.Option(help="Only this method (default: all).")] = None,
+    from_capture: str | None = typer.Option(
+        None, "--from", help="File name of the new baseline (default: the next new capture)."
+    ),
+    debug: bool = DEBUG,
+) -> None:
+    """Retire an axis's baseline after maintenance; the next monitor run fits a new one."""
+    from axiswatch._ledger import rebaseline as retire
+    from axiswatch._store import Store
+
+    with _failures(debug):
+        _require_store(store)
+        with Store(store) as opened:
+            methods = retire(
+                opened,
+                robot,
+                axis,
+                method=None if method is None else method.value,
+                from_capture=from_capture,
+            )
+        start = from_capture or "the next capture that arrives"
+        typer.echo(
+            f"{robot}/{axis}: baseline retired ({', '.join(methods)}); the next monitor run "
+            f"starts a new baseline at {start}."
+        )
+
+
+@simulate_app.command("fleet")
+def simulate_fleet_command(
+    out: Annotated[Path, typer.Argument(help="Output folder (the fleet ROOT).")],
+    robots: int = typer.Option(3, help="Number of robots."),
+    axes: int = typer.Option(2, help="Axes per robot."),
+    days: int = typer.Option(30, help="Days, one capture per axis and day."),
+    start_date: str = typer.Option("2026-03-01", help="ISO date of day 1."),
+    seed: int = typer.Option(0, help="Seed of the simulation."),
+    file_format: str = typer.Option("parquet", "--format", help="parquet or csv."),
+    duration: float = typer.Option(3.0, help="Seconds per capture."),
+    debug: bool = DEBUG,
+) -> None:
+    """Simulate a small fleet (task change on day 15, developing faults); labels in labels.csv."""
+    from axiswatch._robot import simulate_fleet
+
+    with _failures(debug):
+        labels = simulate_fleet(
+            out,
+            n_robots=robots,
+            n_axes=axes,
+            n_days=days,
+            start_date=start_date,
+            seed=seed,
+            file_format=file_format,  # type: ignore[arg-type]
+            duration_s=duration,
+        )
+        faulty = labels[labels.fault != "none"].groupby(["robot", "axis"]).fault.first()
+        typer.echo(f"Wrote {len(labels)} captures to {out} (labels in {out / 'labels.csv'}).")
+        for row in faulty.reset_index().itertuples(index=False):
+            typer.echo(f"  developing fault: {row.robot}/{row.axis} {row.fault}")
+
+
+@app.command()
+def demo(
+    out: Annotated[
+        Path | None, typer.Option(help="Working folder (default: a temporary one).")
+    ] = None,
+    days: int = typer.Option(30, help="Days of the simulated fleet."),
+    seed: int = typer.Option(0, help="Seed of the simulation."),
+    debug: bool = DEBUG,
+) -> None:
+    """Simulate a fleet, monitor it with LRA and PCA, write the report; print the summary."""
+    import tempfile
+
+    from axiswatch._monitor import monitor_fleet
+    from axiswatch._report import write_report
+    from axiswatch._robot import simulate_fleet
+    from axiswatch._scoring import MonitorConfig
+    from axiswatch._store import Store
+
+    with _failures(debug):
+        folder = Path(tempfile.mkdtemp(prefix="axiswatch-demo-")) if out is None else out
+        folder.mkdir(parents=True, exist_ok=True)
+        root = folder / "fleet"
+        typer.echo(f"Simulating a fleet into {root} ...")
+        labels = simulate_fleet(root, n_days=days, seed=seed)
+        with Store(folder / "fleet.db") as opened, _progress(True) as update:
+            for method in ("lra", "pca"):
+                monitor_fleet(root, opened, MonitorConfig(method=method), progress=update)
+            typer.echo("\nFleet summary (state after the last capture):")
+            _echo_summary(opened)
+            page = write_report(opened, folder / "report", labels=labels)
+        truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
+        changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]
+        later = sorted(set(changes.date) - {labels.date.min()})
+        typer.echo("\nGround truth (simulator labels, not seen by the monitor):")
+        typer.echo(f"  task changes (must not alarm) on {', '.join(later) or 'no day'}")
+        typer.echo("  developing faults (should alarm):")
+        for row in truth.reset_index().itertuples(index=False):
+            typer.echo(f"    {row.robot}/{row.axis} from {row.date}")
+        typer.echo(f"\nReport: {page}")
 
 
 @experiment_app.command("lab")

@@ -1,0 +1,56 @@
+"""The monitor on local processes and on a Dask cluster gives exactly the serial results.
+
+Only the driver writes the store; workers compute. Each job runs on one BLAS thread, so the
+floating-point results do not depend on where they ran.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from axiswatch._monitor import monitor_fleet
+from axiswatch._results import fleet_results
+from axiswatch._scoring import MonitorConfig
+from axiswatch._store import Store
+
+_COMPARED = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]
+
+
+def _run(fleet: Path, store_path: Path, **where: object) -> pd.DataFrame:
+    with Store(store_path) as store:
+        summary = monitor_fleet(fleet, store, MonitorConfig(method="lra"), **where)  # type: ignore[arg-type]
+        assert summary.scored == 16  # 18 files: 2 baselines + 16 scored captures
+        return fleet_results(store)[_COMPARED].reset_index(drop=True)
+
+
+@pytest.fixture(scope="module")
+def serial(small_fleet: Path, tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
+    return _run(small_fleet, tmp_path_factory.mktemp("serial") / "s.db")
+
+
+def test_two_processes_equal_serial(
+    serial: pd.DataFrame, small_fleet: Path, tmp_path: Path
+) -> None:
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    pd.testing.assert_frame_equal(_run(fleet, tmp_path / "p.db", workers=2), serial)
+
+
+def test_dask_local_cluster_equals_serial(
+    serial: pd.DataFrame, small_fleet: Path, tmp_path: Path
+) -> None:
+    distributed = pytest.importorskip("distributed")
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        by_client = _run(fleet, tmp_path / "c.db", dask=client)
+        by_address = _run(fleet, tmp_path / "a.db", dask=cluster.scheduler_address)
+    pd.testing.assert_frame_equal(by_client, serial)
+    pd.testing.assert_frame_equal(by_address, serial)
