@@ -167,3 +167,8 @@ def energy_distance(first: np.ndarray, second: np.ndarray) -> float:
         return total / (len(a) * len(b))
 
     return 2 * mean_norm(first, second) - mean_norm(first, first) - mean_norm(second, second)
+
+
+def least_squares_normal_equations(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients from the normal equations (A^T A) x = A^T b, written out."""
+    return np.linalg.solve(A.T @ A, A.T @ b)

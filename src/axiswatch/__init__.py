@@ -59,9 +59,21 @@ from axiswatch._features import (
     stft_features,
 )
 from axiswatch._fleet import FleetFile, discover_fleet, parse_capture_time
+from axiswatch._indicators import (
+    STATES,
+    AxisModel,
+    FeatureStage,
+    OrderStage,
+    ResidualStage,
+    StateStage,
+    StftStage,
+    fit_axis_model,
+    operating_states,
+)
 from axiswatch._ledger import rebaseline
 from axiswatch._model import Assessment, HealthModel
 from axiswatch._monitor import MonitorSummary, monitor_fleet
+from axiswatch._paired import PairedDesign, paired_evaluation
 from axiswatch._parallel import parallel_map
 from axiswatch._plotting import plot_distance_trend
 from axiswatch._preprocessing import (
@@ -106,6 +118,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Assessment",
+    "AxisModel",
     "AxiswatchError",
     "BaselineDetector",
     "CORALDetector",
@@ -119,6 +132,7 @@ __all__ = [
     "EnergyDetector",
     "Fault",
     "FeatureSpec",
+    "FeatureStage",
     "Features",
     "FleetFault",
     "FleetFile",
@@ -133,9 +147,15 @@ __all__ = [
     "MonitorConfig",
     "MonitorSummary",
     "NOMINAL_RATE_HZ",
+    "OrderStage",
     "PCADetector",
+    "PairedDesign",
     "REAL_DATA_METHODS",
+    "ResidualStage",
+    "STATES",
     "Segment",
+    "StateStage",
+    "StftStage",
     "Store",
     "StoreError",
     "SubspaceAlignmentDetector",
@@ -152,6 +172,7 @@ __all__ = [
     "evaluate_dataset",
     "extract_features",
     "features_from_signals",
+    "fit_axis_model",
     "fit_half_laplace",
     "fleet_results",
     "fleet_summary",
@@ -163,6 +184,8 @@ __all__ = [
     "lra_embedding",
     "lra_structured",
     "monitor_fleet",
+    "operating_states",
+    "paired_evaluation",
     "parallel_map",
     "parse_capture_time",
     "pca_contributions",

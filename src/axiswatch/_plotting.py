@@ -194,3 +194,64 @@ def plot_distance_trend(
         ax.set_title(title, fontsize=9, loc="left")
     ax.tick_params(labelsize=7)
     return ax
+
+
+def plot_paired(table: Any, ax: Any = None) -> Any:
+    """AUROC against the oracle's, one point per feature stage x method x fault.
+
+    Points on the diagonal reach the oracle (a detector fitted on the test capture's own task);
+    below 0.5 a healthy capture of another task looks sicker than a faulty one.
+
+    Parameters
+    ----------
+    table : DataFrame
+        Output of :func:`axiswatch._paired.paired_evaluation`.
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib Figure
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        figure, ax = plt.subplots(figsize=(6.5, 5.5))
+    else:
+        figure = ax.figure
+    markers = {"pca": "o", "lra": "s"}
+    colours = dict(
+        zip(
+            sorted(table.features.unique()),
+            plt.rcParams["axes.prop_cycle"].by_key()["color"],
+            strict=False,
+        )
+    )
+    for (features, method), group in table.groupby(["features", "method"]):
+        ax.scatter(
+            group.oracle_auroc,
+            group.auroc,
+            marker=markers.get(method, "^"),
+            color=colours[features],
+            label=f"{features} / {method}",
+        )
+        for row in group.itertuples():
+            ax.annotate(
+                row.fault[:2],
+                (row.oracle_auroc, row.auroc),
+                fontsize=7,
+                xytext=(3, 2),
+                textcoords="offset points",
+            )
+    ax.plot([0, 1], [0, 1], color="grey", linewidth=0.8)
+    ax.axhline(0.5, color="grey", linestyle=":", linewidth=0.8)
+    ax.set(
+        xlim=(0, 1.02),
+        ylim=(0, 1.02),
+        xlabel="oracle AUROC (fitted on the test task)",
+        ylabel="AUROC: faulty vs healthy other task",
+    )
+    ax.legend(fontsize=7, loc="lower right")
+    return figure

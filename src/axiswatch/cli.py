@@ -465,6 +465,21 @@ Methods = Annotated[
 ]
 
 
+@experiment_app.command("paired")
+def experiment_paired(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    per_cell: int = typer.Option(3, help="Captures per (task, health) cell."),
+    oracle: bool = typer.Option(True, help="Also fit on each test task's own healthy capture."),
+) -> None:
+    """Paired evaluation: does a detector see the fault rather than the task? (beyond the paper)"""
+    from axiswatch._paired import PairedDesign, paired_evaluation
+    from axiswatch._plotting import plot_paired
+
+    table = paired_evaluation(PairedDesign(n_per_cell=per_cell, seed=seed), oracle=oracle)
+    _save(table, plot_paired(table), out, "paired")
+
+
 @experiment_app.command("gearbox")
 def experiment_gearbox(
     data: Annotated[

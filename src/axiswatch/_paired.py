@@ -1,0 +1,201 @@
+"""The paired evaluation: does a detector see the fault rather than the task? (issue: beyond the paper)
+
+Pipeline top stage for research use. Baseline and calibration captures come from one task; test
+captures come from several tasks, healthy and with each fault type, all starting at random phases
+of the task cycle. For every feature stage x detector:
+
+* ``auroc``: faulty captures (one fault type, any test task) against healthy captures of the other
+  tasks; 0.5 is chance, below 0.5 means a healthy robot doing another task looks sicker than a
+  faulty one;
+* ``far95``/``far99``: share of healthy other-task captures above the 95th/99th percentile
+  threshold (half-Laplace fit on the calibration captures' distances);
+* ``dr95``/``dr99``: share of faulty captures above it;
+* ``oracle_auroc``: the yardstick, a detector fitted on a healthy capture of the test capture's own
+  task (unavailable in practice): per test task, AUROC of faulty against healthy captures of that
+  task, averaged over tasks.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from sklearn.metrics import roc_auc_score
+
+from axiswatch._calibration import fit_half_laplace
+from axiswatch._capture import Capture
+from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch._features import FeatureSpec
+from axiswatch._indicators import FeatureStage, OrderStage, ResidualStage, StateStage, StftStage
+from axiswatch._robot import FAULT_KINDS, Fault, simulate_capture
+
+__all__ = ["DEFAULT_METHODS", "DEFAULT_STAGES", "PairedDesign", "paired_evaluation"]
+
+#: Feature stages compared. The paper's |STFT| stage uses hop=20 (one row per 10 ms) to keep a
+#: 3 s capture at 300 rows (one row per sample costs 20x more). The residual stage is the compact
+#: variant (payload terms re-fitted per capture and direction; mean, std, crest per state) that
+#: measured best of the variants tried (docs/evaluation.md).
+DEFAULT_STAGES: Mapping[str, Callable[[], FeatureStage]] = {
+    "stft": lambda: StftStage(FeatureSpec(hop=20)),
+    "residual": lambda: ResidualStage(stats_only=True, both_directions=True),
+    "order": OrderStage,
+    "state": StateStage,
+}
+DEFAULT_METHODS: Mapping[str, Callable[[], BaselineDetector]] = {
+    "pca": PCADetector,
+    "lra": LRADetector,
+}
+
+
+@dataclass(frozen=True)
+class PairedDesign:
+    """Which captures the paired evaluation simulates.
+
+    Parameters
+    ----------
+    baseline_task : str
+        Task of the baseline and calibration captures.
+    test_tasks : tuple of str
+        Tasks of the test captures (may include the baseline task).
+    faults : tuple of str
+        Fault kinds of the faulty test captures.
+    severity : float, default=0.6
+    n_per_cell : int, default=4
+        Captures per (task, health) cell.
+    n_calibration : int, default=5
+        Healthy baseline-task captures that calibrate the threshold.
+    duration_s : float, default=3.0
+    seed : int, default=0
+        Root of every capture's seed.
+    """
+
+    baseline_task: str = "short_fast"
+    test_tasks: tuple[str, ...] = ("short_fast", "long_slow", "heavy", "palletize", "inspect")
+    faults: tuple[str, ...] = FAULT_KINDS
+    severity: float = 0.6
+    n_per_cell: int = 4
+    n_calibration: int = 5
+    duration_s: float = 3.0
+    seed: int = 0
+    _cache: dict[tuple[str, str, int], Capture] = field(
+        default_factory=dict, compare=False, repr=False
+    )
+
+    def capture(self, task: str, health: str, index: int) -> Capture:
+        """The ``index``-th capture of a cell; health is "healthy" or a fault kind. Cached."""
+        key = (task, health, index)
+        if key not in self._cache:
+            seed = zlib.crc32(f"{self.seed}/{task}/{health}/{index}".encode())
+            fault = None if health == "healthy" else Fault(health, self.severity)  # type: ignore[arg-type]
+            self._cache[key] = simulate_capture(
+                task,
+                fault=fault,
+                duration_s=self.duration_s,
+                seed=seed,
+                metadata={"task": task, "health": health},
+            )
+        return self._cache[key]
+
+
+def _distances(
+    method_factory: Callable[[], BaselineDetector],
+    baseline: NDArray[np.float64],
+    groups: Sequence[Sequence[NDArray[np.float64]]],
+) -> list[NDArray[np.float64]]:
+    detector = method_factory().fit(baseline)
+    return [np.array([detector.distance(X) for X in group]) for group in groups]
+
+
+def _auroc(healthy: NDArray[np.float64], faulty: NDArray[np.float64]) -> float:
+    labels = np.concatenate([np.zeros(healthy.size), np.ones(faulty.size)])
+    return float(roc_auc_score(labels, np.concatenate([healthy, faulty])))
+
+
+def paired_evaluation(
+    design: PairedDesign | None = None,
+    *,
+    stages: Mapping[str, Callable[[], FeatureStage]] = DEFAULT_STAGES,
+    methods: Mapping[str, Callable[[], BaselineDetector]] = DEFAULT_METHODS,
+    oracle: bool = True,
+) -> pd.DataFrame:
+    """Run the paired evaluation; one row per feature stage x method x fault.
+
+    Every stage is fitted on the baseline capture only; its features of every other capture are
+    computed once and shared by the detectors. Thresholds are the 95th and 99th percentiles of the
+    half-Laplace fit (location 0) of the calibration captures' distances.
+
+    Returns
+    -------
+    DataFrame with columns ``features``, ``method``, ``fault``, ``auroc``, ``far95``, ``dr95``,
+    ``far99``, ``dr99``, ``oracle_auroc``.
+
+    Examples
+    --------
+    >>> design = PairedDesign(test_tasks=("short_fast", "heavy"), faults=("friction",),
+    ...                       n_per_cell=1, n_calibration=2, duration_s=1.0)
+    >>> table = paired_evaluation(design, stages={"state": StateStage},
+    ...                           methods={"pca": PCADetector}, oracle=False)
+    >>> list(table.columns)
+    ['features', 'method', 'fault', 'auroc', 'far95', 'dr95', 'far99', 'dr99', 'oracle_auroc']
+    """
+    design = PairedDesign() if design is None else design
+    n = design.n_per_cell
+    cap = design.capture
+    baseline = cap(design.baseline_task, "healthy", 0)
+    calibration = [
+        cap(design.baseline_task, "healthy", 1000 + i) for i in range(design.n_calibration)
+    ]
+    other_tasks = [t for t in design.test_tasks if t != design.baseline_task]
+    healthy_other = [cap(t, "healthy", i) for t in other_tasks for i in range(n)]
+    faulty = [[cap(t, f, i) for t in design.test_tasks for i in range(n)] for f in design.faults]
+    rows = []
+    for stage_name, stage_factory in stages.items():
+        stage = stage_factory().fit(baseline)
+        groups = [
+            [stage.transform(c).X for c in group] for group in (calibration, healthy_other, *faulty)
+        ]
+        base_X = stage.transform(baseline).X
+        own: list[tuple[NDArray[np.float64], list[list[NDArray[np.float64]]]]] = []
+        if oracle:
+            for task in design.test_tasks:
+                own_stage = stage_factory().fit(cap(task, "healthy", 2000))
+                own_groups = [
+                    [own_stage.transform(cap(task, "healthy", 3000 + i)).X for i in range(n)]
+                ]
+                own_groups += [
+                    [own_stage.transform(cap(task, f, i)).X for i in range(n)]
+                    for f in design.faults
+                ]
+                own.append((own_stage.transform(cap(task, "healthy", 2000)).X, own_groups))
+        for method_name, method_factory in methods.items():
+            calib_d, healthy_d, *fault_d = _distances(method_factory, base_X, groups)
+            fit = fit_half_laplace(calib_d)
+            thresholds = {q: fit.threshold(q) for q in (95, 99)}
+            oracle_auc = {f: float("nan") for f in design.faults}
+            if oracle:
+                per_task: list[list[float]] = []
+                for own_X, own_groups in own:
+                    h_d, *f_d = _distances(method_factory, own_X, own_groups)
+                    per_task.append([_auroc(h_d, d) for d in f_d])
+                oracle_auc = dict(
+                    zip(design.faults, np.mean(per_task, axis=0).tolist(), strict=True)
+                )
+            for fault, d in zip(design.faults, fault_d, strict=True):
+                rows.append(
+                    {
+                        "features": stage_name,
+                        "method": method_name,
+                        "fault": fault,
+                        "auroc": _auroc(healthy_d, d),
+                        "far95": float(np.mean(healthy_d > thresholds[95])),
+                        "dr95": float(np.mean(d > thresholds[95])),
+                        "far99": float(np.mean(healthy_d > thresholds[99])),
+                        "dr99": float(np.mean(d > thresholds[99])),
+                        "oracle_auroc": oracle_auc[fault],
+                    }
+                )
+    return pd.DataFrame(rows)

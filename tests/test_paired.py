@@ -1,0 +1,95 @@
+"""Reduced paired evaluation, asserting what the fuller runs measured (docs/evaluation.md)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from axiswatch._detectors import PCADetector
+from axiswatch._paired import DEFAULT_STAGES, PairedDesign, paired_evaluation
+
+
+@pytest.fixture(scope="module")
+def table() -> pd.DataFrame:
+    design = PairedDesign(
+        test_tasks=("short_fast", "heavy", "long_slow"),
+        faults=("backlash", "friction"),
+        n_per_cell=2,
+    )
+    stages = {name: DEFAULT_STAGES[name] for name in ("stft", "residual")}
+    return paired_evaluation(design, stages=stages, methods={"pca": PCADetector})
+
+
+def test_columns_are_exactly_the_documented_ones(table: pd.DataFrame) -> None:
+    assert list(table.columns) == [
+        "features",
+        "method",
+        "fault",
+        "auroc",
+        "far95",
+        "dr95",
+        "far99",
+        "dr99",
+        "oracle_auroc",
+    ]
+
+
+def test_residual_stage_sees_backlash_and_friction_across_tasks(table: pd.DataFrame) -> None:
+    # Measured over seeds 0 and 1: oracle 1.00; across tasks backlash 1.00, friction 0.83-0.96.
+    residual = table.set_index(["features", "fault"]).loc["residual"]
+    assert (residual.oracle_auroc >= 0.9).all()
+    assert residual.loc["backlash", "auroc"] >= 0.9
+    assert residual.loc["friction", "auroc"] >= 0.75
+
+
+def test_same_task_calibration_does_not_cover_other_tasks(table: pd.DataFrame) -> None:
+    # The open problem (issue 7 targets not reached): a threshold fitted on the baseline task's
+    # captures is exceeded by healthy captures of other tasks (measured far99 = 1.0).
+    assert table.set_index(["features", "fault"]).loc[("residual", "backlash"), "far99"] >= 0.5
+
+
+def test_paper_features_see_nothing_at_the_threshold(table: pd.DataFrame) -> None:
+    # |STFT| rows of captures at random phases: the calibration captures' spread dwarfs any fault.
+    stft = table.set_index(["features", "fault"]).loc["stft"]
+    assert (stft.dr99 == 0.0).all()
+    assert (stft.oracle_auroc < 0.9).all()
+
+
+def test_command_writes_paired_csv_and_figure(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "axiswatch",
+            "experiment",
+            "paired",
+            "--out",
+            str(tmp_path),
+            "--per-cell",
+            "1",
+            "--no-oracle",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    written = pd.read_csv(tmp_path / "paired.csv")
+    assert list(written.columns) == [
+        "features",
+        "method",
+        "fault",
+        "auroc",
+        "far95",
+        "dr95",
+        "far99",
+        "dr99",
+        "oracle_auroc",
+    ]
+    assert len(written) == 4 * 2 * 4  # stages x methods x faults
+    assert written.oracle_auroc.isna().all()
+    assert (tmp_path / "paired.png").stat().st_size > 1000
