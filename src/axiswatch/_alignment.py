@@ -163,6 +163,25 @@ def _check_parameters(mu: float, n_components: int, noise_level: float, n_rows: 
         )
 
 
+def _check_pair(
+    X_s: NDArray[np.float64],
+    X_t: NDArray[np.float64],
+    mu: float,
+    n_components: int,
+    noise_level: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Validate a baseline/test pair of feature matrices and the LRA parameters."""
+    X_s = _check_features(X_s, "X_s")
+    X_t = _check_features(X_t, "X_t")
+    if X_s.shape != X_t.shape:
+        raise ValueError(
+            f"X_s and X_t must have the same shape (rows are paired); got {X_s.shape} and "
+            f"{X_t.shape}."
+        )
+    _check_parameters(mu, n_components, noise_level, X_s.shape[0])
+    return X_s, X_t
+
+
 def low_rank_basis(
     X: NDArray[np.float64],
     noise_level: float = 1.0,
@@ -367,15 +386,8 @@ def lra_dense(
     >>> round(lra_dense(X, X).delta, 12)
     0.0
     """
-    X_s = _check_features(X_s, "X_s")
-    X_t = _check_features(X_t, "X_t")
-    if X_s.shape != X_t.shape:
-        raise ValueError(
-            f"X_s and X_t must have the same shape (rows are paired); got {X_s.shape} and "
-            f"{X_t.shape}."
-        )
+    X_s, X_t = _check_pair(X_s, X_t, mu, n_components, noise_level)
     n_rows = X_s.shape[0]
-    _check_parameters(mu, n_components, noise_level, n_rows)
     identity = np.eye(n_rows)
     R = scipy.linalg.block_diag(
         low_rank_representation(X_s, noise_level), low_rank_representation(X_t, noise_level)
@@ -574,14 +586,7 @@ def lra_embedding(
         raise ValueError(
             f"The 'solver' parameter must be 'structured' or 'dense'. Got {solver!r} instead."
         )
-    X_s = _check_features(X_s, "X_s")
-    X_t = _check_features(X_t, "X_t")
-    if X_s.shape != X_t.shape:
-        raise ValueError(
-            f"X_s and X_t must have the same shape (rows are paired); got {X_s.shape} and "
-            f"{X_t.shape}."
-        )
-    _check_parameters(mu, n_components, noise_level, X_s.shape[0])
+    X_s, X_t = _check_pair(X_s, X_t, mu, n_components, noise_level)
     return lra_structured(
         low_rank_basis(X_s, noise_level),
         low_rank_basis(X_t, noise_level),
