@@ -54,3 +54,13 @@ def test_dask_local_cluster_equals_serial(
         by_address = _run(fleet, tmp_path / "a.db", dask=cluster.scheduler_address)
     pd.testing.assert_frame_equal(by_client, serial)
     pd.testing.assert_frame_equal(by_address, serial)
+
+
+def test_one_axis_per_chunk_equals_serial(
+    serial: pd.DataFrame, small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import axiswatch._monitor
+
+    monkeypatch.setattr(axiswatch._monitor, "_AXES_PER_CHUNK", 1)
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    pd.testing.assert_frame_equal(_run(fleet, tmp_path / "k.db"), serial)

@@ -164,6 +164,10 @@ def _standing_rejections(store: Store, root: Path, method: str) -> list[str]:
     return standing
 
 
+#: Axes whose models the driver holds at once (see monitor_fleet).
+_AXES_PER_CHUNK = 256
+
+
 def monitor_fleet(
     root: str | Path,
     store: Store,
@@ -306,83 +310,106 @@ def monitor_fleet(
             fit_jobs.append(FitJob(state.candidates[0], relative(state.candidates[0]), config))
 
     by_axis = {(s.robot, s.axis): s for s in axes}
-    done = 0
-    while fit_jobs:
-        retry: list[FitJob] = []
-        for _, outcome in parallel_map(fit_baseline, fit_jobs, workers=workers, dask=dask):
-            file = outcome.job.file
-            state = by_axis[(file.robot, file.axis)]
-            done += 1
-            if progress is not None:
-                progress("baselines", done, len(axes))
-            if state.baseline is not None:
+    counts = {"baselines": 0, "captures": 0}
+
+    def fit_chunk(fit_jobs: list[FitJob]) -> None:
+        while fit_jobs:
+            retry: list[FitJob] = []
+            for _, outcome in parallel_map(fit_baseline, fit_jobs, workers=workers, dask=dask):
+                file = outcome.job.file
+                state = by_axis[(file.robot, file.axis)]
+                counts["baselines"] += 1
+                if progress is not None:
+                    progress("baselines", counts["baselines"], len(axes))
+                if state.baseline is not None:
+                    if outcome.model is None:
+                        summary.axis_problems.append(
+                            f"{outcome.error}; the stored baseline cannot be refitted"
+                        )
+                    else:
+                        state.model, state.rates_hz = outcome.model, outcome.rates_hz
+                    continue
                 if outcome.model is None:
+                    reject(
+                        store, method, file.robot, file.axis, file.capture, outcome.job.relative,
+                        digest(file.path), str(outcome.error),
+                    )  # fmt: skip
+                    state.candidates = state.candidates[1:]
+                    if (
+                        config.baseline is not None
+                        and state.epoch == 1
+                        and file.capture == config.baseline
+                    ):
+                        state.candidates = []
+                    if state.candidates:
+                        retry.append(
+                            FitJob(state.candidates[0], relative(state.candidates[0]), config)
+                        )
+                    continue
+                baseline_id = insert_baseline(store, outcome, state.epoch, config)
+                if baseline_id is None:
                     summary.axis_problems.append(
-                        f"{outcome.error}; the stored baseline cannot be refitted"
+                        f"{state.robot}/{state.axis}: another process chose a different baseline "
+                        "at the same time; run monitor again"
                     )
-                else:
-                    state.model, state.rates_hz = outcome.model, outcome.rates_hz
+                    continue
+                summary.new_baselines += 1
+                state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
+                state.model, state.rates_hz = outcome.model, outcome.rates_hz
+            fit_jobs = retry
+
+    def score_chunk(states: Sequence[_Axis]) -> None:
+        jobs: list[ScoreJob] = []
+        for state in states:
+            if state.model is None or state.baseline is None:
                 continue
-            if outcome.model is None:
-                reject(
-                    store, method, file.robot, file.axis, file.capture, outcome.job.relative,
-                    digest(file.path), str(outcome.error),
-                )  # fmt: skip
-                state.candidates = state.candidates[1:]
-                if (
-                    config.baseline is not None
-                    and state.epoch == 1
-                    and file.capture == config.baseline
-                ):
-                    state.candidates = []
-                if state.candidates:
-                    retry.append(FitJob(state.candidates[0], relative(state.candidates[0]), config))
-                continue
-            baseline_id = insert_baseline(store, outcome, state.epoch, config)
-            if baseline_id is None:
-                summary.axis_problems.append(
-                    f"{state.robot}/{state.axis}: another process chose a different baseline "
-                    "at the same time; run monitor again"
+            baseline_id = int(state.baseline["id"])
+            done_captures = {
+                r["capture"]
+                for r in store.rows(
+                    "SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,)
                 )
-                continue
-            summary.new_baselines += 1
-            state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
-            state.model, state.rates_hz = outcome.model, outcome.rates_hz
-        fit_jobs = retry
+            }
+            start = (
+                datetime.fromisoformat(state.baseline["captured_at"]),
+                state.baseline["capture"],
+            )
+            for file in state.files:
+                if _key(file) <= start or file.capture in done_captures:
+                    continue
+                if (relative(file), digest(file.path)) in rejected:
+                    continue
+                jobs.append(
+                    ScoreJob(file, relative(file), baseline_id, state.model, state.rates_hz)
+                )
 
-    jobs: list[ScoreJob] = []
-    for state in axes:
-        if state.model is None or state.baseline is None:
-            continue
-        baseline_id = int(state.baseline["id"])
-        done_captures = {
-            r["capture"]
-            for r in store.rows("SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,))
-        }
-        start = (datetime.fromisoformat(state.baseline["captured_at"]), state.baseline["capture"])
-        for file in state.files:
-            if _key(file) <= start or file.capture in done_captures:
-                continue
-            if (relative(file), digest(file.path)) in rejected:
-                continue
-            jobs.append(ScoreJob(file, relative(file), baseline_id, state.model, state.rates_hz))
+        # Commit in capture order per axis, whatever order results complete in.
+        pending: dict[int, ScoreOutcome] = {}
+        queue_of: dict[int, list[int]] = defaultdict(list)
+        for index, job in enumerate(jobs):
+            queue_of[job.baseline_id].append(index)
+        for count, (index, result) in enumerate(
+            parallel_map(score_capture, jobs, workers=workers, dask=dask), start=1
+        ):
+            pending[index] = result
+            queue = queue_of[jobs[index].baseline_id]
+            while queue and queue[0] in pending:
+                ready = pending.pop(queue.pop(0))
+                if commit_score(store, ready, config) and ready.error is None:
+                    summary.scored += 1
+            if progress is not None:
+                progress("captures", counts["captures"] + count, counts["captures"] + len(jobs))
+        counts["captures"] += len(jobs)
 
-    # Commit in capture order per axis, whatever order results complete in.
-    pending: dict[int, ScoreOutcome] = {}
-    queue_of: dict[int, list[int]] = defaultdict(list)
-    for index, job in enumerate(jobs):
-        queue_of[job.baseline_id].append(index)
-    for count, (index, result) in enumerate(
-        parallel_map(score_capture, jobs, workers=workers, dask=dask), start=1
-    ):
-        pending[index] = result
-        queue = queue_of[jobs[index].baseline_id]
-        while queue and queue[0] in pending:
-            ready = pending.pop(queue.pop(0))
-            if commit_score(store, ready, config) and ready.error is None:
-                summary.scored += 1
-        if progress is not None:
-            progress("captures", count, len(jobs))
+    # Axes are handled a chunk at a time so that the driver never holds more than
+    # _AXES_PER_CHUNK fitted models (a few MB each) however large the fleet.
+    for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
+        chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
+        states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
+        fit_chunk(chunk)
+        score_chunk(states)
+        for state in states:
+            state.model = None
 
     summary.rejected = _standing_rejections(store, root, method)
     for row in store.rows(
