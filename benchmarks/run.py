@@ -209,10 +209,13 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="smoke run: small cases, seconds")
     parser.add_argument("--case", help=argparse.SUPPRESS)
     parser.add_argument(
-        "--fleet-robots", type=int, default=None, help="robots in the fleet case (default 1000)"
+        "--fleet-robots",
+        type=int,
+        default=None,
+        help="robots in the fleet case (default 100, extrapolated; 1000 is the full day: ~30 min with set-up)",
     )
     args = parser.parse_args()
-    robots = args.fleet_robots or (2 if args.quick else 1000)
+    robots = args.fleet_robots or (2 if args.quick else 100)
     if args.case:
         run_case(args.case, args.quick, robots)
         return
