@@ -12,6 +12,19 @@ import pytest
 from axiswatch._detectors import PCADetector
 from axiswatch._paired import DEFAULT_STAGES, PairedDesign, paired_evaluation
 
+#: The columns of paired.csv, as the issue names them.
+PAIRED_COLUMNS = [
+    "features",
+    "method",
+    "fault",
+    "auroc",
+    "far95",
+    "dr95",
+    "far99",
+    "dr99",
+    "oracle_auroc",
+]
+
 
 @pytest.fixture(scope="module")
 def table() -> pd.DataFrame:
@@ -25,17 +38,7 @@ def table() -> pd.DataFrame:
 
 
 def test_columns_are_exactly_the_documented_ones(table: pd.DataFrame) -> None:
-    assert list(table.columns) == [
-        "features",
-        "method",
-        "fault",
-        "auroc",
-        "far95",
-        "dr95",
-        "far99",
-        "dr99",
-        "oracle_auroc",
-    ]
+    assert list(table.columns) == PAIRED_COLUMNS
 
 
 def test_residual_stage_sees_backlash_and_friction_across_tasks(table: pd.DataFrame) -> None:
@@ -79,17 +82,7 @@ def test_command_writes_paired_csv_and_figure(tmp_path: Path) -> None:
     )
     assert result.returncode == 0, result.stderr
     written = pd.read_csv(tmp_path / "paired.csv")
-    assert list(written.columns) == [
-        "features",
-        "method",
-        "fault",
-        "auroc",
-        "far95",
-        "dr95",
-        "far99",
-        "dr99",
-        "oracle_auroc",
-    ]
+    assert list(written.columns) == PAIRED_COLUMNS
     assert len(written) == 4 * 2 * 4  # stages x methods x faults
     assert written.oracle_auroc.isna().all()
     assert (tmp_path / "paired.png").stat().st_size > 1000
