@@ -324,8 +324,10 @@ class ResidualStage:
         self.baseline_rows_ = self.transform(baseline).X
         return self
 
-    def residual(self, capture: Capture) -> tuple[NDArray[np.float64], NDArray[np.int64], float]:
-        """Residual torque, operating state of every sample, and the rate."""
+    def residual(
+        self, capture: Capture
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64], _Kinematics]:
+        """Residual torque, operating state of every sample, and the kinematics it came from."""
         kin = _kinematics(capture, self.smoothing_s)
         states = operating_states(kin.speed, kin.acceleration)
         residual = self.model_.residual(kin.position, kin.speed, kin.acceleration, kin.torque)
@@ -341,10 +343,11 @@ class ResidualStage:
             )
             coefficients, *_ = scipy.linalg.lstsq(load[forward], residual[forward])
             residual = residual - load @ coefficients
-        return residual, states, kin.rate_hz
+        return residual, states, kin
 
     def transform(self, capture: Capture) -> Features:
-        residual, states, rate = self.residual(capture)
+        residual, states, kin = self.residual(capture)
+        rate = kin.rate_hz
         spectrum = stft_features(residual[:, None], rate, segment_length=self.segment_length)
         bands = _bands(spectrum.shape[1], self.n_bands)
         energy = np.column_stack([np.sum(spectrum[:, b] ** 2, axis=1) for b in bands])
@@ -413,8 +416,8 @@ class OrderStage:
         return self
 
     def transform(self, capture: Capture) -> Features:
-        residual, _, rate = self.residual_stage_.residual(capture)
-        kin = _kinematics(capture, self.smoothing_s)
+        residual, _, kin = self.residual_stage_.residual(capture)
+        rate = kin.rate_hz
         angle_rev = self.gear_ratio * kin.position / (2 * np.pi)
         window = self.window_revs * self.samples_per_rev
         orders = np.fft.rfftfreq(window, d=1.0 / self.samples_per_rev)
