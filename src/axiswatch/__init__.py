@@ -44,13 +44,14 @@ from axiswatch._datasets import (
     read_dataset,
     read_recording,
 )
-from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._domain_adaptation import (
     CORALDetector,
     EnergyDetector,
     SubspaceAlignmentDetector,
     energy_distance,
 )
+from axiswatch._experiments import alarm_summary
 from axiswatch._features import (
     Features,
     FeatureSpec,
@@ -71,9 +72,24 @@ from axiswatch._indicators import (
     operating_states,
 )
 from axiswatch._ledger import rebaseline
+from axiswatch._mechanics import (
+    INDICATORS,
+    MECHANICS_SCALES,
+    MechanicsStage,
+    angle_locked_f,
+    line_ratio,
+    moves,
+    viscous_friction,
+)
 from axiswatch._model import Assessment, HealthModel
 from axiswatch._monitor import MonitorSummary, monitor_fleet
-from axiswatch._paired import PairedDesign, paired_evaluation
+from axiswatch._paired import (
+    DEVELOPMENT_DESIGN,
+    PairedDesign,
+    development_scales,
+    paired_evaluation,
+    select_default,
+)
 from axiswatch._parallel import parallel_map
 from axiswatch._plotting import plot_distance_trend
 from axiswatch._preprocessing import (
@@ -128,6 +144,7 @@ __all__ = [
     "CaptureError",
     "DEFAULT_FLEET_FAULTS",
     "DEFAULT_SIGNALS",
+    "DEVELOPMENT_DESIGN",
     "DataNotFoundError",
     "EnergyDetector",
     "Fault",
@@ -139,11 +156,15 @@ __all__ = [
     "GEARBOX_FEATURES",
     "HalfLaplaceFit",
     "HealthModel",
+    "INDICATORS",
+    "IndicatorDetector",
     "LAB_DAYS",
     "LRADetector",
     "LRAResult",
     "LabDay",
     "LowRankBasis",
+    "MECHANICS_SCALES",
+    "MechanicsStage",
     "MonitorConfig",
     "MonitorSummary",
     "NOMINAL_RATE_HZ",
@@ -161,11 +182,14 @@ __all__ = [
     "SubspaceAlignmentDetector",
     "TASKS",
     "Task",
+    "alarm_summary",
     "align_phase",
+    "angle_locked_f",
     "as_capture",
     "attribute",
     "capture_to_frame",
     "default_data_dir",
+    "development_scales",
     "difference_spectrogram",
     "discover_fleet",
     "energy_distance",
@@ -178,12 +202,14 @@ __all__ = [
     "fleet_summary",
     "integer_factor",
     "lab_dataset",
+    "line_ratio",
     "low_rank_basis",
     "low_rank_representation",
     "lra_dense",
     "lra_embedding",
     "lra_structured",
     "monitor_fleet",
+    "moves",
     "operating_states",
     "paired_evaluation",
     "parallel_map",
@@ -199,11 +225,13 @@ __all__ = [
     "rebaseline",
     "resample_capture",
     "segment_distances",
+    "select_default",
     "simulate_capture",
     "simulate_fleet",
     "stft_features",
     "summarize_distances",
     "upsample_pchip",
+    "viscous_friction",
     "write_capture",
     "write_report",
 ]

@@ -26,7 +26,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from axiswatch._alignment import LowRankBasis, LRAResult, low_rank_basis, lra_dense, lra_structured
 from axiswatch._noise import mp_noise_level
 
-__all__ = ["BaselineDetector", "LRADetector", "PCADetector"]
+__all__ = ["BaselineDetector", "IndicatorDetector", "LRADetector", "PCADetector"]
 
 
 class BaselineDetector(TransformerMixin, BaseEstimator):  # type: ignore[misc]
@@ -235,3 +235,47 @@ class LRADetector(BaselineDetector):
     def transform(self, X: Any) -> NDArray[np.float64]:
         """Embedding ``F_t`` of the test rows in the common subspace, shape (n_rows, d)."""
         return self.align(X).F_t
+
+
+class IndicatorDetector(BaselineDetector):
+    """Shift of the test's mean row from the baseline's: ``d = ||mean(X_t) - mean(X_s)||^2``.
+
+    Meant for compact indicator stages (:class:`~axiswatch.MechanicsStage`) whose rows are
+    repeated readings of the same quantities and whose columns are already on a common scale;
+    rows are averaged, not paired, so a capture with fewer rows is compared all the same.
+
+    Parameters
+    ----------
+    one_sided : bool, default=True
+        Count only increases (``max(shift, 0)``): the mechanics indicators (friction,
+        impulsiveness, fault lines) grow with every fault they watch, while a healthy axis on a
+        gentler task reads lower than at commissioning, which is no reason to alarm.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> det = IndicatorDetector().fit(np.array([[1.0, 2.0], [1.0, 4.0]]))
+    >>> det.distance(np.array([[3.0, 1.0], [3.0, 1.0]]))  # only the increase counts
+    4.0
+    >>> IndicatorDetector(one_sided=False).fit([[1.0, 2.0], [1.0, 4.0]]).distance([[3.0, 1.0]])
+    8.0
+    """
+
+    def __init__(self, one_sided: bool = True) -> None:
+        self.one_sided = one_sided
+
+    def _fit(self, X: NDArray[np.float64]) -> None:
+        self.centre_ = X.mean(axis=0)
+
+    def distance(self, X: Any) -> float:
+        X = self._check_test(X)
+        shift = X.mean(axis=0) - self.centre_
+        return float(np.sum(np.maximum(shift, 0.0) ** 2 if self.one_sided else shift**2))
+
+    def _distance(self, X: NDArray[np.float64]) -> float:  # pragma: no cover - distance overrides
+        return self.distance(X)
+
+    def transform(self, X: Any) -> NDArray[np.float64]:
+        """Each test row's shift from the baseline's mean row."""
+        X = self._check_test(X)
+        return np.asarray(X - self.centre_)

@@ -5,7 +5,7 @@ Pipeline top stage for research use; the CLI's ``experiment`` commands call thes
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,8 +18,10 @@ from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import fit_half_laplace
 from axiswatch._capture import Capture
-from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec, extract_features
+from axiswatch._indicators import FeatureStage
+from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._robot import Fault, FaultKind, simulate_capture
 from axiswatch._simulate import LAB_DAYS, lab_dataset
@@ -31,6 +33,8 @@ __all__ = [
     "PROTOCOLS",
     "ROBOT_A_TASKS",
     "ROBOT_FEATURES",
+    "STAGE_METHODS",
+    "alarm_summary",
     "lab_distances",
     "lab_roc",
     "robot_a",
@@ -264,6 +268,85 @@ ROBOT_FEATURES = FeatureSpec(segment_length=128, hop=16, padding="circular")
 ROBOT_A_TASKS: tuple[str, ...] = ("long_fast", "heavy", "short_fast", "palletize")
 
 
+#: Feature stage x detector pairs scored beside the paper's methods in the robot studies: the
+#: product default chosen by :func:`axiswatch.select_default` (docs/evaluation.md).
+StageMethod = tuple[Callable[[], FeatureStage], Callable[[], BaselineDetector]]
+STAGE_METHODS: Mapping[str, StageMethod] = {"mechanics": (MechanicsStage, IndicatorDetector)}
+
+
+def _score_days_stages(
+    captures: Sequence[Capture], stage_methods: Mapping[str, StageMethod]
+) -> list[dict[str, Any]]:
+    """Distance of every capture to the first through each feature stage x detector."""
+    rows = []
+    for name, (stage_factory, detector_factory) in stage_methods.items():
+        stage = stage_factory().fit(captures[0])
+        detector = detector_factory().fit(stage.transform(captures[0]).X)
+        for day, capture in enumerate(captures[1:], start=2):
+            rows.append(
+                {
+                    "day": day,
+                    "task": capture.metadata["task"],
+                    "fault": capture.metadata["fault"],
+                    "severity": float(capture.metadata["severity"]),
+                    "method": name,
+                    "alignment": "none",
+                    "distance": float(detector.distance(stage.transform(capture).X)),
+                }
+            )
+    return rows
+
+
+def alarm_summary(
+    table: pd.DataFrame, *, n_calibration: int = 5, percentile: float = 99.0
+) -> pd.DataFrame:
+    """Alarms of a robot study: threshold from the first days, then count and first alarm.
+
+    The threshold of every method and alignment is the ``percentile`` of the half-Laplace fit of
+    the distances of days ``2 .. n_calibration + 1`` (captures of the baseline's task, as a
+    commissioning engineer would take them); every later day alarms when its distance exceeds it.
+
+    Returns
+    -------
+    DataFrame
+        ``method``, ``alignment``, ``threshold``, ``n_days`` (scored after calibration),
+        ``false_alarms`` (alarms on healthy days), ``first_alarm_day`` (any day; NaN if none),
+        ``first_faulty_alarm_day`` (first alarm on a day with a fault; NaN if none).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> table = pd.DataFrame({"day": range(2, 12), "method": "m", "alignment": "none",
+    ...     "fault": ["none"] * 9 + ["bearing"], "distance": [1.0] * 9 + [50.0]})
+    >>> summary = alarm_summary(table)
+    >>> int(summary.false_alarms[0]), float(summary.first_faulty_alarm_day[0])
+    (0, 11.0)
+    """
+    rows = []
+    for (method, alignment), group in table.groupby(["method", "alignment"], sort=False):
+        group = group.sort_values("day")
+        calibration = group.iloc[:n_calibration]
+        scored = group.iloc[n_calibration:]
+        threshold = _threshold(calibration.distance.to_numpy(), percentile)
+        alarm = scored.distance.to_numpy() > threshold
+        healthy = (scored.fault == "none").to_numpy()
+        days = scored.day.to_numpy()
+        rows.append(
+            {
+                "method": method,
+                "alignment": alignment,
+                "threshold": threshold,
+                "n_days": int(scored.shape[0]),
+                "false_alarms": int(np.sum(alarm & healthy)),
+                "first_alarm_day": float(days[alarm][0]) if alarm.any() else float("nan"),
+                "first_faulty_alarm_day": (
+                    float(days[alarm & ~healthy][0]) if (alarm & ~healthy).any() else float("nan")
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def _score_days(
     captures: Sequence[Capture], features: FeatureSpec, methods: Mapping[str, BaselineDetector]
 ) -> list[dict[str, Any]]:
@@ -272,7 +355,9 @@ def _score_days(
     Features are taken once per capture and alignment and shared by the methods (the phase lag
     depends only on the baseline's signals, not on the detector).
     """
-    rows = []
+    rows: list[dict[str, Any]] = []
+    if not methods:
+        return rows
     for aligned in (False, True):
         models = {
             name: HealthModel(features, detector, align_phase=aligned).fit(captures[0])
@@ -305,11 +390,13 @@ def robot_a(
     duration_s: float = 3.0,
     features: FeatureSpec = ROBOT_FEATURES,
     methods: Mapping[str, BaselineDetector] | None = None,
+    stage_methods: Mapping[str, StageMethod] = STAGE_METHODS,
 ) -> pd.DataFrame:
     """Robot A (paper fig. 3): a healthy axis over ``n_days`` daily captures, task changes.
 
     Day 1 is the baseline; every later day's capture (random phase of the task cycle) is scored
-    by each method, with and without :class:`~axiswatch.HealthModel`'s phase alignment.
+    by each method, with and without :class:`~axiswatch.HealthModel`'s phase alignment, and by
+    each of ``stage_methods`` (alignment "none": their rows are operating states or directions).
 
     Returns
     -------
@@ -319,7 +406,7 @@ def robot_a(
 
     Examples
     --------
-    >>> table = robot_a(n_days=4, task_change_days=(3,), duration_s=0.5)
+    >>> table = robot_a(n_days=4, task_change_days=(3,), duration_s=0.5, stage_methods={})
     >>> table[(table.method == "lra") & (table.alignment == "none")].task.tolist()
     ['long_fast', 'heavy', 'heavy']
     """
@@ -335,7 +422,9 @@ def robot_a(
         captures.append(simulate_capture(task, duration_s=duration_s, seed=rng))
     methods = _default_methods() if methods is None else dict(methods)
     with threadpool_limits(limits=1, user_api="blas"):
-        return pd.DataFrame(_score_days(captures, features, methods))
+        return pd.DataFrame(
+            _score_days(captures, features, methods) + _score_days_stages(captures, stage_methods)
+        )
 
 
 def robot_b(
@@ -347,6 +436,7 @@ def robot_b(
     duration_s: float = 3.0,
     features: FeatureSpec = ROBOT_FEATURES,
     methods: Mapping[str, BaselineDetector] | None = None,
+    stage_methods: Mapping[str, StageMethod] = STAGE_METHODS,
 ) -> pd.DataFrame:
     """Robot B (paper fig. 4): one task, a fault growing until breakdown on day ``n_days + 1``.
 
@@ -360,7 +450,7 @@ def robot_b(
 
     Examples
     --------
-    >>> table = robot_b(n_days=3, duration_s=0.5)
+    >>> table = robot_b(n_days=3, duration_s=0.5, stage_methods={})
     >>> sorted(set(table.severity.round(3)))
     [0.111, 0.444]
     """
@@ -372,4 +462,6 @@ def robot_b(
         captures.append(simulate_capture(task, fault=today, duration_s=duration_s, seed=rng))
     methods = _default_methods() if methods is None else dict(methods)
     with threadpool_limits(limits=1, user_api="blas"):
-        return pd.DataFrame(_score_days(captures, features, methods))
+        return pd.DataFrame(
+            _score_days(captures, features, methods) + _score_days_stages(captures, stage_methods)
+        )

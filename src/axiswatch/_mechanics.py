@@ -1,0 +1,374 @@
+"""Compact physical health indicators of an axis, each meant to read the same whatever the task.
+
+Pipeline stage 2c (beside the |STFT| features of ``_features`` and the per-state stages of
+``_indicators``). A capture becomes a few numbers with a physical meaning, chosen so that a healthy
+axis gives the same value on every task while the fault they watch moves them:
+
+* **viscous friction** (:func:`viscous_friction`): the energy the motor puts into a move,
+  ``W = integral of torque * speed dt``, between two instants of equal speed, goes into gravity,
+  friction and nothing else (the kinetic and spring energies are the same at both ends):
+  ``W = c * |dq| + F_v * integral of speed^2 dt``. Nested windows of one move (speed above
+  2 %, 15 %, ..., 75 % of its peak) share the move's constant force ``c`` (Coulomb friction plus
+  gravity and payload, which differ from move to move and are not needed) and every move shares
+  ``F_v``, solved by least squares. Energy integrals are immune to the link's resonance and to
+  the payload, which defeat a sample-by-sample torque model (docs/evaluation.md).
+* **impulsiveness**: the kurtosis of the torque's 40-300 Hz band while moving (backlash impacts,
+  tooth impacts).
+* **angle-locked lines** (:func:`angle_locked_f`): the torque's 40-300 Hz band is regressed on
+  sines and cosines of the motor angle at the orders a fault would excite (a damaged tooth of a
+  gear turning once every ``tooth_period_revs`` motor revolutions: orders ``k / tooth_period_revs``
+  that are not whole orders; an inner-race bearing defect: ``bearing_order`` and its sidebands),
+  after the whole orders (gear mesh, ripple, whose presence is healthy) are regressed out; the
+  indicator is the F statistic of that regression, the share of the band the fault's orders
+  explain relative to what chance would give them, divided by the same statistic at neighbouring
+  orders that no fault excites (:func:`line_ratio`), which see the same coloured noise. A line at
+  a fixed order stays at that order whatever the speed, so the ratio does not move with the task.
+
+These need the axis's kinematics (gear ratio, the period of the gear stage that could lose a
+tooth, the bearing's defect order), which a service engineer takes from the datasheets as any
+vibration monitoring system does; defaults are those of the project's simulator.
+
+:class:`MechanicsStage` turns a capture into a ``(2, 4)`` matrix (rows: the two directions of
+motion; columns: ``log10`` of the four indicators, divided by the spread each indicator shows
+across healthy tasks in the development protocol of ``_paired``), usable by any detector.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+from scipy.signal import butter, sosfiltfilt
+from scipy.stats import kurtosis
+
+from axiswatch._capture import Capture
+from axiswatch._features import Features
+from axiswatch._preprocessing import resample_capture
+from axiswatch.exceptions import CaptureError
+
+__all__ = [
+    "INDICATORS",
+    "MECHANICS_SCALES",
+    "MechanicsStage",
+    "angle_locked_f",
+    "line_ratio",
+    "moves",
+    "viscous_friction",
+]
+
+#: Columns of :class:`MechanicsStage`, in order.
+INDICATORS: tuple[str, ...] = ("viscous_friction", "impulsiveness", "tooth_lines", "bearing_lines")
+
+#: Speed levels (fractions of a move's peak) of the nested energy windows.
+ENERGY_LEVELS: tuple[float, ...] = (0.02, 0.15, 0.3, 0.45, 0.6, 0.75)
+
+#: Spread (root mean square of the shift from the baseline, in decades) of each indicator over
+#: healthy captures of tasks other than the baseline's, measured by
+#: :func:`axiswatch.development_scales` on the development design (tasks and seeds never used in
+#: any reported result). Recomputed and checked by tests/test_paired.py.
+MECHANICS_SCALES: tuple[float, ...] = (0.0868, 0.380, 0.121, 0.144)
+
+
+def moves(
+    speed: NDArray[np.float64], fraction: float = 0.02, min_gap: int = 40
+) -> list[tuple[int, int]]:
+    """Stretches of motion: ``[start, stop)`` index pairs where ``|speed|`` exceeds a fraction of
+    the capture's peak.
+
+    Stretches in one direction separated by fewer than ``min_gap`` samples (sensor noise around
+    the threshold) are one move; a stretch shorter than ``min_gap`` on its own is dropped.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> moves(np.array([0.0, 0.5, 1.0, 0.5, 0.0, -1.0, -1.0, 0.0]), min_gap=2)
+    [(1, 4), (5, 7)]
+    """
+    v = np.asarray(speed, dtype=np.float64)
+    moving = np.abs(v) > fraction * (float(np.max(np.abs(v))) if v.size else 0.0)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
+    merged: list[list[int]] = []
+    for a, b in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        if merged and a - merged[-1][1] < min_gap and np.sign(v[a]) == np.sign(v[merged[-1][0]]):
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    return [(a, b) for a, b in merged if b - a >= min_gap]
+
+
+def viscous_friction(
+    position: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    torque: NDArray[np.float64],
+    rate_hz: float,
+    *,
+    levels: Sequence[float] = ENERGY_LEVELS,
+    direction: float | None = None,
+) -> float:
+    """Viscous friction coefficient from the energy balance of whole moves.
+
+    For every complete move (at rest before and after, both inside the capture) and every level
+    ``x`` of ``levels``, the window runs from the first to the last sample whose ``|speed|``
+    exceeds ``x`` times the move's peak, so speed, hence kinetic energy, is the same at both ends.
+    The motor's work over the window is ``c_move * |dq| + F_v * integral(speed^2 dt)``; ``c_move``
+    is free per move (Coulomb friction, gravity and payload), ``F_v`` is shared and returned.
+    Gravity thus enters as its mean torque over the move; its variation along a long move is not
+    modelled and biases ``F_v`` somewhat (docs/evaluation.md).
+
+    Parameters
+    ----------
+    position, speed, torque : ndarray of shape (n_samples,)
+        On one time base (rad, rad/s, N m, or any consistent units).
+    rate_hz : float
+    levels : sequence of float in [0, 1), default=ENERGY_LEVELS
+    direction : {1.0, -1.0}, optional
+        Only moves in that direction; both when None.
+
+    Returns
+    -------
+    float
+        ``F_v`` (torque per speed), NaN when the capture holds no complete move.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(0, 4, 1e-3)
+    >>> ramp = lambda t0: 0.5 * (1 - np.cos(np.pi * np.clip(t - t0, 0, 1)))
+    >>> q = ramp(0.5) - ramp(2.5)  # out and back, at rest in between
+    >>> v, a = np.gradient(q, 1e-3), np.gradient(np.gradient(q, 1e-3), 1e-3)
+    >>> tau = 2.0 * a + 3.0 * v + 7.0 * np.sign(v) + 5.0  # inertia, viscous 3, Coulomb, load
+    >>> round(viscous_friction(q, v, tau, 1000.0), 2)
+    3.0
+    """
+    dt = 1.0 / rate_hz
+    per_move: list[list[float]] = []
+    shared: list[float] = []
+    work: list[float] = []
+    for start, stop in moves(speed):
+        if start == 0 or stop >= speed.size:
+            continue  # cut by the capture's edge: the speed at its ends is not known
+        magnitude = np.abs(speed[start:stop])
+        middle = int(np.argmax(magnitude))
+        if direction is not None and np.sign(speed[start + middle]) != direction:
+            continue
+        distances = []
+        for level in levels:
+            above = np.flatnonzero(magnitude > level * magnitude[middle])
+            i, j = start + int(above[0]), start + int(above[-1])
+            distances.append(abs(float(position[j] - position[i])))
+            shared.append(float(np.sum(speed[i:j] ** 2) * dt))
+            work.append(float(np.sum(torque[i:j] * speed[i:j]) * dt))
+        per_move.append(distances)
+    if not per_move:
+        return float("nan")
+    design = np.zeros((len(work), len(per_move) + 1))
+    for m, distances in enumerate(per_move):
+        design[m * len(levels) : (m + 1) * len(levels), m] = distances
+    design[:, -1] = shared
+    coefficients, *_ = scipy.linalg.lstsq(design, np.asarray(work))
+    return float(coefficients[-1])
+
+
+def _harmonics(
+    angle: NDArray[np.float64], orders: Sequence[float], direction: NDArray[np.float64] | None
+) -> NDArray[np.float64]:
+    columns = []
+    for order in orders:
+        for wave in (np.sin(order * angle), np.cos(order * angle)):
+            columns.append(wave)
+            if direction is not None:
+                columns.append(wave * direction)
+    return np.column_stack(columns)
+
+
+def angle_locked_f(
+    signal: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    orders: Sequence[float],
+    *,
+    nuisance_orders: Sequence[float] = (1, 2, 3, 4, 5, 6, 7, 8),
+    direction: NDArray[np.float64] | None = None,
+) -> float:
+    """F statistic of the lines of ``signal`` at ``orders`` of ``angle``, beyond ``nuisance_orders``.
+
+    Nested least squares: the signal is regressed on sines and cosines of ``nuisance_orders``
+    (and, with ``direction``, the same times the direction of motion, since a load opposing the
+    motion changes sign with it), then on those plus the ``orders``' waves. ``F = (drop in
+    residual sum of squares / p) / (residual sum of squares / (n - k))``: about 1 when the
+    ``orders`` carry no more than noise, large when the signal has lines there.
+
+    Parameters
+    ----------
+    signal, angle : ndarray of shape (n_samples,)
+        ``angle`` in radians of the shaft the orders refer to.
+    orders : sequence of float
+    nuisance_orders : sequence of float, default=(1, ..., 8)
+    direction : ndarray of shape (n_samples,), optional
+        Sign of the motion, +1 or -1.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> theta = np.linspace(0, 200, 4000)
+    >>> noise = rng.normal(size=theta.size)
+    >>> round(angle_locked_f(noise, theta, [5.43]), 1) < 3
+    True
+    >>> angle_locked_f(noise + np.cos(5.43 * theta), theta, [5.43]) > 100
+    True
+    """
+    y = np.asarray(signal, dtype=np.float64)
+    if direction is not None and np.all(direction == direction[0]):
+        direction = None  # one direction only: the signed waves would repeat the plain ones
+    nuisance = _harmonics(angle, nuisance_orders, direction)
+    full = np.column_stack([nuisance, _harmonics(angle, orders, direction)])
+    if y.size <= full.shape[1] + 1:
+        return float("nan")
+    rss0 = float(np.sum((y - nuisance @ scipy.linalg.lstsq(nuisance, y)[0]) ** 2))
+    rss1 = float(np.sum((y - full @ scipy.linalg.lstsq(full, y)[0]) ** 2))
+    p = full.shape[1] - nuisance.shape[1]
+    return float(max(rss0 - rss1, 0.0) / p / (rss1 / (y.size - full.shape[1])))
+
+
+def line_ratio(
+    signal: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    orders: Sequence[float],
+    offsets: Sequence[float],
+) -> float:
+    """:func:`angle_locked_f` at ``orders`` over its mean at the same orders shifted by ``offsets``.
+
+    The band-passed noise is not white, and where an order falls in the band depends on the
+    speed, so the F statistic alone moves with the task; its neighbours at the shifted orders (no
+    fault excites them) see the same noise, and the ratio is about 1 on every task for a healthy
+    axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> theta = np.linspace(0, 300, 6000)
+    >>> line = 0.5 * np.cos(5.43 * theta)
+    >>> line_ratio(rng.normal(size=theta.size) + line, theta, [5.43], [-0.25, 0.25]) > 10
+    True
+    """
+    reference = np.mean([angle_locked_f(signal, angle, [o + d for o in orders]) for d in offsets])
+    return angle_locked_f(signal, angle, orders) / float(reference)
+
+
+class MechanicsStage:
+    """The four indicators of this module as a feature stage (rows: directions of motion).
+
+    Parameters
+    ----------
+    gear_ratio : float, default=100.0
+        Motor revolutions per revolution of the measured position.
+    tooth_period_revs : float, default=5.0
+        Motor revolutions per revolution of the gear whose teeth are watched.
+    bearing_order : float, default=5.43
+        Defect frequency of the watched bearing, in orders of the motor speed.
+    band_hz : (float, float), default=(40.0, 300.0)
+        Band of the torque in which impacts and lines are looked for (above the control loop and
+        the link's resonance, below the sensors' noise).
+    moving_fraction : float, default=0.2
+        Samples with ``|speed|`` above this fraction of the peak count as moving.
+    scales : sequence of 4 floats, default=MECHANICS_SCALES
+        Each column is ``log10(indicator) / scale``.
+
+    Attributes
+    ----------
+    baseline_rows_ : ndarray of shape (2, 4)
+
+    Examples
+    --------
+    >>> from axiswatch import simulate_capture
+    >>> stage = MechanicsStage().fit(simulate_capture("short_fast", seed=0))
+    >>> stage.transform(simulate_capture("heavy", seed=1)).X.shape
+    (2, 4)
+    """
+
+    def __init__(
+        self,
+        gear_ratio: float = 100.0,
+        tooth_period_revs: float = 5.0,
+        bearing_order: float = 5.43,
+        band_hz: tuple[float, float] = (40.0, 300.0),
+        moving_fraction: float = 0.2,
+        scales: Sequence[float] = MECHANICS_SCALES,
+    ) -> None:
+        self.gear_ratio = gear_ratio
+        self.tooth_period_revs = tooth_period_revs
+        self.bearing_order = bearing_order
+        self.band_hz = band_hz
+        self.moving_fraction = moving_fraction
+        self.scales = scales
+
+    def fit(self, baseline: Capture) -> MechanicsStage:
+        self.baseline_rows_: NDArray[np.float64] | None = None
+        self.baseline_rows_ = self.transform(baseline).X
+        return self
+
+    def indicators(self, capture: Capture) -> NDArray[np.float64]:
+        """The raw indicators (not logged, not scaled), shape (2, 4); NaN where not measurable."""
+        signals, rate = resample_capture(capture, ("position", "speed", "torque"))
+        position, speed, torque = signals.T
+        low, high = self.band_hz
+        if not 0 < low < high < rate / 2:
+            raise ValueError(
+                f"The 'band_hz' parameter of MechanicsStage must satisfy 0 < low < high < "
+                f"{rate / 2:g} Hz (half the rate of {capture.source}). Got {self.band_hz!r} instead."
+            )
+        if signals.shape[0] < 4 * rate / low:
+            raise CaptureError(
+                f"{capture.source}: capture too short for the mechanics indicators: "
+                f"{signals.shape[0]} samples at {rate:g} Hz, expected at least {4 * rate / low:g}."
+            )
+        band = sosfiltfilt(butter(4, [low, high], btype="bandpass", fs=rate, output="sos"), torque)
+        angle = self.gear_ratio * position
+        sign = np.sign(speed)
+        peak = float(np.max(np.abs(speed))) or 1.0
+        tooth = [
+            k / self.tooth_period_revs
+            for k in range(1, int(8 * self.tooth_period_revs) + 1)
+            if k / self.tooth_period_revs >= 2 and k % round(self.tooth_period_revs)
+        ]
+        bearing = [self.bearing_order + s for s in (-2, -1, 0, 1, 2)]
+        bearing += [2 * self.bearing_order + s for s in (-1, 0, 1)]
+        friction = viscous_friction(position, speed, torque, rate)
+        rows = np.full((2, len(INDICATORS)), np.nan)
+        for r, direction in enumerate((1.0, -1.0)):
+            moving = (sign == direction) & (np.abs(speed) > self.moving_fraction * peak)
+            if moving.sum() < 8 * (len(tooth) + 8):
+                continue
+            x, theta = band[moving], angle[moving]
+            rows[r] = [
+                friction,
+                float(kurtosis(x, fisher=False)),
+                # Tooth orders are 1 / tooth_period_revs apart: the neighbours sit half-way.
+                line_ratio(x, theta, tooth, [0.5 / self.tooth_period_revs]),
+                line_ratio(x, theta, bearing, [-0.25, 0.25]),
+            ]
+        return rows
+
+    def transform(self, capture: Capture) -> Features:
+        raw = self.indicators(capture)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            logged = np.log10(np.where(raw > 0, raw, np.nan)) / np.asarray(self.scales)
+        missing = ~np.isfinite(logged)
+        if missing.any():
+            if self.baseline_rows_ is None:
+                raise CaptureError(
+                    f"{capture.source}: the baseline must show complete moves in both directions "
+                    f"(missing: {[INDICATORS[j] for j in sorted(set(np.flatnonzero(missing.any(axis=0))))]}); "
+                    "expected a capture of at least one task cycle."
+                )
+            logged[missing] = self.baseline_rows_[missing]  # no evidence either way
+        return Features(
+            logged, ("mechanics",), np.zeros(len(INDICATORS)), float(capture.rates_hz["speed"])
+        )
