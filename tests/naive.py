@@ -172,3 +172,64 @@ def energy_distance(first: np.ndarray, second: np.ndarray) -> float:
 def least_squares_normal_equations(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Least-squares coefficients from the normal equations (A^T A) x = A^T b, written out."""
     return np.linalg.solve(A.T @ A, A.T @ b)
+
+
+def angle_locked_f(
+    signal: np.ndarray, angle: np.ndarray, orders: list[float], nuisance_orders: list[float]
+) -> float:
+    """F statistic of nested regressions on waves of ``angle``, with hat matrices written out."""
+
+    def waves(order_list: list[float]) -> list[np.ndarray]:
+        return [f(o * angle) for o in order_list for f in (np.sin, np.cos)]
+
+    def residual_ss(columns: list[np.ndarray]) -> float:
+        A = np.column_stack(columns)
+        hat = A @ np.linalg.pinv(A)
+        r = signal - hat @ signal
+        return float(r @ r)
+
+    small = residual_ss(waves(nuisance_orders))
+    big = residual_ss(waves(nuisance_orders) + waves(orders))
+    p, k = 2 * len(orders), 2 * (len(orders) + len(nuisance_orders))
+    return (small - big) / p / (big / (signal.size - k))
+
+
+def viscous_friction(
+    position: np.ndarray, speed: np.ndarray, torque: np.ndarray, rate_hz: float, levels: list[float]
+) -> float:
+    """Energy-window viscous friction, one window at a time with plain loops and normal equations."""
+    peak_all = max(abs(float(x)) for x in speed)
+    moving = [abs(float(x)) > 0.02 * peak_all for x in speed]
+    stretches, i = [], 0
+    while i < len(speed):
+        if moving[i]:
+            j = i
+            while j < len(speed) and moving[j]:
+                j += 1
+            stretches.append((i, j))
+            i = j
+        else:
+            i += 1
+    complete = [(a, b) for a, b in stretches if a > 0 and b < len(speed) and b - a >= 40]
+    rows, work = [], []
+    for m, (a, b) in enumerate(complete):
+        peak = max(abs(float(x)) for x in speed[a:b])
+        for level in levels:
+            inside = [k for k in range(a, b) if abs(float(speed[k])) > level * peak]
+            i0, i1 = inside[0], inside[-1]
+            row = [0.0] * (len(complete) + 1)
+            row[m] = abs(float(position[i1] - position[i0]))
+            # Trapezoid rule over samples i0 .. i1, term by term.
+            row[-1] = (
+                sum((float(speed[k]) ** 2 + float(speed[k + 1]) ** 2) / 2 for k in range(i0, i1))
+                / rate_hz
+            )
+            rows.append(row)
+            work.append(
+                sum(
+                    (float(torque[k] * speed[k]) + float(torque[k + 1] * speed[k + 1])) / 2
+                    for k in range(i0, i1)
+                )
+                / rate_hz
+            )
+    return float(least_squares_normal_equations(np.array(rows), np.array(work))[-1])

@@ -19,7 +19,7 @@ _ROW_PAIRED = {
 
 
 @parametrize_with_checks(
-    [aw.PCADetector(n_components=2), aw.LRADetector()],
+    [aw.PCADetector(n_components=2), aw.LRADetector(), aw.IndicatorDetector()],
     expected_failed_checks=lambda est: _ROW_PAIRED if isinstance(est, aw.LRADetector) else {},
 )
 def test_scikit_learn_contract(estimator, check) -> None:  # type: ignore[no-untyped-def]

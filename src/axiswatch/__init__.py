@@ -73,6 +73,7 @@ from axiswatch._indicators import (
 )
 from axiswatch._ledger import rebaseline
 from axiswatch._mechanics import (
+    COLUMNS,
     INDICATORS,
     MECHANICS_SCALES,
     MechanicsStage,
@@ -137,6 +138,7 @@ __all__ = [
     "AxisModel",
     "AxiswatchError",
     "BaselineDetector",
+    "COLUMNS",
     "CORALDetector",
     "CWRU_FEATURES",
     "CalibrationError",

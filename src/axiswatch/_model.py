@@ -12,6 +12,7 @@ It only composes the lower stages: :func:`~axiswatch.extract_features`, a
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -23,6 +24,7 @@ from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, LRADetector
 from axiswatch._features import Features, FeatureSpec, features_from_signals
+from axiswatch._indicators import FeatureStage
 from axiswatch._preprocessing import phase_lag, resample_capture
 from axiswatch.exceptions import CalibrationError
 
@@ -66,7 +68,11 @@ class HealthModel:
     align_phase : bool, default=True
         Shift every capture circularly to line up with the baseline before taking features
         (captures start at arbitrary phases of the task cycle; the paper's distances pair rows by
-        index). Meaningful with circular padding, the default.
+        index). Meaningful with circular padding, the default. Ignored with a ``stage``.
+    stage : FeatureStage, optional
+        A feature stage (:class:`~axiswatch.MechanicsStage`, ...) used instead of the |STFT|
+        features: fitted on the baseline (a copy; never modified), then it reads every capture.
+        ``features`` then only names the signals to read.
 
     Examples
     --------
@@ -91,11 +97,13 @@ class HealthModel:
         *,
         percentile: float = 99.0,
         align_phase: bool = True,
+        stage: FeatureStage | None = None,
     ) -> None:
         self.features = FeatureSpec() if features is None else features
         self.detector = LRADetector() if detector is None else detector
         self.percentile = percentile
         self.align_phase = align_phase
+        self.stage = stage
 
     def _signals(self, capture: Capture) -> tuple[NDArray[np.float64], float]:
         return resample_capture(
@@ -104,6 +112,8 @@ class HealthModel:
 
     def featurize(self, capture: Capture) -> tuple[Features, int]:
         """Features of a capture, after phase alignment to the baseline; and the lag used."""
+        if self.stage_ is not None:
+            return self.stage_.transform(capture), 0
         signals, rate = self._signals(capture)
         lag = 0
         if self.align_phase:
@@ -117,9 +127,14 @@ class HealthModel:
         """Take ``baseline`` as the healthy reference (the paper's commissioning capture)."""
         signals, rate = self._signals(baseline)
         self.baseline_signals_: NDArray[np.float64] = signals
-        self.baseline_features_ = features_from_signals(
-            signals, rate, self.features, source=baseline.source
-        )
+        self.stage_: FeatureStage | None = None
+        if self.stage is not None:
+            self.stage_ = copy.deepcopy(self.stage).fit(baseline)
+            self.baseline_features_ = self.stage_.transform(baseline)
+        else:
+            self.baseline_features_ = features_from_signals(
+                signals, rate, self.features, source=baseline.source
+            )
         self.detector_ = clone(self.detector).fit(self.baseline_features_.X)
         self.calibration_: HalfLaplaceFit | None = None
         return self

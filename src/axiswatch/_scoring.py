@@ -17,9 +17,11 @@ from typing import Any, Literal
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
 from axiswatch._fleet import FleetFile
+from axiswatch._indicators import FeatureStage
+from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch.exceptions import AxiswatchError
 
@@ -35,7 +37,7 @@ __all__ = [
     "score_capture",
 ]
 
-Method = Literal["lra", "pca"]
+Method = Literal["lra", "pca", "mechanics"]
 
 #: Features of the monitor: the library's defaults (position, speed, torque and their products,
 #: Hann window of 128, circular padding, magnitude scaling) with a hop of 8 samples. At 2 kHz a
@@ -50,9 +52,12 @@ class MonitorConfig:
 
     Parameters
     ----------
-    method : {"lra", "pca"}, default="lra"
-        The paper's Low Rank Alignment distance or the PCA baseline (library defaults of
-        :class:`LRADetector` and :class:`PCADetector`).
+    method : {"lra", "pca", "mechanics"}, default="lra"
+        The paper's Low Rank Alignment distance, the PCA baseline (library defaults of
+        :class:`LRADetector` and :class:`PCADetector` on ``features``), or the physical
+        indicators of :class:`MechanicsStage` with :class:`IndicatorDetector`, the default chosen
+        by the development protocol of docs/evaluation.md (no phase alignment: its rows are
+        directions of motion, not time slices).
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
         ``K``: captures after the baseline that calibrate the threshold.
@@ -88,9 +93,10 @@ class MonitorConfig:
     align_phase: bool = True
 
     def __post_init__(self) -> None:
-        if self.method not in ("lra", "pca"):
+        if self.method not in ("lra", "pca", "mechanics"):
             raise ValueError(
-                f"The 'method' parameter must be 'lra' or 'pca'. Got {self.method!r} instead."
+                "The 'method' parameter must be 'lra', 'pca' or 'mechanics'. "
+                f"Got {self.method!r} instead."
             )
         if not (0.0 < self.percentile < 100.0):
             raise ValueError(
@@ -114,19 +120,30 @@ class MonitorConfig:
         """A fresh detector of the configured method."""
         if self.method == "lra":
             return LRADetector(noise_level=self.lra_noise_level)
+        if self.method == "mechanics":
+            return IndicatorDetector()
         return PCADetector()
 
+    def stage(self) -> FeatureStage | None:
+        """The feature stage of the configured method (None: the |STFT| ``features``)."""
+        return MechanicsStage() if self.method == "mechanics" else None
+
     def params(self) -> dict[str, Any]:
-        """JSON-ready parameters: features, detector, calibration and alarm rule."""
-        return {
+        """JSON-ready parameters: features, detector, calibration and alarm rule (and the stage,
+        for a stage method: the key is absent otherwise, so stores made before it still match)."""
+        params = {
             "method": self.method,
             "detector": self.detector().get_params(),
             "features": dataclasses.asdict(self.features),
-            "align_phase": self.align_phase,
+            "align_phase": self.align_phase and self.method != "mechanics",
             "percentile": self.percentile,
             "calibration_size": self.calibration_size,
             "alarm": {"k": self.alarm_k, "n": self.alarm_n, "clear_m": self.clear_m},
         }
+        stage = self.stage()
+        if stage is not None:
+            params["stage"] = {"name": type(stage).__name__, **vars(stage)}
+        return params
 
 
 def file_hash(path: Path) -> str:
@@ -185,6 +202,7 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
             job.config.detector(),
             percentile=job.config.percentile,
             align_phase=job.config.align_phase,
+            stage=job.config.stage(),
         ).fit(capture)
     except (AxiswatchError, ValueError, OSError) as exc:
         return FitOutcome(job, None, {}, "", "", _one_line(exc, path, job.relative))

@@ -72,6 +72,7 @@ def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
 class Method(StrEnum):
     lra = "lra"
     pca = "pca"
+    mechanics = "mechanics"
 
 
 class Format(StrEnum):
@@ -106,7 +107,13 @@ def _echo_summary(store: Any) -> None:
 def monitor(
     root: Annotated[Path, typer.Argument(help="Fleet folder ROOT/<robot>/<axis>/<capture>.<ext>.")],
     store: StorePath,
-    method: Annotated[Method, typer.Option(help="Distance: the paper's LRA, or PCA.")] = Method.lra,
+    method: Annotated[
+        Method,
+        typer.Option(
+            help="Distance: the physical indicators (default, docs/evaluation.md), the paper's "
+            "LRA, or PCA."
+        ),
+    ] = Method.mechanics,
     percentile: float = typer.Option(99.0, help="Threshold percentile of the half-Laplace fit."),
     calibration: int = typer.Option(5, help="Captures after the baseline that set the threshold."),
     alarm_k: int = typer.Option(1, help="Alarm when K of the last N captures are over..."),
@@ -332,7 +339,7 @@ def demo(
         typer.echo(f"Simulating a fleet into {root} ...")
         labels = simulate_fleet(root, n_days=days, seed=seed)
         with Store(folder / "fleet.db") as opened, _progress(True) as update:
-            for method in ("lra", "pca"):
+            for method in ("mechanics", "lra", "pca"):
                 monitor_fleet(root, opened, MonitorConfig(method=method), progress=update)
             typer.echo("\nFleet summary (state after the last capture):")
             _echo_summary(opened)
@@ -366,6 +373,16 @@ def _save(table: Any, figure: Any, out: Path, stem: str) -> None:
     typer.echo(f"\nWrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
 
 
+def _save_alarms(table: Any, out: Path) -> None:
+    from axiswatch._experiments import alarm_summary
+
+    alarms = alarm_summary(table)
+    alarms.to_csv(out / "alarms.csv", index=False)
+    typer.echo("\nAlarms (threshold: 99th percentile of days 2-6):")
+    typer.echo(alarms.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    typer.echo(f"Wrote {out / 'alarms.csv'}")
+
+
 @experiment_app.command("roc")
 def experiment_roc(
     out: Path = _OUT,
@@ -392,6 +409,7 @@ def experiment_robot_a(
 
     table = robot_a(seed=seed, n_days=days)
     _save(table, plot_robot_study(table, "Robot A"), out, "robot_a")
+    _save_alarms(table, out)
 
 
 @experiment_app.command("robot-b")
@@ -407,6 +425,7 @@ def experiment_robot_b(
 
     table = robot_b(seed=seed, n_days=days, fault=fault)  # type: ignore[arg-type]
     _save(table, plot_robot_study(table, "Robot B"), out, "robot_b")
+    _save_alarms(table, out)
 
 
 def _real_data_experiment(
@@ -478,6 +497,20 @@ def experiment_paired(
 
     table = paired_evaluation(PairedDesign(n_per_cell=per_cell, seed=seed), oracle=oracle)
     _save(table, plot_paired(table), out, "paired")
+
+
+@experiment_app.command("select")
+def experiment_select(out: Path = _OUT) -> None:
+    """Choose the product default: rank every feature stage x detector on the development design."""
+    from axiswatch._paired import development_scales, select_default
+
+    ranking = select_default()
+    out.mkdir(parents=True, exist_ok=True)
+    ranking.to_csv(out / "selection.csv", index=False)
+    typer.echo(ranking.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    scales = ", ".join(f"{v:.4g}" for v in development_scales())
+    typer.echo(f"\nMechanics indicator scales on the development design: ({scales})")
+    typer.echo(f"Wrote {out / 'selection.csv'}")
 
 
 @experiment_app.command("gearbox")

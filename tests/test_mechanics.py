@@ -1,0 +1,145 @@
+"""The mechanics indicators: exact on constructed signals, task-invariant and fault-sensitive on
+the simulator (the figures in the comments are measured, docs/evaluation.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import axiswatch as aw
+from axiswatch._mechanics import ENERGY_LEVELS
+from tests import naive
+
+
+def _moves_out_and_back(n_cycles: int = 3, rate_hz: float = 1000.0) -> tuple[np.ndarray, ...]:
+    t = np.arange(0, 2.0 * n_cycles + 0.5, 1.0 / rate_hz)
+    q = np.zeros_like(t)
+    for c in range(n_cycles):
+        for t0, sign in ((2.0 * c + 0.25, 1.0), (2.0 * c + 1.25, -1.0)):
+            q += sign * 0.4 * (1 - np.cos(np.pi * np.clip((t - t0) / 0.6, 0, 1)))
+    v = np.gradient(q, 1.0 / rate_hz)
+    return t, q, v, np.gradient(v, 1.0 / rate_hz)
+
+
+def test_viscous_friction_recovers_the_coefficient_whatever_coulomb_inertia_and_load() -> None:
+    _, q, v, a = _moves_out_and_back()
+    for inertia, coulomb, load in ((2.0, 7.0, 5.0), (9.0, 30.0, -40.0)):
+        tau = inertia * a + 4.0 * v + coulomb * np.sign(v) + load
+        # Exact up to rounding: the trapezoid rule makes the inertia's work telescope.
+        assert aw.viscous_friction(q, v, tau, 1000.0) == pytest.approx(4.0, rel=1e-9)
+
+
+def test_viscous_friction_matches_the_loop_twin(rng: np.random.Generator) -> None:
+    _, q, v, a = _moves_out_and_back()
+    tau = 3.0 * a + 2.5 * v + 6.0 * np.sign(v) + 0.3 * rng.normal(size=v.size)
+    assert aw.viscous_friction(q, v, tau, 1000.0) == pytest.approx(
+        naive.viscous_friction(q, v, tau, 1000.0, list(ENERGY_LEVELS)), rel=1e-9
+    )
+
+
+def test_viscous_friction_is_nan_without_a_complete_move() -> None:
+    v = np.linspace(0.0, 1.0, 500)  # accelerating until the capture ends
+    assert np.isnan(aw.viscous_friction(np.cumsum(v) / 1000, v, v, 1000.0))
+
+
+def test_moves_merges_noise_gaps_and_drops_blips() -> None:
+    v = np.r_[np.zeros(50), np.ones(60), [0.0], np.ones(60), np.zeros(50), -np.ones(5), np.zeros(9)]
+    assert aw.moves(v, min_gap=10) == [(50, 171)]
+
+
+def test_angle_locked_f_matches_the_hat_matrix_twin(rng: np.random.Generator) -> None:
+    theta = np.sort(rng.uniform(0, 150, 1500))
+    y = rng.normal(size=theta.size) + 0.3 * np.sin(5.43 * theta) + np.cos(2 * theta)
+    fast = aw.angle_locked_f(y, theta, [5.43, 6.43], nuisance_orders=[1, 2, 3])
+    assert fast == pytest.approx(naive.angle_locked_f(y, theta, [5.43, 6.43], [1, 2, 3]), rel=1e-8)
+
+
+def test_angle_locked_f_of_noise_follows_the_f_distribution() -> None:
+    # Mean of F(p, n - k) is (n - k) / (n - k - 2) ~ 1.001; 200 draws give a standard error ~0.05.
+    rng = np.random.default_rng(7)
+    theta = np.linspace(0, 200, 2000)
+    values = [aw.angle_locked_f(rng.normal(size=theta.size), theta, [3.3, 4.7]) for _ in range(200)]
+    assert np.mean(values) == pytest.approx(1.0, abs=0.15)
+
+
+def _ar1(rng: np.random.Generator, n: int, rho: float = 0.9) -> np.ndarray:
+    white = rng.normal(size=n + 200)
+    out = np.zeros(white.size)
+    for k in range(1, white.size):  # a smooth, strongly coloured spectrum
+        out[k] = rho * out[k - 1] + white[k]
+    return out[200:]
+
+
+def test_line_ratio_is_about_one_for_coloured_noise_and_large_for_a_line() -> None:
+    # The stage's bearing set (8 orders): F has 16 degrees of freedom, so one draw's ratio
+    # scatters by ~50 %; measured median over 21 draws 1.07 (the F statistic alone: 2.3, the
+    # noise's colour), with the line 5.8.
+    rng = np.random.default_rng(3)
+    theta = np.linspace(0, 300, 6000)
+    orders = [5.43 + k for k in (-2, -1, 0, 1, 2)] + [10.86 + k for k in (-1, 0, 1)]
+    draws = [_ar1(rng, theta.size) for _ in range(21)]
+    assert 0.75 < np.median([aw.line_ratio(x, theta, orders, [-0.25, 0.25]) for x in draws]) < 1.35
+    line = draws[0] + 0.5 * np.cos(5.43 * theta)
+    assert aw.line_ratio(line, theta, orders, [-0.25, 0.25]) > 3
+
+
+@pytest.fixture(scope="module")
+def stage() -> aw.MechanicsStage:
+    return aw.MechanicsStage().fit(aw.simulate_capture("short_fast", seed=11))
+
+
+def _shift(stage: aw.MechanicsStage, capture: aw.Capture) -> np.ndarray:
+    assert stage.baseline_rows_ is not None
+    return stage.transform(capture).X.mean(axis=0) - stage.baseline_rows_.mean(axis=0)
+
+
+@pytest.mark.parametrize("task", ["short_fast", "long_slow", "palletize"])
+def test_each_fault_raises_its_own_indicator_on_every_task(
+    stage: aw.MechanicsStage, task: str
+) -> None:
+    # In units of the healthy cross-task spread; measured shifts 3.1-3.7 (friction), 3-6 (tooth),
+    # 5-13 (bearing).
+    column = {name: j for j, name in enumerate(aw.COLUMNS)}
+    for kind, indicator in (
+        ("friction", "viscous_friction"),
+        ("tooth", "tooth_lines"),
+        ("bearing", "bearing_lines"),
+    ):
+        faulty = aw.simulate_capture(task, fault=aw.Fault(kind, 0.6), seed=21)  # type: ignore[arg-type]
+        assert _shift(stage, faulty)[column[indicator]] > 2.0, (kind, task)
+
+
+def test_healthy_task_changes_stay_within_a_few_spreads(stage: aw.MechanicsStage) -> None:
+    # Measured worst case over these tasks: +1.7 spreads (tooth lines, heavy).
+    for task in ("long_slow", "heavy", "inspect", "palletize"):
+        assert np.all(_shift(stage, aw.simulate_capture(task, seed=31)) < 2.5), task
+
+
+def test_band_beyond_nyquist_is_rejected() -> None:
+    with pytest.raises(
+        ValueError, match=r"'band_hz' parameter of MechanicsStage.*Got \(40.0, 1500.0\)"
+    ):
+        aw.MechanicsStage(band_hz=(40.0, 1500.0)).fit(aw.simulate_capture("short_fast", seed=0))
+
+
+def test_too_short_capture_is_rejected() -> None:
+    short = aw.simulate_capture("short_fast", duration_s=0.1, seed=0)
+    with pytest.raises(aw.CaptureError, match="too short for the mechanics indicators"):
+        aw.MechanicsStage().fit(short)
+
+
+def test_baseline_without_motion_is_rejected() -> None:
+    at_rest = aw.Capture(
+        {"position": np.zeros(250), "speed": np.zeros(2000), "torque": np.ones(2000)},
+        {"position": 250.0, "speed": 2000.0, "torque": 2000.0},
+        source="rest.parquet",
+    )
+    with pytest.raises(aw.CaptureError, match=r"rest\.parquet: the baseline must show complete"):
+        aw.MechanicsStage().fit(at_rest)
+
+
+def test_a_capture_missing_a_direction_takes_the_baselines_row(stage: aw.MechanicsStage) -> None:
+    capture = aw.simulate_capture("long_slow", duration_s=0.9, phase_s=0.0, seed=3)  # forward only
+    X = stage.transform(capture).X
+    assert stage.baseline_rows_ is not None
+    np.testing.assert_array_equal(X[1], stage.baseline_rows_[1])
