@@ -211,6 +211,7 @@ def viscous_friction(
         else:
             i += 1
     complete = [(a, b) for a, b in stretches if a > 0 and b < len(speed) and b - a >= 40]
+    # (Only moves inside the capture: the twin checks the windows, not the edge handling.)
     rows, work = [], []
     for m, (a, b) in enumerate(complete):
         peak = max(abs(float(x)) for x in speed[a:b])

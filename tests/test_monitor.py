@@ -50,7 +50,7 @@ def test_alarm_step_matches_naive_state_machine(k: int, n: int, m: int) -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"method": "svm"}, r"'method' parameter must be 'lra' or 'pca'. Got 'svm'"),
+        ({"method": "svm"}, r"'method' parameter must be 'lra', 'pca' or 'mechanics'. Got 'svm'"),
         ({"percentile": 100.0}, r"'percentile' parameter must be a float in \(0, 100\). Got 100"),
         ({"calibration_size": 1}, r"'calibration_size' parameter must be an int >= 2 .* Got 1"),
         ({"alarm_k": 3, "alarm_n": 2}, r"needs 1 <= k <= n .* Got k=3, n=2"),
@@ -225,3 +225,35 @@ def test_chosen_baseline_and_a_changed_baseline_file(fleet: Path, tmp_path: Path
         "robot01 axis axis1 is not scored (re-baseline it)"
     ]
     assert summary.exit_code == 8
+
+
+def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) -> None:
+    # The product default (docs/evaluation.md): friction develops on axis2 from day 8 (severity
+    # 0.2 on day 8, 1.0 on day 12); axis1 stays healthy. Captures of 3 s (a task cycle at least).
+    root = tmp_path / "fleet"
+    aw.simulate_fleet(
+        root,
+        n_robots=1,
+        n_axes=2,
+        n_days=12,
+        task_change_days=(),
+        faults=[aw.FleetFault("robot01", "axis2", "friction", onset_day=8)],
+    )
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(root, store, MonitorConfig(method="mechanics"))
+        results = fleet_results(store)
+    alarms = results[results.alarm].groupby("axis").capture.apply(list).to_dict()
+    assert "axis1" not in alarms
+    assert alarms["axis2"][-1] == "2026-03-12.parquet"
+    assert min(alarms["axis2"]) >= "2026-03-08"  # no alarm before the fault
+    params = json.loads(store_params(tmp_path / "s.db"))
+    assert params["stage"]["name"] == "MechanicsStage"
+    assert params["align_phase"] is False
+
+
+def store_params(path: Path) -> str:
+    import sqlite3
+
+    with sqlite3.connect(path) as connection:
+        (text,) = connection.execute("SELECT params FROM baselines LIMIT 1").fetchone()
+    return str(text)

@@ -140,7 +140,7 @@ def test_bad_inputs_are_rejected_one_line_each_and_the_rest_goes_on(
 
 def test_failure_is_one_line_unless_debug(tmp_path: Path, fleet: Path) -> None:
     (tmp_path / "not.db").write_text("not a database at all" * 20)
-    args = ["monitor", str(fleet), "--store", str(tmp_path / "not.db")]
+    args = ["monitor", str(fleet), "--method", "lra", "--store", str(tmp_path / "not.db")]
     plain = runner.invoke(app, args)
     assert plain.exit_code == 1
     assert plain.output.startswith("error: store '")
@@ -154,7 +154,12 @@ def test_failure_is_one_line_unless_debug(tmp_path: Path, fleet: Path) -> None:
 
 def test_results_formats_and_filters(fleet: Path, tmp_path: Path) -> None:
     store = tmp_path / "s.db"
-    assert runner.invoke(app, ["monitor", str(fleet), "--store", str(store)]).exit_code == 0
+    assert (
+        runner.invoke(
+            app, ["monitor", str(fleet), "--method", "lra", "--store", str(store)]
+        ).exit_code
+        == 0
+    )
     table = runner.invoke(app, ["results", "--store", str(store), "--axis", "axis2"])
     assert table.exit_code == 0
     assert "axis1" not in table.output
@@ -242,7 +247,17 @@ def test_simulate_fleet_command(tmp_path: Path) -> None:
 
 def _kill_after(seconds: float, fleet: Path, store: Path) -> int:
     process = subprocess.Popen(
-        [sys.executable, "-m", "axiswatch", "monitor", str(fleet), "--store", str(store)],
+        [
+            sys.executable,
+            "-m",
+            "axiswatch",
+            "monitor",
+            str(fleet),
+            "--method",
+            "lra",
+            "--store",
+            str(store),
+        ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
@@ -261,14 +276,14 @@ def test_killed_runs_resume_to_the_uninterrupted_result(fleet: Path, tmp_path: P
             shutil.copy(folder / f"2026-03-0{day - 8}.parquet", folder / f"2026-03-{day}.parquet")
     reference = tmp_path / "reference.db"
     start = time.perf_counter()
-    assert _run("monitor", fleet, "--store", reference).returncode == 0
+    assert _run("monitor", fleet, "--method", "lra", "--store", reference).returncode == 0
     duration = time.perf_counter() - start
     store = tmp_path / "killed.db"
     # Kill points as fractions of an uninterrupted run (start-up included), each run resuming
     # the previous one's store: early (during start-up or the first baseline), mid and late.
     outcomes = [_kill_after(fraction * duration, fleet, store) for fraction in (0.3, 0.55, 0.8)]
     assert -9 in outcomes, outcomes
-    final = _run("monitor", fleet, "--store", store)
+    final = _run("monitor", fleet, "--method", "lra", "--store", store)
     assert final.returncode == 0, final.stderr
     pd.testing.assert_frame_equal(_results(store), _results(reference))
     connection = sqlite3.connect(store)
@@ -280,7 +295,17 @@ def test_two_monitors_on_one_store(fleet: Path, tmp_path: Path) -> None:
     reference = tmp_path / "reference.db"
     runner.invoke(app, ["monitor", str(fleet), "--store", str(reference), "--method", "pca"])
     store = tmp_path / "shared.db"
-    command = [sys.executable, "-m", "axiswatch", "monitor", str(fleet), "--store", str(store)]
+    command = [
+        sys.executable,
+        "-m",
+        "axiswatch",
+        "monitor",
+        str(fleet),
+        "--method",
+        "lra",
+        "--store",
+        str(store),
+    ]
     processes = [
         subprocess.Popen([*command, "--method", "pca"], stdout=subprocess.PIPE, text=True)
         for _ in range(2)
@@ -299,14 +324,17 @@ def test_two_monitors_on_one_store(fleet: Path, tmp_path: Path) -> None:
 
 def test_lra_noise_level_option(fleet: Path, tmp_path: Path) -> None:
     store = str(tmp_path / "s.db")
-    bad = runner.invoke(app, ["monitor", str(fleet), "--store", store, "--lra-noise-level=-1"])
+    bad = runner.invoke(
+        app, ["monitor", str(fleet), "--method", "lra", "--store", store, "--lra-noise-level=-1"]
+    )
     assert bad.exit_code == 2
     words = " ".join(bad.output.replace("│", " ").split())  # rich wraps the message in a box
     assert (
         "Invalid value for '--lra-noise-level': expected a number > 0 or 'auto'; got '-1'" in words
     )
     auto = runner.invoke(
-        app, ["monitor", str(fleet), "--store", store, "--lra-noise-level", "auto"]
+        app,
+        ["monitor", str(fleet), "--method", "lra", "--store", store, "--lra-noise-level", "auto"],
     )
     assert auto.exit_code == 0, auto.output
     connection = sqlite3.connect(store)

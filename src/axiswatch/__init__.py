@@ -80,6 +80,7 @@ from axiswatch._mechanics import (
     angle_locked_f,
     line_ratio,
     moves,
+    reversal_bursts,
     viscous_friction,
 )
 from axiswatch._model import Assessment, HealthModel
@@ -226,6 +227,7 @@ __all__ = [
     "read_recording",
     "rebaseline",
     "resample_capture",
+    "reversal_bursts",
     "segment_distances",
     "select_default",
     "simulate_capture",

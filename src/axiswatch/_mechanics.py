@@ -17,6 +17,9 @@ axis gives the same value on every task while the fault they watch moves them:
   kurtosis reads the task: a band whose level follows the speed along a move is heavy-tailed
   even if Gaussian at every instant (healthy kurtosis 3.8 on a slow task, 10 on fast ones; with
   the envelope 3.1-3.5 on every development task).
+* **reversal bursts** (:func:`reversal_bursts`): the torque's 40-300 Hz burst where the torque
+  changes sign while moving (where a gearbox's backlash is crossed), over the square root of the
+  rate at which the torque turns there.
 * **angle-locked lines** (:func:`angle_locked_f`): the torque's 40-300 Hz band is regressed on
   sines and cosines of the motor angle at the orders a fault would excite (a damaged tooth of a
   gear turning once every ``tooth_period_revs`` motor revolutions: orders ``k / tooth_period_revs``
@@ -31,8 +34,8 @@ These need the axis's kinematics (gear ratio, the period of the gear stage that 
 tooth, the bearing's defect order), which a service engineer takes from the datasheets as any
 vibration monitoring system does; defaults are those of the project's simulator.
 
-:class:`MechanicsStage` turns a capture into a ``(2, 5)`` matrix (rows: the two directions of
-motion; columns :data:`COLUMNS`: ``log10`` of the four indicators, each divided by the spread it
+:class:`MechanicsStage` turns a capture into a ``(2, 6)`` matrix (rows: the two directions of
+motion; columns :data:`COLUMNS`: ``log10`` of the five indicators, each divided by the spread it
 shows across healthy tasks in the development protocol of ``_paired``, with the viscous friction
 also negated as a fifth column), usable by any detector. Larger means worse in every column: the
 viscous friction is abnormal both ways (more friction; less apparent friction when lost motion
@@ -64,17 +67,25 @@ __all__ = [
     "angle_locked_f",
     "line_ratio",
     "moves",
+    "reversal_bursts",
     "viscous_friction",
 ]
 
 #: The indicators, in the order of :meth:`MechanicsStage.indicators` and of ``MECHANICS_SCALES``.
-INDICATORS: tuple[str, ...] = ("viscous_friction", "impulsiveness", "tooth_lines", "bearing_lines")
+INDICATORS: tuple[str, ...] = (
+    "viscous_friction",
+    "impulsiveness",
+    "reversal_bursts",
+    "tooth_lines",
+    "bearing_lines",
+)
 
 #: Columns of :class:`MechanicsStage`'s features, in order.
 COLUMNS: tuple[str, ...] = (
     "viscous_friction",
     "viscous_friction_deficit",
     "impulsiveness",
+    "reversal_bursts",
     "tooth_lines",
     "bearing_lines",
 )
@@ -86,7 +97,7 @@ ENERGY_LEVELS: tuple[float, ...] = (0.02, 0.15, 0.3, 0.45, 0.6, 0.75)
 #: healthy captures of tasks other than the baseline's, measured by
 #: :func:`axiswatch.development_scales` on the development design (tasks and seeds never used in
 #: any reported result). Recomputed and checked by tests/test_paired.py.
-MECHANICS_SCALES: tuple[float, ...] = (0.0599, 0.0740, 0.0996, 0.181)
+MECHANICS_SCALES: tuple[float, ...] = (0.0600, 0.0740, 0.219, 0.0996, 0.181)
 
 
 def moves(
@@ -127,8 +138,9 @@ def viscous_friction(
 ) -> float:
     """Viscous friction coefficient from the energy balance of whole moves.
 
-    For every complete move (at rest before and after, both inside the capture) and every level
-    ``x`` of ``levels``, the window runs from the first to the last sample whose ``|speed|``
+    For every move (from rest to rest; a move cut by the capture's edge keeps the levels above
+    its speed at the cut, if its peak is inside) and every level ``x`` of ``levels``, the window
+    runs from the first to the last sample whose ``|speed|``
     exceeds ``x`` times the move's peak, so speed, hence kinetic energy, is the same at both ends.
     The motor's work over the window is ``c_move * |dq| + F_v * integral(speed^2 dt)``; ``c_move``
     is free per move (Coulomb friction, gravity and payload), ``F_v`` is shared and returned.
@@ -147,7 +159,7 @@ def viscous_friction(
     Returns
     -------
     float
-        ``F_v`` (torque per speed), NaN when the capture holds no complete move.
+        ``F_v`` (torque per speed), NaN when the capture holds no usable move.
 
     Examples
     --------
@@ -165,14 +177,23 @@ def viscous_friction(
     shared: list[float] = []
     work: list[float] = []
     for start, stop in moves(speed):
-        if start == 0 or stop >= speed.size:
-            continue  # cut by the capture's edge: the speed at its ends is not known
         magnitude = np.abs(speed[start:stop])
         middle = int(np.argmax(magnitude))
         if direction is not None and np.sign(speed[start + middle]) != direction:
             continue
+        if middle in (0, magnitude.size - 1):
+            continue  # cut by the capture's edge before or after its peak: the peak is unknown
+        # A move cut by the capture's edge keeps the windows whose both ends lie inside it: the
+        # levels above its speed at the cut.
+        edge = max(
+            float(magnitude[0]) if start == 0 else 0.0,
+            float(magnitude[-1]) if stop >= speed.size else 0.0,
+        )
+        usable = [level for level in levels if level * magnitude[middle] > edge]
+        if len(usable) < 2:
+            continue
         distances = []
-        for level in levels:
+        for level in usable:
             above = np.flatnonzero(magnitude > level * magnitude[middle])
             i, j = start + int(above[0]), start + int(above[-1])
             distances.append(abs(float(position[j] - position[i])))
@@ -182,8 +203,10 @@ def viscous_friction(
     if not per_move:
         return float("nan")
     design = np.zeros((len(work), len(per_move) + 1))
+    row = 0
     for m, distances in enumerate(per_move):
-        design[m * len(levels) : (m + 1) * len(levels), m] = distances
+        design[row : row + len(distances), m] = distances
+        row += len(distances)
     design[:, -1] = shared
     coefficients, *_ = scipy.linalg.lstsq(design, np.asarray(work))
     return float(coefficients[-1])
@@ -280,8 +303,73 @@ def line_ratio(
     return angle_locked_f(signal, angle, orders) / float(reference)
 
 
+def reversal_bursts(
+    torque: NDArray[np.float64],
+    band: NDArray[np.float64],
+    rate_hz: float,
+    where: NDArray[np.bool_],
+    *,
+    smoothing_hz: float = 10.0,
+    window_s: float = 0.02,
+) -> float:
+    """Mean burst of ``band`` where the torque reverses, over the root of how fast it turns.
+
+    Backlash is crossed when the torque transmitted by the gearbox changes sign: the motor runs
+    free through the gap and strikes the other flank. At every sign change of the torque
+    low-passed at ``smoothing_hz`` (samples in ``where`` only), the burst is the largest
+    ``|band|`` within ``window_s``; the faster the torque turns (``|d torque / dt|``), the faster
+    the gap is crossed and the harder it is struck, so each burst is divided by the square root
+    of that rate (the exponent chosen on the development design among 0, 1/2 and 1: the healthy
+    spread across tasks was 0.44, 0.36 and 0.41 decades).
+
+    Parameters
+    ----------
+    torque, band : ndarray of shape (n_samples,)
+        The torque and its band-passed version.
+    rate_hz : float
+    where : ndarray of bool, shape (n_samples,)
+        Samples whose reversals count (e.g. one direction of motion).
+    smoothing_hz : float, default=10.0
+    window_s : float, default=0.02
+        Half-width of the window searched for the burst.
+
+    Returns
+    -------
+    float
+        NaN when the torque does not reverse in ``where``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(0, 2, 1e-3)
+    >>> torque = 50 * np.sin(2 * np.pi * t)
+    >>> band = np.zeros_like(t); band[[500, 1000, 1500]] = 3.0  # a knock at each reversal
+    >>> everywhere = np.ones_like(t, dtype=bool)
+    >>> round(reversal_bursts(torque, band, 1000.0, everywhere), 3)  # 3 / sqrt(2 pi 50)
+    0.169
+    """
+    smooth = sosfiltfilt(butter(2, smoothing_hz, fs=rate_hz, output="sos"), torque)
+    crossings = np.flatnonzero(np.diff(np.sign(smooth)) != 0)
+    crossings = crossings[where[crossings]]
+    if crossings.size == 0:
+        return float("nan")
+    half = max(1, round(window_s * rate_hz))
+    slope = np.abs(np.gradient(smooth, 1.0 / rate_hz))
+    magnitude = np.abs(band)
+    bursts = [
+        magnitude[max(0, c - half) : c + half].max() / np.sqrt(max(slope[c], 1e-12))
+        for c in crossings
+    ]
+    return float(np.mean(bursts))
+
+
+def _log10(raw: NDArray[np.float64]) -> NDArray[np.float64]:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(np.log10(np.where(raw > 0, raw, np.nan)))
+
+
 class MechanicsStage:
-    """The four indicators of this module as a feature stage (rows: directions of motion).
+    """The five indicators of this module as a feature stage (rows: directions of motion).
 
     Parameters
     ----------
@@ -302,19 +390,23 @@ class MechanicsStage:
         Samples with ``|speed|`` above this fraction of the peak count as moving.
     envelope_s : float, default=0.1
         Length of the moving RMS that normalises the band before its kurtosis.
-    scales : sequence of 4 floats, default=MECHANICS_SCALES
+    scales : sequence of 5 floats, default=MECHANICS_SCALES
         Each indicator's column is ``log10(indicator) / scale``.
 
     Attributes
     ----------
-    baseline_rows_ : ndarray of shape (2, 5)
+    baseline_readings_ : ndarray of shape (2, 5)
+        :meth:`readings` of the baseline.
+    unobserved_ : ndarray of bool, shape (5,)
+        Indicators the baseline gives in neither direction.
+    baseline_rows_ : ndarray of shape (2, 6)
 
     Examples
     --------
     >>> from axiswatch import simulate_capture
     >>> stage = MechanicsStage().fit(simulate_capture("short_fast", seed=0))
     >>> stage.transform(simulate_capture("heavy", seed=1)).X.shape
-    (2, 5)
+    (2, 6)
     """
 
     def __init__(
@@ -338,13 +430,26 @@ class MechanicsStage:
         self.scales = scales
 
     def fit(self, baseline: Capture) -> MechanicsStage:
-        self.baseline_readings_: NDArray[np.float64] | None = None
-        self.baseline_readings_ = self.readings(baseline)
+        logged = _log10(self.indicators(baseline))
+        missing = ~np.isfinite(logged)
+        if missing[:, 0].any():
+            raise CaptureError(
+                f"{baseline.source}: the baseline must show a usable move in both directions "
+                "(the viscous friction could not be read in direction "
+                f"{' and '.join(d for d, m in zip('+-', missing[:, 0], strict=True) if m)}); "
+                "expected a capture of at least one task cycle."
+            )
+        for j in range(1, logged.shape[1]):
+            if missing[:, j].any() and not missing[:, j].all():
+                logged[missing[:, j], j] = logged[~missing[:, j], j]
+        self.unobserved_ = missing.all(axis=0)
+        logged[:, self.unobserved_] = 0.0
+        self.baseline_readings_ = logged
         self.baseline_rows_ = self.transform(baseline).X
         return self
 
     def indicators(self, capture: Capture) -> NDArray[np.float64]:
-        """The raw indicators (not logged, not scaled), shape (2, 4); NaN where not measurable."""
+        """The raw indicators (not logged, not scaled), shape (2, 5); NaN where not measurable."""
         signals, rate = resample_capture(capture, ("position", "speed", "torque"))
         position, speed, torque = signals.T
         low, high = self.band_hz
@@ -381,6 +486,9 @@ class MechanicsStage:
             rows[r] = [
                 viscous_friction(position, speed, torque, rate, direction=direction),
                 float(kurtosis(normalised[moving], fisher=False)),
+                reversal_bursts(
+                    torque, band, rate, (sign == direction) & (np.abs(speed) > 0.1 * peak)
+                ),
                 # Tooth orders are 1 / tooth_period_revs apart: the neighbours sit half-way.
                 line_ratio(x, theta, tooth, [0.5 / self.tooth_period_revs]),
                 line_ratio(x, theta, bearing, [-0.25, 0.25]),
@@ -388,23 +496,26 @@ class MechanicsStage:
         return rows
 
     def readings(self, capture: Capture) -> NDArray[np.float64]:
-        """``log10`` of :meth:`indicators`, shape (2, 4), unscaled; a reading that cannot be
-        taken (a direction without a complete move) is the baseline's: no evidence either way."""
-        raw = self.indicators(capture)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            logged = np.log10(np.where(raw > 0, raw, np.nan))
-        missing = ~np.isfinite(logged)
-        if missing.any():
-            if self.baseline_readings_ is None:
-                names = [INDICATORS[j] for j in sorted(set(np.flatnonzero(missing.any(axis=0))))]
-                raise CaptureError(
-                    f"{capture.source}: the baseline must show complete moves in both directions "
-                    f"(missing: {names}); expected a capture of at least one task cycle."
-                )
-            logged[missing] = self.baseline_readings_[missing]
+        """``log10`` of :meth:`indicators`, shape (2, 5), unscaled.
+
+        A reading that cannot be taken (a direction without a usable move, a direction in which
+        the torque never reverses) is the baseline's: no evidence either way. The baseline
+        itself must give the viscous friction in both directions; another indicator it gives in
+        one direction only is taken for both, one it gives in neither (``unobserved_``) reads
+        the same on every capture.
+        """
+        logged = _log10(self.indicators(capture))
+        missing = ~np.isfinite(logged) | self.unobserved_
+        logged[missing] = self.baseline_readings_[missing]
         return logged
 
     def transform(self, capture: Capture) -> Features:
-        scaled = self.readings(capture) / np.asarray(self.scales, dtype=np.float64)
+        scales = np.asarray(self.scales, dtype=np.float64)
+        if scales.shape != (len(INDICATORS),) or not np.all(scales > 0):
+            raise ValueError(
+                f"The 'scales' parameter of MechanicsStage must be {len(INDICATORS)} positive "
+                f"floats, one per indicator {INDICATORS}. Got {self.scales!r} instead."
+            )
+        scaled = self.readings(capture) / scales
         X = np.column_stack([scaled[:, :1], -scaled[:, :1], scaled[:, 1:]])
         return Features(X, ("mechanics",), np.zeros(len(COLUMNS)), float(capture.rates_hz["speed"]))

@@ -31,7 +31,7 @@ from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
 from axiswatch._indicators import FeatureStage, OrderStage, ResidualStage, StateStage, StftStage
-from axiswatch._mechanics import MechanicsStage
+from axiswatch._mechanics import INDICATORS, MechanicsStage
 from axiswatch._robot import FAULT_KINDS, Fault, Task, simulate_capture
 
 __all__ = [
@@ -249,9 +249,9 @@ def development_scales(
 
     Returns
     -------
-    ndarray of shape (4,)
+    ndarray of shape (5,)
     """
-    stage = MechanicsStage()
+    stage = MechanicsStage(scales=(1.0,) * len(INDICATORS))
     reading = {}
     for task in design.test_tasks:
         stage.fit(design.capture(task, "healthy", 0))
