@@ -125,12 +125,37 @@ def test_each_fault_raises_its_own_indicator_on_every_task(
     tooth = shift("tooth")
     assert max(tooth[column["impulsiveness"]], tooth[column["tooth_lines"]]) > 2.0
     assert shift("bearing")[column["bearing_lines"]] > 3.5
+    # Backlash is the weakest: the larger of impulsiveness and reversal bursts, measured
+    # 4.1 (short_fast), 1.2 (long_slow), 1.8 (palletize).
+    backlash = shift("backlash")
+    assert max(backlash[column["impulsiveness"]], backlash[column["reversal_bursts"]]) > 1.0
 
 
 def test_healthy_task_changes_stay_within_a_few_spreads(stage: aw.MechanicsStage) -> None:
     # Measured worst case over these tasks: +2.36 spreads (viscous friction, heavy: 10 kg payload).
     for task in ("long_slow", "heavy", "inspect", "palletize"):
         assert np.all(_shift(stage, aw.simulate_capture(task, seed=31)) < 3.0), task
+
+
+def test_reversal_bursts_are_nan_where_the_torque_does_not_reverse() -> None:
+    t = np.arange(0, 1, 1e-3)
+    torque = 20 + np.sin(2 * np.pi * 3 * t)  # gravity holds one flank all the time
+    assert np.isnan(aw.reversal_bursts(torque, np.ones_like(t), 1000.0, t >= 0))
+
+
+def test_reversal_bursts_only_count_the_selected_samples() -> None:
+    t = np.arange(0, 2, 1e-3)
+    torque = 50 * np.sin(2 * np.pi * t)
+    band = np.zeros_like(t)
+    band[[500, 1000, 1500]] = [3.0, 30.0, 3.0]
+    late = t > 1.2  # only the reversal at 1.5 s
+    expected = 3.0 / np.sqrt(2 * np.pi * 50)
+    assert aw.reversal_bursts(torque, band, 1000.0, late) == pytest.approx(expected, rel=1e-3)
+
+
+def test_scales_of_the_wrong_length_are_rejected() -> None:
+    with pytest.raises(ValueError, match=r"'scales' parameter of MechanicsStage must be 5"):
+        aw.MechanicsStage(scales=(1.0, 1.0)).fit(aw.simulate_capture("short_fast", seed=0))
 
 
 def test_band_beyond_nyquist_is_rejected() -> None:

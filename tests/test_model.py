@@ -70,3 +70,19 @@ def test_calibrate_on_distances(rng: np.random.Generator) -> None:
     )
     model.fit(_cycle_capture(0, rng)).calibrate(np.array([1.0, 2.0, 3.0]), percentile=50)
     assert model.threshold_ == pytest.approx(2.0 * np.log(2.0))
+
+
+def test_min_threshold_bounds_the_calibrated_one(
+    robot_capture: aw.Capture, rng: np.random.Generator
+) -> None:
+    def noisy() -> aw.Capture:
+        signals = {k: v + 0.01 * rng.normal(size=v.size) for k, v in robot_capture.signals.items()}
+        return aw.Capture(signals, robot_capture.rates_hz)
+
+    spec = aw.FeatureSpec(segment_length=32, hop=8)
+    healthy = [noisy() for _ in range(4)]
+    low = aw.HealthModel(spec, aw.PCADetector(n_components=2)).fit(robot_capture)
+    high = aw.HealthModel(spec, aw.PCADetector(n_components=2), min_threshold=1e9)
+    high.fit(robot_capture)
+    assert low.calibrate(healthy).threshold_ < 1e9
+    assert high.calibrate(healthy).threshold_ == 1e9

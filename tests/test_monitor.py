@@ -249,6 +249,15 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     params = json.loads(store_params(tmp_path / "s.db"))
     assert params["stage"]["name"] == "MechanicsStage"
     assert params["align_phase"] is False
+    # Same-task calibration gives a threshold below what healthy task changes need: the floor.
+    floor = MonitorConfig(method="mechanics").threshold_floor()
+    assert floor == pytest.approx(aw.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
+    assert (results.threshold.dropna() >= floor).all()
+
+
+def test_threshold_floor_is_zero_for_the_papers_methods() -> None:
+    assert MonitorConfig(method="lra").threshold_floor() == 0.0
+    assert "threshold_floor" not in MonitorConfig(method="pca").params()
 
 
 def store_params(path: Path) -> str:

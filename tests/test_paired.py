@@ -39,8 +39,17 @@ def table() -> pd.DataFrame:
     return paired_evaluation(design, stages=stages, methods={"pca": PCADetector})
 
 
+#: What the monitor's threshold rule gives, beside them.
+FLOOR_COLUMNS = ["far95_floor", "dr95_floor", "far99_floor", "dr99_floor"]
+
+
 def test_columns_are_exactly_the_documented_ones(table: pd.DataFrame) -> None:
-    assert list(table.columns) == PAIRED_COLUMNS
+    assert list(table.columns) == PAIRED_COLUMNS + FLOOR_COLUMNS
+
+
+def test_floor_columns_equal_the_plain_ones_without_a_floor(table: pd.DataFrame) -> None:
+    for plain, floored in zip(PAIRED_COLUMNS[4:8], FLOOR_COLUMNS, strict=True):
+        np.testing.assert_array_equal(table[plain], table[floored])
 
 
 def test_residual_stage_sees_backlash_and_friction_across_tasks(table: pd.DataFrame) -> None:
@@ -84,7 +93,7 @@ def test_command_writes_paired_csv_and_figure(tmp_path: Path) -> None:
     )
     assert result.returncode == 0, result.stderr
     written = pd.read_csv(tmp_path / "paired.csv")
-    assert list(written.columns) == PAIRED_COLUMNS
+    assert list(written.columns) == PAIRED_COLUMNS + FLOOR_COLUMNS
     assert len(written) == 5 * 3 * 4  # stages x methods x faults
     assert written.oracle_auroc.isna().all()
     assert (tmp_path / "paired.png").stat().st_size > 1000
@@ -93,6 +102,12 @@ def test_command_writes_paired_csv_and_figure(tmp_path: Path) -> None:
 def test_mechanics_scales_are_those_of_the_development_protocol() -> None:
     # MECHANICS_SCALES is a constant of the code; it must be what the protocol measures.
     np.testing.assert_allclose(aw.development_scales(), aw.MECHANICS_SCALES, rtol=5e-3)
+
+
+def test_task_change_scale_is_that_of_the_development_protocol() -> None:
+    assert aw.development_task_change_scale() == pytest.approx(
+        aw.MECHANICS_TASK_CHANGE_SCALE, rel=5e-3
+    )
 
 
 def test_development_design_shares_no_task_or_seed_with_the_reported_one() -> None:

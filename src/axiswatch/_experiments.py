@@ -16,12 +16,12 @@ from sklearn.base import clone
 from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
-from axiswatch._calibration import fit_half_laplace
+from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec, extract_features
 from axiswatch._indicators import FeatureStage
-from axiswatch._mechanics import MechanicsStage
+from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._robot import Fault, FaultKind, simulate_capture
 from axiswatch._simulate import LAB_DAYS, lab_dataset
@@ -298,13 +298,20 @@ def _score_days_stages(
 
 
 def alarm_summary(
-    table: pd.DataFrame, *, n_calibration: int = 5, percentile: float = 99.0
+    table: pd.DataFrame,
+    *,
+    n_calibration: int = 5,
+    percentile: float = 99.0,
+    task_change_scales: Mapping[str, float] | None = None,
 ) -> pd.DataFrame:
     """Alarms of a robot study: threshold from the first days, then count and first alarm.
 
     The threshold of every method and alignment is the ``percentile`` of the half-Laplace fit of
     the distances of days ``2 .. n_calibration + 1`` (captures of the baseline's task, as a
-    commissioning engineer would take them); every later day alarms when its distance exceeds it.
+    commissioning engineer would take them), raised for a method of ``task_change_scales``
+    (default: the product default ``{"mechanics": MECHANICS_TASK_CHANGE_SCALE}``) to the same
+    percentile of healthy task changes in development, as the monitor does; every later day
+    alarms when its distance exceeds it.
 
     Returns
     -------
@@ -322,12 +329,17 @@ def alarm_summary(
     >>> int(summary.false_alarms[0]), float(summary.first_faulty_alarm_day[0])
     (0, 11.0)
     """
+    if task_change_scales is None:
+        task_change_scales = {"mechanics": MECHANICS_TASK_CHANGE_SCALE}
     rows = []
     for (method, alignment), group in table.groupby(["method", "alignment"], sort=False):
         group = group.sort_values("day")
         calibration = group.iloc[:n_calibration]
         scored = group.iloc[n_calibration:]
         threshold = _threshold(calibration.distance.to_numpy(), percentile)
+        scale = task_change_scales.get(str(method))
+        if scale is not None:
+            threshold = max(threshold, HalfLaplaceFit(scale, 0, 0.0, 1.0).threshold(percentile))
         alarm = scored.distance.to_numpy() > threshold
         healthy = (scored.fault == "none").to_numpy()
         days = scored.day.to_numpy()

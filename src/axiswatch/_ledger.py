@@ -211,6 +211,13 @@ def commit_score(store: Store, outcome: ScoreOutcome, config: MonitorConfig) -> 
                             f"({_percentile_text(config.percentile)} of the half-Laplace fit of "
                             f"{count} healthy distances)"
                         )
+                        floor = config.threshold_floor()
+                        if floor > threshold:
+                            threshold = floor
+                            reason += (
+                                f", raised to the floor {floor:.4g} that healthy task changes "
+                                "need (development protocol, docs/evaluation.md)"
+                            )
                         db.execute(
                             "UPDATE baselines SET threshold=?, calibration=? WHERE id=?",
                             (

@@ -63,6 +63,7 @@ __all__ = [
     "COLUMNS",
     "INDICATORS",
     "MECHANICS_SCALES",
+    "MECHANICS_TASK_CHANGE_SCALE",
     "MechanicsStage",
     "angle_locked_f",
     "line_ratio",
@@ -98,6 +99,12 @@ ENERGY_LEVELS: tuple[float, ...] = (0.02, 0.15, 0.3, 0.45, 0.6, 0.75)
 #: :func:`axiswatch.development_scales` on the development design (tasks and seeds never used in
 #: any reported result). Recomputed and checked by tests/test_paired.py.
 MECHANICS_SCALES: tuple[float, ...] = (0.0600, 0.0740, 0.219, 0.0996, 0.181)
+
+#: Half-Laplace scale (mean) of the :class:`~axiswatch.IndicatorDetector` distance between
+#: healthy captures of different tasks, measured by :func:`axiswatch.development_task_change_scale`
+#: on the development design: what a healthy task change does to the product default's distance,
+#: which calibration captures of the baseline's own task cannot show. Checked by tests.
+MECHANICS_TASK_CHANGE_SCALE: float = 2.81
 
 
 def moves(

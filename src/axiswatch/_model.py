@@ -69,6 +69,9 @@ class HealthModel:
         Shift every capture circularly to line up with the baseline before taking features
         (captures start at arbitrary phases of the task cycle; the paper's distances pair rows by
         index). Meaningful with circular padding, the default. Ignored with a ``stage``.
+    min_threshold : float, default=0.0
+        Lower bound of the threshold (``MonitorConfig.threshold_floor``: what healthy task
+        changes do to the distance, which same-task calibration captures cannot show).
     stage : FeatureStage, optional
         A feature stage (:class:`~axiswatch.MechanicsStage`, ...) used instead of the |STFT|
         features: fitted on the baseline (a copy; never modified), then it reads every capture.
@@ -97,8 +100,10 @@ class HealthModel:
         *,
         percentile: float = 99.0,
         align_phase: bool = True,
+        min_threshold: float = 0.0,
         stage: FeatureStage | None = None,
     ) -> None:
+        self.min_threshold = min_threshold
         self.features = FeatureSpec() if features is None else features
         self.detector = LRADetector() if detector is None else detector
         self.percentile = percentile
@@ -156,7 +161,7 @@ class HealthModel:
             distances = np.asarray(healthy, dtype=np.float64)
         self.calibration_ = fit_half_laplace(distances)
         self.healthy_distances_ = distances
-        self.threshold_ = self.calibration_.threshold(self.percentile)
+        self.threshold_ = max(self.calibration_.threshold(self.percentile), self.min_threshold)
         return self
 
     def assess(self, capture: Capture) -> Assessment:

@@ -10,6 +10,9 @@ of the task cycle. For every feature stage x detector:
 * ``far95``/``far99``: share of healthy other-task captures above the 95th/99th percentile
   threshold (half-Laplace fit on the calibration captures' distances);
 * ``dr95``/``dr99``: share of faulty captures above it;
+* ``far95_floor`` ... ``dr99_floor``: the same with the threshold raised to the floor that
+  healthy task changes need where one is known (the product default, whose floor comes from the
+  development design; equal to the plain columns elsewhere): what the monitor does;
 * ``oracle_auroc``: the yardstick, a detector fitted on a healthy capture of the test capture's own
   task (unavailable in practice): per test task, AUROC of faulty against healthy captures of that
   task, averaged over tasks.
@@ -26,12 +29,12 @@ import pandas as pd
 from numpy.typing import NDArray
 from sklearn.metrics import roc_auc_score
 
-from axiswatch._calibration import fit_half_laplace
+from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
 from axiswatch._indicators import FeatureStage, OrderStage, ResidualStage, StateStage, StftStage
-from axiswatch._mechanics import INDICATORS, MechanicsStage
+from axiswatch._mechanics import INDICATORS, MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._robot import FAULT_KINDS, Fault, Task, simulate_capture
 
 __all__ = [
@@ -41,6 +44,7 @@ __all__ = [
     "DEVELOPMENT_TASKS",
     "PairedDesign",
     "development_scales",
+    "development_task_change_scale",
     "paired_evaluation",
     "select_default",
 ]
@@ -133,6 +137,7 @@ def paired_evaluation(
     stages: Mapping[str, Callable[[], FeatureStage]] = DEFAULT_STAGES,
     methods: Mapping[str, Callable[[], BaselineDetector]] = DEFAULT_METHODS,
     oracle: bool = True,
+    task_change_scales: Mapping[tuple[str, str], float] | None = None,
 ) -> pd.DataFrame:
     """Run the paired evaluation; one row per feature stage x method x fault.
 
@@ -140,10 +145,15 @@ def paired_evaluation(
     computed once and shared by the detectors. Thresholds are the 95th and 99th percentiles of the
     half-Laplace fit (location 0) of the calibration captures' distances.
 
+    ``task_change_scales`` maps (stage, method) to the half-Laplace scale of healthy task
+    changes that sets the ``*_floor`` columns' floor; default: the product default's,
+    ``{("mechanics", "indicator"): MECHANICS_TASK_CHANGE_SCALE}``.
+
     Returns
     -------
     DataFrame with columns ``features``, ``method``, ``fault``, ``auroc``, ``far95``, ``dr95``,
-    ``far99``, ``dr99``, ``oracle_auroc``.
+    ``far99``, ``dr99``, ``oracle_auroc``, then ``far95_floor``, ``dr95_floor``,
+    ``far99_floor``, ``dr99_floor``.
 
     Examples
     --------
@@ -151,10 +161,12 @@ def paired_evaluation(
     ...                       n_per_cell=1, n_calibration=2, duration_s=1.0)
     >>> table = paired_evaluation(design, stages={"state": StateStage},
     ...                           methods={"pca": PCADetector}, oracle=False)
-    >>> list(table.columns)
+    >>> list(table.columns)[:9]
     ['features', 'method', 'fault', 'auroc', 'far95', 'dr95', 'far99', 'dr99', 'oracle_auroc']
     """
     design = PairedDesign() if design is None else design
+    if task_change_scales is None:
+        task_change_scales = {("mechanics", "indicator"): MECHANICS_TASK_CHANGE_SCALE}
     n = design.n_per_cell
     cap = design.capture
     baseline = cap(design.baseline_task, "healthy", 0)
@@ -187,6 +199,11 @@ def paired_evaluation(
             calib_d, healthy_d, *fault_d = _distances(method_factory, base_X, groups)
             fit = fit_half_laplace(calib_d)
             thresholds = {q: fit.threshold(q) for q in (95, 99)}
+            scale = task_change_scales.get((stage_name, method_name))
+            floored = {
+                q: max(t, 0.0 if scale is None else HalfLaplaceFit(scale, 0, 0.0, 1.0).threshold(q))
+                for q, t in thresholds.items()
+            }
             oracle_auc = {f: float("nan") for f in design.faults}
             if oracle:
                 per_task: list[list[float]] = []
@@ -208,6 +225,10 @@ def paired_evaluation(
                         "far99": float(np.mean(healthy_d > thresholds[99])),
                         "dr99": float(np.mean(d > thresholds[99])),
                         "oracle_auroc": oracle_auc[fault],
+                        "far95_floor": float(np.mean(healthy_d > floored[95])),
+                        "dr95_floor": float(np.mean(d > floored[95])),
+                        "far99_floor": float(np.mean(healthy_d > floored[99])),
+                        "dr99_floor": float(np.mean(d > floored[99])),
                     }
                 )
     return pd.DataFrame(rows)
@@ -266,6 +287,30 @@ def development_scales(
         for X in reading[task][1:]
     ]
     return np.asarray(np.sqrt(np.mean(np.square(shifts), axis=0)))
+
+
+def development_task_change_scale(
+    design: PairedDesign = DEVELOPMENT_DESIGN, n_captures: int = 4
+) -> float:
+    """Mean distance of healthy captures of another task, for the product default.
+
+    :class:`~axiswatch.MechanicsStage` with :class:`~axiswatch.IndicatorDetector`, every test task
+    of ``design`` in turn the baseline, the healthy captures ``1 .. n_captures`` of every other
+    test task scored: the half-Laplace scale (the mean) of what a healthy task change does to the
+    distance. A threshold calibrated on the baseline's own task cannot see this; the monitor takes
+    the larger of the two thresholds (``MonitorConfig.threshold_floor``).
+    """
+    distances = []
+    for base in design.test_tasks:
+        stage = MechanicsStage().fit(design.capture(base, "healthy", 0))
+        detector = IndicatorDetector().fit(stage.baseline_rows_)
+        distances += [
+            detector.distance(stage.transform(design.capture(task, "healthy", i)).X)
+            for task in design.test_tasks
+            if task != base
+            for i in range(1, n_captures + 1)
+        ]
+    return fit_half_laplace(distances).scale
 
 
 def select_default(

@@ -16,12 +16,13 @@ from typing import Any, Literal
 
 from threadpoolctl import threadpool_limits
 
+from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
 from axiswatch._fleet import FleetFile
 from axiswatch._indicators import FeatureStage
-from axiswatch._mechanics import MechanicsStage
+from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch.exceptions import AxiswatchError
 
@@ -124,6 +125,13 @@ class MonitorConfig:
             return IndicatorDetector()
         return PCADetector()
 
+    def threshold_floor(self) -> float:
+        """Least threshold: for ``"mechanics"``, the ``percentile`` of the half-Laplace fit of
+        healthy task changes in development (``MECHANICS_TASK_CHANGE_SCALE``); else 0."""
+        if self.method != "mechanics":
+            return 0.0
+        return HalfLaplaceFit(MECHANICS_TASK_CHANGE_SCALE, 0, 0.0, 1.0).threshold(self.percentile)
+
     def stage(self) -> FeatureStage | None:
         """The feature stage of the configured method (None: the |STFT| ``features``)."""
         return MechanicsStage() if self.method == "mechanics" else None
@@ -143,6 +151,7 @@ class MonitorConfig:
         stage = self.stage()
         if stage is not None:
             params["stage"] = {"name": type(stage).__name__, **vars(stage)}
+            params["threshold_floor"] = self.threshold_floor()
         return params
 
 
@@ -202,6 +211,7 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
             job.config.detector(),
             percentile=job.config.percentile,
             align_phase=job.config.align_phase,
+            min_threshold=job.config.threshold_floor(),
             stage=job.config.stage(),
         ).fit(capture)
     except (AxiswatchError, ValueError, OSError) as exc:
