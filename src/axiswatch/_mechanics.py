@@ -327,7 +327,7 @@ def reversal_bursts(
     ``|band|`` within ``window_s``; the faster the torque turns (``|d torque / dt|``), the faster
     the gap is crossed and the harder it is struck, so each burst is divided by the square root
     of that rate (the exponent chosen on the development design among 0, 1/2 and 1: the healthy
-    spread across tasks was 0.44, 0.36 and 0.41 decades).
+    range over its five tasks was 0.44, 0.36 and 0.41 decades).
 
     Parameters
     ----------

@@ -36,6 +36,7 @@ from axiswatch._features import FeatureSpec
 from axiswatch._indicators import FeatureStage, OrderStage, ResidualStage, StateStage, StftStage
 from axiswatch._mechanics import INDICATORS, MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._robot import FAULT_KINDS, Fault, Task, simulate_capture
+from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "DEFAULT_METHODS",
@@ -117,6 +118,28 @@ class PairedDesign:
         return self._cache[key]
 
 
+def _fit_first(
+    stage_factory: Callable[[], FeatureStage],
+    task: str,
+    capture: Callable[[str, str, int], Capture],
+    first: int,
+    attempts: int = 10,
+) -> tuple[FeatureStage, int]:
+    """The stage fitted on the first healthy capture of ``task`` (from index ``first``) it accepts.
+
+    A 3 s capture of a long task at a random phase may hold no usable move in one direction,
+    which :class:`~axiswatch.MechanicsStage` refuses as a baseline, as a commissioning engineer
+    would take another capture.
+    """
+    for index in range(first, first + attempts - 1):
+        try:
+            return stage_factory().fit(capture(task, "healthy", index)), index
+        except CaptureError:
+            continue
+    last = first + attempts - 1
+    return stage_factory().fit(capture(task, "healthy", last)), last
+
+
 def _distances(
     method_factory: Callable[[], BaselineDetector],
     baseline: NDArray[np.float64],
@@ -186,7 +209,7 @@ def paired_evaluation(
         own: list[tuple[NDArray[np.float64], list[list[NDArray[np.float64]]]]] = []
         if oracle:
             for task in design.test_tasks:
-                own_stage = stage_factory().fit(cap(task, "healthy", 2000))
+                own_stage, own_index = _fit_first(stage_factory, task, cap, 2000)
                 own_groups = [
                     [own_stage.transform(cap(task, "healthy", 3000 + i)).X for i in range(n)]
                 ]
@@ -194,7 +217,7 @@ def paired_evaluation(
                     [own_stage.transform(cap(task, f, i)).X for i in range(n)]
                     for f in design.faults
                 ]
-                own.append((own_stage.transform(cap(task, "healthy", 2000)).X, own_groups))
+                own.append((own_stage.transform(cap(task, "healthy", own_index)).X, own_groups))
         for method_name, method_factory in methods.items():
             calib_d, healthy_d, *fault_d = _distances(method_factory, base_X, groups)
             fit = fit_half_laplace(calib_d)
