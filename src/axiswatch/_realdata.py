@@ -26,28 +26,34 @@ cycles, so wrapping them around would create an artificial edge).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy.signal import butter, hilbert, sosfiltfilt
 from sklearn.metrics import roc_auc_score
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._datasets import Segment
+from axiswatch._datasets import Segment, read_dataset
 from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch._domain_adaptation import CORALDetector, EnergyDetector, SubspaceAlignmentDetector
 from axiswatch._features import FeatureSpec, extract_features
-from axiswatch.exceptions import CalibrationError
+from axiswatch._mechanics import line_ratio
+from axiswatch.exceptions import CalibrationError, DataNotFoundError
 
 __all__ = [
     "CWRU_FEATURES",
     "GEARBOX_FEATURES",
     "REAL_DATA_METHODS",
+    "bearing_line_readings",
     "evaluate_dataset",
     "plot_distances",
     "segment_distances",
     "summarize_distances",
+    "summarize_line_readings",
 ]
 
 GEARBOX_FEATURES = FeatureSpec(
@@ -311,3 +317,97 @@ def plot_distances(distances: pd.DataFrame, *, axes: Any = None) -> Any:
     fig.supxlabel("segment (in days.csv order)", fontsize=8, y=0.04)
     fig.tight_layout(rect=(0, 0.05, 1, 1))
     return fig
+
+
+def bearing_line_readings(
+    folder: str | Path,
+    *,
+    channel: str = "DE_accel",
+    bearing_order: float = 5.4152,
+    band_hz: tuple[float, float] = (40.0, 300.0),
+    envelope_band_hz: tuple[float, float] = (2000.0, 5000.0),
+    recordings: Sequence[str] | None = None,
+) -> pd.DataFrame:
+    """The product default's bearing-line indicator on a vibration dataset with a known speed.
+
+    The only part of :class:`~axiswatch.MechanicsStage` that applies to an accelerometer on a
+    machine at constant speed: :func:`~axiswatch.line_ratio` at ``bearing_order`` and its
+    sidebands (+-1, +-2; its double +-1), over the orders +-0.25 beside them, of the signal in
+    ``band_hz``, the shaft angle being ``2 pi rpm / 60 t`` (``rpm`` from ``index.csv``'s
+    ``condition_desc``, "... 1797 rpm"). Read two ways: on the raw band, as on the robot's
+    torque, and on the envelope of ``envelope_band_hz`` (the structure's resonance that bearing
+    impacts ring, demodulated), as vibration practice reads bearings. The default
+    ``bearing_order`` is the inner-race defect order of CWRU's drive-end bearing (6205-2RS JEM
+    SKF: 5.4152); the envelope band was set once, a priori, not tuned.
+
+    Returns
+    -------
+    DataFrame
+        One row per segment: ``segment``, ``recording``, ``condition``, ``healthy``, ``fault``
+        (``"none"`` when healthy), ``rpm``, ``lines_raw``, ``lines_envelope`` (``log10`` of the
+        ratio).
+    """
+    folder = Path(folder)
+    index = pd.read_csv(folder / "index.csv").set_index("recording_id")
+    rows = []
+    for segment in read_dataset(folder, recordings=recordings):
+        description = str(index.loc[segment.recording_id, "condition_desc"])
+        match = re.search(r"(\d+(?:\.\d+)?) rpm", description)
+        if match is None:
+            raise DataNotFoundError(
+                f"{folder / 'index.csv'}: column 'condition_desc' of {segment.recording_id} gives "
+                f"no shaft speed; expected '... <number> rpm', got {description!r}."
+            )
+        capture = segment.capture
+        if channel not in capture.signals:
+            raise DataNotFoundError(
+                f"{folder / (segment.recording_id + '.npz')}: no channel {channel!r}; "
+                f"expected one of {sorted(capture.signals)}."
+            )
+        rate = float(capture.rates_hz[channel])
+        signal = np.asarray(capture.signals[channel], dtype=np.float64)
+        rpm = float(match.group(1))
+        theta = np.asarray(2 * np.pi * rpm / 60.0 * np.arange(signal.size) / rate, dtype=np.float64)
+        orders = [bearing_order + k for k in (-2, -1, 0, 1, 2)]
+        orders += [2 * bearing_order + k for k in (-1, 0, 1)]
+        band = butter(4, band_hz, btype="bandpass", fs=rate, output="sos")
+        resonance = butter(4, envelope_band_hz, btype="bandpass", fs=rate, output="sos")
+        envelope = np.abs(hilbert(sosfiltfilt(resonance, signal)))
+        fault = str(index.loc[segment.recording_id, "fault_type"])
+        rows.append(
+            {
+                "segment": segment.segment_id,
+                "recording": segment.recording_id,
+                "condition": segment.condition,
+                "healthy": segment.healthy,
+                "fault": "none" if segment.healthy or fault == "nan" else fault,
+                "rpm": rpm,
+                "lines_raw": float(
+                    np.log10(line_ratio(sosfiltfilt(band, signal), theta, orders, [-0.25, 0.25]))
+                ),
+                "lines_envelope": float(
+                    np.log10(line_ratio(sosfiltfilt(band, envelope), theta, orders, [-0.25, 0.25]))
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def summarize_line_readings(readings: pd.DataFrame) -> pd.DataFrame:
+    """AUROC of each fault type's segments against the healthy ones, for both readings.
+
+    Returns
+    -------
+    DataFrame
+        ``fault``, ``n_segments``, ``auroc_raw``, ``auroc_envelope``.
+    """
+    healthy = readings[readings.healthy]
+    rows = []
+    for fault, faulty in readings[~readings.healthy].groupby("fault", sort=True):
+        labels = np.r_[np.zeros(len(healthy)), np.ones(len(faulty))]
+        row: dict[str, Any] = {"fault": fault, "n_segments": len(faulty)}
+        for column in ("raw", "envelope"):
+            scores = np.r_[healthy[f"lines_{column}"], faulty[f"lines_{column}"]]
+            row[f"auroc_{column}"] = float(roc_auc_score(labels, scores))
+        rows.append(row)
+    return pd.DataFrame(rows)

@@ -484,6 +484,33 @@ Methods = Annotated[
 ]
 
 
+@experiment_app.command("cwru-lines")
+def experiment_cwru_lines(
+    data: Annotated[
+        Path | None, typer.Option("--data", help=_DATA_HELP.format("cwru_12k_de"))
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", help="Folder for lines.csv, summary.csv.")] = Path(
+        "out"
+    ),
+) -> None:
+    """The default's bearing-line indicator on CWRU (raw band and envelope), fault vs healthy."""
+    from axiswatch._datasets import default_data_dir
+    from axiswatch._realdata import bearing_line_readings, summarize_line_readings
+
+    folder = default_data_dir("cwru_12k_de") if data is None else data
+    try:
+        readings = bearing_line_readings(folder)
+    except (OSError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(1) from exc
+    summary = summarize_line_readings(readings)
+    out.mkdir(parents=True, exist_ok=True)
+    readings.to_csv(out / "lines.csv", index=False)
+    summary.to_csv(out / "summary.csv", index=False)
+    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'lines.csv'}, {out / 'summary.csv'}")
+
+
 @experiment_app.command("paired")
 def experiment_paired(
     out: Path = _OUT,
