@@ -234,3 +234,23 @@ def viscous_friction(
                 / rate_hz
             )
     return float(least_squares_normal_equations(np.array(rows), np.array(work))[-1])
+
+
+def reversal_bursts(
+    torque: np.ndarray, band: np.ndarray, rate_hz: float, where: np.ndarray, smoothing_hz: float
+) -> float:
+    """Bursts at sign changes of the low-passed torque, sample by sample."""
+    from scipy.signal import butter, sosfiltfilt
+
+    smooth = sosfiltfilt(butter(2, smoothing_hz, fs=rate_hz, output="sos"), torque)
+    half = round(0.02 * rate_hz)
+    bursts = []
+    for k in range(len(smooth) - 1):
+        if (smooth[k] > 0) != (smooth[k + 1] > 0) and where[k]:
+            if k == 0:
+                slope = abs(smooth[1] - smooth[0]) * rate_hz
+            else:
+                slope = abs(smooth[k + 1] - smooth[k - 1]) * rate_hz / 2
+            peak = max(abs(float(b)) for b in band[max(0, k - half) : k + half])
+            bursts.append(peak / slope**0.5)
+    return float(np.mean(bursts)) if bursts else float("nan")

@@ -189,3 +189,16 @@ def test_a_capture_missing_a_direction_takes_the_baselines_row(stage: aw.Mechani
     X = stage.transform(capture).X
     assert stage.baseline_rows_ is not None
     np.testing.assert_array_equal(X[1], stage.baseline_rows_[1])
+
+
+def test_reversal_bursts_match_the_loop_twin() -> None:
+    capture = aw.simulate_capture("long_fast", fault=aw.Fault("backlash", 0.6), seed=4)
+    signals, rate = aw.resample_capture(capture, ("position", "speed", "torque"))
+    speed, torque = signals[:, 1], signals[:, 2]
+    from scipy.signal import butter, sosfiltfilt
+
+    band = sosfiltfilt(butter(4, [40, 300], btype="bandpass", fs=rate, output="sos"), torque)
+    where = np.abs(speed) > 0.1 * np.abs(speed).max()
+    fast = aw.reversal_bursts(torque, band, rate, where)
+    assert np.isfinite(fast)
+    assert fast == pytest.approx(naive.reversal_bursts(torque, band, rate, where, 10.0), rel=1e-12)

@@ -107,10 +107,12 @@ from axiswatch._realdata import (
     CWRU_FEATURES,
     GEARBOX_FEATURES,
     REAL_DATA_METHODS,
+    bearing_line_readings,
     evaluate_dataset,
     plot_distances,
     segment_distances,
     summarize_distances,
+    summarize_line_readings,
 )
 from axiswatch._report import write_report
 from axiswatch._results import fleet_results, fleet_summary
@@ -193,6 +195,7 @@ __all__ = [
     "angle_locked_f",
     "as_capture",
     "attribute",
+    "bearing_line_readings",
     "capture_to_frame",
     "default_data_dir",
     "development_scales",
@@ -238,6 +241,7 @@ __all__ = [
     "simulate_fleet",
     "stft_features",
     "summarize_distances",
+    "summarize_line_readings",
     "upsample_pchip",
     "viscous_friction",
     "write_capture",
