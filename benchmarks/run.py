@@ -123,7 +123,7 @@ def case_capture(seconds: float, quick: bool) -> dict[str, Any]:
     }
 
 
-def case_fleet(robots: int, quick: bool) -> dict[str, Any]:
+def case_fleet(robots: int, quick: bool, method: str = "mechanics") -> dict[str, Any]:
     """One fleet day through the real monitor: robots x 6 axes, one new 3 s capture each, 2 workers.
 
     Set-up, not timed: a simulated fleet (``simulate_fleet``, 6 days a axis) is commissioned by a
@@ -146,7 +146,7 @@ def case_fleet(robots: int, quick: bool) -> dict[str, Any]:
             target = held / path.relative_to(root)
             target.parent.mkdir(parents=True, exist_ok=True)
             path.rename(target)
-        config = MonitorConfig(method="lra")
+        config = MonitorConfig(method=method)
         with Store(Path(folder) / "fleet.db") as store:
             monitor_fleet(root, store, config, workers=2)
             for path in new_day:
@@ -159,7 +159,7 @@ def case_fleet(robots: int, quick: bool) -> dict[str, Any]:
     if robots != 1000:
         note += f"; 1,000 robots extrapolated (linear): {elapsed * 1000 / robots:.0f} s"
     return {
-        "case": f"fleet day: {robots} robots x 6 axes, monitor --workers 2 (LRA, hop 8)",
+        "case": f"fleet day: {robots} robots x 6 axes, monitor --workers 2 ({method})",
         "fast_s": elapsed,
         "note": note,
     }
@@ -196,9 +196,9 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
 }
 
 
-def run_case(name: str, quick: bool, robots: int) -> None:
+def run_case(name: str, quick: bool, robots: int, method: str) -> None:
     """Child process: run one case, print its result as one JSON line."""
-    result = case_fleet(robots, quick) if name == "fleet" else CASES[name](quick)
+    result = case_fleet(robots, quick, method) if name == "fleet" else CASES[name](quick)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # KiB on Linux
     if name == "fleet":
         peak = max(peak, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024)
@@ -235,10 +235,16 @@ def main() -> None:
         default=None,
         help="robots in the fleet case (default 100, extrapolated; 1000 is the full day: ~30 min with set-up)",
     )
+    parser.add_argument(
+        "--fleet-method",
+        default="mechanics",
+        choices=["mechanics", "lra", "pca"],
+        help="monitor method of the fleet case (default: the product default)",
+    )
     args = parser.parse_args()
     robots = args.fleet_robots or (2 if args.quick else 100)
     if args.case:
-        run_case(args.case, args.quick, robots)
+        run_case(args.case, args.quick, robots, args.fleet_method)
         return
     names = ["lra-300", "capture-3s", "mechanics-3s", "fleet"] if args.quick else [*CASES, "fleet"]
     print(machine())
@@ -246,6 +252,7 @@ def main() -> None:
     for name in names:
         env = {**os.environ, **ONE_THREAD}
         command = [sys.executable, __file__, "--case", name, "--fleet-robots", str(robots)]
+        command += ["--fleet-method", args.fleet_method]
         if args.quick:
             command.append("--quick")
         child = subprocess.run(command, env=env, capture_output=True, text=True)

@@ -130,13 +130,13 @@ class HealthModel:
 
     def fit(self, baseline: Capture) -> HealthModel:
         """Take ``baseline`` as the healthy reference (the paper's commissioning capture)."""
-        signals, rate = self._signals(baseline)
-        self.baseline_signals_: NDArray[np.float64] = signals
         self.stage_: FeatureStage | None = None
         if self.stage is not None:
             self.stage_ = copy.deepcopy(self.stage).fit(baseline)
             self.baseline_features_ = self.stage_.transform(baseline)
         else:
+            signals, rate = self._signals(baseline)
+            self.baseline_signals_: NDArray[np.float64] = signals
             self.baseline_features_ = features_from_signals(
                 signals, rate, self.features, source=baseline.source
             )
