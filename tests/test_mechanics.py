@@ -202,3 +202,18 @@ def test_reversal_bursts_match_the_loop_twin() -> None:
     fast = aw.reversal_bursts(torque, band, rate, where)
     assert np.isfinite(fast)
     assert fast == pytest.approx(naive.reversal_bursts(torque, band, rate, where, 10.0), rel=1e-12)
+
+
+def test_waves_by_recurrence_match_the_trigonometric_functions() -> None:
+    from axiswatch._mechanics import _harmonics
+
+    theta = np.linspace(0, 3000, 4000)  # 480 motor revolutions
+    orders = [k / 5 for k in range(15, 41) if k % 5]  # on a grid: built by recurrence
+    phases = np.multiply.outer(theta, np.array(orders))
+    expected = np.concatenate([np.sin(phases), np.cos(phases)], axis=1)
+    np.testing.assert_allclose(_harmonics(theta, orders, None), expected, rtol=0, atol=1e-10)
+    direction = np.sign(np.sin(theta))
+    signed = _harmonics(theta, orders, direction)
+    np.testing.assert_allclose(
+        signed[:, expected.shape[1] :], expected * direction[:, None], atol=1e-10
+    )

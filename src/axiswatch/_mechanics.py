@@ -222,11 +222,31 @@ def viscous_friction(
 def _harmonics(
     angle: NDArray[np.float64], orders: Sequence[float], direction: NDArray[np.float64] | None
 ) -> NDArray[np.float64]:
-    phases = np.multiply.outer(angle, np.asarray(orders, dtype=np.float64))
-    waves = np.concatenate([np.sin(phases), np.cos(phases)], axis=1)
+    """Columns ``sin(o angle)`` then ``cos(o angle)`` for every order ``o`` (then the same times
+    ``direction``).
+
+    Orders on a common grid (multiples of their smallest spacing, as the tooth and bearing sets
+    are) are powers of one complex exponential, built by repeated multiplication: one ``exp``
+    instead of two trigonometric functions per order (the stage's hot spot). The recurrence's
+    rounding error grows by about one ulp per step, far below the signals' noise; tested against
+    ``np.sin``/``np.cos`` to 1e-12.
+    """
+    values = np.asarray(orders, dtype=np.float64)
+    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
+    steps = np.rint((values - values.min()) / step).astype(np.int64) if step > 0 else None
+    if steps is not None and np.allclose(values, values.min() + steps * step, atol=1e-9):
+        rotation = np.exp(1j * step * angle)
+        waves = np.empty((angle.size, int(steps.max()) + 1), dtype=np.complex128)
+        waves[:, 0] = np.exp(1j * values.min() * angle)
+        for k in range(1, waves.shape[1]):
+            np.multiply(waves[:, k - 1], rotation, out=waves[:, k])
+        phasors = waves[:, steps]
+    else:
+        phasors = np.exp(1j * np.multiply.outer(angle, values))
+    result = np.concatenate([phasors.imag, phasors.real], axis=1)
     if direction is not None:
-        waves = np.concatenate([waves, waves * direction[:, None]], axis=1)
-    return waves
+        result = np.concatenate([result, result * direction[:, None]], axis=1)
+    return result
 
 
 def angle_locked_f(
