@@ -16,7 +16,7 @@ axis gives the same value on every task while the fault they watch moves them:
   RMS envelope over 100 ms (backlash and tooth impacts last a few ms). Without the envelope the
   kurtosis reads the task: a band whose level follows the speed along a move is heavy-tailed
   even if Gaussian at every instant (healthy kurtosis 3.8 on a slow task, 10 on fast ones; with
-  the envelope 3.1-3.5 on every development task).
+  the envelope 3.1-3.5 on the three simulator tasks of the development design).
 * **reversal bursts** (:func:`reversal_bursts`): the torque's 40-300 Hz burst where the torque
   changes sign while moving (where a gearbox's backlash is crossed), over the square root of the
   rate at which the torque turns there.
@@ -36,11 +36,11 @@ vibration monitoring system does; defaults are those of the project's simulator.
 
 :class:`MechanicsStage` turns a capture into a ``(2, 6)`` matrix (rows: the two directions of
 motion; columns :data:`COLUMNS`: ``log10`` of the five indicators, each divided by the spread it
-shows across healthy tasks in the development protocol of ``_paired``, with the viscous friction
-also negated as a fifth column), usable by any detector. Larger means worse in every column: the
-viscous friction is abnormal both ways (more friction; less apparent friction when lost motion
-such as backlash breaks the energy balance, measured 3-9 spreads lower), the other three only
-upwards (a quieter task lowers them).
+shows across healthy tasks in the development protocol of ``_paired``, the viscous friction
+also negated as the second column), usable by any detector. Larger means worse in every column:
+the viscous friction is abnormal both ways (more friction; less apparent friction when lost
+motion such as backlash breaks the energy balance, measured 3-9 spreads lower), the other four
+only upwards (a quieter task lowers them).
 """
 
 from __future__ import annotations
