@@ -28,7 +28,7 @@ from axiswatch._attribution import (
     pca_contributions,
     plot_difference_spectrogram,
 )
-from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
+from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import (
     DEFAULT_SIGNALS,
     Capture,
@@ -79,6 +79,7 @@ from axiswatch._mechanics import (
     MECHANICS_TASK_CHANGE_SCALE,
     MechanicsStage,
     angle_locked_f,
+    bearing_lines,
     line_ratio,
     moves,
     reversal_bursts,
@@ -196,6 +197,7 @@ __all__ = [
     "as_capture",
     "attribute",
     "bearing_line_readings",
+    "bearing_lines",
     "capture_to_frame",
     "default_data_dir",
     "development_scales",
@@ -210,6 +212,7 @@ __all__ = [
     "fit_half_laplace",
     "fleet_results",
     "fleet_summary",
+    "half_laplace_threshold",
     "integer_factor",
     "lab_dataset",
     "line_ratio",

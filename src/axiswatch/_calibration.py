@@ -17,7 +17,7 @@ from scipy import stats
 
 from axiswatch.exceptions import CalibrationError
 
-__all__ = ["HalfLaplaceFit", "fit_half_laplace"]
+__all__ = ["HalfLaplaceFit", "fit_half_laplace", "half_laplace_threshold"]
 
 
 @dataclass(frozen=True)
@@ -42,14 +42,8 @@ class HalfLaplaceFit:
     ks_pvalue: float
 
     def threshold(self, percentile: float | None = None, *, alpha: float | None = None) -> float:
-        """Distance above which a capture is anomalous.
-
-        Parameters
-        ----------
-        percentile : float in (0, 100), optional
-            For example 50, 75, 90, 95, 97.5 or 99.
-        alpha : float in (0, 1), optional
-            Significance level; equivalent to ``percentile = 100 (1 - alpha)``. Give one of the two.
+        """Distance above which a capture is anomalous (:func:`half_laplace_threshold` of the
+        fitted scale).
 
         Examples
         --------
@@ -57,28 +51,49 @@ class HalfLaplaceFit:
         >>> round(fit.threshold(50), 6), round(fit.threshold(alpha=0.5), 6)
         (1.386294, 1.386294)
         """
-        if (percentile is None) == (alpha is None):
-            raise ValueError("Give exactly one of 'percentile' and 'alpha'.")
-        if alpha is None:
-            assert percentile is not None
-            if not (isinstance(percentile, int | float) and 0.0 < percentile < 100.0):
-                raise ValueError(
-                    f"The 'percentile' parameter must be a float in the range (0, 100). "
-                    f"Got {percentile!r} instead."
-                )
-            tail = 1.0 - percentile / 100.0
-        else:
-            if not (isinstance(alpha, int | float) and 0.0 < alpha < 1.0):
-                raise ValueError(
-                    f"The 'alpha' parameter must be a float in the range (0, 1). "
-                    f"Got {alpha!r} instead."
-                )
-            tail = float(alpha)
-        return -self.scale * math.log(tail)
+        return half_laplace_threshold(self.scale, percentile, alpha=alpha)
 
     def pvalue(self, distance: float) -> float:
         """Probability that a healthy capture has a distance at least this large."""
         return math.exp(-max(distance, 0.0) / self.scale)
+
+
+def half_laplace_threshold(
+    scale: float, percentile: float | None = None, *, alpha: float | None = None
+) -> float:
+    """Distance above which a capture is anomalous, for a half-Laplace scale (location 0).
+
+    Parameters
+    ----------
+    scale : float
+        ``b``, the mean healthy distance.
+    percentile : float in (0, 100), optional
+        For example 50, 75, 90, 95, 97.5 or 99.
+    alpha : float in (0, 1), optional
+        Significance level; equivalent to ``percentile = 100 (1 - alpha)``. Give one of the two.
+
+    Examples
+    --------
+    >>> round(half_laplace_threshold(1.0, 99), 6)  # ln(100)
+    4.60517
+    """
+    if (percentile is None) == (alpha is None):
+        raise ValueError("Give exactly one of 'percentile' and 'alpha'.")
+    if alpha is None:
+        assert percentile is not None
+        if not (isinstance(percentile, int | float) and 0.0 < percentile < 100.0):
+            raise ValueError(
+                f"The 'percentile' parameter must be a float in the range (0, 100). "
+                f"Got {percentile!r} instead."
+            )
+        tail = 1.0 - percentile / 100.0
+    else:
+        if not (isinstance(alpha, int | float) and 0.0 < alpha < 1.0):
+            raise ValueError(
+                f"The 'alpha' parameter must be a float in the range (0, 1). Got {alpha!r} instead."
+            )
+        tail = float(alpha)
+    return -scale * math.log(tail)
 
 
 def fit_half_laplace(healthy_distances: ArrayLike | Sequence[float]) -> HalfLaplaceFit:

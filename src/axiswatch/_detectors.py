@@ -267,13 +267,12 @@ class IndicatorDetector(BaselineDetector):
     def _fit(self, X: NDArray[np.float64]) -> None:
         self.centre_ = X.mean(axis=0)
 
-    def distance(self, X: Any) -> float:
-        X = self._check_test(X)
+    def _rows(self, X: NDArray[np.float64]) -> int:
+        return int(X.shape[0])  # rows are averaged, not paired: keep them all
+
+    def _distance(self, X: NDArray[np.float64]) -> float:
         shift = X.mean(axis=0) - self.centre_
         return float(np.sum(np.maximum(shift, 0.0) ** 2 if self.one_sided else shift**2))
-
-    def _distance(self, X: NDArray[np.float64]) -> float:  # pragma: no cover - distance overrides
-        return self.distance(X)
 
     def transform(self, X: Any) -> NDArray[np.float64]:
         """Each test row's shift from the baseline's mean row."""

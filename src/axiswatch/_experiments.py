@@ -16,7 +16,7 @@ from sklearn.base import clone
 from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
-from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
+from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec, extract_features
@@ -274,26 +274,30 @@ StageMethod = tuple[Callable[[], FeatureStage], Callable[[], BaselineDetector]]
 STAGE_METHODS: Mapping[str, StageMethod] = {"mechanics": (MechanicsStage, IndicatorDetector)}
 
 
+def _day_row(
+    day: int, capture: Capture, method: str, alignment: str, distance: float
+) -> dict[str, Any]:
+    """One row of a robot study's table."""
+    return {
+        "day": day,
+        "task": capture.metadata["task"],
+        "fault": capture.metadata["fault"],
+        "severity": float(capture.metadata["severity"]),
+        "method": method,
+        "alignment": alignment,
+        "distance": distance,
+    }
+
+
 def _score_days_stages(
     captures: Sequence[Capture], stage_methods: Mapping[str, StageMethod]
 ) -> list[dict[str, Any]]:
     """Distance of every capture to the first through each feature stage x detector."""
     rows = []
     for name, (stage_factory, detector_factory) in stage_methods.items():
-        stage = stage_factory().fit(captures[0])
-        detector = detector_factory().fit(stage.transform(captures[0]).X)
+        model = HealthModel(detector=detector_factory(), stage=stage_factory()).fit(captures[0])
         for day, capture in enumerate(captures[1:], start=2):
-            rows.append(
-                {
-                    "day": day,
-                    "task": capture.metadata["task"],
-                    "fault": capture.metadata["fault"],
-                    "severity": float(capture.metadata["severity"]),
-                    "method": name,
-                    "alignment": "none",
-                    "distance": float(detector.distance(stage.transform(capture).X)),
-                }
-            )
+            rows.append(_day_row(day, capture, name, "none", model.distance(capture)))
     return rows
 
 
@@ -339,7 +343,7 @@ def alarm_summary(
         threshold = _threshold(calibration.distance.to_numpy(), percentile)
         scale = task_change_scales.get(str(method))
         if scale is not None:
-            threshold = max(threshold, HalfLaplaceFit(scale, 0, 0.0, 1.0).threshold(percentile))
+            threshold = max(threshold, half_laplace_threshold(scale, percentile))
         alarm = scored.distance.to_numpy() > threshold
         healthy = (scored.fault == "none").to_numpy()
         days = scored.day.to_numpy()
@@ -379,17 +383,9 @@ def _score_days(
         for day, capture in enumerate(captures[1:], start=2):
             X = reference.featurize(capture)[0].X
             for name, model in models.items():
-                rows.append(
-                    {
-                        "day": day,
-                        "task": capture.metadata["task"],
-                        "fault": capture.metadata["fault"],
-                        "severity": float(capture.metadata["severity"]),
-                        "method": name,
-                        "alignment": "phase" if aligned else "none",
-                        "distance": float(model.detector_.distance(X)),
-                    }
-                )
+                alignment = "phase" if aligned else "none"
+                distance = float(model.detector_.distance(X))
+                rows.append(_day_row(day, capture, name, alignment, distance))
     return rows
 
 

@@ -66,11 +66,19 @@ _REGRESSORS: tuple[str, ...] = ("acceleration", "speed", "coulomb", "cos_q", "si
 
 
 class FeatureStage(Protocol):
-    """What a detector needs from a feature stage: fit on the baseline, then transform captures."""
+    """What a detector needs from a feature stage: fit on the baseline, then transform captures.
+
+    The stages of the project subclass it to inherit :meth:`fit_transform`, which a stage that
+    keeps its baseline's features overrides so that they are not computed twice.
+    """
 
     def fit(self, baseline: Capture) -> FeatureStage: ...
 
     def transform(self, capture: Capture) -> Features: ...
+
+    def fit_transform(self, baseline: Capture) -> Features:
+        """Fit on the baseline and return its features."""
+        return self.fit(baseline).transform(baseline)
 
 
 @dataclass(frozen=True)
@@ -250,7 +258,7 @@ def _bands(n_bins: int, n_bands: int) -> list[slice]:
     return [slice(lo, hi) for lo, hi in itertools.pairwise(edges)]
 
 
-class StftStage:
+class StftStage(FeatureStage):
     """The paper's |STFT| features as a stage (no fitting needed).
 
     Examples
@@ -269,7 +277,7 @@ class StftStage:
         return extract_features(capture, self.spec)
 
 
-class ResidualStage:
+class ResidualStage(FeatureStage):
     """Per-state description of the torque left unexplained by the axis's own model.
 
     ``fit`` identifies the axis model (:class:`AxisModel`: inertia, friction, link gravity) on the
@@ -368,7 +376,7 @@ class ResidualStage:
         return Features(columns, ("residual",), np.concatenate([centres, [0.0, 0.0, 0.0]]), rate)
 
 
-class OrderStage:
+class OrderStage(FeatureStage):
     """Order spectrum of the residual torque in the motor-angle domain, one row per direction.
 
     The motor angle is ``gear_ratio * position``. Within every stretch of motion in one direction
@@ -463,7 +471,7 @@ class OrderStage:
         )
 
 
-class StateStage:
+class StateStage(FeatureStage):
     """Plain statistics of torque and speed per operating state (operating-point conditioning).
 
     Columns per state: mean torque, torque standard deviation, mean |speed|, torque RMS in the

@@ -56,6 +56,7 @@ from scipy.stats import kurtosis
 
 from axiswatch._capture import Capture
 from axiswatch._features import Features
+from axiswatch._indicators import FeatureStage
 from axiswatch._preprocessing import resample_capture
 from axiswatch.exceptions import CaptureError
 
@@ -66,6 +67,7 @@ __all__ = [
     "MECHANICS_TASK_CHANGE_SCALE",
     "MechanicsStage",
     "angle_locked_f",
+    "bearing_lines",
     "line_ratio",
     "moves",
     "reversal_bursts",
@@ -355,6 +357,26 @@ def line_ratio(
     return free.f_statistic(orders) / float(reference)
 
 
+def bearing_lines(
+    signal: NDArray[np.float64], angle: NDArray[np.float64], bearing_order: float
+) -> float:
+    """:func:`line_ratio` of a bearing defect: ``bearing_order`` with sidebands +-1 and +-2 (the
+    defect passes the load zone once a revolution) and its double with sidebands +-1, over the
+    orders +-0.25 beside them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> theta = np.linspace(0, 300, 6000)
+    >>> noise = np.random.default_rng(2).normal(size=theta.size)
+    >>> bearing_lines(noise + 0.5 * np.cos(5.43 * theta), theta, 5.43) > 3
+    True
+    """
+    orders = [bearing_order + k for k in (-2, -1, 0, 1, 2)]
+    orders += [2 * bearing_order + k for k in (-1, 0, 1)]
+    return line_ratio(signal, angle, orders, [-0.25, 0.25])
+
+
 def reversal_bursts(
     torque: NDArray[np.float64],
     band: NDArray[np.float64],
@@ -420,7 +442,7 @@ def _log10(raw: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.asarray(np.log10(np.where(raw > 0, raw, np.nan)))
 
 
-class MechanicsStage:
+class MechanicsStage(FeatureStage):
     """The five indicators of this module as a feature stage (rows: directions of motion).
 
     Parameters
@@ -497,7 +519,7 @@ class MechanicsStage:
         self.unobserved_ = missing.all(axis=0)
         logged[:, self.unobserved_] = 0.0
         self.baseline_readings_ = logged
-        self.baseline_rows_ = self.transform(baseline).X
+        self.baseline_rows_ = self._rows(logged)
         return self
 
     def indicators(self, capture: Capture) -> NDArray[np.float64]:
@@ -527,8 +549,6 @@ class MechanicsStage:
             if k / self.tooth_period_revs >= self.min_tooth_order
             and k % round(self.tooth_period_revs)
         ]
-        bearing = [self.bearing_order + s for s in (-2, -1, 0, 1, 2)]
-        bearing += [2 * self.bearing_order + s for s in (-1, 0, 1)]
         rows = np.full((2, len(INDICATORS)), np.nan)
         for r, direction in enumerate((1.0, -1.0)):
             moving = (sign == direction) & (np.abs(speed) > self.moving_fraction * peak)
@@ -543,7 +563,7 @@ class MechanicsStage:
                 ),
                 # Tooth orders are 1 / tooth_period_revs apart: the neighbours sit half-way.
                 line_ratio(x, theta, tooth, [0.5 / self.tooth_period_revs]),
-                line_ratio(x, theta, bearing, [-0.25, 0.25]),
+                bearing_lines(x, theta, self.bearing_order),
             ]
         return rows
 
@@ -561,13 +581,24 @@ class MechanicsStage:
         logged[missing] = self.baseline_readings_[missing]
         return logged
 
-    def transform(self, capture: Capture) -> Features:
+    def _rows(self, readings: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Feature rows of :meth:`readings`: scaled, the viscous friction also negated."""
         scales = np.asarray(self.scales, dtype=np.float64)
         if scales.shape != (len(INDICATORS),) or not np.all(scales > 0):
             raise ValueError(
                 f"The 'scales' parameter of MechanicsStage must be {len(INDICATORS)} positive "
                 f"floats, one per indicator {INDICATORS}. Got {self.scales!r} instead."
             )
-        scaled = self.readings(capture) / scales
-        X = np.column_stack([scaled[:, :1], -scaled[:, :1], scaled[:, 1:]])
+        scaled = readings / scales
+        return np.column_stack([scaled[:, :1], -scaled[:, :1], scaled[:, 1:]])
+
+    def transform(self, capture: Capture) -> Features:
+        return self._features(self._rows(self.readings(capture)), capture)
+
+    def fit_transform(self, baseline: Capture) -> Features:
+        """Fit on the baseline and return its features (``baseline_rows_``, not read again)."""
+        return self._features(self.fit(baseline).baseline_rows_, baseline)
+
+    @staticmethod
+    def _features(X: NDArray[np.float64], capture: Capture) -> Features:
         return Features(X, ("mechanics",), np.zeros(len(COLUMNS)), float(capture.rates_hz["speed"]))

@@ -103,11 +103,11 @@ class HealthModel:
         min_threshold: float = 0.0,
         stage: FeatureStage | None = None,
     ) -> None:
-        self.min_threshold = min_threshold
         self.features = FeatureSpec() if features is None else features
         self.detector = LRADetector() if detector is None else detector
         self.percentile = percentile
         self.align_phase = align_phase
+        self.min_threshold = min_threshold
         self.stage = stage
 
     def _signals(self, capture: Capture) -> tuple[NDArray[np.float64], float]:
@@ -132,8 +132,8 @@ class HealthModel:
         """Take ``baseline`` as the healthy reference (the paper's commissioning capture)."""
         self.stage_: FeatureStage | None = None
         if self.stage is not None:
-            self.stage_ = copy.deepcopy(self.stage).fit(baseline)
-            self.baseline_features_ = self.stage_.transform(baseline)
+            self.stage_ = copy.deepcopy(self.stage)
+            self.baseline_features_ = self.stage_.fit_transform(baseline)
         else:
             signals, rate = self._signals(baseline)
             self.baseline_signals_: NDArray[np.float64] = signals

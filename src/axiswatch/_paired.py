@@ -29,7 +29,7 @@ import pandas as pd
 from numpy.typing import NDArray
 from sklearn.metrics import roc_auc_score
 
-from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
+from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
@@ -124,20 +124,23 @@ def _fit_first(
     capture: Callable[[str, str, int], Capture],
     first: int,
     attempts: int = 10,
-) -> tuple[FeatureStage, int]:
-    """The stage fitted on the first healthy capture of ``task`` (from index ``first``) it accepts.
+) -> tuple[FeatureStage, NDArray[np.float64]]:
+    """A stage fitted on the first healthy capture of ``task`` (from index ``first``) it accepts,
+    and that capture's features.
 
     A 3 s capture of a long task at a random phase may hold no usable move in one direction,
     which :class:`~axiswatch.MechanicsStage` refuses as a baseline, as a commissioning engineer
     would take another capture.
     """
-    for index in range(first, first + attempts - 1):
-        try:
-            return stage_factory().fit(capture(task, "healthy", index)), index
-        except CaptureError:
-            continue
     last = first + attempts - 1
-    return stage_factory().fit(capture(task, "healthy", last)), last
+    for index in range(first, last + 1):
+        stage = stage_factory()
+        try:
+            return stage, stage.fit_transform(capture(task, "healthy", index)).X
+        except CaptureError:
+            if index == last:
+                raise
+    raise AssertionError("the loop returns or raises")  # pragma: no cover
 
 
 def _distances(
@@ -201,15 +204,15 @@ def paired_evaluation(
     faulty = [[cap(t, f, i) for t in design.test_tasks for i in range(n)] for f in design.faults]
     rows = []
     for stage_name, stage_factory in stages.items():
-        stage = stage_factory().fit(baseline)
+        stage = stage_factory()
+        base_X = stage.fit_transform(baseline).X
         groups = [
             [stage.transform(c).X for c in group] for group in (calibration, healthy_other, *faulty)
         ]
-        base_X = stage.transform(baseline).X
         own: list[tuple[NDArray[np.float64], list[list[NDArray[np.float64]]]]] = []
         if oracle:
             for task in design.test_tasks:
-                own_stage, own_index = _fit_first(stage_factory, task, cap, 2000)
+                own_stage, own_X = _fit_first(stage_factory, task, cap, 2000)
                 own_groups = [
                     [own_stage.transform(cap(task, "healthy", 3000 + i)).X for i in range(n)]
                 ]
@@ -217,14 +220,14 @@ def paired_evaluation(
                     [own_stage.transform(cap(task, f, i)).X for i in range(n)]
                     for f in design.faults
                 ]
-                own.append((own_stage.transform(cap(task, "healthy", own_index)).X, own_groups))
+                own.append((own_X, own_groups))
         for method_name, method_factory in methods.items():
             calib_d, healthy_d, *fault_d = _distances(method_factory, base_X, groups)
             fit = fit_half_laplace(calib_d)
             thresholds = {q: fit.threshold(q) for q in (95, 99)}
             scale = task_change_scales.get((stage_name, method_name))
             floored = {
-                q: max(t, 0.0 if scale is None else HalfLaplaceFit(scale, 0, 0.0, 1.0).threshold(q))
+                q: max(t, 0.0 if scale is None else half_laplace_threshold(scale, q))
                 for q, t in thresholds.items()
             }
             oracle_auc = {f: float("nan") for f in design.faults}
@@ -299,7 +302,7 @@ def development_scales(
     reading = {}
     for task in design.test_tasks:
         stage.fit(design.capture(task, "healthy", 0))
-        reading[task] = [stage.readings(design.capture(task, "healthy", 0))] + [
+        reading[task] = [stage.baseline_readings_] + [
             stage.readings(design.capture(task, "healthy", i)) for i in range(1, n_captures + 1)
         ]
     shifts = [

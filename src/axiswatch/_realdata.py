@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 from scipy.signal import butter, hilbert, sosfiltfilt
 from sklearn.metrics import roc_auc_score
 
@@ -41,7 +42,7 @@ from axiswatch._datasets import Segment, read_dataset
 from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch._domain_adaptation import CORALDetector, EnergyDetector, SubspaceAlignmentDetector
 from axiswatch._features import FeatureSpec, extract_features
-from axiswatch._mechanics import line_ratio
+from axiswatch._mechanics import bearing_lines
 from axiswatch.exceptions import CalibrationError, DataNotFoundError
 
 __all__ = [
@@ -334,7 +335,7 @@ def bearing_line_readings(
     machine at constant speed: :func:`~axiswatch.line_ratio` at ``bearing_order`` and its
     sidebands (+-1, +-2; its double +-1), over the orders +-0.25 beside them, of the signal in
     ``band_hz``, the shaft angle being ``2 pi rpm / 60 t`` (``rpm`` from ``index.csv``'s
-    ``condition_desc``, "... 1797 rpm"). Read two ways: on the raw band, as on the robot's
+    ``condition_desc``, "... 1797 rpm"), i.e. :func:`~axiswatch.bearing_lines`. Read two ways: on the raw band, as on the robot's
     torque, and on the envelope of ``envelope_band_hz`` (the structure's resonance that bearing
     impacts ring, demodulated), as vibration practice reads bearings. The default
     ``bearing_order`` is the inner-race defect order of CWRU's drive-end bearing (6205-2RS JEM
@@ -350,6 +351,7 @@ def bearing_line_readings(
     folder = Path(folder)
     index = pd.read_csv(folder / "index.csv").set_index("recording_id")
     rows = []
+    filters: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
     for segment in read_dataset(folder, recordings=recordings):
         description = str(index.loc[segment.recording_id, "condition_desc"])
         match = re.search(r"(\d+(?:\.\d+)?) rpm", description)
@@ -368,10 +370,12 @@ def bearing_line_readings(
         signal = np.asarray(capture.signals[channel], dtype=np.float64)
         rpm = float(match.group(1))
         theta = np.asarray(2 * np.pi * rpm / 60.0 * np.arange(signal.size) / rate, dtype=np.float64)
-        orders = [bearing_order + k for k in (-2, -1, 0, 1, 2)]
-        orders += [2 * bearing_order + k for k in (-1, 0, 1)]
-        band = butter(4, band_hz, btype="bandpass", fs=rate, output="sos")
-        resonance = butter(4, envelope_band_hz, btype="bandpass", fs=rate, output="sos")
+        if rate not in filters:
+            filters[rate] = (
+                butter(4, band_hz, btype="bandpass", fs=rate, output="sos"),
+                butter(4, envelope_band_hz, btype="bandpass", fs=rate, output="sos"),
+            )
+        band, resonance = filters[rate]
         envelope = np.abs(hilbert(sosfiltfilt(resonance, signal)))
         fault = str(index.loc[segment.recording_id, "fault_type"])
         rows.append(
@@ -383,10 +387,10 @@ def bearing_line_readings(
                 "fault": "none" if segment.healthy or fault == "nan" else fault,
                 "rpm": rpm,
                 "lines_raw": float(
-                    np.log10(line_ratio(sosfiltfilt(band, signal), theta, orders, [-0.25, 0.25]))
+                    np.log10(bearing_lines(sosfiltfilt(band, signal), theta, bearing_order))
                 ),
                 "lines_envelope": float(
-                    np.log10(line_ratio(sosfiltfilt(band, envelope), theta, orders, [-0.25, 0.25]))
+                    np.log10(bearing_lines(sosfiltfilt(band, envelope), theta, bearing_order))
                 ),
             }
         )

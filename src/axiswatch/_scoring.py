@@ -16,7 +16,7 @@ from typing import Any, Literal
 
 from threadpoolctl import threadpool_limits
 
-from axiswatch._calibration import HalfLaplaceFit
+from axiswatch._calibration import half_laplace_threshold
 from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
@@ -130,7 +130,7 @@ class MonitorConfig:
         healthy task changes in development (``MECHANICS_TASK_CHANGE_SCALE``); else 0."""
         if self.method != "mechanics":
             return 0.0
-        return HalfLaplaceFit(MECHANICS_TASK_CHANGE_SCALE, 0, 0.0, 1.0).threshold(self.percentile)
+        return half_laplace_threshold(MECHANICS_TASK_CHANGE_SCALE, self.percentile)
 
     def stage(self) -> FeatureStage | None:
         """The feature stage of the configured method (None: the |STFT| ``features``)."""
@@ -211,7 +211,6 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
             job.config.detector(),
             percentile=job.config.percentile,
             align_phase=job.config.align_phase,
-            min_threshold=job.config.threshold_floor(),
             stage=job.config.stage(),
         ).fit(capture)
     except (AxiswatchError, ValueError, OSError) as exc:
