@@ -6,13 +6,30 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck bench clean
+LOCK := requirements/dev.lock
 
-$(STAMP): pyproject.toml
+.PHONY: demo test lint typecheck bench clean lock test-latest
+
+# The environment is installed from the lock (exact versions, SHA-256 hashes), so a fresh machine
+# gets the set CI tested; the package itself goes in editable, without its dependencies.
+$(STAMP): pyproject.toml $(LOCK)
+	rm -rf $(VENV)
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	$(BIN)/python -m pip install --quiet --require-hashes -r $(LOCK)
+	$(BIN)/python -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
+
+# Refresh the lock after changing pyproject.toml's dependencies (uv is in the lock's dev set).
+lock: $(STAMP)
+	$(BIN)/uv pip compile pyproject.toml --extra dev --generate-hashes --universal \
+		--python-version 3.11 --quiet -o $(LOCK)
+
+# The suite against the newest releases the registry serves (no lock): drift shows here first.
+test-latest:
+	rm -rf .venv-latest
+	$(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/python -m pip install --quiet --upgrade -e ".[dev]"
+	.venv-latest/bin/python -m pytest -q
 
 demo: $(STAMP)
 	$(BIN)/axiswatch demo
@@ -31,4 +48,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
 clean:
-	rm -rf $(VENV) build dist .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) .venv-latest build dist .pytest_cache .mypy_cache .ruff_cache

@@ -254,3 +254,20 @@ def reversal_bursts(
             peak = max(abs(float(b)) for b in band[max(0, k - half) : k + half])
             bursts.append(peak / slope**0.5)
     return float(np.mean(bursts)) if bursts else float("nan")
+
+
+def running_rms(values: np.ndarray, width: int) -> np.ndarray:
+    """Root of the mean of squares over the window ``[i - width // 2, i + (width - 1) // 2]``,
+    each term summed on its own, ends reflected (``d c b a | a b c d | d c b a``)."""
+    x = np.asarray(values, dtype=float)
+    n = x.size
+    out = np.empty(n)
+    for i in range(n):
+        total = 0.0
+        for j in range(i - width // 2, i + (width - 1) // 2 + 1):
+            k = j
+            while not 0 <= k < n:  # reflect about the edges, repeating the edge sample
+                k = -k - 1 if k < 0 else 2 * n - k - 1
+            total += x[k] ** 2
+        out[i] = np.sqrt(total / width)
+    return out

@@ -217,3 +217,24 @@ def test_waves_by_recurrence_match_the_trigonometric_functions() -> None:
     np.testing.assert_allclose(
         signed[:, expected.shape[1] :], expected * direction[:, None], atol=1e-10
     )
+
+
+@pytest.mark.parametrize("width", [1, 2, 7, 40])
+def test_running_rms_matches_exact_loop(width: int) -> None:
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=300) * np.exp(rng.normal(size=300))
+    np.testing.assert_allclose(
+        aw._mechanics.running_rms(x, width), naive.running_rms(x, width), rtol=1e-9, atol=1e-12
+    )
+
+
+def test_running_rms_never_nan_after_a_burst() -> None:
+    # A burst followed by near-silence: the running sum's cancellation gave a negative mean
+    # (-5e-77) and a NaN envelope; the exact value is tiny and non-negative.
+    x = np.concatenate([np.full(50, 1e-38), np.full(200, 1e-80), np.zeros(100)])
+    rms = aw._mechanics.running_rms(x, 20)
+    assert np.all(np.isfinite(rms))
+    assert np.all(rms >= 0)
+    exact = naive.running_rms(x, 20)
+    # Clipping error bounded by the running sum's round-off: width * eps * max(x**2), under the root.
+    assert np.max(np.abs(rms**2 - exact**2)) <= 20 * np.finfo(float).eps * np.max(x**2)
