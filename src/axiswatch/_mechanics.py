@@ -453,7 +453,7 @@ def running_rms(values: NDArray[np.float64], width: int) -> NDArray[np.float64]:
     array([3., 3., 3., 3.])
     """
     mean_square = uniform_filter1d(np.square(values), max(1, int(width)))
-    return np.sqrt(np.maximum(mean_square, 0.0))
+    return np.asarray(np.sqrt(np.maximum(mean_square, 0.0)), dtype=np.float64)
 
 
 def _log10(raw: NDArray[np.float64]) -> NDArray[np.float64]:
