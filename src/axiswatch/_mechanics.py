@@ -46,6 +46,7 @@ only upwards (a quieter task lowers them).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
 import scipy.linalg
@@ -423,7 +424,7 @@ def reversal_bursts(
     >>> round(reversal_bursts(torque, band, 1000.0, everywhere), 3)  # 3 / sqrt(2 pi 50)
     0.169
     """
-    smooth = sosfiltfilt(butter(2, smoothing_hz, fs=rate_hz, output="sos"), torque)
+    smooth = sosfiltfilt(butter_sos(2, smoothing_hz, rate_hz), torque)
     crossings = np.flatnonzero(np.diff(np.sign(smooth)) != 0)
     crossings = crossings[where[crossings]]
     if crossings.size == 0:
@@ -436,6 +437,26 @@ def reversal_bursts(
         for c in crossings
     ]
     return float(np.mean(bursts))
+
+
+@lru_cache(maxsize=64)
+def butter_sos(
+    order: int, cutoff_hz: float | tuple[float, float], rate_hz: float
+) -> NDArray[np.float64]:
+    """Butterworth low-pass (one cutoff) or band-pass (two) sections, designed once per
+    parameters and process (a design costs about as much as filtering a 3 s capture; every
+    capture of a fleet uses the same few). Shared by the callers, which must not modify it
+    (SciPy's filters need a writeable array, so it cannot be marked read-only).
+
+    Examples
+    --------
+    >>> butter_sos(2, 10.0, 1000.0).shape
+    (1, 6)
+    >>> butter_sos(2, 10.0, 1000.0) is butter_sos(2, 10.0, 1000.0)
+    True
+    """
+    btype = "bandpass" if isinstance(cutoff_hz, tuple) else "lowpass"
+    return np.asarray(butter(order, cutoff_hz, btype=btype, fs=rate_hz, output="sos"))
 
 
 def running_rms(values: NDArray[np.float64], width: int) -> NDArray[np.float64]:
@@ -556,7 +577,7 @@ class MechanicsStage(FeatureStage):
                 f"{capture.source}: capture too short for the mechanics indicators: "
                 f"{signals.shape[0]} samples at {rate:g} Hz, expected at least {4 * rate / low:g}."
             )
-        band = sosfiltfilt(butter(4, [low, high], btype="bandpass", fs=rate, output="sos"), torque)
+        band = sosfiltfilt(butter_sos(4, (low, high), rate), torque)
         envelope = running_rms(band, round(self.envelope_s * rate))
         normalised = band / np.where(envelope > 0, envelope, 1.0)
         angle = self.gear_ratio * position

@@ -20,7 +20,9 @@ Captures of one axis are ordered by their date-time, then by file name.
 
 from __future__ import annotations
 
+import os
 import re
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -120,13 +122,30 @@ def _problem(root: Path, path: Path, reason: str) -> LayoutProblem:
     return LayoutProblem(robot, axis, path.name, path, f"{relative}: {reason}")
 
 
-def discover_fleet(root: str | Path) -> tuple[list[FleetFile], list[LayoutProblem]]:
+def _walk(root: Path, skip: Callable[[str, str], bool] | None) -> Iterator[Path]:
+    """Files under ``root`` (not their folders; no ``stat`` of files), leaving out hidden
+    folders and the axis folders ``skip(robot, axis)`` names."""
+    for folder, folders, names in os.walk(root):
+        parts = Path(folder).relative_to(root).parts
+        folders[:] = [f for f in folders if not f.startswith(".")]
+        if skip is not None and len(parts) == 2 and skip(*parts):
+            folders[:] = []
+            continue
+        yield from (Path(folder) / name for name in names)
+
+
+def discover_fleet(
+    root: str | Path, *, skip: Callable[[str, str], bool] | None = None
+) -> tuple[list[FleetFile], list[LayoutProblem]]:
     """Capture files under ``root``, ordered by robot, axis, date-time and name; and problems.
 
     Parameters
     ----------
     root : str or Path
         The fleet folder.
+    skip : callable (robot, axis) -> bool, optional
+        Axis folders not to list (``monitor._index``: folders unchanged since a run handled
+        them).
 
     Returns
     -------
@@ -156,11 +175,11 @@ def discover_fleet(root: str | Path) -> tuple[list[FleetFile], list[LayoutProble
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
-    for path in sorted(root.rglob("*")):
+    for path in sorted(_walk(root, skip)):
         relative = path.relative_to(root).parts
         if any(part.startswith(".") for part in relative):
             continue
-        if not path.is_file() or path.suffix.lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
+        if path.suffix.lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
             continue
         if len(relative) != 3:
             problems.append(

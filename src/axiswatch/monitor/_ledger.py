@@ -12,10 +12,10 @@ import dataclasses
 import json
 from collections.abc import Sequence
 from datetime import UTC, datetime
-from importlib.metadata import PackageNotFoundError, version
 
 from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch.exceptions import CalibrationError, StoreError
+from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome
 from axiswatch.monitor._store import Store
 
@@ -72,13 +72,6 @@ def now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
 
 
-def _library_version() -> str:
-    try:
-        return version("axiswatch")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "unknown"
-
-
 # --- store writes (each one transaction) -------------------------------------------------------
 
 
@@ -119,7 +112,7 @@ def insert_baseline(
             (
                 file.robot, file.axis, config.method, epoch, file.capture,
                 file.captured_at.isoformat(), outcome.job.relative, outcome.file_hash,
-                outcome.features_hash, params_json(config), _library_version(), now(),
+                outcome.features_hash, params_json(config), library_version(), now(),
             ),
         )  # fmt: skip
         baseline_id = int(cursor.lastrowid or 0)
@@ -344,6 +337,7 @@ def rebaseline(
                     "recorded after the maintenance."
                 )
         stamp = now()
+        store.forget_axis_folder(db, robot, axis)
         for row in rows:
             db.execute("UPDATE baselines SET retired_at=? WHERE id=?", (stamp, row["id"]))
             db.execute(

@@ -26,6 +26,7 @@ process on the same store skips what the first has written.
 
 from __future__ import annotations
 
+import json
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -33,17 +34,19 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from axiswatch._model import HealthModel
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import FleetFile, discover_fleet
+from axiswatch.monitor._index import FileIndex, axis_folder_time, unchanged_axes, verify_budget
 from axiswatch.monitor._ledger import commit_score, insert_baseline, now, params_json, reject
-from axiswatch.monitor._parallel import parallel_map
+from axiswatch.monitor._models import ModelRef
+from axiswatch.monitor._parallel import WorkerPool
+from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import (
     FitJob,
+    FitOutcome,
     MonitorConfig,
     ScoreJob,
     ScoreOutcome,
-    file_hash,
     fit_baseline,
     score_capture,
 )
@@ -91,7 +94,7 @@ class _Axis:
     axis: str
     files: list[FleetFile]
     baseline: Any = None  # sqlite3.Row of the active baseline
-    model: HealthModel | None = None
+    model: ModelRef | None = None
     rates_hz: dict[str, float] = field(default_factory=dict)
     candidates: list[FleetFile] = field(default_factory=list)
     epoch: int = 1
@@ -101,52 +104,31 @@ def _key(file: FleetFile) -> tuple[datetime, str]:
     return (file.captured_at, file.capture)
 
 
-def _changed_files(
-    store: Store, root: Path, files: Sequence[FleetFile], hashes: dict[Path, str]
-) -> list[str]:
-    """Files whose content differs from when they were scored (recorded, and listed)."""
-    scored: dict[str, Any] = {}
-    for row in store.rows(
-        "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-        "ORDER BY id"
-    ):
-        scored[row["path"]] = row
-    changed = []
-    for file in files:
-        relative = file.path.relative_to(root).as_posix()
-        previous = scored.get(relative)
-        if previous is None:
-            continue
-        stat = file.path.stat()
-        if (stat.st_size, stat.st_mtime_ns) == (previous["file_size"], previous["file_mtime_ns"]):
-            continue
-        if file.path not in hashes:
-            hashes[file.path] = file_hash(file.path)
-        current = hashes[file.path]
-        if current == previous["file_hash"]:
+def _changed_files(store: Store, changed: Sequence[tuple[str, str, str]]) -> list[str]:
+    """Scored files whose content differs from when they were scored (recorded, and listed);
+    ``changed`` from :meth:`FileIndex.verify`."""
+    messages = []
+    for relative, _, current in changed:
+        scored = store.scored_hash(relative)
+        if scored is None or scored["file_hash"] == current:
             continue
         with store.write() as db:
             db.execute(
                 "INSERT OR IGNORE INTO changed_files (robot, axis, capture, path, scored_hash, "
                 "current_hash, detected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
                 (
-                    file.robot,
-                    file.axis,
-                    file.capture,
-                    relative,
-                    previous["file_hash"],
-                    current,
-                    now(),
+                    scored["robot"], scored["axis"], scored["capture"], relative,
+                    scored["file_hash"], current, now(),
                 ),
-            )
-        changed.append(
+            )  # fmt: skip
+        messages.append(
             f"{relative}: content changed after it was scored; the stored result is kept "
             "(re-baseline the axis to score it afresh)"
         )
-    return changed
+    return messages
 
 
-def _standing_rejections(store: Store, root: Path, method: str) -> list[str]:
+def _standing_rejections(store: Store, index: FileIndex, method: str) -> list[str]:
     """Rejections whose file still has the rejected content."""
     standing = []
     scored = {
@@ -156,10 +138,10 @@ def _standing_rejections(store: Store, root: Path, method: str) -> list[str]:
     for row in store.rows(
         "SELECT path, file_hash, error FROM rejections WHERE method=? ORDER BY id", (method,)
     ):
-        path = root / row["path"]
+        path = index.root / row["path"]
         if not path.is_file() or (row["path"], row["file_hash"]) in scored:
             continue
-        if file_hash(path) == row["file_hash"]:
+        if index.digest(path) == row["file_hash"]:
             standing.append(str(row["error"]))
     return standing
 
@@ -176,6 +158,7 @@ def monitor_fleet(
     workers: int = 1,
     dask: object | None = None,
     progress: Progress | None = None,
+    verify_per_run: int | None = None,
 ) -> MonitorSummary:
     """Score every capture of the fleet not scored yet; keep baselines, thresholds and alarms.
 
@@ -190,6 +173,10 @@ def monitor_fleet(
         Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
     progress : callable (stage, done, total), optional
         Called as baselines are fitted and captures scored.
+    verify_per_run : int, optional
+        Kept files compared with the disk in this run, to find files changed in place
+        (``monitor._index``); default :func:`~axiswatch.monitor._index.verify_budget` of the
+        fleet's axes.
 
     Returns
     -------
@@ -203,14 +190,27 @@ def monitor_fleet(
     config = MonitorConfig() if config is None else config
     root = Path(root)
     method = config.method
-    files, problems = discover_fleet(root)
-    summary = MonitorSummary(method=method, n_files=len(files) + len(problems))
-    hashes: dict[Path, str] = {}
+    params = params_json(config)
+    index = FileIndex(store, root, store.start_run(now()))
+    finished = store.axis_folder_times(method, params)
+    changed, dirty = index.verify(
+        verify_budget(len(finished)) if verify_per_run is None else verify_per_run
+    )
+    skipped = unchanged_axes(root, finished, dirty)
+    folder_times: dict[tuple[str, str], int | None] = {}
 
-    def digest(path: Path) -> str:
-        if path not in hashes:
-            hashes[path] = file_hash(path)
-        return hashes[path]
+    def skip(robot: str, axis: str) -> bool:
+        if (robot, axis) in skipped:
+            return True
+        # Read before the folder is listed: a file arriving later changes it again.
+        folder_times[(robot, axis)] = axis_folder_time(root, robot, axis)
+        return False
+
+    files, problems = discover_fleet(root, skip=skip)
+    summary = MonitorSummary(method=method, n_files=len(files) + len(problems))
+    problem_axes: set[tuple[str, str]] = set()
+    digest = index.digest
+    store_path = str(store.path.resolve())
 
     for problem in problems:
         reject(
@@ -218,7 +218,7 @@ def monitor_fleet(
             problem.path.relative_to(root).as_posix(),
             digest(problem.path), problem.reason,
         )  # fmt: skip
-    summary.changed = _changed_files(store, root, files, hashes)
+    summary.changed = _changed_files(store, changed)
 
     rejected = {
         (r["path"], r["file_hash"])
@@ -230,7 +230,6 @@ def monitor_fleet(
             "SELECT robot, axis, capture FROM scores WHERE method=? AND alarm=1", (method,)
         )
     }
-    params = params_json(config)
 
     grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
     for file in files:
@@ -248,6 +247,7 @@ def monitor_fleet(
         ) not in alarmed
 
     fit_jobs: list[FitJob] = []
+    stored_models: list[_Axis] = []  # axes whose fitted model the store holds (no refit)
     for state in axes:
         rows = store.rows(
             "SELECT * FROM baselines WHERE robot=? AND axis=? AND method=? ORDER BY epoch DESC "
@@ -272,8 +272,17 @@ def monitor_fleet(
                     f"{latest['path']}: baseline file {what}; robot {state.robot} axis "
                     f"{state.axis} is not scored (re-baseline it)"
                 )
+                problem_axes.add((state.robot, state.axis))
                 continue
             state.candidates = [stored]
+            saved = store.saved_model(int(latest["id"]))
+            if saved is not None and (
+                saved["file_hash"], saved["params"], saved["library_version"]
+            ) == (latest["file_hash"], params, library_version()):
+                state.model = ModelRef(str(saved["model_hash"]), store_path)
+                state.rates_hz = json.loads(saved["rates_hz"])
+                stored_models.append(state)
+                continue
             fit_jobs.append(FitJob(stored, relative(stored), config))
             continue
         state.epoch = 1 if latest is None else int(latest["epoch"]) + 1
@@ -296,6 +305,7 @@ def monitor_fleet(
                         f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
                         "the fleet folder; the axis is not scored"
                     )
+                    problem_axes.add((state.robot, state.axis))
                     continue
                 ordered = [f for f in ordered if _key(f) >= _key(_by_capture(ordered, chosen))]
             else:
@@ -312,24 +322,40 @@ def monitor_fleet(
     by_axis = {(s.robot, s.axis): s for s in axes}
     counts = {"baselines": 0, "captures": 0}
 
+    def persist(outcome: FitOutcome, baseline_id: int) -> ModelRef:
+        assert outcome.blob is not None
+        store.save_model(
+            baseline_id,
+            file_hash=outcome.file_hash,
+            params=params,
+            library_version=library_version(),
+            model_hash=outcome.model_key,
+            blob=outcome.blob,
+            rates_hz=json.dumps(outcome.rates_hz),
+            saved_at=now(),
+        )
+        return ModelRef(outcome.model_key, store_path)
+
     def fit_chunk(fit_jobs: list[FitJob]) -> None:
         while fit_jobs:
             retry: list[FitJob] = []
-            for _, outcome in parallel_map(fit_baseline, fit_jobs, workers=workers, dask=dask):
+            for _, outcome in pool.map(fit_baseline, fit_jobs):
                 file = outcome.job.file
                 state = by_axis[(file.robot, file.axis)]
                 counts["baselines"] += 1
                 if progress is not None:
                     progress("baselines", counts["baselines"], len(axes))
                 if state.baseline is not None:
-                    if outcome.model is None:
+                    if outcome.blob is None:
                         summary.axis_problems.append(
                             f"{outcome.error}; the stored baseline cannot be refitted"
                         )
+                        problem_axes.add((state.robot, state.axis))
                     else:
-                        state.model, state.rates_hz = outcome.model, outcome.rates_hz
+                        state.model = persist(outcome, int(state.baseline["id"]))
+                        state.rates_hz = outcome.rates_hz
                     continue
-                if outcome.model is None:
+                if outcome.blob is None:
                     reject(
                         store, method, file.robot, file.axis, file.capture, outcome.job.relative,
                         digest(file.path), str(outcome.error),
@@ -352,10 +378,12 @@ def monitor_fleet(
                         f"{state.robot}/{state.axis}: another process chose a different baseline "
                         "at the same time; run monitor again"
                     )
+                    problem_axes.add((state.robot, state.axis))
                     continue
                 summary.new_baselines += 1
                 state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
-                state.model, state.rates_hz = outcome.model, outcome.rates_hz
+                state.model = persist(outcome, baseline_id)
+                state.rates_hz = outcome.rates_hz
             fit_jobs = retry
 
     def score_chunk(states: Sequence[_Axis]) -> None:
@@ -389,7 +417,7 @@ def monitor_fleet(
         for index, job in enumerate(jobs):
             queue_of[job.baseline_id].append(index)
         for count, (index, result) in enumerate(
-            parallel_map(score_capture, jobs, workers=workers, dask=dask), start=1
+            pool.map(score_capture, jobs), start=1
         ):
             pending[index] = result
             queue = queue_of[jobs[index].baseline_id]
@@ -401,17 +429,20 @@ def monitor_fleet(
                 progress("captures", counts["captures"] + count, counts["captures"] + len(jobs))
         counts["captures"] += len(jobs)
 
-    # Axes are handled a chunk at a time so that the driver never holds more than
-    # _AXES_PER_CHUNK fitted models (a few MB each) however large the fleet.
-    for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
-        chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
-        states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
-        fit_chunk(chunk)
-        score_chunk(states)
-        for state in states:
-            state.model = None
+    # Axes are handled a chunk at a time so that what the driver holds per axis stays bounded
+    # however large the fleet (the workers keep the fitted models; the driver only references).
+    with WorkerPool(workers, dask) as pool:
+        score_chunk(stored_models)
+        for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
+            chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
+            states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
+            fit_chunk(chunk)
+            score_chunk(states)
 
-    summary.rejected = _standing_rejections(store, root, method)
+    for robot_axis, mtime_ns in folder_times.items():
+        if mtime_ns is not None and robot_axis not in problem_axes:
+            store.finish_axis_folder(*robot_axis, method, params, mtime_ns)
+    summary.rejected = _standing_rejections(store, index, method)
     for row in store.rows(
         "SELECT b.robot, b.axis, (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id "
         "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1) AS alarm FROM baselines b "

@@ -14,8 +14,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from threadpoolctl import threadpool_limits
-
 from axiswatch._calibration import half_laplace_threshold
 from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
@@ -25,6 +23,7 @@ from axiswatch._model import HealthModel
 from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import AxiswatchError
 from axiswatch.monitor._fleet import FleetFile
+from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 
 __all__ = [
     "MONITOR_FEATURES",
@@ -183,10 +182,12 @@ class FitJob:
 
 @dataclass(frozen=True)
 class FitOutcome:
-    """A fitted model and what identifies it, or the error that prevented it."""
+    """A fitted model (its content hash and blob; the worker keeps the model itself) and what
+    identifies it, or the error that prevented it."""
 
     job: FitJob
-    model: HealthModel | None
+    model_key: str
+    blob: bytes | None
     rates_hz: dict[str, float]
     file_hash: str
     features_hash: str
@@ -195,13 +196,6 @@ class FitOutcome:
 
 def fit_baseline(job: FitJob) -> FitOutcome:
     """Read the baseline capture and fit the health model on it (a ``parallel_map`` job)."""
-    # Parallelism is across captures; a multi-threaded BLAS inside each job only fights for the
-    # same cores (a 750 x 390 SVD took 30 s instead of 0.3 s on a loaded 2-core machine).
-    with threadpool_limits(1):
-        return _fit_baseline(job)
-
-
-def _fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
@@ -214,9 +208,10 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
             stage=job.config.stage(),
         ).fit(capture)
     except (AxiswatchError, ValueError, OSError) as exc:
-        return FitOutcome(job, None, {}, "", "", _one_line(exc, path, job.relative))
+        return FitOutcome(job, "", None, {}, "", "", _one_line(exc, path, job.relative))
     features_hash = hashlib.sha256(model.baseline_features_.X.tobytes()).hexdigest()
-    return FitOutcome(job, model, dict(capture.rates_hz), digest, features_hash, None)
+    key, blob = keep_model(model, params=job.config.params())
+    return FitOutcome(job, key, blob, dict(capture.rates_hz), digest, features_hash, None)
 
 
 @dataclass(frozen=True)
@@ -226,7 +221,7 @@ class ScoreJob:
     file: FleetFile
     relative: str
     baseline_id: int
-    model: HealthModel
+    model: ModelRef
     rates_hz: dict[str, float]
 
 
@@ -244,19 +239,14 @@ class ScoreOutcome:
 
 
 def score_capture(job: ScoreJob) -> ScoreOutcome:
-    """Read, validate and score one capture (a ``parallel_map`` job), on one BLAS thread."""
-    with threadpool_limits(1):
-        return _score_capture(job)
-
-
-def _score_capture(job: ScoreJob) -> ScoreOutcome:
+    """Read, validate and score one capture (a ``parallel_map`` job)."""
     path = job.file.path
     digest, size, mtime = "", 0, 0
     try:
         stat = path.stat()
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
-        model = job.model
+        model = resolve_model(job.model)
         capture = read_capture(path, model.features.signals, expected_rates_hz=job.rates_hz)
         features, lag = model.featurize(capture)
         details: dict[str, Any] = {

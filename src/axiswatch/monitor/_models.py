@@ -1,0 +1,91 @@
+"""Fitted models between the driver, the store and the workers: shipped once, kept where used.
+
+Pipeline side-stage of the monitor. The driver never sends a fitted model with a job: a job
+carries a :class:`ModelRef` (the model's content hash and the store that holds it), and each
+worker process keeps the models it has used or fitted in a small cache keyed by that hash,
+reading a missing one from the store once (read-only). A model is therefore deserialised at
+most once per worker and run, whatever the number of captures it scores, and a model fitted in
+a worker is never read back there.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+
+from axiswatch._model import HealthModel
+from axiswatch.monitor._persist import dump_model, load_model, model_digest
+from axiswatch.monitor._store import Store
+
+__all__ = ["MODELS_PER_WORKER", "ModelRef", "keep_model", "resolve_model"]
+
+#: Fitted models a worker keeps (least recently used dropped first). An LRA model of a 3 s
+#: capture at hop 8 is about 3 MB, a mechanics model a few kB.
+MODELS_PER_WORKER = 128
+
+
+@dataclass(frozen=True)
+class ModelRef:
+    """Where a job finds its fitted model: the model's content hash, and the store holding it.
+
+    Attributes
+    ----------
+    key : str
+        :func:`~axiswatch.monitor._persist.model_digest` of the model's blob.
+    store_path : str
+        The SQLite store (absolute path) whose ``fitted_models`` table holds the blob.
+    """
+
+    key: str
+    store_path: str
+
+
+_cache: OrderedDict[str, HealthModel] = OrderedDict()
+_stores: dict[tuple[int, str], Store] = {}
+
+
+def keep_model(model: HealthModel, *, params: dict[str, Any] | None = None) -> tuple[str, bytes]:
+    """Serialise a fitted model, keep it in this process's cache; return its hash and blob."""
+    blob = dump_model(model, params=params)
+    key = model_digest(blob)
+    _remember(key, model)
+    return key, blob
+
+
+def _remember(key: str, model: HealthModel) -> None:
+    _cache[key] = model
+    _cache.move_to_end(key)
+    while len(_cache) > MODELS_PER_WORKER:
+        _cache.popitem(last=False)
+
+
+def _read_only(store_path: str) -> Store:
+    # One connection per process and store (a forked worker must not use its parent's).
+    key = (os.getpid(), store_path)
+    if key not in _stores:
+        _stores[key] = Store(store_path, read_only=True)
+    return _stores[key]
+
+
+def resolve_model(ref: ModelRef) -> HealthModel:
+    """The model a job refers to: from this process's cache, else read once from the store.
+
+    Raises
+    ------
+    LookupError
+        If the store holds no model with that hash (it was replaced while the run went on).
+    """
+    model = _cache.get(ref.key)
+    if model is not None:
+        _cache.move_to_end(ref.key)
+        return model
+    blob = _read_only(ref.store_path).model_blob(ref.key)
+    if blob is None:
+        raise LookupError(
+            f"store '{ref.store_path}' holds no fitted model {ref.key[:12]}; run monitor again."
+        )
+    model = load_model(blob)
+    _remember(ref.key, model)
+    return model  # type: ignore[no-any-return]

@@ -1,0 +1,240 @@
+"""Fitted models as plain data: NumPy arrays and JSON, never pickle.
+
+Pipeline side-stage of the monitor: a fitted :class:`~axiswatch.HealthModel` (its stage,
+detector, features and calibration, however nested) becomes one ``.npz`` blob that the store
+keeps beside its baseline, and comes back bit for bit, so a stored model scores exactly as the
+freshly fitted one did.
+
+The walk is generic, so a stage that gains or renames fitted state needs no change here: every
+instance attribute of an object (the parameters set in ``__init__`` and the scikit-learn-style
+fitted state ending in ``_``) is written, recursively:
+
+* ``ndarray`` (any non-object dtype) -> an array of the ``.npz`` file, bytes unchanged;
+* ``None``, ``bool``, ``int``, ``str``, ``float`` (``repr`` round-trips a float64 exactly;
+  NaN and infinities are written as strings) and NumPy scalars -> JSON;
+* ``tuple``, ``list``, ``dict`` with string keys -> JSON containers of encoded values;
+* an object whose class is in :data:`ALLOWED_CLASSES` -> its class's path and its attributes.
+
+Loading builds only classes of that registry (``cls.__new__`` and the stored attributes, as
+pickle does, but no other code can be named by the file) and reads the ``.npz`` with
+``allow_pickle=False``. Anything else is refused when saving, with the attribute's path.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import io
+import json
+import math
+from functools import cache
+from importlib.metadata import PackageNotFoundError, version
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "ALLOWED_CLASSES",
+    "PERSIST_FORMAT",
+    "dump_model",
+    "library_version",
+    "load_model",
+    "model_digest",
+]
+
+#: Version of the blob's layout (a store refits models written in another format).
+PERSIST_FORMAT = 1
+
+#: Classes a stored model may contain, by the path they are imported from. A new stage or
+#: detector whose fitted state should be stored is added here (a test saves and loads each).
+ALLOWED_CLASSES: tuple[str, ...] = (
+    "axiswatch.FeatureSpec",
+    "axiswatch.Features",
+    "axiswatch.HalfLaplaceFit",
+    "axiswatch.HealthModel",
+    "axiswatch.IndicatorDetector",
+    "axiswatch.LRADetector",
+    "axiswatch.MechanicsStage",
+    "axiswatch.PCADetector",
+    "axiswatch.StftStage",
+    "axiswatch._alignment.LowRankBasis",
+)
+
+_META = "__meta__"
+
+
+@cache
+def _registry() -> dict[str, type]:
+    classes = {}
+    for path in ALLOWED_CLASSES:
+        module, _, name = path.rpartition(".")
+        classes[path] = getattr(importlib.import_module(module), name)
+    return classes
+
+
+@cache
+def _paths() -> dict[type, str]:
+    return {cls: path for path, cls in _registry().items()}
+
+
+class _Encoder:
+    def __init__(self) -> None:
+        self.arrays: dict[str, np.ndarray] = {}
+
+    def encode(self, value: Any, where: str) -> Any:
+        if value is None or isinstance(value, bool | str):
+            return value
+        if isinstance(value, np.ndarray):
+            if value.dtype.hasobject:
+                raise TypeError(f"cannot store {where}: an object array (only plain arrays).")
+            key = f"a{len(self.arrays)}"
+            self.arrays[key] = value
+            return {"__array__": key}
+        if isinstance(value, np.generic):
+            return {"__scalar__": value.dtype.str, "value": self.encode(value.item(), where)}
+        if isinstance(value, int):
+            return value
+        if isinstance(value, float):
+            return value if math.isfinite(value) else {"__float__": repr(value)}
+        if isinstance(value, tuple):
+            return {"__tuple__": [self.encode(v, f"{where}[{i}]") for i, v in enumerate(value)]}
+        if isinstance(value, list):
+            return [self.encode(v, f"{where}[{i}]") for i, v in enumerate(value)]
+        if isinstance(value, dict):
+            if not all(isinstance(k, str) for k in value):
+                raise TypeError(f"cannot store {where}: a dict with non-string keys.")
+            # Sorted, as the JSON is, so that equal models number their arrays alike.
+            return {"__dict__": {k: self.encode(value[k], f"{where}[{k!r}]") for k in sorted(value)}}
+        path = _paths().get(type(value))
+        if path is None:
+            raise TypeError(
+                f"cannot store {where}: {type(value).__module__}.{type(value).__qualname__} is "
+                "not in axiswatch.monitor._persist.ALLOWED_CLASSES (add its public path there "
+                "if its attributes are plain data)."
+            )
+        state = vars(value)
+        return {
+            "__object__": path,
+            "state": {name: self.encode(state[name], f"{where}.{name}") for name in sorted(state)},
+        }
+
+
+def _decode(node: Any, arrays: Any) -> Any:
+    if node is None or isinstance(node, bool | int | float | str):
+        return node
+    if isinstance(node, list):
+        return [_decode(v, arrays) for v in node]
+    if "__array__" in node:
+        return arrays[node["__array__"]]
+    if "__scalar__" in node:
+        return np.dtype(node["__scalar__"]).type(_decode(node["value"], arrays))
+    if "__float__" in node:
+        return float(node["__float__"])
+    if "__tuple__" in node:
+        return tuple(_decode(v, arrays) for v in node["__tuple__"])
+    if "__dict__" in node:
+        return {k: _decode(v, arrays) for k, v in node["__dict__"].items()}
+    cls = _registry().get(node["__object__"])
+    if cls is None:
+        raise ValueError(
+            f"stored model names class {node['__object__']!r}, which is not in ALLOWED_CLASSES."
+        )
+    obj = cls.__new__(cls)
+    for name, value in node["state"].items():
+        # object.__setattr__ also sets the fields of frozen dataclasses, as their __init__ does.
+        object.__setattr__(obj, name, _decode(value, arrays))
+    return obj
+
+
+def library_version() -> str:
+    """The installed axiswatch's version (a model made by another version is refitted)."""
+    try:
+        return version("axiswatch")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def dump_model(model: Any, *, params: dict[str, Any] | None = None) -> bytes:
+    """A fitted model as ``.npz`` bytes: its arrays, and a JSON description of everything else.
+
+    Parameters
+    ----------
+    model : object of a class in ALLOWED_CLASSES
+        Typically a fitted :class:`~axiswatch.HealthModel`.
+    params : dict, optional
+        JSON-ready parameters the model was made with, kept in the blob's header.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    TypeError
+        If an attribute, at any depth, is of a type that cannot be stored (named in the message).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import PCADetector
+    >>> det = PCADetector(n_components=2).fit(np.random.default_rng(0).normal(size=(20, 4)))
+    >>> back = load_model(dump_model(det))
+    >>> bool(np.array_equal(back.components_, det.components_))
+    True
+    """
+    encoder = _Encoder()
+    tree = encoder.encode(model, type(model).__name__)
+    meta = {
+        "format": PERSIST_FORMAT,
+        "library_version": library_version(),
+        "params": params,
+        "model": tree,
+    }
+    text = json.dumps(meta, sort_keys=True, allow_nan=False)
+    buffer = io.BytesIO()
+    np.savez(buffer, **encoder.arrays, **{_META: np.frombuffer(text.encode(), dtype=np.uint8)})
+    return buffer.getvalue()
+
+
+def _read(blob: bytes) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    with np.load(io.BytesIO(blob), allow_pickle=False) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    meta = json.loads(arrays.pop(_META).tobytes().decode())
+    if meta.get("format") != PERSIST_FORMAT:
+        raise ValueError(
+            f"stored model has format {meta.get('format')!r}; this axiswatch reads "
+            f"{PERSIST_FORMAT}."
+        )
+    return meta, arrays
+
+
+def load_model(blob: bytes) -> Any:
+    """The model of :func:`dump_model`'s bytes (attributes and arrays identical).
+
+    Raises
+    ------
+    ValueError
+        If the blob is of another format or names a class outside ALLOWED_CLASSES.
+    """
+    meta, arrays = _read(blob)
+    return _decode(meta["model"], arrays)
+
+
+def model_digest(blob: bytes) -> str:
+    """SHA-256 of a blob's content (header and arrays), the same for the same model whenever it
+    was written (the ``.npz`` container's time stamps do not enter it).
+
+    Examples
+    --------
+    >>> from axiswatch import IndicatorDetector
+    >>> det = IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
+    >>> model_digest(dump_model(det)) == model_digest(dump_model(det))
+    True
+    """
+    meta, arrays = _read(blob)
+    digest = hashlib.sha256(json.dumps(meta, sort_keys=True).encode())
+    for name in sorted(arrays):
+        array = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}:{array.dtype.str}:{array.shape}".encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()

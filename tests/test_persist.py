@@ -1,0 +1,235 @@
+"""Fitted models stored as arrays and JSON: exact round trips, refusals, reuse by the monitor."""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import axiswatch as aw
+import axiswatch.monitor._index
+import axiswatch.monitor._monitor
+import axiswatch.monitor._scoring
+from axiswatch.datasets import simulate_capture
+from axiswatch.monitor._models import ModelRef, resolve_model
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._persist import dump_model, load_model, model_digest
+from axiswatch.monitor._results import fleet_results
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
+
+
+def _fitted(method: str) -> aw.HealthModel:
+    config = MonitorConfig(method=method)  # type: ignore[arg-type]
+    model = aw.HealthModel(
+        config.features,
+        config.detector(),
+        percentile=config.percentile,
+        align_phase=config.align_phase,
+        stage=config.stage(),
+    ).fit(simulate_capture("heavy", seed=1, duration_s=3.0))
+    return model.calibrate(
+        [simulate_capture("heavy", seed=s, duration_s=3.0) for s in (2, 3)]
+    )
+
+
+@pytest.mark.parametrize("method", ["mechanics", "lra", "pca"])
+def test_round_trip_gives_identical_distances(method: str) -> None:
+    model = _fitted(method)
+    back = load_model(dump_model(model, params={"method": method}))
+    assert type(back) is aw.HealthModel
+    assert type(back.detector_) is type(model.detector_)
+    tests = [simulate_capture(task, seed=7, duration_s=3.0) for task in ("heavy", "palletize")]
+    for capture in tests:
+        # Exact: the stored model is the fitted one, bit for bit.
+        assert back.distance(capture) == model.distance(capture)
+        assert back.assess(capture) == model.assess(capture)
+    np.testing.assert_array_equal(back.baseline_features_.X, model.baseline_features_.X)
+    assert model_digest(dump_model(back)) == model_digest(dump_model(model))
+
+
+def test_blob_is_arrays_and_json_only() -> None:
+    blob = dump_model(_fitted("pca"), params={"method": "pca"})
+    with zipfile.ZipFile(io.BytesIO(blob)) as archive:
+        assert all(name.endswith(".npy") for name in archive.namelist())
+    with np.load(io.BytesIO(blob), allow_pickle=False) as arrays:
+        meta = json.loads(arrays["__meta__"].tobytes())
+    assert meta["params"] == {"method": "pca"}
+    assert meta["model"]["__object__"] == "axiswatch.HealthModel"
+    assert isinstance(meta["library_version"], str)
+
+
+def test_non_finite_floats_and_containers_survive() -> None:
+    detector = aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
+    detector.extra_ = {"nan": float("nan"), "inf": -np.inf, "pair": (1, np.float64(2.5))}
+    back = load_model(dump_model(detector))
+    assert np.isnan(back.extra_["nan"]) and back.extra_["inf"] == -np.inf
+    assert back.extra_["pair"] == (1, 2.5) and type(back.extra_["pair"][1]) is np.float64
+
+
+def test_unregistered_class_is_refused_with_its_path() -> None:
+    detector = aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
+    detector.helper_ = Path("somewhere")
+    with pytest.raises(TypeError, match=r"IndicatorDetector\.helper_: .*Path is not in .*ALLOWED"):
+        dump_model(detector)
+
+
+def test_object_arrays_and_foreign_classes_in_a_blob_are_refused() -> None:
+    detector = aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
+    detector.rows_ = np.array([object()])
+    with pytest.raises(TypeError, match=r"IndicatorDetector\.rows_: an object array"):
+        dump_model(detector)
+    blob = dump_model(aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]]))
+    with np.load(io.BytesIO(blob)) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    meta = json.loads(arrays["__meta__"].tobytes())
+    meta["model"]["__object__"] = "os.system"
+    arrays["__meta__"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    forged = io.BytesIO()
+    np.savez(forged, **arrays)
+    with pytest.raises(ValueError, match=r"names class 'os.system', which is not in ALLOWED"):
+        load_model(forged.getvalue())
+
+
+# --- the monitor reuses stored models, and refits when they no longer apply --------------------
+
+
+def _count_fits(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    fitted: list[str] = []
+    original = axiswatch.monitor._scoring.fit_baseline
+
+    def counting(job: axiswatch.monitor._scoring.FitJob) -> object:
+        fitted.append(job.file.capture)
+        return original(job)
+
+    monkeypatch.setattr(axiswatch.monitor._monitor, "fit_baseline", counting)
+    return fitted
+
+
+def test_monitor_scores_with_stored_models_and_refits_on_a_new_version(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    held = tmp_path / "held"
+    held.mkdir()
+    late = sorted(fleet.glob("*/*/*-09.parquet"))
+    for path in late:
+        path.rename(held / f"{path.parent.name}.parquet")
+    fitted = _count_fits(monkeypatch)
+    config = MonitorConfig(method="lra")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        assert len(fitted) == 2  # one baseline per axis
+        for path in late:
+            (held / f"{path.parent.name}.parquet").rename(path)
+        summary = monitor_fleet(fleet, store, config)
+        assert summary.scored == 2
+        assert len(fitted) == 2  # the stored models scored the new captures: no refit
+        with_stored = fleet_results(store)
+    # Same results as a run that fits everything afresh (no store, no cache).
+    with Store(tmp_path / "fresh.db") as fresh:
+        monitor_fleet(fleet, fresh, config)
+        columns = ["robot", "axis", "capture", "role", "distance", "threshold", "alarm"]
+        assert fleet_results(fresh)[columns].equals(with_stored[columns])
+    # A new library version invalidates the stored models: refitted once, then reused.
+    monkeypatch.setattr(axiswatch.monitor._monitor, "library_version", lambda: "99.0")
+    new_day = [p.with_name(p.name.replace("-09", "-10")) for p in late]
+    for source, target in zip(late, new_day, strict=True):
+        shutil.copy(source, target)
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+    assert len(fitted) == 4 + 2  # 2 by the fresh store, 2 refits
+
+
+def test_worker_reads_a_missing_model_from_the_store_once(tmp_path: Path) -> None:
+    model = _fitted("mechanics")
+    blob = dump_model(model)
+    key = model_digest(blob)
+    with Store(tmp_path / "s.db") as store:
+        with store.write() as db:
+            db.execute(
+                "INSERT INTO baselines (robot, axis, method, epoch, capture, captured_at, path, "
+                "file_hash, features_hash, params, library_version, created_at) "
+                "VALUES ('r', 'a', 'mechanics', 1, 'c', 't', 'p', 'h', 'f', '{}', 'v', 't')"
+            )
+        store.save_model(
+            1, file_hash="h", params="{}", library_version="v", model_hash=key, blob=blob,
+            rates_hz="{}", saved_at="t",
+        )  # fmt: skip
+    ref = ModelRef(key, str(tmp_path / "s.db"))
+    loaded = resolve_model(ref)
+    assert resolve_model(ref) is loaded  # kept by the worker after the first read
+    capture = simulate_capture("palletize", seed=3, duration_s=3.0)
+    assert loaded.distance(capture) == model.distance(capture)
+    with pytest.raises(LookupError, match=r"holds no fitted model 000000000000"):
+        resolve_model(ModelRef("0" * 64, str(tmp_path / "s.db")))
+
+
+# --- incremental discovery ---------------------------------------------------------------------
+
+
+def test_run_with_nothing_new_lists_no_folder_and_hashes_nothing(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        before = fleet_results(store)
+        hashed: list[Path] = []
+        original = axiswatch.monitor._index.file_hash
+        monkeypatch.setattr(
+            axiswatch.monitor._index, "file_hash", lambda p: hashed.append(p) or original(p)
+        )
+        listed: list[tuple[str, str]] = []
+        discover = axiswatch.monitor._monitor.discover_fleet
+
+        def spying(root: Path, *, skip: object) -> object:
+            def watching(robot: str, axis: str) -> bool:
+                skipped = skip(robot, axis)  # type: ignore[operator]
+                if not skipped:
+                    listed.append((robot, axis))
+                return bool(skipped)
+
+            return discover(root, skip=watching)
+
+        monkeypatch.setattr(axiswatch.monitor._monitor, "discover_fleet", spying)
+        summary = monitor_fleet(fleet, store, config)
+        assert (summary.scored, summary.exit_code, hashed, listed) == (0, 0, [], [])
+        assert fleet_results(store).equals(before)
+        # A new capture changes its folder: that folder alone is listed, the file hashed.
+        source = fleet / "robot01/axis1/2026-03-09.parquet"
+        shutil.copy(source, source.with_name("2026-03-10.parquet"))
+        summary = monitor_fleet(fleet, store, config)
+    assert summary.scored == 1
+    assert listed == [("robot01", "axis1")]
+    assert [p.name for p in hashed] == ["2026-03-10.parquet"]
+
+
+def test_files_changed_in_place_are_found_a_slice_at_a_time(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        n_files = store.rows("SELECT count(*) AS n FROM file_index")[0]["n"]
+        assert n_files == 18
+        target = fleet / "robot01/axis2/2026-03-08.parquet"
+        capture = aw.read_capture(target)
+        aw.write_capture(
+            aw.Capture({k: 2.0 * v for k, v in capture.signals.items()}, capture.rates_hz),
+            target,
+        )
+        found_after = None
+        for run in range(1, 7):
+            if monitor_fleet(fleet, store, config, verify_per_run=4).changed:
+                found_after = run
+                break
+    # 18 files, 4 verified per run, least recently verified first: within ceil(18 / 4) runs.
+    assert found_after is not None and found_after <= 5
