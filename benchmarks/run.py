@@ -6,11 +6,18 @@ the same subprocess as the fast one, and their ratio printed. BLAS runs on one t
 (``OPENBLAS_NUM_THREADS=1`` etc.) except in the fleet case, which uses 2 worker processes of one
 thread each.
 
-Data: synthetic captures from a cheap model (a task cycle plus two motor harmonics plus noise on
-position 250 Hz, speed and torque 2 kHz, as the paper's robots), written as Parquet where a case
-reads files; features are the real ones (``FeatureSpec()``: 6 channels x 65 bins = 390 columns,
-one row per sample). The fleet case runs the real monitor on the robot simulator's fleet (its
-features: the monitor's defaults, one row per 8 samples).
+Data: the project's robot simulator (``axiswatch.datasets.simulate_capture`` and
+``simulate_fleet``) for the realistic cases (``job-3s-*``, ``lra-60s-robot``, the fleet cases of
+``benchmarks/fleet.py``), and synthetic captures from a cheap model (a task cycle plus two motor
+harmonics plus noise) for the solver cases, whose features keep a low rank (6-11) that robot
+captures do not (72-150). Features are the real ones.
+
+**Physical floor**: reading the same Parquet file with the same reader plus one ``rfft`` per
+signal, timed in the same process as the case; every realistic case prints its ratio to it.
+
+Modes: ``--fleet-robots 10,30,90`` (fleet days of several sizes, a linear fit and its
+extrapolation to 10,000 robots), ``--history 7,365`` (a run with nothing new after a year of
+kept files), ``--workers-curve`` (1-16 processes and a Dask LocalCluster; writes a CSV).
 """
 
 from __future__ import annotations
@@ -30,10 +37,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import scipy.fft
+from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
 import axiswatch._alignment
 import axiswatch.datasets as awd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import fleet
 
 ONE_THREAD = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -126,45 +138,78 @@ def case_capture(seconds: float, quick: bool) -> dict[str, Any]:
     }
 
 
-def case_fleet(robots: int, quick: bool, method: str = "mechanics") -> dict[str, Any]:
-    """One fleet day through the real monitor: robots x 6 axes, one new 3 s capture each, 2 workers.
+def _floor(path: Path) -> None:
+    capture = aw.read_capture(path)
+    for values in capture.signals.values():
+        scipy.fft.rfft(values)
 
-    Set-up, not timed: a simulated fleet (``simulate_fleet``, 6 days a axis) is commissioned by a
-    first ``monitor_fleet`` run (baselines and 5 calibration captures per axis). Timed: a second
-    run after a seventh day of captures arrived, exactly what a daily cron job does (discover and
-    hash the fleet, fit each axis's baseline from its file, read, align, featurize and score every
-    new capture on 2 worker processes, commit each result to the SQLite store).
-    """
-    from axiswatch.datasets._robot import simulate_fleet
-    from axiswatch.monitor._monitor import monitor_fleet
-    from axiswatch.monitor._scoring import MonitorConfig
-    from axiswatch.monitor._store import Store
 
-    with tempfile.TemporaryDirectory() as folder:
-        root = Path(folder) / "fleet"
-        simulate_fleet(root, n_robots=robots, n_axes=6, n_days=7, task_change_days=(), faults=[])
-        held = Path(folder) / "held"
-        new_day = sorted(root.glob("*/*/*-07.parquet"))
-        for path in new_day:
-            target = held / path.relative_to(root)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            path.rename(target)
-        config = MonitorConfig(method=method)
-        with Store(Path(folder) / "fleet.db") as store:
-            monitor_fleet(root, store, config, workers=2)
-            for path in new_day:
-                (held / path.relative_to(root)).rename(path)
-            start = time.perf_counter()
-            summary = monitor_fleet(root, store, config, workers=2)
-            elapsed = time.perf_counter() - start
-    assert summary.scored == len(new_day) == robots * 6, summary
-    note = f"{len(new_day)} new captures scored into the store"
-    if robots != 1000:
-        note += f"; 1,000 robots extrapolated (linear): {elapsed * 1000 / robots:.0f} s"
+def case_job(method: str, quick: bool) -> dict[str, Any]:
+    """The monitor's scoring job on one 3 s robot-simulator capture (warm worker: model kept,
+    BLAS limited once), against the physical floor of the same file, in the same process."""
+    from axiswatch.monitor._fleet import FleetFile
+    from axiswatch.monitor._models import ModelRef, keep_model
+    from axiswatch.monitor._scoring import MonitorConfig, ScoreJob, score_capture
+
+    config = MonitorConfig(method=method)  # type: ignore[arg-type]
+    baseline = awd.simulate_capture("heavy", seed=1)
+    model = aw.HealthModel(
+        config.features,
+        config.detector(),
+        align_phase=config.align_phase,
+        stage=config.stage(),
+    ).fit(baseline)
+    key, _ = keep_model(model)
+    repeats = 5 if quick else 30
+    with tempfile.TemporaryDirectory() as folder, threadpool_limits(1):
+        (Path(folder) / "r/a").mkdir(parents=True)
+        path = aw.write_capture(
+            awd.simulate_capture("palletize", seed=2), Path(folder) / "r/a/2026-03-02.parquet"
+        )
+        from datetime import datetime
+
+        file = FleetFile("r", "a", path.name, path, datetime(2026, 3, 2))
+        job = ScoreJob(file, "r/a/" + path.name, 1, ModelRef(key, ""), dict(baseline.rates_hz))
+        assert score_capture(job).error is None
+        # Interleaved, so that a load change on this shared machine hits both alike.
+        jobs, floors = [], []
+        for _ in range(repeats):
+            jobs.append(_median_time(lambda: score_capture(job), 1))
+            floors.append(_median_time(lambda: _floor(path), 1))
+    job_s, floor_s = statistics.median(jobs), statistics.median(floors)
     return {
-        "case": f"fleet day: {robots} robots x 6 axes, monitor --workers 2 ({method})",
-        "fast_s": elapsed,
-        "note": note,
+        "case": f"3 s robot capture: scoring job ({method}) vs floor",
+        "fast_s": job_s,
+        "dense_s": floor_s,
+        "ratio": job_s / floor_s,
+        "note": f"ratio = job / floor (read + rfft per signal); median of {repeats} interleaved",
+    }
+
+
+def case_lra_60s(quick: bool) -> dict[str, Any]:
+    """LRA at hop 1 (the paper's one row per sample) on a 60 s robot-simulator capture."""
+    seconds = 10.0 if quick else 60.0
+    model = aw.HealthModel(aw.FeatureSpec(), aw.LRADetector())
+    baseline = awd.simulate_capture("heavy", seed=1, duration_s=seconds)
+    with tempfile.TemporaryDirectory() as folder:
+        path = aw.write_capture(
+            awd.simulate_capture("palletize", seed=2, duration_s=seconds),
+            Path(folder) / "capture.parquet",
+        )
+        start = time.perf_counter()
+        model.fit(baseline)
+        fit_s = time.perf_counter() - start
+        start = time.perf_counter()
+        result = model.detector_.align(model.featurize(aw.read_capture(path))[0].X)
+        score_s = time.perf_counter() - start
+        floor_s = _median_time(lambda: _floor(path), 3)
+    return {
+        "case": f"{seconds:g} s robot capture, LRA hop 1: score (fit in note)",
+        "fast_s": score_s,
+        "dense_s": floor_s,
+        "ratio": score_s / floor_s,
+        "note": f"fit {fit_s:.1f} s; ranks {result.rank_source}/{result.rank_target}; "
+        "ratio = score / floor",
     }
 
 
@@ -196,14 +241,24 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "lra-4000": lambda q: case_lra(4000, q),
     "capture-3s": lambda q: case_capture(3.0, q),
     "capture-60s": lambda q: case_capture(60.0, q),
+    "job-3s-mechanics": lambda q: case_job("mechanics", q),
+    "job-3s-lra": lambda q: case_job("lra", q),
+    "job-3s-pca": lambda q: case_job("pca", q),
+    "lra-60s-robot": case_lra_60s,
 }
 
 
 def run_case(name: str, quick: bool, robots: int, method: str) -> None:
     """Child process: run one case, print its result as one JSON line."""
-    result = case_fleet(robots, quick, method) if name == "fleet" else CASES[name](quick)
+    with tempfile.TemporaryDirectory() as folder:
+        if name == "fleet":
+            result = fleet.case_fleet_day(Path(folder), robots, method, check=robots <= 30)
+        elif name == "history":
+            result = fleet.case_history(Path(folder), robots, method)
+        else:
+            result = CASES[name](quick)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # KiB on Linux
-    if name == "fleet":
+    if name in ("fleet", "history"):
         peak = max(peak, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024)
     result["peak_mb"] = peak / 1e6
     print(json.dumps(result))
@@ -228,52 +283,119 @@ def machine() -> str:
     )
 
 
+def _child(name: str, quick: bool, robots: int, method: str) -> dict[str, Any]:
+    env = {**os.environ, **ONE_THREAD}
+    command = [sys.executable, __file__, "--case", name, "--fleet-robots", str(robots)]
+    command += ["--fleet-method", method]
+    if quick:
+        command.append("--quick")
+    child = subprocess.run(command, env=env, capture_output=True, text=True)
+    if child.returncode:
+        sys.exit(f"case {name} failed:\n{child.stderr}")
+    return dict(json.loads(child.stdout.strip().splitlines()[-1]))
+
+
+def _print_row(row: dict[str, Any]) -> None:
+    dense = f"{row['dense_s']:9.3f}" if "dense_s" in row else f"{'-':>9}"
+    ratio = f"{row['ratio']:7.1f}x" if "ratio" in row else f"{'-':>8}"
+    note = row.get("note", "")
+    if "delta_error" in row:
+        note = (
+            f"|delta_fast - delta_dense| = {row['delta_error']:.1e} "
+            f"(delta {row['delta']:.4g}, target {row['tolerance']:.1e})"
+        )
+    if "ratio_to_floor" in row:
+        note = (
+            f"{row['per_capture_ms']:.1f} ms CPU per capture = {row['ratio_to_floor']:.1f}x the "
+            f"floor ({row['floor_s'] * 1e3 / (row['robots'] * 6):.2f} ms)"
+        )
+        if "identical_to_serial_uncached" in row:
+            note += f"; score rows identical to a serial uncached run: {row['identical_to_serial_uncached']}"
+    print(f"{row['case']:<62} {row['fast_s']:9.3f} {dense} {ratio} {row['peak_mb']:8.0f}  {note}")
+    sys.stdout.flush()
+
+
+def _fleet_sizes(sizes: list[int], method: str) -> None:
+    rows = [_child("fleet", False, robots, method) for robots in sizes]
+    for row in rows:
+        _print_row(row)
+    if len(rows) >= 2:
+        x = np.array([r["robots"] for r in rows], dtype=float)
+        y = np.array([r["fast_s"] for r in rows])
+        slope, intercept = np.polyfit(x, y, 1)
+        fitted = slope * x + intercept
+        r2 = 1 - float(np.sum((y - fitted) ** 2) / np.sum((y - y.mean()) ** 2))
+        worst = float(np.max(np.abs(y - fitted) / y))
+        print(
+            f"linear fit: {intercept:.2f} s + {slope * 1e3:.1f} ms x robots (R^2 {r2:.4f}, "
+            f"largest relative residual {100 * worst:.1f} %); 10,000 robots: "
+            f"{(intercept + slope * 10_000) / 60:.1f} min"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: small cases, seconds")
     parser.add_argument("--case", help=argparse.SUPPRESS)
     parser.add_argument(
         "--fleet-robots",
-        type=int,
         default=None,
-        help="robots in the fleet case (default 100, extrapolated; 1000 is the full day: ~30 min with set-up)",
+        help="robots in the fleet case, or a comma list for a linear fit (default 30)",
     )
     parser.add_argument(
         "--fleet-method",
         default="mechanics",
         choices=["mechanics", "lra", "pca"],
-        help="monitor method of the fleet case (default: the product default)",
+        help="monitor method of the fleet cases (default: the product default)",
     )
+    parser.add_argument(
+        "--history", help="days of kept files, comma list (e.g. 7,365): nothing-new runs"
+    )
+    parser.add_argument(
+        "--workers-curve",
+        action="store_true",
+        help="time one fleet day on 1,2,4,8,16 processes and Dask workers; write a CSV",
+    )
+    parser.add_argument("--curve-robots", type=int, default=200, help="robots of the curve")
+    parser.add_argument("--csv", default="workers_curve.csv", help="CSV of --workers-curve")
     args = parser.parse_args()
-    robots = args.fleet_robots or (2 if args.quick else 100)
     if args.case:
+        robots = int(args.fleet_robots or 2)
         run_case(args.case, args.quick, robots, args.fleet_method)
         return
-    names = ["lra-300", "capture-3s", "mechanics-3s", "fleet"] if args.quick else [*CASES, "fleet"]
     print(machine())
-    print(f"{'case':<62} {'fast s':>9} {'dense s':>9} {'ratio':>8} {'peak MB':>8}  note")
-    for name in names:
-        env = {**os.environ, **ONE_THREAD}
-        command = [sys.executable, __file__, "--case", name, "--fleet-robots", str(robots)]
-        command += ["--fleet-method", args.fleet_method]
-        if args.quick:
-            command.append("--quick")
-        child = subprocess.run(command, env=env, capture_output=True, text=True)
-        if child.returncode:
-            sys.exit(f"case {name} failed:\n{child.stderr}")
-        row = json.loads(child.stdout.strip().splitlines()[-1])
-        dense = f"{row['dense_s']:9.3f}" if "dense_s" in row else f"{'-':>9}"
-        ratio = f"{row['ratio']:7.0f}x" if "ratio" in row else f"{'-':>8}"
-        note = row.get("note", "")
-        if "delta_error" in row:
-            note = (
-                f"|delta_fast - delta_dense| = {row['delta_error']:.1e} "
-                f"(delta {row['delta']:.4g}, target {row['tolerance']:.1e})"
+    if args.workers_curve:
+        cpus = os.cpu_count() or 1
+        counts = [n for n in (1, 2, 4, 8, 16) if n <= cpus]
+        with tempfile.TemporaryDirectory() as folder:
+            rows = fleet.workers_curve(
+                Path(folder), args.curve_robots, counts, args.fleet_method, Path(args.csv),
+                machine(),
+            )  # fmt: skip
+        for row in rows:
+            print(
+                f"{row['backend']:<9} {row['workers']:>2}: {row['seconds']:8.2f} s "
+                f"speed-up {row['speedup']:5.2f}x efficiency {row['efficiency']:.2f} "
+                f"identical {row['identical']}"
             )
-        print(
-            f"{row['case']:<62} {row['fast_s']:9.3f} {dense} {ratio} {row['peak_mb']:8.0f}  {note}"
-        )
-        sys.stdout.flush()
+        print(f"wrote {args.csv}")
+        return
+    print(f"{'case':<62} {'fast s':>9} {'ref s':>9} {'ratio':>8} {'peak MB':>8}  note")
+    if args.history:
+        for days in (int(d) for d in args.history.split(",")):
+            _print_row(_child("history", False, days, args.fleet_method))
+        return
+    if args.fleet_robots and "," in args.fleet_robots:
+        _fleet_sizes([int(r) for r in args.fleet_robots.split(",")], args.fleet_method)
+        return
+    robots = int(args.fleet_robots or (2 if args.quick else 30))
+    names = (
+        ["lra-300", "capture-3s", "mechanics-3s", "job-3s-mechanics", "fleet"]
+        if args.quick
+        else [*CASES, "fleet"]
+    )
+    for name in names:
+        _print_row(_child(name, args.quick, robots, args.fleet_method))
 
 
 if __name__ == "__main__":

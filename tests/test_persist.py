@@ -33,9 +33,7 @@ def _fitted(method: str) -> aw.HealthModel:
         align_phase=config.align_phase,
         stage=config.stage(),
     ).fit(simulate_capture("heavy", seed=1, duration_s=3.0))
-    return model.calibrate(
-        [simulate_capture("heavy", seed=s, duration_s=3.0) for s in (2, 3)]
-    )
+    return model.calibrate([simulate_capture("heavy", seed=s, duration_s=3.0) for s in (2, 3)])
 
 
 @pytest.mark.parametrize("method", ["mechanics", "lra", "pca"])
@@ -68,8 +66,10 @@ def test_non_finite_floats_and_containers_survive() -> None:
     detector = aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
     detector.extra_ = {"nan": float("nan"), "inf": -np.inf, "pair": (1, np.float64(2.5))}
     back = load_model(dump_model(detector))
-    assert np.isnan(back.extra_["nan"]) and back.extra_["inf"] == -np.inf
-    assert back.extra_["pair"] == (1, 2.5) and type(back.extra_["pair"][1]) is np.float64
+    assert np.isnan(back.extra_["nan"])
+    assert back.extra_["inf"] == -np.inf
+    assert back.extra_["pair"] == (1, 2.5)
+    assert type(back.extra_["pair"][1]) is np.float64
 
 
 def test_unregistered_class_is_refused_with_its_path() -> None:
@@ -232,4 +232,5 @@ def test_files_changed_in_place_are_found_a_slice_at_a_time(
                 found_after = run
                 break
     # 18 files, 4 verified per run, least recently verified first: within ceil(18 / 4) runs.
-    assert found_after is not None and found_after <= 5
+    assert found_after is not None
+    assert found_after <= 5

@@ -277,7 +277,9 @@ def monitor_fleet(
             state.candidates = [stored]
             saved = store.saved_model(int(latest["id"]))
             if saved is not None and (
-                saved["file_hash"], saved["params"], saved["library_version"]
+                saved["file_hash"],
+                saved["params"],
+                saved["library_version"],
             ) == (latest["file_hash"], params, library_version()):
                 state.model = ModelRef(str(saved["model_hash"]), store_path)
                 state.rates_hz = json.loads(saved["rates_hz"])
@@ -416,9 +418,7 @@ def monitor_fleet(
         queue_of: dict[int, list[int]] = defaultdict(list)
         for index, job in enumerate(jobs):
             queue_of[job.baseline_id].append(index)
-        for count, (index, result) in enumerate(
-            pool.map(score_capture, jobs), start=1
-        ):
+        for count, (index, result) in enumerate(pool.map(score_capture, jobs), start=1):
             pending[index] = result
             queue = queue_of[jobs[index].baseline_id]
             while queue and queue[0] in pending:

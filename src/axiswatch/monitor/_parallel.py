@@ -237,9 +237,7 @@ def parallel_map(
     return _pooled(pool, fn, items)
 
 
-def _pooled(
-    pool: WorkerPool, fn: Callable[[T], R], items: Iterable[T]
-) -> Iterator[tuple[int, R]]:
+def _pooled(pool: WorkerPool, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[tuple[int, R]]:
     with pool:
         yield from pool.map(fn, items)
 

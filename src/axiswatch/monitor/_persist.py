@@ -64,7 +64,7 @@ _META = "__meta__"
 
 
 @cache
-def _registry() -> dict[str, type]:
+def _registry() -> dict[str, Any]:
     classes = {}
     for path in ALLOWED_CLASSES:
         module, _, name = path.rpartition(".")
@@ -73,7 +73,7 @@ def _registry() -> dict[str, type]:
 
 
 @cache
-def _paths() -> dict[type, str]:
+def _paths() -> dict[Any, str]:
     return {cls: path for path, cls in _registry().items()}
 
 
@@ -104,7 +104,9 @@ class _Encoder:
             if not all(isinstance(k, str) for k in value):
                 raise TypeError(f"cannot store {where}: a dict with non-string keys.")
             # Sorted, as the JSON is, so that equal models number their arrays alike.
-            return {"__dict__": {k: self.encode(value[k], f"{where}[{k!r}]") for k in sorted(value)}}
+            return {
+                "__dict__": {k: self.encode(value[k], f"{where}[{k!r}]") for k in sorted(value)}
+            }
         path = _paths().get(type(value))
         if path is None:
             raise TypeError(
@@ -192,7 +194,8 @@ def dump_model(model: Any, *, params: dict[str, Any] | None = None) -> bytes:
     }
     text = json.dumps(meta, sort_keys=True, allow_nan=False)
     buffer = io.BytesIO()
-    np.savez(buffer, **encoder.arrays, **{_META: np.frombuffer(text.encode(), dtype=np.uint8)})
+    arrays = {**encoder.arrays, _META: np.frombuffer(text.encode(), dtype=np.uint8)}
+    np.savez(buffer, **arrays)  # type: ignore[arg-type]
     return buffer.getvalue()
 
 

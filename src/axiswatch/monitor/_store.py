@@ -330,8 +330,7 @@ class Store:
         """Number a new monitor run (the file index records which run verified a file)."""
         with self.write() as db:
             return int(
-                db.execute("INSERT INTO runs (started_at) VALUES (?)", (started_at,)).lastrowid
-                or 0
+                db.execute("INSERT INTO runs (started_at) VALUES (?)", (started_at,)).lastrowid or 0
             )
 
     def indexed_file(self, path: str) -> sqlite3.Row | None:

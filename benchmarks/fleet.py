@@ -1,0 +1,263 @@
+"""Fleet-scale cases of ``benchmarks/run.py``: the fleet day, a year of history, the worker curve.
+
+Fleets come from the project's robot simulator (``axiswatch.datasets.simulate_fleet``, 6 axes a
+robot, 3 s captures, healthy). Simulating every capture of a large fleet would take longer than
+the runs measured, so a few robots are simulated (``TEMPLATE_ROBOTS``) and every robot of the
+fleet gets its own copy of one of them with independent noise of 0.1 % of each signal's
+standard deviation added (every file, hence every fitted model, differs, as in a real fleet;
+the scoring work per capture is that of the simulator's captures).
+
+Every timed run is checked: the hash of its score rows must equal that of a serial run on a
+fresh store (no stored model, no file index), or of the other runs of the same curve.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import csv
+import hashlib
+import os
+import shutil
+import statistics
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.fft
+
+import axiswatch as aw
+from axiswatch.datasets._robot import simulate_fleet
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
+
+#: Robots simulated; the others are noisy copies of them.
+TEMPLATE_ROBOTS = 3
+AXES = 6
+
+
+def _noisy_copy(task: tuple[str, str, int]) -> None:
+    source, target, seed = task
+    capture = aw.read_capture(source)
+    rng = np.random.default_rng(seed)
+    signals = {
+        name: values + 1e-3 * float(np.std(values)) * rng.normal(size=values.size)
+        for name, values in capture.signals.items()
+    }
+    Path(target).parent.mkdir(parents=True, exist_ok=True)
+    aw.write_capture(aw.Capture(signals, capture.rates_hz), target)
+
+
+def build_fleet(root: Path, robots: int, days: int, *, processes: int | None = None) -> None:
+    """``robots`` x 6 axes x ``days`` healthy captures of 3 s in ``root`` (see module docstring)."""
+    templates = root.parent / f"{root.name}-templates"
+    simulate_fleet(
+        templates,
+        n_robots=min(robots, TEMPLATE_ROBOTS),
+        n_axes=AXES,
+        n_days=days,
+        task_change_days=(),
+        faults=[],
+    )
+    tasks = []
+    for robot in range(robots):
+        template = templates / f"robot{robot % TEMPLATE_ROBOTS + 1:02d}"
+        for source in sorted(template.glob("*/*.parquet")):
+            target = root / f"robot{robot + 1:05d}" / source.parent.name / source.name
+            tasks.append((str(source), str(target), len(tasks)))
+    with concurrent.futures.ProcessPoolExecutor(processes or os.cpu_count()) as pool:
+        list(pool.map(_noisy_copy, tasks, chunksize=32))
+    shutil.rmtree(templates)
+
+
+def score_hash(store: Store) -> str:
+    """SHA-256 of every score row's identity and result (exact float reprs), in a fixed order."""
+    digest = hashlib.sha256()
+    for row in store.rows(
+        "SELECT robot, axis, method, capture, role, distance, threshold, over, alarm FROM scores "
+        "ORDER BY robot, axis, method, capture, role"
+    ):
+        digest.update(repr(tuple(row)).encode())
+    return digest.hexdigest()
+
+
+def floor_seconds(paths: list[Path]) -> float:
+    """The physical floor of scoring these files: read each (same reader) + one rfft a signal."""
+    start = time.perf_counter()
+    for path in paths:
+        capture = aw.read_capture(path)
+        for values in capture.signals.values():
+            scipy.fft.rfft(values)
+    return time.perf_counter() - start
+
+
+def _hold(root: Path, held: Path, day: int) -> list[Path]:
+    new_day = sorted(root.glob(f"*/*/*-{day:02d}.parquet"))
+    for path in new_day:
+        target = held / path.relative_to(root)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        path.rename(target)
+    return new_day
+
+
+def _release(root: Path, held: Path, new_day: list[Path]) -> None:
+    for path in new_day:
+        (held / path.relative_to(root)).rename(path)
+
+
+def case_fleet_day(
+    folder: Path, robots: int, method: str, *, workers: int = 2, check: bool = True
+) -> dict[str, Any]:
+    """One fleet day, as the daily job runs it, after a commissioning run (not timed)."""
+    root = folder / "fleet"
+    build_fleet(root, robots, 7)
+    new_day = _hold(root, folder / "held", 7)
+    config = MonitorConfig(method=method)  # type: ignore[arg-type]
+    with Store(folder / "fleet.db") as store:
+        monitor_fleet(root, store, config, workers=workers)
+        _release(root, folder / "held", new_day)
+        floor = floor_seconds(new_day)  # also brings the new files into the page cache
+        start = time.perf_counter()
+        summary = monitor_fleet(root, store, config, workers=workers)
+        elapsed = time.perf_counter() - start
+        timed_hash = score_hash(store)
+    assert summary.scored == len(new_day) == robots * AXES, summary
+    result: dict[str, Any] = {
+        "case": f"fleet day: {robots} robots x 6 axes, --workers {workers} ({method})",
+        "fast_s": elapsed,
+        "floor_s": floor,
+        "ratio_to_floor": elapsed * workers / floor,
+        "per_capture_ms": elapsed * workers / len(new_day) * 1e3,
+        "robots": robots,
+    }
+    if check:
+        with Store(folder / "serial.db") as fresh:
+            monitor_fleet(root, fresh, config, workers=1)
+            result["identical_to_serial_uncached"] = score_hash(fresh) == timed_hash
+    return result
+
+
+def _history_fleet(root: Path, days: int) -> None:
+    """1 robot x 6 axes with ``days`` daily captures: 7 simulated days, hard-linked under the
+    names of the other days (the file count is what a history costs; contents repeat)."""
+    simulate_fleet(root, n_robots=1, n_axes=AXES, n_days=7, task_change_days=(), faults=[])
+    start = np.datetime64("2026-03-01")
+    for folder in sorted(root.glob("*/*")):
+        week = sorted(folder.glob("*.parquet"))
+        for day in range(7, days):
+            name = f"{start + np.timedelta64(day, 'D')}.parquet"
+            os.link(week[day % 7], folder / name)
+
+
+def case_history(folder: Path, days: int, method: str, repeats: int = 5) -> dict[str, Any]:
+    """A day's run and a run with nothing new, after ``days`` days of kept files."""
+    root = folder / "fleet"
+    _history_fleet(root, days + 1)
+    last = sorted(root.glob("*/*/*.parquet"))[-1].name
+    new_day = sorted(root.glob(f"*/*/{last}"))
+    held = folder / "held"
+    for path in new_day:
+        target = held / path.relative_to(root)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        path.rename(target)
+    config = MonitorConfig(method=method)  # type: ignore[arg-type]
+    with Store(folder / "fleet.db") as store:
+        monitor_fleet(root, store, config, workers=2)
+        _release(root, held, new_day)
+        start = time.perf_counter()
+        summary = monitor_fleet(root, store, config, workers=2)
+        day_s = time.perf_counter() - start
+        assert summary.scored == AXES, summary
+        idle = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            again = monitor_fleet(root, store, config, workers=2)
+            idle.append(time.perf_counter() - start)
+            assert again.scored == 0
+    nothing_new = statistics.median(idle)
+    return {
+        "case": f"history: 1 robot x 6 axes, {days} days kept ({method})",
+        "fast_s": day_s,
+        "nothing_new_s": nothing_new,
+        "ratio": nothing_new / day_s,
+        "note": f"day's run {day_s:.3f} s; nothing new {nothing_new:.4f} s "
+        f"(median of {repeats}) = {100 * nothing_new / day_s:.2f} % of it",
+    }
+
+
+def _write_curve(rows: list[dict[str, Any]], csv_path: Path, machine: str) -> None:
+    """(Re)write the curve's CSV, so that a run cut short keeps what it measured."""
+    serial = rows[0]["seconds"]  # 1 process (serial in the driver) comes first
+    for row in rows:
+        row["speedup"] = round(serial / row["seconds"], 2)
+        row["efficiency"] = round(serial / row["seconds"] / row["workers"], 3)
+        row["identical"] = row["hash"] == rows[0]["hash"]
+        row["machine"] = machine
+    with csv_path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def workers_curve(
+    folder: Path, robots: int, counts: list[int], method: str, csv_path: Path, machine: str
+) -> list[dict[str, Any]]:
+    """Time one fleet day (``robots`` x 6 new captures) on 1..N local processes and on a Dask
+    LocalCluster of as many single-threaded worker processes; write a CSV.
+
+    The fleet is commissioned once (baseline + 2 calibration captures per axis, not timed);
+    every timed run starts from a copy of that store, so each scores the same new captures with
+    the stored models (workers start cold: each reads the models it needs once).
+    """
+    root = folder / "fleet"
+    build_fleet(root, robots, 4)
+    new_day = _hold(root, folder / "held", 4)
+    config = MonitorConfig(method=method, calibration_size=2)  # type: ignore[arg-type]
+    template = folder / "commissioned.db"
+    with Store(template) as store:
+        monitor_fleet(root, store, config, workers=os.cpu_count() or 1)
+    _release(root, folder / "held", new_day)
+    floor = floor_seconds(new_day)
+    rows: list[dict[str, Any]] = []
+
+    def timed(backend: str, count: int, **where: Any) -> None:
+        path = folder / f"{backend}-{count}.db"
+        shutil.copy(template, path)
+        load = os.getloadavg()[0]
+        with Store(path) as store:
+            start = time.perf_counter()
+            summary = monitor_fleet(root, store, config, **where)
+            elapsed = time.perf_counter() - start
+            digest = score_hash(store)
+        assert summary.scored == len(new_day), summary
+        rows.append(
+            {
+                "backend": backend,
+                "workers": count,
+                "captures": len(new_day),
+                "seconds": round(elapsed, 3),
+                "load_before": round(load, 2),
+                "floor_s": round(floor, 3),
+                "hash": digest[:16],
+            }
+        )
+        print(f"  {backend:<9} {count:>2} workers: {elapsed:8.2f} s (load {load:.1f})", flush=True)
+        _write_curve(rows, csv_path, machine)
+
+    for workers in counts:
+        timed("processes", workers, workers=workers)
+    try:
+        import distributed
+    except ImportError:
+        distributed = None
+    if distributed is not None:
+        for workers in counts:
+            with (
+                distributed.LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                ) as cluster,
+                distributed.Client(cluster) as client,
+            ):
+                timed("dask", workers, dask=client)
+    return rows
