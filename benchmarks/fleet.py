@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow.parquet as pq
 import scipy.fft
 
 import axiswatch as aw
@@ -83,12 +84,14 @@ def score_hash(store: Store) -> str:
 
 
 def floor_seconds(paths: list[Path]) -> float:
-    """The physical floor of scoring these files: read each (same reader) + one rfft a signal."""
+    """The physical floor of scoring these files: read each file's columns (pyarrow) and one
+    ``rfft`` per signal."""
     start = time.perf_counter()
     for path in paths:
-        capture = aw.read_capture(path)
-        for values in capture.signals.values():
-            scipy.fft.rfft(values)
+        table = pq.read_table(path)
+        for name in table.column_names:
+            if name != "time":
+                scipy.fft.rfft(table[name].to_numpy())
     return time.perf_counter() - start
 
 

@@ -234,3 +234,27 @@ def test_files_changed_in_place_are_found_a_slice_at_a_time(
     # 18 files, 4 verified per run, least recently verified first: within ceil(18 / 4) runs.
     assert found_after is not None
     assert found_after <= 5
+
+
+def test_a_store_made_before_the_index_indexes_its_scored_files(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        with store.write() as db:
+            for table in ("file_index", "axis_folders", "fitted_models"):
+                db.execute(f"DROP TABLE {table}")
+    target = fleet / "robot01/axis2/2026-03-08.parquet"
+    capture = aw.read_capture(target)
+    aw.write_capture(
+        aw.Capture({k: 2.0 * v for k, v in capture.signals.items()}, capture.rates_hz), target
+    )
+    with Store(tmp_path / "s.db") as store:
+        summary = monitor_fleet(fleet, store, config)
+    assert summary.changed == [
+        "robot01/axis2/2026-03-08.parquet: content changed after it was scored; the stored "
+        "result is kept (re-baseline the axis to score it afresh)"
+    ]
+    assert summary.scored == 0

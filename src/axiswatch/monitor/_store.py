@@ -256,9 +256,19 @@ class Store:
 
     @staticmethod
     def _ensure_caches(connection: sqlite3.Connection) -> None:
+        indexed = connection.execute(
+            "SELECT 1 FROM sqlite_master WHERE type='table' AND name='file_index'"
+        ).fetchone()
         for statement in _CACHES.split(";"):
             if statement.strip():
                 connection.execute(statement)
+        if indexed is None:
+            # A store made before the index: its scored files enter it as they were scored,
+            # so that a later change in place is still found.
+            connection.execute(
+                "INSERT OR IGNORE INTO file_index (path, size, mtime_ns, hash, verified_run) "
+                "SELECT path, file_size, file_mtime_ns, file_hash, 0 FROM scores ORDER BY id"
+            )
 
     @contextmanager
     def write(self) -> Iterator[sqlite3.Connection]:
