@@ -1,0 +1,41 @@
+"""The worker pool: batches, one BLAS thread per worker set once, workers kept for a run."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+from threadpoolctl import threadpool_info
+
+from axiswatch.monitor._parallel import MAX_BATCH, WorkerPool, _batch_size, parallel_map
+
+
+def blas_threads(_: object) -> tuple[int, int]:
+    """(process id, most threads any BLAS/OpenMP pool of this process may use)."""
+    return os.getpid(), max((pool["num_threads"] for pool in threadpool_info()), default=1)
+
+
+def test_batches_amortise_tasks_but_leave_every_worker_several() -> None:
+    assert _batch_size(list(range(10)), slots=2) == 2
+    assert _batch_size(list(range(100_000)), slots=2) == MAX_BATCH
+    assert _batch_size(iter(range(10)), slots=2) == 1
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_worker_runs_blas_on_one_thread(workers: int) -> None:
+    results = [r for _, r in parallel_map(blas_threads, range(8), workers=workers)]
+    assert {threads for _, threads in results} == {1}
+
+
+def test_a_pool_keeps_its_worker_processes_across_maps() -> None:
+    with WorkerPool(workers=2) as pool:
+        first = {pid for _, (pid, _) in pool.map(blas_threads, range(8))}
+        second = {pid for _, (pid, _) in pool.map(blas_threads, range(8))}
+    assert os.getpid() not in first
+    assert second <= first
+
+
+def test_results_come_back_in_item_order_of_their_indices() -> None:
+    with WorkerPool(workers=2) as pool:
+        results = dict(pool.map(abs, [-i for i in range(100)]))
+    assert results == {i: i for i in range(100)}
