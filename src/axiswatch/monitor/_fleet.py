@@ -122,16 +122,17 @@ def _problem(root: Path, path: Path, reason: str) -> LayoutProblem:
     return LayoutProblem(robot, axis, path.name, path, f"{relative}: {reason}")
 
 
-def _walk(root: Path, skip: Callable[[str, str], bool] | None) -> Iterator[Path]:
-    """Files under ``root`` (not their folders; no ``stat`` of files), leaving out hidden
-    folders and the axis folders ``skip(robot, axis)`` names."""
+def _walk(root: Path, skip: Callable[[str, str], bool] | None) -> Iterator[tuple[str, ...]]:
+    """Relative parts of the files under ``root`` (no ``stat`` of files, no path objects: a
+    fleet keeps many files), leaving out hidden folders and the axis folders ``skip(robot,
+    axis)`` names."""
     for folder, folders, names in os.walk(root):
         parts = Path(folder).relative_to(root).parts
         folders[:] = [f for f in folders if not f.startswith(".")]
         if skip is not None and len(parts) == 2 and skip(*parts):
             folders[:] = []
             continue
-        yield from (Path(folder) / name for name in names)
+        yield from ((*parts, name) for name in names)
 
 
 def discover_fleet(
@@ -175,12 +176,12 @@ def discover_fleet(
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
-    for path in sorted(_walk(root, skip)):
-        relative = path.relative_to(root).parts
-        if any(part.startswith(".") for part in relative):
+    for relative in sorted(_walk(root, skip)):
+        if relative[-1].startswith("."):
             continue
-        if path.suffix.lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
+        if os.path.splitext(relative[-1])[1].lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
             continue
+        path = root.joinpath(*relative)
         if len(relative) != 3:
             problems.append(
                 _problem(

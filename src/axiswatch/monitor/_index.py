@@ -13,8 +13,8 @@ Pipeline side-stage of the monitor, a layer over ``_fleet`` (which knows the lay
   (size and modification time; the hash only where they differ), least recently verified
   first: :func:`verify_budget` files a run (``VERIFY_PER_AXIS`` per axis folder, at least
   ``VERIFY_MIN``), so every kept file is checked once every ``ceil(n_files / budget)`` runs
-  (a year of daily captures: every ~90 runs) at a cost that grows with the fleet, not with its
-  history; a small fleet's files are all checked on every run. A changed file that was scored
+  (a year of daily captures: every ~90 runs) at a cost that grows with the fleet, like a day's
+  run, and not with its history. A changed file that was scored
   is reported (``changed_files``), and its axis folder is listed again.
 """
 
@@ -38,8 +38,8 @@ __all__ = [
 
 #: Kept files compared with the disk per run and axis folder (a stat each, ~10 us).
 VERIFY_PER_AXIS = 4
-#: ... and at least this many per run.
-VERIFY_MIN = 1_000
+#: ... and at least this many per run (small fleets: all their files within a few runs).
+VERIFY_MIN = 64
 
 
 def verify_budget(n_axes: int) -> int:
@@ -48,7 +48,7 @@ def verify_budget(n_axes: int) -> int:
     Examples
     --------
     >>> verify_budget(10), verify_budget(60_000)
-    (1000, 240000)
+    (64, 240000)
     """
     return max(VERIFY_MIN, VERIFY_PER_AXIS * n_axes)
 
