@@ -131,15 +131,11 @@ def _changed_files(store: Store, changed: Sequence[tuple[str, str, str]]) -> lis
 def _standing_rejections(store: Store, index: FileIndex, method: str) -> list[str]:
     """Rejections whose file still has the rejected content."""
     standing = []
-    scored = {
-        (r["path"], r["file_hash"])
-        for r in store.rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
-    }
     for row in store.rows(
         "SELECT path, file_hash, error FROM rejections WHERE method=? ORDER BY id", (method,)
     ):
         path = index.root / row["path"]
-        if not path.is_file() or (row["path"], row["file_hash"]) in scored:
+        if not path.is_file() or store.was_scored(row["path"], row["file_hash"], method):
             continue
         if index.digest(path) == row["file_hash"]:
             standing.append(str(row["error"]))

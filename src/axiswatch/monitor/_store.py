@@ -380,6 +380,17 @@ class Store:
             (path,),
         ).fetchone()
 
+    def was_scored(self, path: str, file_hash: str, method: str) -> bool:
+        """Whether this content of a file has a score (a point query: the run's cost must not
+        follow the history)."""
+        return (
+            self._connection.execute(
+                "SELECT 1 FROM scores WHERE path=? AND file_hash=? AND method=? LIMIT 1",
+                (path, file_hash, method),
+            ).fetchone()
+            is not None
+        )
+
     def axis_folder_times(self, method: str, params: str) -> dict[tuple[str, str], int]:
         """Modification time of every axis folder when a run with these parameters finished it."""
         return {
