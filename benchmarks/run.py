@@ -321,11 +321,14 @@ def _print_row(row: dict[str, Any]) -> None:
         )
     if "ratio_to_floor" in row:
         note = (
-            f"{row['per_capture_ms']:.1f} ms CPU per capture = {row['ratio_to_floor']:.1f}x the "
-            f"floor ({row['floor_s'] * 1e3 / (row['robots'] * 6):.2f} ms)"
+            f"CPU {row['cpu_s']:.2f} s = {row['per_capture_ms']:.1f} ms per capture = "
+            f"{row['ratio_to_floor']:.1f}x the floor ({row['floor_s'] * 1e3 / (row['robots'] * 6):.2f}"
+            " ms CPU)"
         )
         if "identical_to_serial_uncached" in row:
-            note += f"; score rows identical to a serial uncached run: {row['identical_to_serial_uncached']}"
+            note += (
+                f"; rows identical to a serial uncached run: {row['identical_to_serial_uncached']}"
+            )
     print(f"{row['case']:<62} {row['fast_s']:9.3f} {dense} {ratio} {row['peak_mb']:8.0f}  {note}")
     sys.stdout.flush()
 
@@ -336,16 +339,19 @@ def _fleet_sizes(sizes: list[int], method: str) -> None:
         _print_row(row)
     if len(rows) >= 2:
         x = np.array([r["robots"] for r in rows], dtype=float)
-        y = np.array([r["fast_s"] for r in rows])
-        slope, intercept = np.polyfit(x, y, 1)
-        fitted = slope * x + intercept
-        r2 = 1 - float(np.sum((y - fitted) ** 2) / np.sum((y - y.mean()) ** 2))
-        worst = float(np.max(np.abs(y - fitted) / y))
-        print(
-            f"linear fit: {intercept:.2f} s + {slope * 1e3:.1f} ms x robots (R^2 {r2:.4f}, "
-            f"largest relative residual {100 * worst:.1f} %); 10,000 robots: "
-            f"{(intercept + slope * 10_000) / 60:.1f} min"
-        )
+        for label, key in (("wall", "fast_s"), ("CPU", "cpu_s")):
+            y = np.array([r[key] for r in rows])
+            slope, intercept = np.polyfit(x, y, 1)
+            fitted = slope * x + intercept
+            r2 = 1 - float(np.sum((y - fitted) ** 2) / np.sum((y - y.mean()) ** 2))
+            worst = float(np.max(np.abs(y - fitted) / y))
+            total = intercept + slope * 10_000
+            print(
+                f"linear fit of {label} time: {intercept:.2f} s + {slope * 1e3:.1f} ms x robots "
+                f"(R^2 {r2:.4f}, largest relative residual {100 * worst:.1f} %); 10,000 robots: "
+                f"{total / 60:.1f} min"
+                + (f" of CPU = {total / 120:.1f} min on 2 cores" if label == "CPU" else "")
+            )
 
 
 def main() -> None:
