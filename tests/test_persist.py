@@ -13,6 +13,7 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.monitor._index
+import axiswatch.monitor._models
 import axiswatch.monitor._monitor
 import axiswatch.monitor._scoring
 from axiswatch.datasets import simulate_capture
@@ -258,3 +259,22 @@ def test_a_store_made_before_the_index_indexes_its_scored_files(
         "result is kept (re-baseline the axis to score it afresh)"
     ]
     assert summary.scored == 0
+
+
+def test_a_model_that_cannot_be_stored_travels_with_its_jobs(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    config = MonitorConfig(method="pca")
+    columns = ["robot", "axis", "capture", "role", "distance", "threshold", "alarm"]
+    with Store(tmp_path / "stored.db") as store:
+        monitor_fleet(small_fleet, store, config)
+        stored = fleet_results(store)[columns]
+
+    def refuse(model: object, **_: object) -> bytes:
+        raise TypeError("cannot store HealthModel.detector_: not in ALLOWED_CLASSES")
+
+    monkeypatch.setattr(axiswatch.monitor._models, "dump_model", refuse)
+    with Store(tmp_path / "inline.db") as store:
+        monitor_fleet(small_fleet, store, config)
+        assert store.rows("SELECT count(*) AS n FROM fitted_models")[0]["n"] == 0
+        assert fleet_results(store)[columns].equals(stored)

@@ -36,19 +36,29 @@ class ModelRef:
         :func:`~axiswatch.monitor._persist.model_digest` of the model's blob.
     store_path : str
         The SQLite store (absolute path) whose ``fitted_models`` table holds the blob.
+    inline : HealthModel, optional
+        The model itself, sent with every job: a model that cannot be stored (a class outside
+        ``_persist.ALLOWED_CLASSES``, e.g. a detector registered by a user) travels as before.
     """
 
     key: str
     store_path: str
+    inline: HealthModel | None = None
 
 
 _cache: OrderedDict[str, HealthModel] = OrderedDict()
 _stores: dict[tuple[int, str], Store] = {}
 
 
-def keep_model(model: HealthModel, *, params: dict[str, Any] | None = None) -> tuple[str, bytes]:
-    """Serialise a fitted model, keep it in this process's cache; return its hash and blob."""
-    blob = dump_model(model, params=params)
+def keep_model(
+    model: HealthModel, *, params: dict[str, Any] | None = None
+) -> tuple[str, bytes | None]:
+    """Serialise a fitted model, keep it in this process's cache; return its hash and blob
+    (``("", None)`` when the model holds a class that cannot be stored)."""
+    try:
+        blob = dump_model(model, params=params)
+    except TypeError:
+        return "", None
     key = model_digest(blob)
     _remember(key, model)
     return key, blob
@@ -77,6 +87,8 @@ def resolve_model(ref: ModelRef) -> HealthModel:
     LookupError
         If the store holds no model with that hash (it was replaced while the run went on).
     """
+    if ref.inline is not None:
+        return ref.inline
     model = _cache.get(ref.key)
     if model is not None:
         _cache.move_to_end(ref.key)

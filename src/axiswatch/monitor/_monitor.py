@@ -321,7 +321,8 @@ def monitor_fleet(
     counts = {"baselines": 0, "captures": 0}
 
     def persist(outcome: FitOutcome, baseline_id: int) -> ModelRef:
-        assert outcome.blob is not None
+        if outcome.blob is None:  # not storable: sent with the jobs, refitted every run
+            return ModelRef("", store_path, inline=outcome.inline)
         store.save_model(
             baseline_id,
             file_hash=outcome.file_hash,
@@ -344,7 +345,7 @@ def monitor_fleet(
                 if progress is not None:
                     progress("baselines", counts["baselines"], len(axes))
                 if state.baseline is not None:
-                    if outcome.blob is None:
+                    if outcome.error is not None:
                         summary.axis_problems.append(
                             f"{outcome.error}; the stored baseline cannot be refitted"
                         )
@@ -353,7 +354,7 @@ def monitor_fleet(
                         state.model = persist(outcome, int(state.baseline["id"]))
                         state.rates_hz = outcome.rates_hz
                     continue
-                if outcome.blob is None:
+                if outcome.error is not None:
                     reject(
                         store, method, file.robot, file.axis, file.capture, outcome.job.relative,
                         digest(file.path), str(outcome.error),

@@ -182,12 +182,14 @@ class FitJob:
 
 @dataclass(frozen=True)
 class FitOutcome:
-    """A fitted model (its content hash and blob; the worker keeps the model itself) and what
-    identifies it, or the error that prevented it."""
+    """A fitted model (its content hash and blob; the worker keeps the model itself, or sends it
+    back as ``inline`` when it cannot be stored) and what identifies it, or the error that
+    prevented it."""
 
     job: FitJob
     model_key: str
     blob: bytes | None
+    inline: HealthModel | None
     rates_hz: dict[str, float]
     file_hash: str
     features_hash: str
@@ -208,10 +210,13 @@ def fit_baseline(job: FitJob) -> FitOutcome:
             stage=job.config.stage(),
         ).fit(capture)
     except (AxiswatchError, ValueError, OSError) as exc:
-        return FitOutcome(job, "", None, {}, "", "", _one_line(exc, path, job.relative))
+        return FitOutcome(job, "", None, None, {}, "", "", _one_line(exc, path, job.relative))
     features_hash = hashlib.sha256(model.baseline_features_.X.tobytes()).hexdigest()
     key, blob = keep_model(model, params=job.config.params())
-    return FitOutcome(job, key, blob, dict(capture.rates_hz), digest, features_hash, None)
+    inline = model if blob is None else None
+    return FitOutcome(
+        job, key, blob, inline, dict(capture.rates_hz), digest, features_hash, None
+    )
 
 
 @dataclass(frozen=True)
