@@ -271,3 +271,11 @@ def running_rms(values: np.ndarray, width: int) -> np.ndarray:
             total += x[k] ** 2
         out[i] = np.sqrt(total / width)
     return out
+
+
+def alarm_threshold_naive(distances: list[float], percentile: float, floor: float | None) -> float:
+    """The alarm threshold spelled out: the exponential quantile at the mean distance (the
+    half-Laplace maximum-likelihood scale), or the floor where that is larger."""
+    scale = sum(distances) / len(distances)
+    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    return fitted if floor is None or floor <= fitted else floor
