@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 from types import ModuleType
 
 import pytest
@@ -57,3 +58,33 @@ def test_exceptions_subclass_builtins() -> None:
         issubclass(e, aw.AxiswatchError)
         for e in (aw.CaptureError, aw.CalibrationError, aw.StoreError)
     )
+
+
+def test_figures_leave_the_users_matplotlib_backend_alone(tmp_path: Path) -> None:
+    # Every figure of the library, the fleet report and the lab, drawn after the user chose a
+    # backend: the choice stands, and pyplot (its window manager) is never imported.
+    code = (
+        "import sys, matplotlib\n"
+        "matplotlib.use('svg')\n"
+        "import numpy as np, pandas as pd\n"
+        "import axiswatch as aw\n"
+        "from axiswatch._plotting import plot_distance_trend\n"
+        "from axiswatch._attribution import plot_difference_spectrogram\n"
+        "from axiswatch_lab._plots import plot_paired, plot_roc, plot_robot_study\n"
+        "rows = pd.DataFrame({'captured_at': ['2026-03-01', '2026-03-02'], 'epoch': 1,\n"
+        "    'role': ['baseline', 'monitor'], 'distance': [None, 1.0], 'threshold': [None, 2.0],\n"
+        "    'over': False, 'alarm': False})\n"
+        "plot_distance_trend(rows).figure.savefig(sys.argv[1] + '/trend.png')\n"
+        "f = aw.Features(np.ones((4, 6)), ('a', 'b'), np.arange(3.0), 10.0)\n"
+        "plot_difference_spectrogram(f, f)\n"
+        "plot_roc(pd.DataFrame({'method': ['lra'], 'protocol': ['p'], 'percentile': [99.0],\n"
+        "    'fpr': [0.0], 'tpr': [1.0], 'auroc': [1.0]}))\n"
+        "plot_robot_study(pd.DataFrame({'day': [1, 2], 'task': 'a', 'method': 'lra',\n"
+        "    'alignment': 'none', 'fault': 'none', 'distance': [0.1, 0.2]}), 't')\n"
+        "plot_paired(pd.DataFrame({'features': ['stft'], 'method': ['lra'], 'fault': ['tooth'],\n"
+        "    'auroc': [0.5], 'oracle_auroc': [0.9]}))\n"
+        "assert matplotlib.get_backend() == 'svg', matplotlib.get_backend()\n"
+        "assert 'matplotlib.pyplot' not in sys.modules, 'pyplot imported'\n"
+    )
+    subprocess.run([sys.executable, "-c", code, str(tmp_path)], check=True)
+    assert (tmp_path / "trend.png").read_bytes().startswith(b"\x89PNG")

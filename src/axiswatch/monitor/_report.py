@@ -14,7 +14,7 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._plotting import plot_distance_trend
+from axiswatch._plotting import new_axes, plot_distance_trend
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._store import Store
 
@@ -46,15 +46,9 @@ def _figure(
     fault_dates: pd.Series | None,
     events: list[tuple[str, str]],
 ) -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     methods = sorted(axis_rows.method.unique())
-    figure, axes = plt.subplots(
-        len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True
-    )
+    axes = new_axes(len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True)
+    figure = axes[0, 0].figure
     for ax, method in zip(axes[:, 0], methods, strict=True):
         plot_distance_trend(
             axis_rows[axis_rows.method == method],
@@ -99,11 +93,6 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = fleet_summary(store)
@@ -138,7 +127,6 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
         figure.savefig(out / name, dpi=90)
         buffer = io.BytesIO()
         figure.savefig(buffer, format="png", dpi=90)
-        plt.close(figure)
         encoded = base64.b64encode(buffer.getvalue()).decode("ascii")
         parts.append(f"<h3 id='{html.escape(robot)}-{html.escape(axis)}'>{robot} / {axis}</h3>")
         parts.append(
