@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 from types import ModuleType
 
@@ -88,3 +89,21 @@ def test_figures_leave_the_users_matplotlib_backend_alone(tmp_path: Path) -> Non
     )
     subprocess.run([sys.executable, "-c", code, str(tmp_path)], check=True)
     assert (tmp_path / "trend.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_every_library_module_is_under_the_import_contract() -> None:
+    # A new library module must join the contract that keeps the library below the fleet service
+    # and the data sets (pyproject.toml, checked by lint-imports in make lint).
+    root = Path(__file__).resolve().parents[1]
+    config = tomllib.loads((root / "pyproject.toml").read_text())
+    contract = next(
+        c
+        for c in config["tool"]["importlinter"]["contracts"]
+        if c.get("forbidden_modules") == ["axiswatch.monitor", "axiswatch.datasets"]
+    )
+    modules = {
+        f"axiswatch.{path.stem}"
+        for path in (root / "src" / "axiswatch").glob("*.py")
+        if path.stem not in {"__init__", "__main__", "cli"}
+    }
+    assert modules == set(contract["source_modules"])
