@@ -273,6 +273,14 @@ def running_rms(values: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
+def alarm_threshold_naive(distances: list[float], percentile: float, floor: float | None) -> float:
+    """The alarm threshold spelled out: the exponential quantile at the mean distance (the
+    half-Laplace maximum-likelihood scale), or the floor where that is larger."""
+    scale = sum(distances) / len(distances)
+    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    return fitted if floor is None or floor <= fitted else floor
+
+
 def axis_decisions_naive(
     distances: list[float],
     alarmed_before: list[bool],
@@ -298,8 +306,7 @@ def axis_decisions_naive(
         elif threshold is None:
             healthy.append(distance)
             if len(healthy) == calibration_size:
-                fitted = exponential_quantile(sum(healthy) / len(healthy), percentile / 100)
-                threshold = fitted if floor is None else max(fitted, floor)
+                threshold = alarm_threshold_naive(healthy, percentile, floor)
             decisions.append(("calibration", threshold, False, False))
         else:
             overs.append(distance > threshold)

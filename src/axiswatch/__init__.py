@@ -26,6 +26,8 @@ from axiswatch._attribution import (
 )
 from axiswatch._calibration import (
     HalfLaplaceFit,
+    Threshold,
+    alarm_threshold,
     fit_half_laplace,
     half_laplace_threshold,
 )
@@ -104,6 +106,8 @@ __all__ = [
     "StftStage",
     "Store",
     "StoreError",
+    "Threshold",
+    "alarm_threshold",
     "align_phase",
     "as_capture",
     "attribute",

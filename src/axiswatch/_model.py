@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.base import clone
 
-from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
+from axiswatch._calibration import HalfLaplaceFit, Threshold, alarm_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, LRADetector
 from axiswatch._features import Features, FeatureSpec, features_from_signals
@@ -159,9 +159,12 @@ class HealthModel:
             distances = np.array([self.distance(c) for c in healthy])
         else:
             distances = np.asarray(healthy, dtype=np.float64)
-        self.calibration_ = fit_half_laplace(distances)
+        self.alarm_threshold_: Threshold = alarm_threshold(
+            distances, percentile=self.percentile, floor=self.min_threshold or None
+        )
+        self.calibration_ = self.alarm_threshold_.fit
         self.healthy_distances_ = distances
-        self.threshold_ = max(self.calibration_.threshold(self.percentile), self.min_threshold)
+        self.threshold_ = self.alarm_threshold_.value
         return self
 
     def assess(self, capture: Capture) -> Assessment:
