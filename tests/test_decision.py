@@ -115,7 +115,9 @@ def test_an_alarmed_capture_never_calibrates() -> None:
 
 
 def test_a_calibration_that_cannot_be_fitted_waits() -> None:
-    decision = decide(AxisHistory(calibration_distances=(0.0,)), 0.0, DecisionRule(calibration_size=2))
+    decision = decide(
+        AxisHistory(calibration_distances=(0.0,)), 0.0, DecisionRule(calibration_size=2)
+    )
     assert decision.calibrated is None
     assert decision.threshold is None
     assert decision.reason.endswith(

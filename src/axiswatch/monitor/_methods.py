@@ -120,9 +120,10 @@ def register_method(name: str, preset: MethodPreset, *, replace: bool = False) -
     Examples
     --------
     >>> from axiswatch import PCADetector
-    >>> register_method("pca3", MethodPreset(detector=lambda config: PCADetector(n_components=3)))
-    >>> "pca3" in methods()
-    True
+    >>> register_method("pca", MethodPreset(detector=lambda config: PCADetector(n_components=3)))
+    Traceback (most recent call last):
+    ...
+    ValueError: The method 'pca' is registered already; pass replace=True to replace it.
     """
     if not (name and name.replace("_", "").replace("-", "").isalnum()):
         raise ValueError(
