@@ -50,6 +50,9 @@ from axiswatch._features import (
     extract_features,
     stft_features,
 )
+from axiswatch._formats import (
+    register_format,
+)
 from axiswatch._mechanics import (
     INDICATORS,
     MechanicsStage,
@@ -119,6 +122,7 @@ __all__ = [
     "monitor_fleet",
     "phase_lag",
     "read_capture",
+    "register_format",
     "resample_capture",
     "stft_features",
     "upsample_pchip",

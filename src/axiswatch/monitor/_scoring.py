@@ -18,7 +18,7 @@ from typing import Any, Literal
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector, LRADetector
+from axiswatch._detectors import BaselineDetector
 from axiswatch._features import FeatureSpec
 from axiswatch._model import HealthModel
 from axiswatch._stages import FeatureStage
@@ -286,14 +286,8 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
             "phase_lag_s": float(lag / features.rate_hz),
             "n_rows": int(features.X.shape[0]),
         }
-        detector = model.detector_
-        if isinstance(detector, LRADetector):
-            result = detector.align(features.X)
-            distance = float(result.delta)
-            details["lra_eigengap"] = float(result.eigengap)
-            details["lra_tie_broken"] = bool(result.tie_broken)
-        else:
-            distance = float(detector.distance(features.X))
+        distance, diagnostics = model.detector_.distance_and_diagnostics(features.X)
+        details.update(diagnostics)
     except _DATA_ERRORS as exc:
         error = _one_line(exc, path, job.relative)
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error)
