@@ -76,10 +76,19 @@ def build_fleet(root: Path, robots: int, days: int, *, processes: int | None = N
 def score_hash(store: Store) -> str:
     """SHA-256 of every score row's identity and result (exact float reprs), in a fixed order."""
     digest = hashlib.sha256()
-    for row in store.rows(
-        "SELECT robot, axis, method, capture, role, distance, threshold, over, alarm FROM scores "
-        "ORDER BY robot, axis, method, capture, role"
-    ):
+    columns = [
+        "robot",
+        "axis",
+        "method",
+        "capture",
+        "role",
+        "distance",
+        "threshold",
+        "over",
+        "alarm",
+    ]
+    rows = store.score_table()[columns].sort_values(columns[:5])
+    for row in rows.itertuples(index=False):
         digest.update(repr(tuple(row)).encode())
     return digest.hexdigest()
 

@@ -5,7 +5,9 @@ from __future__ import annotations
 import io
 import json
 import shutil
+import sqlite3
 import zipfile
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
@@ -22,18 +24,12 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
 from axiswatch.monitor._results import fleet_results
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import NewBaseline, SavedModel, Store
 
 
 def _fitted(method: str) -> aw.HealthModel:
-    config = MonitorConfig(method=method)  # type: ignore[arg-type]
-    model = aw.HealthModel(
-        config.features,
-        config.detector(),
-        percentile=config.percentile,
-        align_phase=config.align_phase,
-        stage=config.stage(),
-    ).fit(simulate_capture("heavy", seed=1, duration_s=3.0))
+    config = MonitorConfig(method=method)
+    model = config.model().fit(simulate_capture("heavy", seed=1, duration_s=3.0))
     return model.calibrate([simulate_capture("heavy", seed=s, duration_s=3.0) for s in (2, 3)])
 
 
@@ -152,16 +148,17 @@ def test_worker_reads_a_missing_model_from_the_store_once(tmp_path: Path) -> Non
     blob = dump_model(model)
     key = model_digest(blob)
     with Store(tmp_path / "s.db") as store:
-        with store.write() as db:
-            db.execute(
-                "INSERT INTO baselines (robot, axis, method, epoch, capture, captured_at, path, "
-                "file_hash, features_hash, params, library_version, created_at) "
-                "VALUES ('r', 'a', 'mechanics', 1, 'c', 't', 'p', 'h', 'f', '{}', 'v', 't')"
+        baseline_id = store.add_baseline(
+            NewBaseline(
+                robot="r", axis="a", method="mechanics", epoch=1, capture="c.csv",
+                captured_at=datetime(2026, 3, 1), path="r/a/c.csv", file_hash="h",
+                features_hash="f", params="{}", library_version="v", file_size=1,
+                file_mtime_ns=1, reason="baseline", details={},
             )
-        store.save_model(
-            1, file_hash="h", params="{}", library_version="v", model_hash=key, blob=blob,
-            rates_hz="{}", saved_at="t",
         )  # fmt: skip
+        assert baseline_id is not None
+        store.save_model(baseline_id, SavedModel("h", "{}", "v", key, {}), blob)
+        assert store.saved_model(baseline_id) == SavedModel("h", "{}", "v", key, {})
     ref = ModelRef(key, str(tmp_path / "s.db"))
     loaded = resolve_model(ref)
     assert resolve_model(ref) is loaded  # kept by the worker after the first read
@@ -219,8 +216,7 @@ def test_files_changed_in_place_are_found_a_slice_at_a_time(
     config = MonitorConfig(method="pca")
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(fleet, store, config)
-        n_files = store.rows("SELECT count(*) AS n FROM file_index")[0]["n"]
-        assert n_files == 18
+        assert len(store.files_to_verify(run=10**9, limit=1000)) == 18
         target = fleet / "robot01/axis2/2026-03-08.parquet"
         capture = aw.read_capture(target)
         aw.write_capture(
@@ -244,9 +240,9 @@ def test_a_store_made_before_the_index_indexes_its_scored_files(
     config = MonitorConfig(method="pca")
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(fleet, store, config)
-        with store.write() as db:
-            for table in ("file_index", "axis_folders", "fitted_models"):
-                db.execute(f"DROP TABLE {table}")
+    with sqlite3.connect(tmp_path / "s.db") as db:  # as a store made before the caches
+        for table in ("file_index", "axis_folders", "fitted_models"):
+            db.execute(f"DROP TABLE {table}")
     target = fleet / "robot01/axis2/2026-03-08.parquet"
     capture = aw.read_capture(target)
     aw.write_capture(
@@ -276,5 +272,5 @@ def test_a_model_that_cannot_be_stored_travels_with_its_jobs(
     monkeypatch.setattr(axiswatch.monitor._models, "dump_model", refuse)
     with Store(tmp_path / "inline.db") as store:
         monitor_fleet(small_fleet, store, config)
-        assert store.rows("SELECT count(*) AS n FROM fitted_models")[0]["n"] == 0
+        assert [store.saved_model(i) for i in (1, 2)] == [None, None]
         assert fleet_results(store)[columns].equals(stored)

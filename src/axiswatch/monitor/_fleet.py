@@ -4,7 +4,8 @@ Pipeline side-stage of the monitor (it only looks at names, never at file conten
 
 Rules (documented in the README):
 
-* a capture file ends in ``.parquet`` or ``.csv`` (any case); other files are not captures and are
+* a capture file ends in a registered capture suffix, ``.parquet``, ``.csv`` or ``.npz`` by default
+  (any case; :func:`axiswatch.register_format` adds one); other files are not captures and are
   ignored, as are hidden files and folders (name starting with ``.``) and files directly in
   ``ROOT`` (``labels.csv``, notes);
 * ``<robot>`` and ``<axis>`` are identifiers: 1-64 letters, digits, ``_``, ``-`` or ``.``,
@@ -27,9 +28,9 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
-__all__ = ["CAPTURE_SUFFIXES", "FleetFile", "LayoutProblem", "discover_fleet", "parse_capture_time"]
+from axiswatch._formats import capture_suffixes
 
-CAPTURE_SUFFIXES: tuple[str, ...] = (".parquet", ".csv")
+__all__ = ["FleetFile", "LayoutProblem", "discover_fleet", "parse_capture_time"]
 
 _IDENTIFIER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 _STAMP = re.compile(
@@ -176,10 +177,11 @@ def discover_fleet(
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
+    suffixes = capture_suffixes()
     for relative in sorted(_walk(root, skip)):
         if relative[-1].startswith("."):
             continue
-        if os.path.splitext(relative[-1])[1].lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
+        if os.path.splitext(relative[-1])[1].lower() not in suffixes or len(relative) == 1:
             continue
         path = root.joinpath(*relative)
         if len(relative) != 3:

@@ -25,12 +25,14 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from axiswatch.monitor._scoring import file_hash
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreBackend
 
 __all__ = [
     "VERIFY_MIN",
     "VERIFY_PER_AXIS",
     "FileIndex",
+    "MemoryCaches",
+    "run_caches",
     "axis_folder_time",
     "unchanged_axes",
     "verify_budget",
@@ -75,33 +77,96 @@ def unchanged_axes(
     }
 
 
+class MemoryCaches:
+    """:class:`~axiswatch.monitor._store.RunCaches` for one run, in memory, for a store without
+    its own: nothing is kept between runs (every baseline refitted, every folder listed), and
+    the index starts from what the store says of every scored file, all verified each run (the
+    behaviour before the caches existed). Models travel with the jobs."""
+
+    def __init__(self, store: StoreBackend) -> None:
+        self._store = store
+        self._scored = store.scored_files()
+        self._index = {
+            path: IndexedFile(path, f.file_size, f.file_mtime_ns, f.file_hash)
+            for path, f in self._scored.items()
+        }
+        self._verified: dict[str, int] = {}
+
+    def model_source(self) -> str | None:
+        return None
+
+    def saved_model(self, baseline_id: int) -> SavedModel | None:
+        return None
+
+    def save_model(self, baseline_id: int, saved: SavedModel, blob: bytes) -> None:
+        return None
+
+    def model_blob(self, model_hash: str) -> bytes | None:
+        return None
+
+    def start_run(self) -> int:
+        return 1
+
+    def indexed_file(self, path: str) -> IndexedFile | None:
+        return self._index.get(path)
+
+    def index_file(self, entry: IndexedFile, run: int) -> None:
+        self._index[entry.path] = entry
+        self._verified[entry.path] = run
+
+    def files_to_verify(self, run: int, limit: int) -> list[IndexedFile]:
+        waiting = [e for p, e in sorted(self._index.items()) if self._verified.get(p, 0) < run]
+        return waiting
+
+    def mark_verified(self, paths: Iterable[str], run: int) -> None:
+        self._verified.update(dict.fromkeys(paths, run))
+
+    def last_scored(self, path: str) -> ScoredFile | None:
+        return self._scored.get(path)
+
+    def was_scored(self, path: str, file_hash: str, method: str) -> bool:
+        return (path, file_hash) in self._store.scored_contents(method)
+
+    def axis_folder_times(self, method: str, params: str) -> dict[tuple[str, str], int]:
+        return {}
+
+    def finish_axis_folder(
+        self, robot: str, axis: str, method: str, params: str, mtime_ns: int
+    ) -> None:
+        return None
+
+
+def run_caches(store: StoreBackend) -> RunCaches:
+    """The store's own caches, or :class:`MemoryCaches` for a store without them."""
+    return store if isinstance(store, RunCaches) else MemoryCaches(store)
+
+
 class FileIndex:
     """Hashes of the fleet's files, kept in the store and reused while a file is unchanged.
 
     Parameters
     ----------
-    store : Store
+    caches : RunCaches
     root : Path
         The fleet folder; paths in the index are relative to it.
     run : int
         This run's number (``Store.start_run``).
     """
 
-    def __init__(self, store: Store, root: Path, run: int) -> None:
-        self.store, self.root, self.run = store, root, run
+    def __init__(self, caches: RunCaches, root: Path, run: int) -> None:
+        self.caches, self.root, self.run = caches, root, run
 
     def digest(self, path: Path) -> str:
         """SHA-256 of a file, hashed only when its size or modification time changed."""
         relative = path.relative_to(self.root).as_posix()
         stat = path.stat()
-        entry = self.store.indexed_file(relative)
-        if entry is not None and (entry["size"], entry["mtime_ns"]) == (
-            stat.st_size,
-            stat.st_mtime_ns,
-        ):
-            return str(entry["hash"])
+        entry = self.caches.indexed_file(relative)
+        if entry is not None and (entry.size, entry.mtime_ns) == (stat.st_size, stat.st_mtime_ns):
+            return entry.hash
         digest = file_hash(path)
-        self.store.index_file(relative, stat.st_size, stat.st_mtime_ns, digest, self.run)
+        self.caches.index_file(
+            IndexedFile(relative, stat.st_size, stat.st_mtime_ns, digest), self.run
+        )
         return digest
 
     def verify(self, limit: int) -> tuple[list[tuple[str, str, str]], set[tuple[str, str]]]:
@@ -117,8 +182,8 @@ class FileIndex:
         changed: list[tuple[str, str, str]] = []
         dirty: set[tuple[str, str]] = set()
         verified: list[str] = []
-        for row in self.store.files_to_verify(self.run, limit):
-            relative = str(row["path"])
+        for entry in self.caches.files_to_verify(self.run, limit):
+            relative = entry.path
             verified.append(relative)
             parts = relative.split("/")
             axis = (parts[0], parts[1]) if len(parts) == 3 else None
@@ -129,13 +194,15 @@ class FileIndex:
                 if axis is not None:
                     dirty.add(axis)
                 continue
-            if (stat.st_size, stat.st_mtime_ns) == (row["size"], row["mtime_ns"]):
+            if (stat.st_size, stat.st_mtime_ns) == (entry.size, entry.mtime_ns):
                 continue
             current = file_hash(path)
-            self.store.index_file(relative, stat.st_size, stat.st_mtime_ns, current, self.run)
-            if current != row["hash"]:
-                changed.append((relative, str(row["hash"]), current))
+            self.caches.index_file(
+                IndexedFile(relative, stat.st_size, stat.st_mtime_ns, current), self.run
+            )
+            if current != entry.hash:
+                changed.append((relative, entry.hash, current))
                 if axis is not None:
                     dirty.add(axis)
-        self.store.mark_verified(verified, self.run)
+        self.caches.mark_verified(verified, self.run)
         return changed, dirty

@@ -17,30 +17,37 @@ one detection method:
    over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
    row (default 1).
 
-The driver process alone writes the store, one transaction per capture, committed in capture
-order per axis and computing the role, threshold and alarm state from what the store holds at
-that moment; scoring itself (read, features, distance) goes through
-:func:`axiswatch.monitor._parallel.parallel_map`. Hence a killed run resumes exactly, and a second
+The driver process alone writes the store (any :class:`~axiswatch.monitor.StoreBackend`; the
+driver holds no SQL), one transaction per capture, committed in capture order per axis; the store
+calls the pure :func:`~axiswatch.monitor._decision.decide` inside that transaction, from what it
+holds at that moment. Scoring itself (read, features, distance) runs on the workers of one
+:class:`axiswatch.monitor._parallel.WorkerPool` per run, which keep the fitted models (stored in
+the store, not refitted: ``_persist``, ``_models``); unchanged axis folders are not listed and
+unchanged files not hashed again (``_index``). Hence a killed run resumes exactly, and a second
 process on the same store skips what the first has written.
 """
 
 from __future__ import annotations
 
-import json
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._fleet import FleetFile, discover_fleet
-from axiswatch.monitor._index import FileIndex, axis_folder_time, unchanged_axes, verify_budget
-from axiswatch.monitor._ledger import commit_score, insert_baseline, now, params_json, reject
+from axiswatch.monitor._fleet import FleetFile, LayoutProblem, discover_fleet
+from axiswatch.monitor._index import (
+    FileIndex,
+    axis_folder_time,
+    run_caches,
+    unchanged_axes,
+    verify_budget,
+)
+from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._parallel import WorkerPool
-from axiswatch.monitor._persist import library_version
+from axiswatch.monitor._persist import library_version, load_model
 from axiswatch.monitor._scoring import (
     FitJob,
     FitOutcome,
@@ -50,7 +57,7 @@ from axiswatch.monitor._scoring import (
     fit_baseline,
     score_capture,
 )
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import Baseline, ChangedFile, RunCaches, SavedModel, StoreBackend
 
 __all__ = ["MonitorSummary", "monitor_fleet"]
 
@@ -67,10 +74,15 @@ class MonitorSummary:
     Exit status of ``axiswatch monitor`` (:attr:`exit_code`): 0 when nothing needs attention;
     otherwise the sum of 4 (at least one axis is in alarm) and 8 (a capture is rejected, a
     scored file changed, or an axis cannot be scored); so 4, 8 or 12.
+
+    ``n_files`` counts the capture files of the axis folders this run listed;
+    ``unchanged_folders`` the axis folders it did not list, unchanged since a run finished them
+    (``monitor._index``).
     """
 
     method: str
     n_files: int = 0
+    unchanged_folders: int = 0
     scored: int = 0
     new_baselines: int = 0
     rejected: list[str] = field(default_factory=list)
@@ -85,7 +97,7 @@ class MonitorSummary:
         return 4 * bool(self.alarms) + 8 * attention
 
 
-# --- the driver --------------------------------------------------------------------------------
+# --- one run's context -------------------------------------------------------------------------
 
 
 @dataclass
@@ -93,34 +105,118 @@ class _Axis:
     robot: str
     axis: str
     files: list[FleetFile]
-    baseline: Any = None  # sqlite3.Row of the active baseline
+    baseline: Baseline | None = None
     model: ModelRef | None = None
     rates_hz: dict[str, float] = field(default_factory=dict)
     candidates: list[FleetFile] = field(default_factory=list)
     epoch: int = 1
 
 
+@dataclass
+class _Run:
+    """What one run knows: where, with what, the file index (a file hashed only when new or
+    changed), the workers, what the store held when it started, and the summary being built."""
+
+    root: Path
+    store: StoreBackend
+    config: MonitorConfig
+    pool: WorkerPool
+    caches: RunCaches
+    index: FileIndex
+    progress: Progress | None
+    summary: MonitorSummary
+    params: str
+    stored_models: list[_Axis] = field(default_factory=list)  # scored without a refit
+    problem_axes: set[tuple[str, str]] = field(default_factory=set)
+    rejected: set[tuple[str, str]] = field(default_factory=set)
+    alarmed: set[tuple[str, str, str]] = field(default_factory=set)
+    done: dict[str, int] = field(default_factory=lambda: {"baselines": 0, "captures": 0})
+
+    @property
+    def method(self) -> str:
+        return self.config.method
+
+    def digest(self, path: Path) -> str:
+        return self.index.digest(path)
+
+    def problem(self, state: _Axis, message: str) -> None:
+        """An axis that cannot be scored: reported, and its folder listed again next run."""
+        self.summary.axis_problems.append(message)
+        self.problem_axes.add((state.robot, state.axis))
+
+    def persist(self, outcome: FitOutcome, baseline_id: int) -> ModelRef:
+        """Keep a fitted model in the store; the reference jobs carry to it."""
+        source = self.caches.model_source()
+        if outcome.blob is None or source is None:
+            # Not storable, or no store workers can read: the model travels with its jobs.
+            inline = outcome.inline if outcome.blob is None else load_model(outcome.blob)
+            return ModelRef(outcome.model_key, "", inline=inline)
+        saved = SavedModel(
+            outcome.file_hash, self.params, library_version(), outcome.model_key, outcome.rates_hz
+        )
+        self.caches.save_model(baseline_id, saved, outcome.blob)
+        return ModelRef(outcome.model_key, source)
+
+    def relative(self, path: Path) -> str:
+        return path.relative_to(self.root).as_posix()
+
+    def is_rejected(self, file: FleetFile) -> bool:
+        return (self.relative(file.path), self.digest(file.path)) in self.rejected
+
+    def usable(self, file: FleetFile) -> bool:
+        """A candidate baseline: not rejected (this content) and never alarmed."""
+        return not self.is_rejected(file) and (
+            (file.robot, file.axis, file.capture) not in self.alarmed
+        )
+
+    def fit_job(self, file: FleetFile) -> FitJob:
+        return FitJob(file, self.relative(file.path), self.config.model())
+
+    def report(self, stage: str, done: int, total: int) -> None:
+        if self.progress is not None:
+            self.progress(stage, done, total)
+
+
 def _key(file: FleetFile) -> tuple[datetime, str]:
     return (file.captured_at, file.capture)
 
 
-def _changed_files(store: Store, changed: Sequence[tuple[str, str, str]]) -> list[str]:
+def _from_capture(files: Sequence[FleetFile], capture: str) -> list[FleetFile]:
+    """The files from ``capture`` on (it included)."""
+    start = _key(next(f for f in files if f.capture == capture))
+    return [f for f in files if _key(f) >= start]
+
+
+# --- steps of a run ----------------------------------------------------------------------------
+
+
+def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> None:
+    for problem in problems:
+        reject(
+            run.store,
+            run.method,
+            problem.robot,
+            problem.axis,
+            problem.capture,
+            run.relative(problem.path),
+            run.digest(problem.path),
+            problem.reason,
+        )
+
+
+def _changed_files(run: _Run, changed: Sequence[tuple[str, str, str]]) -> list[str]:
     """Scored files whose content differs from when they were scored (recorded, and listed);
     ``changed`` from :meth:`FileIndex.verify`."""
     messages = []
     for relative, _, current in changed:
-        scored = store.scored_hash(relative)
-        if scored is None or scored["file_hash"] == current:
+        scored = run.caches.last_scored(relative)
+        if scored is None or scored.file_hash == current:
             continue
-        with store.write() as db:
-            db.execute(
-                "INSERT OR IGNORE INTO changed_files (robot, axis, capture, path, scored_hash, "
-                "current_hash, detected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (
-                    scored["robot"], scored["axis"], scored["capture"], relative,
-                    scored["file_hash"], current, now(),
-                ),
-            )  # fmt: skip
+        run.store.record_changed_file(
+            ChangedFile(
+                scored.robot, scored.axis, scored.capture, relative, scored.file_hash, current
+            )
+        )
         messages.append(
             f"{relative}: content changed after it was scored; the stored result is kept "
             "(re-baseline the axis to score it afresh)"
@@ -128,27 +224,189 @@ def _changed_files(store: Store, changed: Sequence[tuple[str, str, str]]) -> lis
     return messages
 
 
-def _standing_rejections(store: Store, index: FileIndex, method: str) -> list[str]:
+def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
+    """Refit the axis's active baseline, unless its file is missing or changed."""
+    params = run.params
+    if baseline.params != params:
+        raise StoreError(
+            f"store '{run.store.location}': the baseline of robot {state.robot} axis "
+            f"{state.axis} ({run.method}) was made with parameters {baseline.params}; this "
+            f"run asks for {params}. Use the same options, another store, or "
+            "re-baseline the axis."
+        )
+    state.baseline = baseline
+    stored = next((f for f in state.files if f.capture == baseline.capture), None)
+    if stored is None or run.digest(stored.path) != baseline.file_hash:
+        what = "is missing" if stored is None else "changed after it was fitted"
+        run.problem(
+            state,
+            f"{baseline.path}: baseline file {what}; robot {state.robot} axis "
+            f"{state.axis} is not scored (re-baseline it)",
+        )
+        return None
+    state.candidates = [stored]
+    saved = run.caches.saved_model(baseline.id)
+    if saved is not None and (saved.file_hash, saved.params, saved.library_version) == (
+        baseline.file_hash,
+        params,
+        library_version(),
+    ):
+        source = run.caches.model_source()
+        assert source is not None  # a store that keeps models is one workers can read
+        state.model, state.rates_hz = ModelRef(saved.model_hash, source), saved.rates_hz
+        run.stored_models.append(state)
+        return None
+    return run.fit_job(stored)
+
+
+def _plan_new(run: _Run, state: _Axis, retired: Baseline | None) -> FitJob | None:
+    """The first usable candidate of a new epoch: the configured or requested baseline, else
+    the first capture (of a new axis) or the first one after everything scored (re-baseline)."""
+    state.epoch = 1 if retired is None else retired.epoch + 1
+    ordered = state.files
+    names = {f.capture for f in ordered}
+    if retired is None:
+        chosen = run.config.baseline
+        if chosen is not None and chosen in names:
+            ordered = _from_capture(ordered, chosen)
+    else:
+        chosen = run.store.requested_baseline(state.robot, state.axis, run.method, retired.epoch)
+        if chosen is not None:
+            if chosen not in names:
+                run.problem(
+                    state,
+                    f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
+                    "the fleet folder; the axis is not scored",
+                )
+                return None
+            ordered = _from_capture(ordered, chosen)
+        else:
+            seen = run.store.last_captured_at(state.robot, state.axis, run.method)
+            ordered = [f for f in ordered if seen is None or f.captured_at > seen]
+    state.candidates = [f for f in ordered if run.usable(f)]
+    return run.fit_job(state.candidates[0]) if state.candidates else None
+
+
+def _plan_baseline(run: _Run, state: _Axis) -> FitJob | None:
+    """The fit job of an axis: its active baseline, or the first candidate of a new epoch."""
+    latest = run.store.latest_baseline(state.robot, state.axis, run.method)
+    if latest is not None and not latest.retired:
+        return _plan_active(run, state, latest)
+    return _plan_new(run, state, latest)
+
+
+def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | None:
+    """Record a fitted (or failed) baseline candidate; the next candidate's job on failure."""
+    file = outcome.job.file
+    if state.baseline is not None:  # an active baseline, refitted
+        if outcome.error is not None:
+            run.problem(state, f"{outcome.error}; the stored baseline cannot be refitted")
+        else:
+            state.model = run.persist(outcome, state.baseline.id)
+            state.rates_hz = outcome.rates_hz
+        return None
+    if outcome.error is not None:
+        reject(
+            run.store,
+            run.method,
+            file.robot,
+            file.axis,
+            file.capture,
+            outcome.job.relative,
+            run.digest(file.path),
+            str(outcome.error),
+        )
+        state.candidates = state.candidates[1:]
+        if state.epoch == 1 and file.capture == run.config.baseline:
+            state.candidates = []  # the chosen baseline is unusable: no other one
+        return run.fit_job(state.candidates[0]) if state.candidates else None
+    baseline_id = insert_baseline(run.store, outcome, state.epoch, run.config)
+    if baseline_id is None:
+        run.problem(
+            state,
+            f"{state.robot}/{state.axis}: another process chose a different baseline "
+            "at the same time; run monitor again",
+        )
+        return None
+    run.summary.new_baselines += 1
+    state.baseline = run.store.baseline(baseline_id)
+    state.model = run.persist(outcome, baseline_id)
+    state.rates_hz = outcome.rates_hz
+    return None
+
+
+def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str], _Axis]) -> None:
+    """Fit the jobs' baselines; retry an axis's next candidate until one fits or none is left."""
+    total = len(by_axis)
+    while jobs:
+        retry: list[FitJob] = []
+        for _, outcome in run.pool.map(fit_baseline, jobs):
+            file = outcome.job.file
+            run.done["baselines"] += 1
+            run.report("baselines", run.done["baselines"], total)
+            next_job = _accept_baseline(run, by_axis[(file.robot, file.axis)], outcome)
+            if next_job is not None:
+                retry.append(next_job)
+        jobs = retry
+
+
+def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
+    """One job per capture after the baseline that is neither scored under it nor rejected."""
+    jobs: list[ScoreJob] = []
+    for state in states:
+        if state.model is None or state.baseline is None:
+            continue
+        baseline = state.baseline
+        done = run.store.scored_captures(baseline.id)
+        start = (baseline.captured_at, baseline.capture)
+        for file in state.files:
+            if _key(file) <= start or file.capture in done or run.is_rejected(file):
+                continue
+            relative = run.relative(file.path)
+            jobs.append(ScoreJob(file, relative, baseline.id, state.model, state.rates_hz))
+    return jobs
+
+
+def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
+    """Score the jobs anywhere; commit each axis's results in capture order as they complete."""
+    pending: dict[int, ScoreOutcome] = {}
+    queue_of: dict[int, list[int]] = defaultdict(list)
+    for index, job in enumerate(jobs):
+        queue_of[job.baseline_id].append(index)
+    first = run.done["captures"]
+    for count, (index, result) in enumerate(run.pool.map(score_capture, jobs), start=1):
+        pending[index] = result
+        queue = queue_of[jobs[index].baseline_id]
+        while queue and queue[0] in pending:
+            ready = pending.pop(queue.pop(0))
+            if commit_score(run.store, ready, run.config) and ready.error is None:
+                run.summary.scored += 1
+        run.report("captures", first + count, first + len(jobs))
+    run.done["captures"] += len(jobs)
+
+
+def _standing_rejections(run: _Run) -> list[str]:
     """Rejections whose file still has the rejected content."""
     standing = []
-    for row in store.rows(
-        "SELECT path, file_hash, error FROM rejections WHERE method=? ORDER BY id", (method,)
-    ):
-        path = index.root / row["path"]
-        if not path.is_file() or store.was_scored(row["path"], row["file_hash"], method):
+    for rejection in run.store.rejections(run.method):
+        path = run.root / rejection.path
+        # Point queries: a run's cost must not follow the history of scores.
+        if not path.is_file() or run.caches.was_scored(
+            rejection.path, rejection.file_hash, run.method
+        ):
             continue
-        if index.digest(path) == row["file_hash"]:
-            standing.append(str(row["error"]))
+        if run.digest(path) == rejection.file_hash:
+            standing.append(rejection.error)
     return standing
 
 
-#: Axes whose models the driver holds at once (see monitor_fleet).
+#: Axes fitted and scored at a time (see monitor_fleet).
 _AXES_PER_CHUNK = 256
 
 
 def monitor_fleet(
     root: str | Path,
-    store: Store,
+    store: StoreBackend,
     config: MonitorConfig | None = None,
     *,
     workers: int = 1,
@@ -162,11 +420,12 @@ def monitor_fleet(
     ----------
     root : str or Path
         Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
-    store : Store
-        Where results go (and what was done before).
+    store : StoreBackend
+        Where results go (and what was done before): ``Store(path)``, or another backend.
     config : MonitorConfig, optional
+        Default ``MonitorConfig()``: the product default, as ``axiswatch monitor``.
     workers, dask
-        Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
+        Where jobs run: :class:`axiswatch.monitor._parallel.WorkerPool` (as ``parallel_map``).
     progress : callable (stage, done, total), optional
         Called as baselines are fitted and captures scored.
     verify_per_run : int, optional
@@ -185,10 +444,10 @@ def monitor_fleet(
     """
     config = MonitorConfig() if config is None else config
     root = Path(root)
-    method = config.method
+    caches = run_caches(store)
     params = params_json(config)
-    index = FileIndex(store, root, store.start_run(now()))
-    finished = store.axis_folder_times(method, params)
+    index = FileIndex(caches, root, caches.start_run())
+    finished = caches.axis_folder_times(config.method, params)
     changed, dirty = index.verify(
         verify_budget(len(finished)) if verify_per_run is None else verify_per_run
     )
@@ -203,253 +462,47 @@ def monitor_fleet(
         return False
 
     files, problems = discover_fleet(root, skip=skip)
-    summary = MonitorSummary(method=method, n_files=len(files) + len(problems))
-    problem_axes: set[tuple[str, str]] = set()
-    digest = index.digest
-    store_path = str(store.path.resolve())
-
-    for problem in problems:
-        reject(
-            store, method, problem.robot, problem.axis, problem.capture,
-            problem.path.relative_to(root).as_posix(),
-            digest(problem.path), problem.reason,
-        )  # fmt: skip
-    summary.changed = _changed_files(store, changed)
-
-    rejected = {
-        (r["path"], r["file_hash"])
-        for r in store.rows("SELECT path, file_hash FROM rejections WHERE method=?", (method,))
-    }
-    alarmed = {
-        (r["robot"], r["axis"], r["capture"])
-        for r in store.rows(
-            "SELECT robot, axis, capture FROM scores WHERE method=? AND alarm=1", (method,)
-        )
-    }
-
-    grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
-    for file in files:
-        grouped[(file.robot, file.axis)].append(file)
-    axes = [_Axis(robot, axis, axis_files) for (robot, axis), axis_files in grouped.items()]
-
-    def relative(file: FleetFile) -> str:
-        return file.path.relative_to(root).as_posix()
-
-    def usable(state: _Axis, file: FleetFile) -> bool:
-        return (relative(file), digest(file.path)) not in rejected and (
-            state.robot,
-            state.axis,
-            file.capture,
-        ) not in alarmed
-
-    fit_jobs: list[FitJob] = []
-    stored_models: list[_Axis] = []  # axes whose fitted model the store holds (no refit)
-    for state in axes:
-        rows = store.rows(
-            "SELECT * FROM baselines WHERE robot=? AND axis=? AND method=? ORDER BY epoch DESC "
-            "LIMIT 1",
-            (state.robot, state.axis, method),
-        )
-        latest = rows[0] if rows else None
-        if latest is not None and latest["retired_at"] is None:
-            if latest["params"] != params:
-                raise StoreError(
-                    f"store '{store.path}': the baseline of robot {state.robot} axis "
-                    f"{state.axis} ({method}) was made with parameters {latest['params']}; this "
-                    f"run asks for {params}. Use the same options, another store, or "
-                    "re-baseline the axis."
-                )
-            state.baseline = latest
-            by_name = {f.capture: f for f in state.files}
-            stored = by_name.get(latest["capture"])
-            if stored is None or digest(stored.path) != latest["file_hash"]:
-                what = "is missing" if stored is None else "changed after it was fitted"
-                summary.axis_problems.append(
-                    f"{latest['path']}: baseline file {what}; robot {state.robot} axis "
-                    f"{state.axis} is not scored (re-baseline it)"
-                )
-                problem_axes.add((state.robot, state.axis))
-                continue
-            state.candidates = [stored]
-            saved = store.saved_model(int(latest["id"]))
-            if saved is not None and (
-                saved["file_hash"],
-                saved["params"],
-                saved["library_version"],
-            ) == (latest["file_hash"], params, library_version()):
-                state.model = ModelRef(str(saved["model_hash"]), store_path)
-                state.rates_hz = json.loads(saved["rates_hz"])
-                stored_models.append(state)
-                continue
-            fit_jobs.append(FitJob(stored, relative(stored), config))
-            continue
-        state.epoch = 1 if latest is None else int(latest["epoch"]) + 1
-        ordered = state.files
-        if latest is None:
-            if config.baseline is not None and config.baseline in {f.capture for f in ordered}:
-                ordered = [
-                    f for f in ordered if _key(f) >= _key(_by_capture(ordered, config.baseline))
-                ]
-        else:
-            request = store.rows(
-                "SELECT from_capture FROM rebaselines WHERE robot=? AND axis=? AND method=? "
-                "AND retired_epoch=? ORDER BY id DESC LIMIT 1",
-                (state.robot, state.axis, method, latest["epoch"]),
-            )
-            chosen = request[0]["from_capture"] if request else None
-            if chosen is not None:
-                if chosen not in {f.capture for f in ordered}:
-                    summary.axis_problems.append(
-                        f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
-                        "the fleet folder; the axis is not scored"
-                    )
-                    problem_axes.add((state.robot, state.axis))
-                    continue
-                ordered = [f for f in ordered if _key(f) >= _key(_by_capture(ordered, chosen))]
-            else:
-                seen = store.rows(
-                    "SELECT max(captured_at) AS last FROM scores WHERE robot=? AND axis=? "
-                    "AND method=?",
-                    (state.robot, state.axis, method),
-                )[0]["last"]
-                ordered = [f for f in ordered if seen is None or f.captured_at.isoformat() > seen]
-        state.candidates = [f for f in ordered if usable(state, f)]
-        if state.candidates:
-            fit_jobs.append(FitJob(state.candidates[0], relative(state.candidates[0]), config))
-
-    by_axis = {(s.robot, s.axis): s for s in axes}
-    counts = {"baselines": 0, "captures": 0}
-
-    def persist(outcome: FitOutcome, baseline_id: int) -> ModelRef:
-        if outcome.blob is None:  # not storable: sent with the jobs, refitted every run
-            return ModelRef("", store_path, inline=outcome.inline)
-        store.save_model(
-            baseline_id,
-            file_hash=outcome.file_hash,
-            params=params,
-            library_version=library_version(),
-            model_hash=outcome.model_key,
-            blob=outcome.blob,
-            rates_hz=json.dumps(outcome.rates_hz),
-            saved_at=now(),
-        )
-        return ModelRef(outcome.model_key, store_path)
-
-    def fit_chunk(fit_jobs: list[FitJob]) -> None:
-        while fit_jobs:
-            retry: list[FitJob] = []
-            for _, outcome in pool.map(fit_baseline, fit_jobs):
-                file = outcome.job.file
-                state = by_axis[(file.robot, file.axis)]
-                counts["baselines"] += 1
-                if progress is not None:
-                    progress("baselines", counts["baselines"], len(axes))
-                if state.baseline is not None:
-                    if outcome.error is not None:
-                        summary.axis_problems.append(
-                            f"{outcome.error}; the stored baseline cannot be refitted"
-                        )
-                        problem_axes.add((state.robot, state.axis))
-                    else:
-                        state.model = persist(outcome, int(state.baseline["id"]))
-                        state.rates_hz = outcome.rates_hz
-                    continue
-                if outcome.error is not None:
-                    reject(
-                        store, method, file.robot, file.axis, file.capture, outcome.job.relative,
-                        digest(file.path), str(outcome.error),
-                    )  # fmt: skip
-                    state.candidates = state.candidates[1:]
-                    if (
-                        config.baseline is not None
-                        and state.epoch == 1
-                        and file.capture == config.baseline
-                    ):
-                        state.candidates = []
-                    if state.candidates:
-                        retry.append(
-                            FitJob(state.candidates[0], relative(state.candidates[0]), config)
-                        )
-                    continue
-                baseline_id = insert_baseline(store, outcome, state.epoch, config)
-                if baseline_id is None:
-                    summary.axis_problems.append(
-                        f"{state.robot}/{state.axis}: another process chose a different baseline "
-                        "at the same time; run monitor again"
-                    )
-                    problem_axes.add((state.robot, state.axis))
-                    continue
-                summary.new_baselines += 1
-                state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
-                state.model = persist(outcome, baseline_id)
-                state.rates_hz = outcome.rates_hz
-            fit_jobs = retry
-
-    def score_chunk(states: Sequence[_Axis]) -> None:
-        jobs: list[ScoreJob] = []
-        for state in states:
-            if state.model is None or state.baseline is None:
-                continue
-            baseline_id = int(state.baseline["id"])
-            done_captures = {
-                r["capture"]
-                for r in store.rows(
-                    "SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,)
-                )
-            }
-            start = (
-                datetime.fromisoformat(state.baseline["captured_at"]),
-                state.baseline["capture"],
-            )
-            for file in state.files:
-                if _key(file) <= start or file.capture in done_captures:
-                    continue
-                if (relative(file), digest(file.path)) in rejected:
-                    continue
-                jobs.append(
-                    ScoreJob(file, relative(file), baseline_id, state.model, state.rates_hz)
-                )
-
-        # Commit in capture order per axis, whatever order results complete in.
-        pending: dict[int, ScoreOutcome] = {}
-        queue_of: dict[int, list[int]] = defaultdict(list)
-        for index, job in enumerate(jobs):
-            queue_of[job.baseline_id].append(index)
-        for count, (index, result) in enumerate(pool.map(score_capture, jobs), start=1):
-            pending[index] = result
-            queue = queue_of[jobs[index].baseline_id]
-            while queue and queue[0] in pending:
-                ready = pending.pop(queue.pop(0))
-                if commit_score(store, ready, config) and ready.error is None:
-                    summary.scored += 1
-            if progress is not None:
-                progress("captures", counts["captures"] + count, counts["captures"] + len(jobs))
-        counts["captures"] += len(jobs)
-
-    # Axes are handled a chunk at a time so that what the driver holds per axis stays bounded
-    # however large the fleet (the workers keep the fitted models; the driver only references).
     with WorkerPool(workers, dask) as pool:
-        score_chunk(stored_models)
+        run = _Run(
+            root,
+            store,
+            config,
+            pool,
+            caches,
+            index,
+            progress,
+            MonitorSummary(
+                method=config.method,
+                n_files=len(files) + len(problems),
+                unchanged_folders=len(skipped),
+            ),
+            params,
+        )
+        _record_layout_problems(run, problems)
+        run.summary.changed = _changed_files(run, changed)
+        run.rejected = {(r.path, r.file_hash) for r in store.rejections(run.method)}
+        run.alarmed = store.alarmed_captures(run.method)
+
+        grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
+        for file in files:
+            grouped[(file.robot, file.axis)].append(file)
+        by_axis = {key: _Axis(key[0], key[1], axis_files) for key, axis_files in grouped.items()}
+        fit_jobs = [job for state in by_axis.values() if (job := _plan_baseline(run, state))]
+
+        # Axes with a stored model first; then a chunk at a time, so that what the driver holds
+        # per axis stays bounded however large the fleet (workers keep the models themselves).
+        _score_in_order(run, _score_jobs(run, run.stored_models))
         for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
             chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
             states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
-            fit_chunk(chunk)
-            score_chunk(states)
+            _fit_baselines(run, chunk, by_axis)
+            _score_in_order(run, _score_jobs(run, states))
+            for state in states:
+                state.model = None
 
     for robot_axis, mtime_ns in folder_times.items():
-        if mtime_ns is not None and robot_axis not in problem_axes:
-            store.finish_axis_folder(*robot_axis, method, params, mtime_ns)
-    summary.rejected = _standing_rejections(store, index, method)
-    for row in store.rows(
-        "SELECT b.robot, b.axis, (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id "
-        "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1) AS alarm FROM baselines b "
-        "WHERE b.method=? AND b.retired_at IS NULL ORDER BY b.robot, b.axis",
-        (method,),
-    ):
-        if row["alarm"]:
-            summary.alarms.append((row["robot"], row["axis"]))
-    return summary
-
-
-def _by_capture(files: Sequence[FleetFile], capture: str) -> FleetFile:
-    return next(f for f in files if f.capture == capture)
+        if mtime_ns is not None and robot_axis not in run.problem_axes:
+            caches.finish_axis_folder(*robot_axis, config.method, params, mtime_ns)
+    run.summary.rejected = _standing_rejections(run)
+    run.summary.alarms = store.axes_in_alarm(run.method)
+    return run.summary

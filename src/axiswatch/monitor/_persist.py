@@ -57,6 +57,7 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.MechanicsStage",
     "axiswatch.PCADetector",
     "axiswatch.StftStage",
+    "axiswatch.Threshold",
     "axiswatch._alignment.LowRankBasis",
 )
 
