@@ -271,3 +271,16 @@ def running_rms(values: np.ndarray, width: int) -> np.ndarray:
             total += x[k] ** 2
         out[i] = np.sqrt(total / width)
     return out
+
+
+def longest_run_naive(values: list[float]) -> tuple[int, int]:
+    """Longest run of one repeated value and its start, by walking the samples."""
+    best, best_start, run, start = 0, 0, 0, 0
+    for index, value in enumerate(values):
+        if index > 0 and value == values[index - 1]:
+            run += 1
+        else:
+            run, start = 1, index
+        if run > best:
+            best, best_start = run, start
+    return best, best_start

@@ -20,6 +20,7 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor._store import Store
+from tests.conftest import settle
 from tests.naive import alarm_states_naive
 
 
@@ -33,7 +34,9 @@ def faulty_copy(source: Path, target: Path) -> Path:
     the PCA distance; state-machine tests need an unmistakable alarm, not a subtle one)."""
     capture = aw.read_capture(source)
     signals = {name: 10.0 * values for name, values in capture.signals.items()}
-    return aw.write_capture(aw.Capture(signals, capture.rates_hz), target)
+    written = aw.write_capture(aw.Capture(signals, capture.rates_hz), target)
+    settle(written.parent)
+    return written
 
 
 @pytest.mark.parametrize(("k", "n", "m"), [(1, 1, 1), (2, 3, 1), (2, 3, 2), (3, 3, 4)])
@@ -95,6 +98,7 @@ def test_rerun_scores_only_new_captures_and_both_methods_share_a_store(
         shutil.copy(
             fleet / "robot01/axis1/2026-03-05.parquet", fleet / "robot01/axis1/2026-03-10.parquet"
         )
+        settle(fleet)
         assert monitor_fleet(fleet, store, MonitorConfig(method="pca")).scored == 1
         assert monitor_fleet(fleet, store, MonitorConfig(method="lra")).scored == 17
         summary = fleet_summary(store)
@@ -142,6 +146,7 @@ def test_alarm_then_rebaseline_never_uses_the_alarmed_capture(fleet: Path, tmp_p
         # After maintenance, new captures arrive: the first is the new baseline.
         for day in range(11, 18):
             shutil.copy(axis / f"2026-03-0{day - 9}.parquet", axis / f"2026-03-{day}.parquet")
+        settle(axis)
         summary = monitor_fleet(fleet, store, config)
         results = fleet_results(store, axis="axis1")
     assert summary.alarms == []
@@ -175,7 +180,7 @@ def test_rebaseline_from_an_earlier_capture_excludes_alarmed_ones(
 def test_stored_parameters_must_match(fleet: Path, tmp_path: Path) -> None:
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(fleet, store, MonitorConfig(method="pca"))
-        with pytest.raises(StoreError, match=r"was made with parameters .* Use the same options"):
+        with pytest.raises(StoreError, match=r"other parameters \(percentile: 99.0 -> 95.0\)\. Use the same"):
             monitor_fleet(fleet, store, MonitorConfig(method="pca", percentile=95.0))
 
 
@@ -241,6 +246,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
         task_change_days=(),
         faults=[awd.FleetFault("robot01", "axis2", "friction", onset_day=8)],
     )
+    settle(root)
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(root, store, MonitorConfig(method="mechanics"))
         results = fleet_results(store)

@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 import axiswatch as aw
 import axiswatch._capture
 from axiswatch.cli import app
+from tests.conftest import settle
 
 runner = CliRunner()
 
@@ -111,6 +112,7 @@ def _write_bad_captures(axis: Path, root: Path) -> dict[str, str]:
         (root / name).parent.mkdir(parents=True, exist_ok=True)
         frame.to_csv(root / name, index=False)
         cases[name] = expected
+    settle(root)
     return cases
 
 
@@ -275,6 +277,7 @@ def test_killed_runs_resume_to_the_uninterrupted_result(fleet: Path, tmp_path: P
         for axis in ("axis1", "axis2"):
             folder = fleet / "robot01" / axis
             shutil.copy(folder / f"2026-03-0{day - 8}.parquet", folder / f"2026-03-{day}.parquet")
+    settle(fleet)
     reference = tmp_path / "reference.db"
     start = time.perf_counter()
     assert _run("monitor", fleet, "--method", "lra", "--store", reference).returncode == 0

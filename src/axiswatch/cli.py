@@ -1,15 +1,18 @@
 """Command-line interface: maps options to library calls, no science here.
 
 Exit codes: 0 success; 1 a command failed (message on stderr; traceback only with ``--debug``);
-2 usage error (unknown option). ``monitor`` adds 4 when an axis is in alarm and 8 when a capture
-was rejected, a scored file changed or an axis cannot be scored (so 4, 8 or 12).
+2 usage error (unknown option, a value out of range). ``monitor`` adds 4 when an axis is in alarm
+and 8 when a capture was rejected, a scored file changed, an axis cannot be scored or is stale
+(so 4, 8 or 12; acknowledged problems do not count).
 """
 
 from __future__ import annotations
 
+import re
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from datetime import timedelta
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -47,6 +50,35 @@ def _failures(debug: bool) -> Iterator[None]:
 
 
 @contextmanager
+def _usage(debug: bool) -> Iterator[None]:
+    """Turn an invalid option value into one line on stderr and exit status 2."""
+    try:
+        yield
+    except ValueError as exc:
+        if debug:
+            raise
+        typer.echo(f"usage error: {exc}", err=True)
+        raise typer.Exit(2) from None
+
+
+_DURATION = re.compile(r"(?P<value>\d+(?:\.\d+)?)\s*(?P<unit>[smhd])")
+_UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+
+
+def _duration(text: str, option: str) -> timedelta | None:
+    """``3d``, ``12h``, ``30m``, ``45s`` or ``off``."""
+    if text.strip().lower() == "off":
+        return None
+    match = _DURATION.fullmatch(text.strip())
+    if match is None:
+        raise ValueError(
+            f"The '{option}' option must be a duration such as 3d, 12h, 30m, 45s, or 'off'. "
+            f"Got {text!r} instead."
+        )
+    return timedelta(seconds=float(match["value"]) * _UNIT_S[match["unit"]])
+
+
+@contextmanager
 def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
     """A rich progress bar on stderr, shown only when stderr is a terminal."""
     from rich.console import Console
@@ -76,10 +108,10 @@ class Format(StrEnum):
     json = "json"
 
 
-def _echo_summary(store: Any) -> None:
+def _echo_summary(store: Any, stale_after: timedelta | None) -> None:
     from axiswatch.monitor._results import fleet_summary
 
-    summary = fleet_summary(store)
+    summary = fleet_summary(store, stale_after=stale_after)
     if summary.empty:
         typer.echo("No axis has a baseline yet.")
         return
@@ -112,56 +144,90 @@ def monitor(
         "1.0", help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline)."
     ),
     align: bool = typer.Option(True, help="Align each capture's phase to the baseline's."),
-    workers: int = typer.Option(1, help="Local worker processes for scoring."),
-    dask: str | None = typer.Option(None, help="Dask scheduler address for scoring."),
+    workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
+    dask: str | None = typer.Option(
+        None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
+    ),
+    dask_timeout: float = typer.Option(
+        10.0, min=0.1, help="Seconds the Dask scheduler has to answer."
+    ),
+    settle: float = typer.Option(
+        10.0, min=0.0, help="Seconds a capture file must go unmodified before it is scored."
+    ),
+    stale_after: str = typer.Option(
+        "3d", help="An axis without a new capture for this long is stale (3d, 12h, ... or off)."
+    ),
     progress: bool = typer.Option(True, help="Progress bar on stderr (only on a terminal)."),
     debug: bool = DEBUG,
 ) -> None:
     """Score every capture not scored yet; print the fleet's state.
 
     Exit status: 0 nothing to report; 4 an axis is in alarm; 8 a capture was rejected, a scored
-    file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
+    file changed, an axis cannot be scored or is stale (acknowledged ones aside: see
+    'axiswatch rejections'); 12 both; 1 failure; 2 usage error.
     """
     from axiswatch._features import FeatureSpec
-    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch.monitor._monitor import check_request, monitor_fleet
+    from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
-        config = MonitorConfig(
-            method=method.value,
-            percentile=percentile,
-            calibration_size=calibration,
-            alarm_k=alarm_k,
-            alarm_n=alarm_n,
-            clear_m=clear_m,
-            baseline=baseline,
-            features=FeatureSpec(
-                signals=tuple(s.strip() for s in signals.split(",") if s.strip()),
-                hop=hop,
-                segment_length=segment_length,
-            ),
-            lra_noise_level=_noise_level(lra_noise_level),
-            align_phase=align,
-        )
-        with Store(store) as opened, _progress(progress) as update:
-            result = monitor_fleet(
-                root, opened, config, workers=workers, dask=dask, progress=update
+        with _usage(debug):
+            config = MonitorConfig(
+                method=method.value,
+                percentile=percentile,
+                calibration_size=calibration,
+                alarm_k=alarm_k,
+                alarm_n=alarm_n,
+                clear_m=clear_m,
+                baseline=baseline,
+                features=FeatureSpec(
+                    signals=tuple(s.strip() for s in signals.split(",")),
+                    hop=hop,
+                    segment_length=segment_length,
+                ),
+                lra_noise_level=_noise_level(lra_noise_level),
+                align_phase=align,
             )
+            silence = _duration(stale_after, "--stale-after")
+            check_request(root, config)
+        # Connect before the store is opened: a wrong address leaves nothing behind.
+        client = None if dask is None else connect_dask(dask, dask_timeout)
+        try:
+            with Store(store) as opened, _progress(progress) as update:
+                result = monitor_fleet(
+                    root, opened, config, workers=workers, dask=client, progress=update,
+                    settle_s=settle, stale_after=silence,
+                )  # fmt: skip
+                typer.echo(
+                    f"{result.method}: {result.n_files} capture files, {result.new_baselines} "
+                    f"new baseline(s), {result.scored} capture(s) scored in this run."
+                )
+                _echo_summary(opened, silence)
+        finally:
+            if client is not None:
+                client.close()
+        if result.waiting:
             typer.echo(
-                f"{result.method}: {result.n_files} capture files, {result.new_baselines} new "
-                f"baseline(s), {result.scored} capture(s) scored in this run."
+                f"\n{result.waiting} capture file(s) modified less than {settle:g} s ago: "
+                "waiting (scored by a later run)."
             )
-            _echo_summary(opened)
         for title, lines in (
             ("Rejected captures", result.rejected),
             ("Changed files", result.changed),
             ("Axes not scored", result.axis_problems),
+            ("Stale axes", result.stale),
         ):
             if lines:
                 typer.echo(f"\n{title} ({len(lines)}):")
                 for line in lines:
                     typer.echo(f"  {line}")
+        if result.acknowledged:
+            typer.echo(
+                f"\n{result.acknowledged} acknowledged problem(s) not shown "
+                "('axiswatch rejections' lists them)."
+            )
         if result.alarms:
             axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
             typer.echo(f"\nALARM ({result.method}) on {axes}")
@@ -220,6 +286,9 @@ def _require_store(store: Path) -> None:
 def report(
     store: StorePath,
     out: Annotated[Path, typer.Option(help="Folder for index.html and the PNG figures.")],
+    stale_after: str = typer.Option(
+        "3d", help="An axis without a new capture for this long is shown stale (or off)."
+    ),
     debug: bool = DEBUG,
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
@@ -227,9 +296,11 @@ def report(
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
+        with _usage(debug):
+            silence = _duration(stale_after, "--stale-after")
         _require_store(store)
         with Store(store) as opened:
-            page = write_report(opened, out)
+            page = write_report(opened, out, stale_after=silence)
         typer.echo(f"Report: {page}")
 
 
@@ -263,6 +334,49 @@ def rebaseline(
             f"{robot}/{axis}: baseline retired ({', '.join(methods)}); the next monitor run "
             f"starts a new baseline at {start}."
         )
+
+
+@app.command()
+def rejections(
+    store: StorePath,
+    paths: Annotated[
+        list[str] | None,
+        typer.Argument(help="Capture paths as listed (ROOT-relative); default: every one."),
+    ] = None,
+    method: Annotated[Method | None, typer.Option(help="Only this method.")] = None,
+    retry: bool = typer.Option(False, "--retry", help="Forget them: the next run tries again."),
+    ack: bool = typer.Option(
+        False, "--ack", help="Acknowledge them: seen, no longer a reason for exit status 8."
+    ),
+    debug: bool = DEBUG,
+) -> None:
+    """List rejected captures and changed files; retry or acknowledge them."""
+    from axiswatch.monitor._ledger import now
+    from axiswatch.monitor._store import Store
+
+    with _failures(debug):
+        if retry and ack:
+            with _usage(debug):
+                raise ValueError("choose one of --retry and --ack.")
+        _require_store(store)
+        chosen = method.value if method is not None else None
+        with Store(store) as opened:
+            if retry:
+                count = opened.retry_rejections(paths or [], chosen)
+                typer.echo(
+                    f"{count} rejection(s) forgotten; the next monitor run tries them again."
+                )
+                return
+            if ack:
+                count = opened.acknowledge_problems(paths or [], now(), chosen)
+                typer.echo(f"{count} problem(s) acknowledged; they no longer set exit status 8.")
+                return
+            frame = opened.problems(chosen)
+        if frame.empty:
+            typer.echo("No rejected captures and no changed files.")
+            return
+        frame["acknowledged"] = frame.pop("acknowledged_at").fillna("")
+        typer.echo(frame.to_string(index=False))
 
 
 @simulate_app.command("fleet")
@@ -325,7 +439,7 @@ def demo(
             for method in ("mechanics", "lra", "pca"):
                 monitor_fleet(root, opened, MonitorConfig(method=method), progress=update)
             typer.echo("\nFleet summary (state after the last capture):")
-            _echo_summary(opened)
+            _echo_summary(opened, None)
             page = write_report(opened, folder / "report", labels=labels)
         truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
         changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]

@@ -13,19 +13,37 @@ Rules (documented in the README):
   (``:`` or nothing also accepted between hours, minutes and seconds; ``T``, ``_`` or a space
   before the time); anything after it (``_run2``) is free;
 * a capture file at another depth, or with a name breaking these rules, is a *layout problem*:
-  the monitor stores it as rejected, with the reason, and goes on.
+  the monitor stores it as rejected, with the reason, and goes on;
+* symbolic links to folders are followed (a link back to a folder already read, a loop, is
+  reported and not read twice); a folder that cannot be listed and a link whose target is
+  missing (an unmounted share) are *folder problems* (``capture == ""``), reported every run;
+* files being delivered under a temporary name (``.name.csv``, ``name.csv.tmp``,
+  ``name.parquet.partial``) are not captures; a capture file modified less than ``settle_s``
+  seconds ago is *waiting* (:func:`split_settled`), scored by a later run.
 
 Captures of one axis are ordered by their date-time, then by file name.
 """
 
 from __future__ import annotations
 
+import os
 import re
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
-__all__ = ["CAPTURE_SUFFIXES", "FleetFile", "LayoutProblem", "discover_fleet", "parse_capture_time"]
+from axiswatch.exceptions import DataNotFoundError
+
+__all__ = [
+    "CAPTURE_SUFFIXES",
+    "FleetFile",
+    "LayoutProblem",
+    "check_fleet_root",
+    "discover_fleet",
+    "parse_capture_time",
+    "split_settled",
+]
 
 CAPTURE_SUFFIXES: tuple[str, ...] = (".parquet", ".csv")
 
@@ -156,12 +174,8 @@ def discover_fleet(root: str | Path) -> tuple[list[FleetFile], list[LayoutProble
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
-    for path in sorted(root.rglob("*")):
+    for path in _candidates(root, problems):
         relative = path.relative_to(root).parts
-        if any(part.startswith(".") for part in relative):
-            continue
-        if not path.is_file() or path.suffix.lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
-            continue
         if len(relative) != 3:
             problems.append(
                 _problem(
@@ -189,3 +203,109 @@ def discover_fleet(root: str | Path) -> tuple[list[FleetFile], list[LayoutProble
         files.append(FleetFile(robot, axis, name, path, captured_at))
     files.sort(key=lambda f: (f.robot, f.axis, f.captured_at, f.capture))
     return files, problems
+
+
+def _folder_problem(root: Path, path: Path, reason: str) -> LayoutProblem:
+    parts = path.relative_to(root).parts
+    robot = parts[0] if parts else ""
+    axis = parts[1] if len(parts) >= 2 else ""
+    return LayoutProblem(robot, axis, "", path, f"{path.relative_to(root).as_posix()}/: {reason}")
+
+
+def _candidates(root: Path, problems: list[LayoutProblem]) -> Iterator[Path]:
+    """Capture-like files below ``root`` (not directly in it), following links to folders once;
+    folder problems are appended to ``problems``."""
+
+    def unreadable(error: OSError) -> None:
+        path = Path(error.filename)
+        problems.append(
+            _folder_problem(root, path, f"folder cannot be read ({error.strerror}); not scored")
+        )
+
+    seen: dict[tuple[int, int], str] = {}
+    for folder, subfolders, names in os.walk(root, followlinks=True, onerror=unreadable):
+        here = Path(folder)
+        stat = here.stat()
+        if (stat.st_dev, stat.st_ino) in seen:
+            first = seen[(stat.st_dev, stat.st_ino)]
+            problems.append(
+                _folder_problem(
+                    root,
+                    here,
+                    f"link to the folder already read as '{first or '.'}' (a symlink loop or a "
+                    "second name); not read twice",
+                )
+            )
+            subfolders[:] = []
+            continue
+        seen[(stat.st_dev, stat.st_ino)] = here.relative_to(root).as_posix().strip(".")
+        subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
+        for name in sorted(names):
+            path = here / name
+            if name.startswith("."):
+                continue
+            if path.is_symlink() and not path.exists():
+                problems.append(
+                    _folder_problem(
+                        root,
+                        path,
+                        f"link to '{os.readlink(path)}', which does not exist (an unmounted "
+                        "share?); not scored",
+                    )
+                )
+                continue
+            if here != root and path.suffix.lower() in CAPTURE_SUFFIXES and path.is_file():
+                yield path
+
+
+def check_fleet_root(root: str | Path) -> None:
+    """Raise unless ``root`` is a folder holding at least one capture file.
+
+    An empty fleet folder is what an unmounted share looks like: monitoring it would show every
+    axis as it was, so it is an error rather than a quiet run.
+
+    Raises
+    ------
+    NotADirectoryError
+        If ``root`` is not a folder.
+    DataNotFoundError
+        If no capture file lies below it.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
+    if next(_candidates(root, []), None) is None:
+        raise DataNotFoundError(
+            f"fleet folder '{root}' holds no capture file (an unmounted share or a wrong path?); "
+            "expected ROOT/<robot>/<axis>/<capture>.parquet|.csv."
+        )
+
+
+def split_settled(
+    files: Sequence[FleetFile], settle_s: float, now_s: float
+) -> tuple[list[FleetFile], list[FleetFile], list[tuple[FleetFile, str]]]:
+    """Files settled for ``settle_s`` seconds (by modification time), files still waiting, and
+    files that cannot be looked at (with the reason).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, time
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "2026-03-01.csv"
+    >>> _ = path.write_text("time,speed\\n")
+    >>> file = FleetFile("r1", "a1", path.name, path, parse_capture_time(path.name))
+    >>> [len(part) for part in split_settled([file], 10.0, time.time())]
+    [0, 1, 0]
+    >>> [len(part) for part in split_settled([file], 10.0, time.time() + 60)]
+    [1, 0, 0]
+    """
+    ready: list[FleetFile] = []
+    waiting: list[FleetFile] = []
+    unreadable: list[tuple[FleetFile, str]] = []
+    for file in files:
+        try:
+            modified = file.path.stat().st_mtime
+        except OSError as exc:
+            unreadable.append((file, f"cannot be read ({exc.strerror})"))
+            continue
+        (waiting if now_s - modified < settle_s else ready).append(file)
+    return ready, waiting, unreadable

@@ -16,7 +16,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch.exceptions import CalibrationError, StoreError
-from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome
+from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
 from axiswatch.monitor._store import Store
 
 __all__ = [
@@ -27,6 +27,7 @@ __all__ = [
     "params_json",
     "rebaseline",
     "reject",
+    "stamp",
 ]
 
 
@@ -91,13 +92,20 @@ def reject(
     relative: str,
     digest: str,
     error: str,
+    *,
+    kind: str = "invalid",
+    params_hash: str | None = None,
+    transient: bool = False,
 ) -> None:
-    with store.write() as db:
-        db.execute(
-            "INSERT OR IGNORE INTO rejections (robot, axis, method, capture, path, file_hash, "
-            "error, rejected_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-            (robot, axis, method, capture, relative, digest, error, now()),
-        )
+    store.reject(
+        robot=robot, axis=axis, method=method, capture=capture, path=relative, file_hash=digest,
+        error=error, at=stamp(), kind=kind, params_hash=params_hash, transient=transient,
+    )  # fmt: skip
+
+
+def stamp() -> str:
+    """Now, to the microsecond: orders the rejections seen again within one run."""
+    return datetime.now(UTC).isoformat(timespec="microseconds")
 
 
 def insert_baseline(
@@ -159,13 +167,10 @@ def commit_score(store: Store, outcome: ScoreOutcome, config: MonitorConfig) -> 
         if baseline["retired_at"] is not None:
             return False
         if outcome.error is not None:
-            db.execute(
-                "INSERT OR IGNORE INTO rejections (robot, axis, method, capture, path, file_hash, "
-                "error, rejected_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                (
-                    file.robot, file.axis, config.method, file.capture, job.relative,
-                    outcome.file_hash, outcome.error, now(),
-                ),
+            store.record_rejection(
+                db, robot=file.robot, axis=file.axis, method=config.method, capture=file.capture,
+                path=job.relative, file_hash=outcome.file_hash, error=outcome.error, at=stamp(),
+                kind=outcome.kind, params_hash=params_hash(config), transient=outcome.transient,
             )  # fmt: skip
             return True
         distance = outcome.distance

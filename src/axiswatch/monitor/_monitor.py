@@ -26,18 +26,29 @@ process on the same store skips what the first has written.
 
 from __future__ import annotations
 
+import json
+import time
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import UTC, datetime, timedelta
+from glob import escape
 from pathlib import Path
 from typing import Any
 
 from axiswatch._model import HealthModel
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._fleet import FleetFile, discover_fleet
-from axiswatch.monitor._ledger import commit_score, insert_baseline, now, params_json, reject
+from axiswatch.monitor._fleet import FleetFile, check_fleet_root, discover_fleet, split_settled
+from axiswatch.monitor._ledger import (
+    commit_score,
+    insert_baseline,
+    now,
+    params_json,
+    reject,
+    stamp,
+)
 from axiswatch.monitor._parallel import parallel_map
+from axiswatch.monitor._quality import QualityReference
 from axiswatch.monitor._scoring import (
     FitJob,
     MonitorConfig,
@@ -45,13 +56,30 @@ from axiswatch.monitor._scoring import (
     ScoreOutcome,
     file_hash,
     fit_baseline,
+    params_hash,
     score_capture,
 )
 from axiswatch.monitor._store import Store
 
-__all__ = ["MonitorSummary", "monitor_fleet"]
+__all__ = [
+    "DEFAULT_SETTLE_S",
+    "DEFAULT_STALE_AFTER",
+    "MonitorSummary",
+    "check_request",
+    "monitor_fleet",
+    "parameter_differences",
+]
 
 Progress = Callable[[str, int, int], None]
+
+#: Seconds a capture file must go unmodified before it is scored (a file still being written
+#: is not a capture yet); deliver files atomically (README) and this wait costs nothing.
+DEFAULT_SETTLE_S = 10.0
+#: Silence after which an axis is *stale*: no new capture file for this long.
+DEFAULT_STALE_AFTER = timedelta(days=3)
+#: A capture dated later than this after now is *future-dated* (a logger's clock is wrong): it
+#: is not scored until its date has come, so that it cannot block later captures.
+_FUTURE_TOLERANCE = timedelta(days=1)
 
 
 # --- summary -----------------------------------------------------------------------------------
@@ -63,7 +91,9 @@ class MonitorSummary:
 
     Exit status of ``axiswatch monitor`` (:attr:`exit_code`): 0 when nothing needs attention;
     otherwise the sum of 4 (at least one axis is in alarm) and 8 (a capture is rejected, a
-    scored file changed, or an axis cannot be scored); so 4, 8 or 12.
+    scored file changed, an axis cannot be scored or is stale; acknowledged rejections and
+    changes, counted in ``acknowledged``, do not count); so 4, 8 or 12. ``waiting``: capture
+    files not settled yet (scored by a later run; no attention needed).
     """
 
     method: str
@@ -74,11 +104,14 @@ class MonitorSummary:
     changed: list[str] = field(default_factory=list)
     axis_problems: list[str] = field(default_factory=list)
     alarms: list[tuple[str, str]] = field(default_factory=list)
+    stale: list[str] = field(default_factory=list)
+    waiting: int = 0
+    acknowledged: int = 0
 
     @property
     def exit_code(self) -> int:
-        """0, or 4 (alarm) + 8 (rejected, changed or axis problem)."""
-        attention = bool(self.rejected or self.changed or self.axis_problems)
+        """0, or 4 (alarm) + 8 (rejected, changed, axis problem or stale axis)."""
+        attention = bool(self.rejected or self.changed or self.axis_problems or self.stale)
         return 4 * bool(self.alarms) + 8 * attention
 
 
@@ -95,23 +128,28 @@ class _Axis:
     rates_hz: dict[str, float] = field(default_factory=dict)
     candidates: list[FleetFile] = field(default_factory=list)
     epoch: int = 1
+    reference: QualityReference | None = None
 
 
 def _key(file: FleetFile) -> tuple[datetime, str]:
     return (file.captured_at, file.capture)
 
 
+Digest = Callable[[Path], str | None]
+
+
 def _changed_files(
-    store: Store, root: Path, files: Sequence[FleetFile], hashes: dict[Path, str]
-) -> list[str]:
-    """Files whose content differs from when they were scored (recorded, and listed)."""
+    store: Store, root: Path, files: Sequence[FleetFile], digest: Digest
+) -> tuple[list[str], int]:
+    """Files whose content differs from when they were scored (recorded, and listed unless
+    acknowledged); and how many acknowledged ones were left out."""
     scored: dict[str, Any] = {}
     for row in store.rows(
         "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
         "ORDER BY id"
     ):
         scored[row["path"]] = row
-    changed = []
+    changed, acknowledged = [], 0
     for file in files:
         relative = file.path.relative_to(root).as_posix()
         previous = scored.get(relative)
@@ -120,10 +158,8 @@ def _changed_files(
         stat = file.path.stat()
         if (stat.st_size, stat.st_mtime_ns) == (previous["file_size"], previous["file_mtime_ns"]):
             continue
-        if file.path not in hashes:
-            hashes[file.path] = file_hash(file.path)
-        current = hashes[file.path]
-        if current == previous["file_hash"]:
+        current = digest(file.path)
+        if current is None or current == previous["file_hash"]:
             continue
         with store.write() as db:
             db.execute(
@@ -139,29 +175,87 @@ def _changed_files(
                     now(),
                 ),
             )
+        if store.changed_file_acknowledged(relative, previous["file_hash"], current):
+            acknowledged += 1
+            continue
         changed.append(
             f"{relative}: content changed after it was scored; the stored result is kept "
             "(re-baseline the axis to score it afresh)"
         )
-    return changed
+    return changed, acknowledged
 
 
-def _standing_rejections(store: Store, root: Path, method: str) -> list[str]:
-    """Rejections whose file still has the rejected content."""
-    standing = []
+def _standing_rejections(
+    store: Store, root: Path, method: str, phash: str, digest: Digest
+) -> tuple[list[str], int]:
+    """Rejections that still hold (the file still has the rejected content, or a transient
+    problem was seen again in this run), not acknowledged; and how many acknowledged ones."""
+    standing, acknowledged = [], 0
     scored = {
         (r["path"], r["file_hash"])
         for r in store.rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
     }
-    for row in store.rows(
-        "SELECT path, file_hash, error FROM rejections WHERE method=? ORDER BY id", (method,)
-    ):
+    for row in store.rejections_of(method, phash):
         path = root / row["path"]
-        if not path.is_file() or (row["path"], row["file_hash"]) in scored:
+        if (row["path"], row["file_hash"]) in scored:
             continue
-        if file_hash(path) == row["file_hash"]:
+        if not row["transient"] and not (path.is_file() and digest(path) == row["file_hash"]):
+            continue
+        if row["acknowledged_at"] is not None:
+            acknowledged += 1
+        else:
             standing.append(str(row["error"]))
-    return standing
+    return standing, acknowledged
+
+
+def parameter_differences(stored: str, asked: str) -> list[str]:
+    """The parameters that differ between two ``params`` JSON texts, one ``name: a -> b`` each.
+
+    Examples
+    --------
+    >>> parameter_differences('{"a": 1, "b": {"c": 2}}', '{"a": 1, "b": {"c": 3}, "d": 4}')
+    ['b.c: 2 -> 3', 'd: (none) -> 4']
+    """
+
+    def flat(value: Any, prefix: str = "") -> dict[str, Any]:
+        if isinstance(value, dict):
+            out: dict[str, Any] = {}
+            for key, item in value.items():
+                out.update(flat(item, f"{prefix}{key}."))
+            return out
+        return {prefix[:-1]: value}
+
+    old, new = flat(json.loads(stored)), flat(json.loads(asked))
+    return [
+        f"{name}: {json.dumps(old[name]) if name in old else '(none)'} -> "
+        f"{json.dumps(new[name]) if name in new else '(none)'}"
+        for name in sorted(set(old) | set(new))
+        if old.get(name, ...) != new.get(name, ...)
+    ]
+
+
+def check_request(root: str | Path, config: MonitorConfig) -> None:
+    """Check what a run asks for before anything is stored.
+
+    Raises
+    ------
+    NotADirectoryError, DataNotFoundError
+        If ``root`` is not a folder or holds no capture file (an unmounted share).
+    ValueError
+        If ``config.baseline`` names a file that no axis folder holds, or a signal is a column
+        of none of the first captures of the first axes (a typo such as ``torqe``).
+    """
+    root = Path(root)
+    check_fleet_root(root)
+    _check_signals(root, config.features.signals)
+    if (
+        config.baseline is not None
+        and next(root.glob(f"*/*/{escape(config.baseline)}"), None) is None
+    ):
+        raise ValueError(
+            f"baseline capture '{config.baseline}' is in no axis folder of '{root}'; expected "
+            "the file name of a capture, such as 2026-03-01.parquet."
+        )
 
 
 #: Axes whose models the driver holds at once (see monitor_fleet).
@@ -176,6 +270,8 @@ def monitor_fleet(
     workers: int = 1,
     dask: object | None = None,
     progress: Progress | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    stale_after: timedelta | None = DEFAULT_STALE_AFTER,
 ) -> MonitorSummary:
     """Score every capture of the fleet not scored yet; keep baselines, thresholds and alarms.
 
@@ -190,6 +286,11 @@ def monitor_fleet(
         Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
     progress : callable (stage, done, total), optional
         Called as baselines are fitted and captures scored.
+    settle_s : float, default=DEFAULT_SETTLE_S (10)
+        A capture file modified less than this many seconds ago is still being written: it
+        waits for a later run.
+    stale_after : timedelta or None, default=DEFAULT_STALE_AFTER (3 days)
+        An axis without a new capture file for this long is stale (None: never).
 
     Returns
     -------
@@ -197,33 +298,69 @@ def monitor_fleet(
 
     Raises
     ------
+    NotADirectoryError, DataNotFoundError, ValueError
+        As :func:`check_request`, before anything is stored.
     StoreError
-        If an axis's stored baseline was made with other parameters than ``config``.
+        If an axis's stored baseline was made with other parameters than ``config`` (naming
+        them), or the store cannot be read or written (corrupt, full disk).
     """
     config = MonitorConfig() if config is None else config
     root = Path(root)
     method = config.method
-    files, problems = discover_fleet(root)
-    summary = MonitorSummary(method=method, n_files=len(files) + len(problems))
-    hashes: dict[Path, str] = {}
+    started = datetime.now(UTC)
+    seen_at = stamp()
+    check_request(root, config)
+    phash = params_hash(config)
+    discovered, problems = discover_fleet(root)
+    summary = MonitorSummary(method=method, n_files=len(discovered) + len(problems))
+    hashes: dict[Path, str | None] = {}
 
-    def digest(path: Path) -> str:
+    def relative(file: FleetFile) -> str:
+        return file.path.relative_to(root).as_posix()
+
+    def unreadable(file: FleetFile, reason: str) -> None:
+        reject(
+            store, method, file.robot, file.axis, file.capture, relative(file), "",
+            f"{relative(file)}: {reason}; tried again next run", kind="unreadable", transient=True,
+        )  # fmt: skip
+
+    def digest(path: Path) -> str | None:
+        """The file's hash, or None when it cannot be read (recorded as a transient rejection)."""
         if path not in hashes:
-            hashes[path] = file_hash(path)
+            try:
+                hashes[path] = file_hash(path)
+            except OSError as exc:
+                hashes[path] = None
+                owner = next((f for f in discovered if f.path == path), None)
+                if owner is not None:
+                    unreadable(owner, f"cannot be read ({exc.strerror or exc})")
         return hashes[path]
 
     for problem in problems:
+        if not problem.capture:  # a folder: reported every run while it lasts, not stored
+            summary.axis_problems.append(problem.reason)
+            continue
         reject(
             store, method, problem.robot, problem.axis, problem.capture,
             problem.path.relative_to(root).as_posix(),
-            digest(problem.path), problem.reason,
+            digest(problem.path) or "", problem.reason, kind="layout",
         )  # fmt: skip
-    summary.changed = _changed_files(store, root, files, hashes)
+    store.record_axis_activity(_activity(discovered), started.isoformat(timespec="seconds"))
+    files, waiting, failed = split_settled(discovered, settle_s, time.time())
+    summary.waiting = len(waiting)
+    for file, reason in failed:
+        unreadable(file, reason)
+    future_from = datetime.now() + _FUTURE_TOLERANCE
+    for file in [f for f in files if f.captured_at > future_from]:
+        reject(
+            store, method, file.robot, file.axis, file.capture, relative(file), "",
+            f"{relative(file)}: dated {file.captured_at.isoformat()}, in the future (a logger "
+            "clock?); not scored before that date", kind="future", transient=True,
+        )  # fmt: skip
+    files = [f for f in files if f.captured_at <= future_from]
+    summary.changed, changes_seen = _changed_files(store, root, files, digest)
 
-    rejected = {
-        (r["path"], r["file_hash"])
-        for r in store.rows("SELECT path, file_hash FROM rejections WHERE method=?", (method,))
-    }
+    rejected = store.rejected_files(method, phash)
     alarmed = {
         (r["robot"], r["axis"], r["capture"])
         for r in store.rows(
@@ -237,15 +374,18 @@ def monitor_fleet(
         grouped[(file.robot, file.axis)].append(file)
     axes = [_Axis(robot, axis, axis_files) for (robot, axis), axis_files in grouped.items()]
 
-    def relative(file: FleetFile) -> str:
-        return file.path.relative_to(root).as_posix()
-
     def usable(state: _Axis, file: FleetFile) -> bool:
-        return (relative(file), digest(file.path)) not in rejected and (
-            state.robot,
-            state.axis,
-            file.capture,
-        ) not in alarmed
+        hashed = digest(file.path)
+        return (
+            hashed is not None
+            and (relative(file), hashed) not in rejected
+            and (
+                state.robot,
+                state.axis,
+                file.capture,
+            )
+            not in alarmed
+        )
 
     fit_jobs: list[FitJob] = []
     for state in axes:
@@ -257,17 +397,24 @@ def monitor_fleet(
         latest = rows[0] if rows else None
         if latest is not None and latest["retired_at"] is None:
             if latest["params"] != params:
+                differences = "; ".join(parameter_differences(latest["params"], params))
                 raise StoreError(
                     f"store '{store.path}': the baseline of robot {state.robot} axis "
-                    f"{state.axis} ({method}) was made with parameters {latest['params']}; this "
-                    f"run asks for {params}. Use the same options, another store, or "
-                    "re-baseline the axis."
+                    f"{state.axis} ({method}) was made with other parameters ({differences}). "
+                    "Use the same options, another store, or re-baseline the axis."
                 )
             state.baseline = latest
             by_name = {f.capture: f for f in state.files}
             stored = by_name.get(latest["capture"])
-            if stored is None or digest(stored.path) != latest["file_hash"]:
-                what = "is missing" if stored is None else "changed after it was fitted"
+            hashed = None if stored is None else digest(stored.path)
+            if hashed != latest["file_hash"]:
+                what = (
+                    "is missing or waiting"
+                    if stored is None
+                    else "cannot be read"
+                    if hashed is None
+                    else "changed after it was fitted"
+                )
                 summary.axis_problems.append(
                     f"{latest['path']}: baseline file {what}; robot {state.robot} axis "
                     f"{state.axis} is not scored (re-baseline it)"
@@ -328,11 +475,13 @@ def monitor_fleet(
                         )
                     else:
                         state.model, state.rates_hz = outcome.model, outcome.rates_hz
+                        state.reference = outcome.reference
                     continue
                 if outcome.model is None:
                     reject(
                         store, method, file.robot, file.axis, file.capture, outcome.job.relative,
-                        digest(file.path), str(outcome.error),
+                        digest(file.path) or "", str(outcome.error), kind=outcome.kind,
+                        params_hash=phash, transient=outcome.transient,
                     )  # fmt: skip
                     state.candidates = state.candidates[1:]
                     if (
@@ -356,6 +505,7 @@ def monitor_fleet(
                 summary.new_baselines += 1
                 state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
                 state.model, state.rates_hz = outcome.model, outcome.rates_hz
+                state.reference = outcome.reference
             fit_jobs = retry
 
     def score_chunk(states: Sequence[_Axis]) -> None:
@@ -374,14 +524,28 @@ def monitor_fleet(
                 datetime.fromisoformat(state.baseline["captured_at"]),
                 state.baseline["capture"],
             )
+            chosen = (
+                int(state.baseline["epoch"]) == 1 and config.baseline == state.baseline["capture"]
+            )
+            ever_scored: set[str] | None = None
             for file in state.files:
-                if _key(file) <= start or file.capture in done_captures:
+                if file.capture in done_captures:
                     continue
-                if (relative(file), digest(file.path)) in rejected:
+                hashed = digest(file.path)
+                if hashed is None or (relative(file), hashed) in rejected:
+                    continue
+                if _key(file) <= start:
+                    if ever_scored is None:
+                        ever_scored = store.scored_captures(state.robot, state.axis, method)
+                    if not chosen and file.capture not in ever_scored:
+                        _out_of_order(store, method, file, relative(file), hashed, state.baseline)
                     continue
                 jobs.append(
-                    ScoreJob(file, relative(file), baseline_id, state.model, state.rates_hz)
-                )
+                    ScoreJob(
+                        file, relative(file), baseline_id, state.model, state.rates_hz,
+                        state.reference,
+                    )
+                )  # fmt: skip
 
         # Commit in capture order per axis, whatever order results complete in.
         pending: dict[int, ScoreOutcome] = {}
@@ -411,7 +575,11 @@ def monitor_fleet(
         for state in states:
             state.model = None
 
-    summary.rejected = _standing_rejections(store, root, method)
+    store.resolve_transient(method, seen_at)
+    summary.rejected, rejections_seen = _standing_rejections(store, root, method, phash, digest)
+    summary.acknowledged = changes_seen + rejections_seen
+    if stale_after is not None:
+        summary.stale = _stale_axes(store, started, stale_after)
     for row in store.rows(
         "SELECT b.robot, b.axis, (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id "
         "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1) AS alarm FROM baselines b "
@@ -421,6 +589,84 @@ def monitor_fleet(
         if row["alarm"]:
             summary.alarms.append((row["robot"], row["axis"]))
     return summary
+
+
+#: Axes whose first capture's columns are compared with the requested signals.
+_AXES_CHECKED = 8
+
+
+def _check_signals(root: Path, signals: Sequence[str]) -> None:
+    """Raise when a requested signal is a column of no capture among the first of a few axes."""
+    files, _ = discover_fleet(root)
+    firsts = list({(f.robot, f.axis): f for f in reversed(files)}.values())[-_AXES_CHECKED:]
+    seen: dict[str, list[str]] = {}
+    for file in firsts:
+        try:
+            seen[file.path.relative_to(root).as_posix()] = _columns(file.path)
+        except Exception:
+            continue
+    if not seen:
+        return
+    missing = [name for name in signals if not any(name in cols for cols in seen.values())]
+    if missing:
+        example, columns = next(iter(seen.items()))
+        raise ValueError(
+            f"The 'signals' parameter names {missing}, a column of none of {len(seen)} capture "
+            f"file(s) looked at; {example} has columns {columns}."
+        )
+
+
+def _columns(path: Path) -> list[str]:
+    """Column names of a capture file, read from its header only."""
+    if path.suffix.lower() == ".parquet":
+        import pyarrow.parquet as pq
+
+        return [str(name) for name in pq.read_schema(path).names]
+    import pandas as pd
+
+    return [str(name) for name in pd.read_csv(path, nrows=0).columns]
+
+
+def _activity(files: Sequence[FleetFile]) -> list[tuple[str, str, int, str]]:
+    """(robot, axis, number of capture files, newest capture) of every axis with files."""
+    grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
+    for file in files:
+        grouped[(file.robot, file.axis)].append(file)
+    return [
+        (robot, axis, len(own), max(f.capture for f in own))
+        for (robot, axis), own in sorted(grouped.items())
+    ]
+
+
+def _stale_axes(store: Store, now_utc: datetime, stale_after: timedelta) -> list[str]:
+    """Axes without a new capture file for longer than ``stale_after``, one line each."""
+    lines = []
+    for row in store.axis_activity().itertuples(index=False):
+        silence = now_utc - datetime.fromisoformat(row.last_seen_at)
+        if silence > stale_after:
+            lines.append(
+                f"{row.robot}/{row.axis}: stale, no new capture file for {_days(silence)} "
+                f"(last seen {row.last_seen_at}, newest {row.newest_capture}; --stale-after "
+                f"{_days(stale_after)})"
+            )
+    return lines
+
+
+def _days(span: timedelta) -> str:
+    hours = span.total_seconds() / 3600
+    return f"{hours / 24:.1f} d" if hours >= 24 else f"{hours:.1f} h"
+
+
+def _out_of_order(
+    store: Store, method: str, file: FleetFile, relative: str, hashed: str, baseline: Any
+) -> None:
+    """A capture dated before the axis's baseline that was never scored: it arrived late."""
+    reject(
+        store, method, file.robot, file.axis, file.capture, relative, hashed,
+        f"{relative}: dated before the baseline {baseline['capture']} of epoch "
+        f"{baseline['epoch']} and never scored (it arrived out of order); re-baseline the axis "
+        "with --from to score it", kind="out of order",
+    )  # fmt: skip
 
 
 def _by_capture(files: Sequence[FleetFile], capture: str) -> FleetFile:

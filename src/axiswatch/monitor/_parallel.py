@@ -10,10 +10,15 @@ objects): send file paths, not arrays, and let the workers read the files.
 from __future__ import annotations
 
 import concurrent.futures
+import os
+import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, TypeVar
 
-__all__ = ["parallel_map"]
+__all__ = ["connect_dask", "parallel_map"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -91,8 +96,40 @@ def _windowed(
             yield pending.pop(future), future
 
 
+#: How often a worker without ``prctl`` checks that its driver still lives, in seconds.
+_PARENT_POLL_S = 1.0
+
+
+def _end_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the driver process ends, however it ends.
+
+    A driver killed by SIGTERM or SIGKILL (``timeout``, systemd, Kubernetes) runs no clean-up
+    code, and its pool's workers would live on as orphans. On Linux the kernel sends the worker
+    SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread sees
+    the parent change. Either way a parent already gone before this ran ends the worker now.
+    """
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    else:  # pragma: no cover - exercised on macOS and Windows only
+
+        def watch() -> None:
+            while os.getppid() == parent:
+                time.sleep(_PARENT_POLL_S)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True).start()
+    if os.getppid() != parent:
+        os._exit(1)
+
+
 def _process_map(fn: Callable[[T], R], items: Iterable[T], workers: int) -> Iterator[tuple[int, R]]:
-    with concurrent.futures.ProcessPoolExecutor(max_workers=workers) as pool:
+    with concurrent.futures.ProcessPoolExecutor(
+        max_workers=workers, initializer=_end_with_parent, initargs=(os.getpid(),)
+    ) as pool:
 
         def wait_one(futures: set[Any]) -> Iterable[Any]:
             done, _ = concurrent.futures.wait(
@@ -121,7 +158,7 @@ def _dask_map(fn: Callable[[T], R], items: Iterable[T], dask: object) -> Iterato
             "pip install 'axiswatch[dask]' (or run with workers instead of dask)."
         ) from error
     if isinstance(dask, str):
-        client = distributed.Client(dask)  # type: ignore[no-untyped-call]
+        client = connect_dask(dask)
         owned = True
     elif isinstance(dask, distributed.Client):
         client, owned = dask, False
@@ -131,6 +168,49 @@ def _dask_map(fn: Callable[[T], R], items: Iterable[T], dask: object) -> Iterato
             f"Got {type(dask).__name__} instead."
         )
     return _dask_results(client, owned, fn, items, distributed)
+
+
+#: Seconds a Dask scheduler has to answer before connecting counts as failed.
+DASK_CONNECT_TIMEOUT_S = 10.0
+
+
+def connect_dask(address: str, timeout_s: float = DASK_CONNECT_TIMEOUT_S) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``, or a one-line error.
+
+    Raises
+    ------
+    ConnectionError
+        If no Dask scheduler answers at ``address`` within ``timeout_s`` seconds (nothing
+        listens, a firewall drops the packets, or another service answers: its bytes read as a
+        Dask message can ask for gigabytes, a ``MemoryError``).
+    ImportError
+        If ``dask.distributed`` is not installed.
+    """
+    try:
+        import distributed
+    except ImportError as error:
+        raise ImportError(
+            "The 'dask' option needs dask.distributed, which is not installed: "
+            "pip install 'axiswatch[dask]' (or run with workers instead of dask)."
+        ) from error
+    import asyncio
+
+    async def probe() -> None:
+        # The handshake alone, on a private event loop: a Client that fails half-way leaves a
+        # background loop whose clean-up prints a traceback at exit.
+        comm = await distributed.comm.connect(address, timeout=timeout_s)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(probe(), timeout_s))
+        return distributed.Client(  # type: ignore[no-untyped-call]
+            address, timeout=timeout_s, set_as_default=False
+        )
+    except Exception as exc:  # noqa: BLE001 - whatever answered, it is not a usable scheduler
+        text = (str(exc).splitlines() or [""])[0] or type(exc).__name__
+        raise ConnectionError(
+            f"no Dask scheduler answered at '{address}' within {timeout_s:g} s: {text}"
+        ) from None
 
 
 def _dask_results(

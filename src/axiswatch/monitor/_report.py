@@ -9,6 +9,8 @@ from __future__ import annotations
 import base64
 import html
 import io
+import os
+from datetime import timedelta
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,7 @@ th { background: #f0f0f0; }
 td:first-child, th:first-child { text-align: left; }
 .ALARM { background: #f8d0d0; font-weight: bold; }
 .calibrating { background: #e0ecf8; }
+.stale, .bad { background: #f8ecc8; }
 .note { color: #555; font-size: 0.9em; }
 img { max-width: 100%; }
 """
@@ -83,8 +86,17 @@ def _format(value: Any) -> str:
     return "" if value is None else str(value)
 
 
-def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None = None) -> Path:
+def write_report(
+    store: Store,
+    out: str | Path,
+    *,
+    labels: pd.DataFrame | None = None,
+    stale_after: timedelta | None = None,
+) -> Path:
     """Write ``out/index.html`` and one PNG per axis; return the page's path.
+
+    Every file is written under a temporary name and renamed into place, so a browser or a web
+    server never shows a half-written page.
 
     Parameters
     ----------
@@ -94,6 +106,8 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
     labels : DataFrame, optional
         Ground truth of a simulated fleet (``robot``, ``axis``, ``date``, ``task``, ``fault``);
         task changes and faulty captures are then marked on each trend.
+    stale_after : timedelta, optional
+        Axes silent for longer are shown ``stale`` (see :func:`fleet_summary`).
 
     Returns
     -------
@@ -106,7 +120,7 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = fleet_summary(store)
+    summary = fleet_summary(store, stale_after=stale_after)
     results = fleet_results(store)
     rejections = fleet_rejections(store)
     parts = [
@@ -115,7 +129,9 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
         "<h1>axiswatch fleet report</h1>",
         f"<p class='note'>Store: {html.escape(str(store.path))}. State after the last capture "
         "of each axis: <b>ALARM</b> when the alarm rule fired and has not cleared, "
-        "<i>calibrating</i> while the threshold is not set yet.</p>",
+        "<i>stale</i> when no new capture arrived for too long, <i>bad data</i> when the newest "
+        "capture failed the data-quality check, <i>calibrating</i> while the threshold is not "
+        "set yet.</p>",
         "<h2>Fleet summary</h2>",
         _table(summary) if not summary.empty else "<p>No axis has a baseline yet.</p>",
     ]
@@ -135,10 +151,10 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
             events = [(str(r.date), f"task -> {r.task}") for r in own[changed].itertuples()]
         figure = _figure(axis_rows, f"{robot}/{axis}", fault_dates, events)
         name = f"{robot}_{axis}.png"
-        figure.savefig(out / name, dpi=90)
         buffer = io.BytesIO()
         figure.savefig(buffer, format="png", dpi=90)
         plt.close(figure)
+        _replace(out / name, buffer.getvalue())
         encoded = base64.b64encode(buffer.getvalue()).decode("ascii")
         parts.append(f"<h3 id='{html.escape(robot)}-{html.escape(axis)}'>{robot} / {axis}</h3>")
         parts.append(
@@ -150,5 +166,12 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
             parts.append(_table(alarms[["capture", "method", "reason"]]))
     parts.append("</body></html>")
     page = out / "index.html"
-    page.write_text("\n".join(parts), encoding="utf-8")
+    _replace(page, "\n".join(parts).encode("utf-8"))
     return page
+
+
+def _replace(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a temporary file beside it, then a rename."""
+    temporary = path.with_name(f".{path.name}.tmp")
+    temporary.write_bytes(data)
+    os.replace(temporary, path)

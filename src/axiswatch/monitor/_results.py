@@ -5,9 +5,11 @@ Pipeline stage below the report and the CLI; it only reads.
 
 from __future__ import annotations
 
+from datetime import UTC, datetime, timedelta
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from axiswatch.monitor._store import Store
 
@@ -43,13 +45,21 @@ def fleet_rejections(store: Store) -> Any:
     )
 
 
-def fleet_summary(store: Store) -> Any:
+def fleet_summary(
+    store: Store, *, stale_after: timedelta | None = None, now: datetime | None = None
+) -> Any:
     """One row per axis and method of the active baselines: the fleet's state at a glance.
 
     Columns: ``robot``, ``axis``, ``method``, ``epoch``, ``baseline`` (capture), ``threshold``,
     ``scored`` (calibration and monitored captures), ``over`` (captures over the threshold),
-    ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``state``
-    (``calibrating``, ``ok`` or ``ALARM``), ``rejected`` (files of the axis rejected).
+    ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``last_seen`` (when a new
+    capture file of the axis was last seen, UTC), ``state``, ``rejected`` (files of the axis
+    rejected).
+
+    ``state``, the first that holds: ``ALARM`` (the alarm rule fired and has not cleared),
+    ``stale`` (no new capture file for longer than ``stale_after``), ``bad data`` (the newest
+    capture was rejected by the data-quality check: no motion, a stuck signal, out of range),
+    ``calibrating`` (threshold not set yet), ``ok``.
     """
     frame = store.frame(
         "SELECT b.robot, b.axis, b.method, b.epoch, b.capture AS baseline, b.threshold, "
@@ -69,10 +79,30 @@ def fleet_summary(store: Store) -> Any:
         "AND r.method=b.method) AS rejected "
         "FROM baselines b WHERE b.retired_at IS NULL ORDER BY b.robot, b.axis, b.method"
     )
-    state = np.where(
-        frame["threshold"].isna(),
-        "calibrating",
-        np.where(frame["last_alarm"].fillna(0).astype(bool), "ALARM", "ok"),
+    activity = store.axis_activity()[["robot", "axis", "last_seen_at"]]
+    frame = frame.merge(activity, on=["robot", "axis"], how="left")
+    frame = frame.merge(store.latest_bad_data(), on=["robot", "axis", "method"], how="left")
+    when = datetime.now(UTC) if now is None else now
+    seen = pd.to_datetime(frame["last_seen_at"], utc=True)
+    stale = (
+        np.zeros(len(frame), dtype=bool)
+        if stale_after is None
+        else ((pd.Timestamp(when) - seen) > pd.Timedelta(stale_after)).to_numpy(dtype=bool)
+    )
+    bad = (frame["bad_capture"].notna() & (frame["bad_capture"] > frame["last_capture"])).to_numpy(
+        dtype=bool
+    )
+    state = np.select(
+        [
+            frame["last_alarm"].fillna(0).astype(bool).to_numpy(),
+            stale,
+            bad,
+            frame["threshold"].isna(),
+        ],
+        ["ALARM", "stale", "bad data", "calibrating"],
+        "ok",
     )
     frame["state"] = state
-    return frame.drop(columns="last_alarm")
+    frame = frame.rename(columns={"last_seen_at": "last_seen"})
+    columns = [c for c in frame.columns if c not in ("last_alarm", "bad_capture", "rejected")]
+    return frame[[*columns, "rejected"]]

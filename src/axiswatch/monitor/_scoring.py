@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,7 @@ from axiswatch._model import HealthModel
 from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import AxiswatchError
 from axiswatch.monitor._fleet import FleetFile
+from axiswatch.monitor._quality import QualityReference, data_quality_problem
 
 __all__ = [
     "MONITOR_FEATURES",
@@ -35,6 +37,7 @@ __all__ = [
     "ScoreOutcome",
     "file_hash",
     "fit_baseline",
+    "params_hash",
     "score_capture",
 ]
 
@@ -53,12 +56,12 @@ class MonitorConfig:
 
     Parameters
     ----------
-    method : {"lra", "pca", "mechanics"}, default="lra"
-        The paper's Low Rank Alignment distance, the PCA baseline (library defaults of
-        :class:`LRADetector` and :class:`PCADetector` on ``features``), or the physical
-        indicators of :class:`MechanicsStage` with :class:`IndicatorDetector`, the default chosen
-        by the development protocol of docs/evaluation.md (no phase alignment: its rows are
-        directions of motion, not time slices).
+    method : {"mechanics", "lra", "pca"}, default="mechanics"
+        The physical indicators of :class:`MechanicsStage` with :class:`IndicatorDetector`, the
+        product default chosen by the development protocol of docs/evaluation.md (no phase
+        alignment: its rows are directions of motion, not time slices) and the CLI's default;
+        or the paper's Low Rank Alignment distance, or the PCA baseline (library defaults of
+        :class:`LRADetector` and :class:`PCADetector` on ``features``).
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
         ``K``: captures after the baseline that calibrate the threshold.
@@ -82,7 +85,7 @@ class MonitorConfig:
     {'k': 2, 'n': 3, 'clear_m': 1}
     """
 
-    method: Method = "lra"
+    method: Method = "mechanics"
     percentile: float = 99.0
     calibration_size: int = 5
     alarm_k: int = 1
@@ -116,6 +119,7 @@ class MonitorConfig:
             )
         if self.clear_m < 1:
             raise ValueError(f"The 'clear_m' parameter must be >= 1. Got {self.clear_m!r} instead.")
+        _check_features(self.features)
 
     def detector(self) -> BaselineDetector:
         """A fresh detector of the configured method."""
@@ -155,6 +159,33 @@ class MonitorConfig:
         return params
 
 
+def _check_features(spec: FeatureSpec) -> None:
+    signals = spec.signals
+    if not signals or any(not name or name != name.strip() for name in signals):
+        raise ValueError(
+            "The 'signals' parameter must name at least one signal column, without blanks. "
+            f"Got {list(signals)!r} instead."
+        )
+    if len(set(signals)) != len(signals):
+        raise ValueError(f"The 'signals' parameter names a column twice. Got {list(signals)!r}.")
+    if not (isinstance(spec.segment_length, int) and spec.segment_length >= 2):
+        raise ValueError(
+            "The 'segment_length' parameter must be an int >= 2 (samples per STFT window). "
+            f"Got {spec.segment_length!r} instead."
+        )
+    if not (isinstance(spec.hop, int) and 1 <= spec.hop <= spec.segment_length):
+        raise ValueError(
+            "The 'hop' parameter must be an int in [1, segment_length] (samples between STFT "
+            f"windows). Got {spec.hop!r} instead (segment_length {spec.segment_length})."
+        )
+
+
+def params_hash(config: MonitorConfig) -> str:
+    """Short hash of the parameters (what a rejection made under them depended on)."""
+    text = json.dumps(config.params(), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def file_hash(path: Path) -> str:
     """SHA-256 of a file's bytes, in hex."""
     digest = hashlib.sha256()
@@ -167,6 +198,18 @@ def file_hash(path: Path) -> str:
 def _one_line(exc: BaseException, path: Path, relative: str) -> str:
     text = (str(exc).splitlines() or [type(exc).__name__])[0].replace(str(path), relative)
     return text if text.startswith(relative) else f"{relative}: {text}"
+
+
+def _failure_kind(exc: BaseException) -> tuple[str, bool]:
+    """Kind of a job's failure and whether it is transient: an operating-system error reading
+    the file (permission, I/O error on a share) may pass; a malformed capture does not."""
+    if isinstance(exc, OSError) and not isinstance(exc, AxiswatchError):
+        return "unreadable", True
+    return "invalid", False
+
+
+def _bad_data(relative: str, problem: str) -> str:
+    return f"{relative}: bad data ({problem}); a data-quality verdict, not a maintenance one"
 
 
 # --- jobs: self-contained, picklable, never raise for a bad capture -------------------------
@@ -191,6 +234,9 @@ class FitOutcome:
     file_hash: str
     features_hash: str
     error: str | None
+    kind: str = "invalid"
+    transient: bool = False
+    reference: QualityReference | None = None
 
 
 def fit_baseline(job: FitJob) -> FitOutcome:
@@ -206,6 +252,11 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
     try:
         digest = file_hash(path)
         capture = read_capture(path, job.config.features.signals)
+        problem = data_quality_problem(capture)
+        if problem is not None:
+            return FitOutcome(
+                job, None, {}, digest, "", _bad_data(job.relative, problem), "bad data"
+            )
         model = HealthModel(
             job.config.features,
             job.config.detector(),
@@ -214,9 +265,14 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
             stage=job.config.stage(),
         ).fit(capture)
     except (AxiswatchError, ValueError, OSError) as exc:
-        return FitOutcome(job, None, {}, "", "", _one_line(exc, path, job.relative))
+        kind, transient = _failure_kind(exc)
+        error = _one_line(exc, path, job.relative)
+        return FitOutcome(job, None, {}, "", "", error, kind, transient)
     features_hash = hashlib.sha256(model.baseline_features_.X.tobytes()).hexdigest()
-    return FitOutcome(job, model, dict(capture.rates_hz), digest, features_hash, None)
+    reference = QualityReference.of(capture)
+    return FitOutcome(
+        job, model, dict(capture.rates_hz), digest, features_hash, None, reference=reference
+    )
 
 
 @dataclass(frozen=True)
@@ -228,6 +284,7 @@ class ScoreJob:
     baseline_id: int
     model: HealthModel
     rates_hz: dict[str, float]
+    reference: QualityReference | None = None
 
 
 @dataclass(frozen=True)
@@ -241,6 +298,8 @@ class ScoreOutcome:
     distance: float
     details: dict[str, Any]
     error: str | None
+    kind: str = "invalid"
+    transient: bool = False
 
 
 def score_capture(job: ScoreJob) -> ScoreOutcome:
@@ -258,6 +317,10 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
         digest = file_hash(path)
         model = job.model
         capture = read_capture(path, model.features.signals, expected_rates_hz=job.rates_hz)
+        problem = data_quality_problem(capture, job.reference)
+        if problem is not None:
+            error = _bad_data(job.relative, problem)
+            return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "bad data")
         features, lag = model.featurize(capture)
         details: dict[str, Any] = {
             "phase_lag_samples": int(lag),
@@ -273,6 +336,7 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
         else:
             distance = float(detector.distance(features.X))
     except (AxiswatchError, ValueError, OSError) as exc:
+        kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)
-        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error)
+        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, kind, transient)
     return ScoreOutcome(job, digest, size, mtime, distance, details, None)
