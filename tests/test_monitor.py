@@ -180,7 +180,9 @@ def test_rebaseline_from_an_earlier_capture_excludes_alarmed_ones(
 def test_stored_parameters_must_match(fleet: Path, tmp_path: Path) -> None:
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(fleet, store, MonitorConfig(method="pca"))
-        with pytest.raises(StoreError, match=r"other parameters \(percentile: 99.0 -> 95.0\)\. Use the same"):
+        with pytest.raises(
+            StoreError, match=r"other parameters \(percentile: 99.0 -> 95.0\)\. Use the same"
+        ):
             monitor_fleet(fleet, store, MonitorConfig(method="pca", percentile=95.0))
 
 

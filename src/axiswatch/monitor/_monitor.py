@@ -407,7 +407,7 @@ def monitor_fleet(
             by_name = {f.capture: f for f in state.files}
             stored = by_name.get(latest["capture"])
             hashed = None if stored is None else digest(stored.path)
-            if hashed != latest["file_hash"]:
+            if stored is None or hashed != latest["file_hash"]:
                 what = (
                     "is missing or waiting"
                     if stored is None
@@ -642,7 +642,7 @@ def _stale_axes(store: Store, now_utc: datetime, stale_after: timedelta) -> list
     """Axes without a new capture file for longer than ``stale_after``, one line each."""
     lines = []
     for row in store.axis_activity().itertuples(index=False):
-        silence = now_utc - datetime.fromisoformat(row.last_seen_at)
+        silence = now_utc - datetime.fromisoformat(str(row.last_seen_at))
         if silence > stale_after:
             lines.append(
                 f"{row.robot}/{row.axis}: stale, no new capture file for {_days(silence)} "

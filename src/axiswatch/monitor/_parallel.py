@@ -198,7 +198,12 @@ def connect_dask(address: str, timeout_s: float = DASK_CONNECT_TIMEOUT_S) -> Any
     async def probe() -> None:
         # The handshake alone, on a private event loop: a Client that fails half-way leaves a
         # background loop whose clean-up prints a traceback at exit.
-        comm = await distributed.comm.connect(address, timeout=timeout_s)
+        # With the client's connection arguments from Dask's configuration (TLS certificates).
+        from distributed.comm.core import connect
+
+        security = distributed.security.Security()  # type: ignore[no-untyped-call]
+        arguments = security.get_connection_args("client")  # type: ignore[no-untyped-call]
+        comm = await connect(address, timeout=timeout_s, **arguments)  # type: ignore[no-untyped-call]
         await comm.close()
 
     try:
@@ -206,7 +211,7 @@ def connect_dask(address: str, timeout_s: float = DASK_CONNECT_TIMEOUT_S) -> Any
         return distributed.Client(  # type: ignore[no-untyped-call]
             address, timeout=timeout_s, set_as_default=False
         )
-    except Exception as exc:  # noqa: BLE001 - whatever answered, it is not a usable scheduler
+    except Exception as exc:  # whatever answered, it is not a usable scheduler
         text = (str(exc).splitlines() or [""])[0] or type(exc).__name__
         raise ConnectionError(
             f"no Dask scheduler answered at '{address}' within {timeout_s:g} s: {text}"
