@@ -26,6 +26,8 @@ from axiswatch._attribution import (
 )
 from axiswatch._calibration import (
     HalfLaplaceFit,
+    Threshold,
+    alarm_threshold,
     fit_half_laplace,
     half_laplace_threshold,
 )
@@ -47,6 +49,9 @@ from axiswatch._features import (
     FeatureSpec,
     extract_features,
     stft_features,
+)
+from axiswatch._formats import (
+    register_format,
 )
 from axiswatch._mechanics import (
     INDICATORS,
@@ -104,6 +109,8 @@ __all__ = [
     "StftStage",
     "Store",
     "StoreError",
+    "Threshold",
+    "alarm_threshold",
     "align_phase",
     "as_capture",
     "attribute",
@@ -115,6 +122,7 @@ __all__ = [
     "monitor_fleet",
     "phase_lag",
     "read_capture",
+    "register_format",
     "resample_capture",
     "stft_features",
     "upsample_pchip",

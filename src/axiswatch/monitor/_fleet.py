@@ -4,7 +4,8 @@ Pipeline side-stage of the monitor (it only looks at names, never at file conten
 
 Rules (documented in the README):
 
-* a capture file ends in ``.parquet`` or ``.csv`` (any case); other files are not captures and are
+* a capture file ends in a registered capture suffix, ``.parquet``, ``.csv`` or ``.npz`` by default
+  (any case; :func:`axiswatch.register_format` adds one); other files are not captures and are
   ignored, as are hidden files and folders (name starting with ``.``) and files directly in
   ``ROOT`` (``labels.csv``, notes);
 * ``<robot>`` and ``<axis>`` are identifiers: 1-64 letters, digits, ``_``, ``-`` or ``.``,
@@ -33,10 +34,10 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
+from axiswatch._formats import capture_suffixes
 from axiswatch.exceptions import DataNotFoundError
 
 __all__ = [
-    "CAPTURE_SUFFIXES",
     "FleetFile",
     "LayoutProblem",
     "check_fleet_root",
@@ -44,8 +45,6 @@ __all__ = [
     "parse_capture_time",
     "split_settled",
 ]
-
-CAPTURE_SUFFIXES: tuple[str, ...] = (".parquet", ".csv")
 
 _IDENTIFIER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 _STAMP = re.compile(
@@ -222,6 +221,7 @@ def _candidates(root: Path, problems: list[LayoutProblem]) -> Iterator[Path]:
             _folder_problem(root, path, f"folder cannot be read ({error.strerror}); not scored")
         )
 
+    suffixes = capture_suffixes()
     seen: dict[tuple[int, int], str] = {}
     for folder, subfolders, names in os.walk(root, followlinks=True, onerror=unreadable):
         here = Path(folder)
@@ -254,7 +254,7 @@ def _candidates(root: Path, problems: list[LayoutProblem]) -> Iterator[Path]:
                     )
                 )
                 continue
-            if here != root and path.suffix.lower() in CAPTURE_SUFFIXES and path.is_file():
+            if here != root and path.suffix.lower() in suffixes and path.is_file():
                 yield path
 
 

@@ -17,9 +17,10 @@ one detection method:
    over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
    row (default 1).
 
-The driver process alone writes the store, one transaction per capture, committed in capture
-order per axis and computing the role, threshold and alarm state from what the store holds at
-that moment; scoring itself (read, features, distance) goes through
+The driver process alone writes the store (any :class:`~axiswatch.monitor.StoreBackend`; the
+driver holds no SQL), one transaction per capture, committed in capture order per axis; the store
+calls the pure :func:`~axiswatch.monitor._decision.decide` inside that transaction, from what it
+holds at that moment. Scoring itself (read, features, distance) goes through
 :func:`axiswatch.monitor._parallel.parallel_map`. Hence a killed run resumes exactly, and a second
 process on the same store skips what the first has written.
 """
@@ -29,7 +30,7 @@ from __future__ import annotations
 import json
 import time
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from glob import escape
@@ -38,19 +39,19 @@ from typing import Any
 
 from axiswatch._model import HealthModel
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._fleet import FleetFile, check_fleet_root, discover_fleet, split_settled
-from axiswatch.monitor._ledger import (
-    commit_score,
-    insert_baseline,
-    now,
-    params_json,
-    reject,
-    stamp,
+from axiswatch.monitor._fleet import (
+    FleetFile,
+    LayoutProblem,
+    check_fleet_root,
+    discover_fleet,
+    split_settled,
 )
+from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._parallel import parallel_map
 from axiswatch.monitor._quality import QualityReference
 from axiswatch.monitor._scoring import (
     FitJob,
+    FitOutcome,
     MonitorConfig,
     ScoreJob,
     ScoreOutcome,
@@ -59,7 +60,7 @@ from axiswatch.monitor._scoring import (
     params_hash,
     score_capture,
 )
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import Baseline, ChangedFile, StoreBackend, now_us
 
 __all__ = [
     "DEFAULT_SETTLE_S",
@@ -115,7 +116,7 @@ class MonitorSummary:
         return 4 * bool(self.alarms) + 8 * attention
 
 
-# --- the driver --------------------------------------------------------------------------------
+# --- one run's context -------------------------------------------------------------------------
 
 
 @dataclass
@@ -123,7 +124,7 @@ class _Axis:
     robot: str
     axis: str
     files: list[FleetFile]
-    baseline: Any = None  # sqlite3.Row of the active baseline
+    baseline: Baseline | None = None
     model: HealthModel | None = None
     rates_hz: dict[str, float] = field(default_factory=dict)
     candidates: list[FleetFile] = field(default_factory=list)
@@ -131,81 +132,456 @@ class _Axis:
     reference: QualityReference | None = None
 
 
+@dataclass
+class _Run:
+    """What one run knows: where, with what, the files' hashes (each file hashed once), what the
+    store held when it started, and the summary being built."""
+
+    root: Path
+    store: StoreBackend
+    config: MonitorConfig
+    workers: int
+    dask: object | None
+    progress: Progress | None
+    summary: MonitorSummary
+    params_hash: str = ""
+    owners: dict[Path, FleetFile] = field(default_factory=dict)
+    hashes: dict[Path, str | None] = field(default_factory=dict)
+    rejected: set[tuple[str, str]] = field(default_factory=set)
+    scored: set[tuple[str, str]] = field(default_factory=set)
+    alarmed: set[tuple[str, str, str]] = field(default_factory=set)
+    done: dict[str, int] = field(default_factory=lambda: {"baselines": 0, "captures": 0})
+
+    @property
+    def method(self) -> str:
+        return self.config.method
+
+    def digest(self, path: Path) -> str | None:
+        """The file's hash, or None when it cannot be read (recorded as a transient rejection,
+        tried again next run)."""
+        if path not in self.hashes:
+            try:
+                self.hashes[path] = file_hash(path)
+            except OSError as exc:
+                self.hashes[path] = None
+                owner = self.owners.get(path)
+                if owner is not None:
+                    self.unreadable(owner, f"cannot be read ({exc.strerror or exc})")
+        return self.hashes[path]
+
+    def unreadable(self, file: FleetFile, reason: str) -> None:
+        relative = self.relative(file.path)
+        reject(
+            self.store, self.method, file.robot, file.axis, file.capture, relative, "",
+            f"{relative}: {reason}; tried again next run", kind="unreadable", transient=True,
+        )  # fmt: skip
+
+    def relative(self, path: Path) -> str:
+        return path.relative_to(self.root).as_posix()
+
+    def is_rejected(self, file: FleetFile) -> bool:
+        """Rejected with this content, or unreadable now."""
+        digest = self.digest(file.path)
+        return digest is None or (self.relative(file.path), digest) in self.rejected
+
+    def usable(self, file: FleetFile) -> bool:
+        """A candidate baseline: not rejected (this content) and never alarmed."""
+        return not self.is_rejected(file) and (
+            (file.robot, file.axis, file.capture) not in self.alarmed
+        )
+
+    def fit_job(self, file: FleetFile) -> FitJob:
+        return FitJob(file, self.relative(file.path), self.config.model())
+
+    def report(self, stage: str, done: int, total: int) -> None:
+        if self.progress is not None:
+            self.progress(stage, done, total)
+
+
 def _key(file: FleetFile) -> tuple[datetime, str]:
     return (file.captured_at, file.capture)
 
 
-Digest = Callable[[Path], str | None]
+def _from_capture(files: Sequence[FleetFile], capture: str) -> list[FleetFile]:
+    """The files from ``capture`` on (it included)."""
+    start = _key(next(f for f in files if f.capture == capture))
+    return [f for f in files if _key(f) >= start]
 
 
-def _changed_files(
-    store: Store, root: Path, files: Sequence[FleetFile], digest: Digest
-) -> tuple[list[str], int]:
+# --- steps of a run ----------------------------------------------------------------------------
+
+
+def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> None:
+    for problem in problems:
+        if not problem.capture:  # a folder: reported every run while it lasts, not stored
+            run.summary.axis_problems.append(problem.reason)
+            continue
+        reject(
+            run.store,
+            run.method,
+            problem.robot,
+            problem.axis,
+            problem.capture,
+            run.relative(problem.path),
+            run.digest(problem.path) or "",
+            problem.reason,
+            kind="layout",
+        )
+
+
+def _changed_files(run: _Run, files: Sequence[FleetFile]) -> list[str]:
     """Files whose content differs from when they were scored (recorded, and listed unless
-    acknowledged); and how many acknowledged ones were left out."""
-    scored: dict[str, Any] = {}
-    for row in store.rows(
-        "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-        "ORDER BY id"
-    ):
-        scored[row["path"]] = row
-    changed, acknowledged = [], 0
+    acknowledged: those are counted in the summary's ``acknowledged``)."""
+    scored = run.store.scored_files()
+    changed = []
     for file in files:
-        relative = file.path.relative_to(root).as_posix()
+        relative = run.relative(file.path)
         previous = scored.get(relative)
         if previous is None:
             continue
         stat = file.path.stat()
-        if (stat.st_size, stat.st_mtime_ns) == (previous["file_size"], previous["file_mtime_ns"]):
+        if (stat.st_size, stat.st_mtime_ns) == (previous.file_size, previous.file_mtime_ns):
             continue
-        current = digest(file.path)
-        if current is None or current == previous["file_hash"]:
+        current = run.digest(file.path)
+        if current is None or current == previous.file_hash:
             continue
-        with store.write() as db:
-            db.execute(
-                "INSERT OR IGNORE INTO changed_files (robot, axis, capture, path, scored_hash, "
-                "current_hash, detected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (
-                    file.robot,
-                    file.axis,
-                    file.capture,
-                    relative,
-                    previous["file_hash"],
-                    current,
-                    now(),
-                ),
-            )
-        if store.changed_file_acknowledged(relative, previous["file_hash"], current):
-            acknowledged += 1
+        change = ChangedFile(
+            file.robot, file.axis, file.capture, relative, previous.file_hash, current
+        )
+        run.store.record_changed_file(change)
+        if run.store.changed_file_acknowledged(change):
+            run.summary.acknowledged += 1
             continue
         changed.append(
             f"{relative}: content changed after it was scored; the stored result is kept "
             "(re-baseline the axis to score it afresh)"
         )
-    return changed, acknowledged
+    return changed
 
 
-def _standing_rejections(
-    store: Store, root: Path, method: str, phash: str, digest: Digest
-) -> tuple[list[str], int]:
-    """Rejections that still hold (the file still has the rejected content, or a transient
-    problem was seen again in this run), not acknowledged; and how many acknowledged ones."""
-    standing, acknowledged = [], 0
-    scored = {
-        (r["path"], r["file_hash"])
-        for r in store.rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
-    }
-    for row in store.rejections_of(method, phash):
-        path = root / row["path"]
-        if (row["path"], row["file_hash"]) in scored:
-            continue
-        if not row["transient"] and not (path.is_file() and digest(path) == row["file_hash"]):
-            continue
-        if row["acknowledged_at"] is not None:
-            acknowledged += 1
+def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
+    """Refit the axis's active baseline, unless its file is missing or changed."""
+    params = params_json(run.config)
+    if baseline.params != params:
+        differences = "; ".join(parameter_differences(baseline.params, params))
+        raise StoreError(
+            f"store '{run.store.location}': the baseline of robot {state.robot} axis "
+            f"{state.axis} ({run.method}) was made with other parameters ({differences}). "
+            "Use the same options, another store, or re-baseline the axis."
+        )
+    state.baseline = baseline
+    stored = next((f for f in state.files if f.capture == baseline.capture), None)
+    hashed = None if stored is None else run.digest(stored.path)
+    if stored is None or hashed != baseline.file_hash:
+        what = (
+            "is missing or waiting"
+            if stored is None
+            else "cannot be read"
+            if hashed is None
+            else "changed after it was fitted"
+        )
+        run.summary.axis_problems.append(
+            f"{baseline.path}: baseline file {what}; robot {state.robot} axis "
+            f"{state.axis} is not scored (re-baseline it)"
+        )
+        return None
+    state.candidates = [stored]
+    return run.fit_job(stored)
+
+
+def _plan_new(run: _Run, state: _Axis, retired: Baseline | None) -> FitJob | None:
+    """The first usable candidate of a new epoch: the configured or requested baseline, else
+    the first capture (of a new axis) or the first one after everything scored (re-baseline)."""
+    state.epoch = 1 if retired is None else retired.epoch + 1
+    ordered = state.files
+    names = {f.capture for f in ordered}
+    if retired is None:
+        chosen = run.config.baseline
+        if chosen is not None and chosen in names:
+            ordered = _from_capture(ordered, chosen)
+    else:
+        chosen = run.store.requested_baseline(state.robot, state.axis, run.method, retired.epoch)
+        if chosen is not None:
+            if chosen not in names:
+                run.summary.axis_problems.append(
+                    f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
+                    "the fleet folder; the axis is not scored"
+                )
+                return None
+            ordered = _from_capture(ordered, chosen)
         else:
-            standing.append(str(row["error"]))
-    return standing, acknowledged
+            seen = run.store.last_captured_at(state.robot, state.axis, run.method)
+            ordered = [f for f in ordered if seen is None or f.captured_at > seen]
+    state.candidates = [f for f in ordered if run.usable(f)]
+    return run.fit_job(state.candidates[0]) if state.candidates else None
+
+
+def _plan_baseline(run: _Run, state: _Axis) -> FitJob | None:
+    """The fit job of an axis: its active baseline, or the first candidate of a new epoch."""
+    latest = run.store.latest_baseline(state.robot, state.axis, run.method)
+    if latest is not None and not latest.retired:
+        return _plan_active(run, state, latest)
+    return _plan_new(run, state, latest)
+
+
+def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | None:
+    """Record a fitted (or failed) baseline candidate; the next candidate's job on failure."""
+    file = outcome.job.file
+    if state.baseline is not None:  # an active baseline, refitted
+        if outcome.model is None:
+            run.summary.axis_problems.append(
+                f"{outcome.error}; the stored baseline cannot be refitted"
+            )
+        else:
+            state.model, state.rates_hz = outcome.model, outcome.rates_hz
+            state.reference = outcome.reference
+        return None
+    if outcome.model is None:
+        reject(
+            run.store,
+            run.method,
+            file.robot,
+            file.axis,
+            file.capture,
+            outcome.job.relative,
+            run.digest(file.path) or "",
+            str(outcome.error),
+            kind=outcome.kind,
+            params_hash=run.params_hash,
+            transient=outcome.transient,
+        )
+        state.candidates = state.candidates[1:]
+        if state.epoch == 1 and file.capture == run.config.baseline:
+            state.candidates = []  # the chosen baseline is unusable: no other one
+        return run.fit_job(state.candidates[0]) if state.candidates else None
+    baseline_id = insert_baseline(run.store, outcome, state.epoch, run.config)
+    if baseline_id is None:
+        run.summary.axis_problems.append(
+            f"{state.robot}/{state.axis}: another process chose a different baseline "
+            "at the same time; run monitor again"
+        )
+        return None
+    run.summary.new_baselines += 1
+    state.baseline = run.store.baseline(baseline_id)
+    state.model, state.rates_hz = outcome.model, outcome.rates_hz
+    state.reference = outcome.reference
+    return None
+
+
+def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str], _Axis]) -> None:
+    """Fit the jobs' baselines; retry an axis's next candidate until one fits or none is left."""
+    total = len(by_axis)
+    while jobs:
+        retry: list[FitJob] = []
+        for _, outcome in parallel_map(fit_baseline, jobs, workers=run.workers, dask=run.dask):
+            file = outcome.job.file
+            run.done["baselines"] += 1
+            run.report("baselines", run.done["baselines"], total)
+            next_job = _accept_baseline(run, by_axis[(file.robot, file.axis)], outcome)
+            if next_job is not None:
+                retry.append(next_job)
+        jobs = retry
+
+
+def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
+    """One job per capture after the baseline that is neither scored under it nor rejected."""
+    jobs: list[ScoreJob] = []
+    for state in states:
+        if state.model is None or state.baseline is None:
+            continue
+        baseline = state.baseline
+        done = run.store.scored_captures(baseline.id)
+        start = (baseline.captured_at, baseline.capture)
+        chosen = baseline.epoch == 1 and run.config.baseline == baseline.capture
+        for file in state.files:
+            if file.capture in done or run.is_rejected(file):
+                continue
+            relative = run.relative(file.path)
+            if _key(file) <= start:
+                if not chosen and (relative, run.digest(file.path)) not in run.scored:
+                    _out_of_order(run, file, baseline)
+                continue
+            jobs.append(
+                ScoreJob(file, relative, baseline.id, state.model, state.rates_hz, state.reference)
+            )
+    return jobs
+
+
+def _out_of_order(run: _Run, file: FleetFile, baseline: Baseline) -> None:
+    """A capture dated before the axis's baseline that was never scored: it arrived late."""
+    relative = run.relative(file.path)
+    reject(
+        run.store, run.method, file.robot, file.axis, file.capture, relative,
+        run.digest(file.path) or "",
+        f"{relative}: dated before the baseline {baseline.capture} of epoch {baseline.epoch} and "
+        "never scored (it arrived out of order); re-baseline the axis with --from to score it",
+        kind="out of order",
+    )  # fmt: skip
+
+
+def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
+    """Score the jobs anywhere; commit each axis's results in capture order as they complete."""
+    pending: dict[int, ScoreOutcome] = {}
+    queue_of: dict[int, list[int]] = defaultdict(list)
+    for index, job in enumerate(jobs):
+        queue_of[job.baseline_id].append(index)
+    first = run.done["captures"]
+    for count, (index, result) in enumerate(
+        parallel_map(score_capture, jobs, workers=run.workers, dask=run.dask), start=1
+    ):
+        pending[index] = result
+        queue = queue_of[jobs[index].baseline_id]
+        while queue and queue[0] in pending:
+            ready = pending.pop(queue.pop(0))
+            if commit_score(run.store, ready, run.config) and ready.error is None:
+                run.summary.scored += 1
+        run.report("captures", first + count, first + len(jobs))
+    run.done["captures"] += len(jobs)
+
+
+def _holds(run: _Run, params: str | None) -> bool:
+    """A rejection made under ``params`` holds for this run's parameters."""
+    return params is None or params == run.params_hash
+
+
+def _standing_rejections(run: _Run) -> list[str]:
+    """Rejections that still hold (the file still has the rejected content, or a transient
+    problem was seen again in this run), not acknowledged (those are counted)."""
+    scored = run.store.scored_contents(run.method)
+    standing = []
+    for rejection in run.store.rejections(run.method):
+        path = run.root / rejection.path
+        if (
+            not _holds(run, rejection.params_hash)
+            or (rejection.path, rejection.file_hash) in scored
+        ):
+            continue
+        if not rejection.transient and not (
+            path.is_file() and run.digest(path) == rejection.file_hash
+        ):
+            continue
+        if rejection.acknowledged_at is not None:
+            run.summary.acknowledged += 1
+        else:
+            standing.append(rejection.error)
+    return standing
+
+
+#: Axes whose models the driver holds at once (see monitor_fleet).
+_AXES_PER_CHUNK = 256
+
+
+def monitor_fleet(
+    root: str | Path,
+    store: StoreBackend,
+    config: MonitorConfig | None = None,
+    *,
+    workers: int = 1,
+    dask: object | None = None,
+    progress: Progress | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    stale_after: timedelta | None = DEFAULT_STALE_AFTER,
+) -> MonitorSummary:
+    """Score every capture of the fleet not scored yet; keep baselines, thresholds and alarms.
+
+    Parameters
+    ----------
+    root : str or Path
+        Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
+    store : StoreBackend
+        Where results go (and what was done before): ``Store(path)``, or another backend.
+    config : MonitorConfig, optional
+        Default ``MonitorConfig()``: the product default, as ``axiswatch monitor``.
+    workers, dask
+        Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
+    progress : callable (stage, done, total), optional
+        Called as baselines are fitted and captures scored.
+    settle_s : float, default=DEFAULT_SETTLE_S (10)
+        A capture file modified less than this many seconds ago is still being written: it
+        waits for a later run.
+    stale_after : timedelta or None, default=DEFAULT_STALE_AFTER (3 days)
+        An axis without a new capture file for this long is stale (None: never).
+
+    Returns
+    -------
+    MonitorSummary
+
+    Raises
+    ------
+    NotADirectoryError, DataNotFoundError, ValueError
+        As :func:`check_request`, before anything is stored.
+    StoreError
+        If an axis's stored baseline was made with other parameters than ``config`` (naming
+        them), or the store cannot be read or written (corrupt, full disk).
+    """
+    config = MonitorConfig() if config is None else config
+    started = datetime.now(UTC)
+    seen_at = now_us()
+    check_request(root, config)
+    discovered, problems = discover_fleet(root)
+    run = _Run(
+        Path(root),
+        store,
+        config,
+        workers,
+        dask,
+        progress,
+        MonitorSummary(method=config.method, n_files=len(discovered) + len(problems)),
+        params_hash=params_hash(config),
+        owners={f.path: f for f in discovered},
+    )
+    _record_layout_problems(run, problems)
+    store.record_axis_activity(_activity(discovered), started.isoformat(timespec="seconds"))
+    files, waiting, failed = split_settled(discovered, settle_s, time.time())
+    run.summary.waiting = len(waiting)
+    for file, reason in failed:
+        run.unreadable(file, reason)
+    files = _not_future(run, files)
+    run.summary.changed = _changed_files(run, files)
+    run.rejected = {
+        (r.path, r.file_hash)
+        for r in store.rejections(run.method)
+        if not r.transient and _holds(run, r.params_hash)
+    }
+    run.scored = store.scored_contents(run.method)
+    run.alarmed = store.alarmed_captures(run.method)
+
+    grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
+    for file in files:
+        grouped[(file.robot, file.axis)].append(file)
+    by_axis = {key: _Axis(key[0], key[1], axis_files) for key, axis_files in grouped.items()}
+    fit_jobs = [job for state in by_axis.values() if (job := _plan_baseline(run, state))]
+
+    # Axes are handled a chunk at a time so that the driver never holds more than
+    # _AXES_PER_CHUNK fitted models (a few MB each) however large the fleet.
+    for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
+        chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
+        states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
+        _fit_baselines(run, chunk, by_axis)
+        _score_in_order(run, _score_jobs(run, states))
+        for state in states:
+            state.model = None
+
+    store.resolve_transient(run.method, seen_at)
+    run.summary.rejected = _standing_rejections(run)
+    run.summary.alarms = store.axes_in_alarm(run.method)
+    if stale_after is not None:
+        run.summary.stale = _stale_axes(store, started, stale_after)
+    return run.summary
+
+
+def _not_future(run: _Run, files: Sequence[FleetFile]) -> list[FleetFile]:
+    """The files not dated in the future; those are recorded as transient rejections."""
+    future_from = datetime.now() + _FUTURE_TOLERANCE
+    for file in files:
+        if file.captured_at > future_from:
+            relative = run.relative(file.path)
+            reject(
+                run.store, run.method, file.robot, file.axis, file.capture, relative, "",
+                f"{relative}: dated {file.captured_at.isoformat()}, in the future (a logger "
+                "clock?); not scored before that date", kind="future", transient=True,
+            )  # fmt: skip
+    return [f for f in files if f.captured_at <= future_from]
 
 
 def parameter_differences(stored: str, asked: str) -> list[str]:
@@ -258,339 +634,6 @@ def check_request(root: str | Path, config: MonitorConfig) -> None:
         )
 
 
-#: Axes whose models the driver holds at once (see monitor_fleet).
-_AXES_PER_CHUNK = 256
-
-
-def monitor_fleet(
-    root: str | Path,
-    store: Store,
-    config: MonitorConfig | None = None,
-    *,
-    workers: int = 1,
-    dask: object | None = None,
-    progress: Progress | None = None,
-    settle_s: float = DEFAULT_SETTLE_S,
-    stale_after: timedelta | None = DEFAULT_STALE_AFTER,
-) -> MonitorSummary:
-    """Score every capture of the fleet not scored yet; keep baselines, thresholds and alarms.
-
-    Parameters
-    ----------
-    root : str or Path
-        Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
-    store : Store
-        Where results go (and what was done before).
-    config : MonitorConfig, optional
-    workers, dask
-        Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
-    progress : callable (stage, done, total), optional
-        Called as baselines are fitted and captures scored.
-    settle_s : float, default=DEFAULT_SETTLE_S (10)
-        A capture file modified less than this many seconds ago is still being written: it
-        waits for a later run.
-    stale_after : timedelta or None, default=DEFAULT_STALE_AFTER (3 days)
-        An axis without a new capture file for this long is stale (None: never).
-
-    Returns
-    -------
-    MonitorSummary
-
-    Raises
-    ------
-    NotADirectoryError, DataNotFoundError, ValueError
-        As :func:`check_request`, before anything is stored.
-    StoreError
-        If an axis's stored baseline was made with other parameters than ``config`` (naming
-        them), or the store cannot be read or written (corrupt, full disk).
-    """
-    config = MonitorConfig() if config is None else config
-    root = Path(root)
-    method = config.method
-    started = datetime.now(UTC)
-    seen_at = stamp()
-    check_request(root, config)
-    phash = params_hash(config)
-    discovered, problems = discover_fleet(root)
-    summary = MonitorSummary(method=method, n_files=len(discovered) + len(problems))
-    hashes: dict[Path, str | None] = {}
-
-    def relative(file: FleetFile) -> str:
-        return file.path.relative_to(root).as_posix()
-
-    def unreadable(file: FleetFile, reason: str) -> None:
-        reject(
-            store, method, file.robot, file.axis, file.capture, relative(file), "",
-            f"{relative(file)}: {reason}; tried again next run", kind="unreadable", transient=True,
-        )  # fmt: skip
-
-    def digest(path: Path) -> str | None:
-        """The file's hash, or None when it cannot be read (recorded as a transient rejection)."""
-        if path not in hashes:
-            try:
-                hashes[path] = file_hash(path)
-            except OSError as exc:
-                hashes[path] = None
-                owner = next((f for f in discovered if f.path == path), None)
-                if owner is not None:
-                    unreadable(owner, f"cannot be read ({exc.strerror or exc})")
-        return hashes[path]
-
-    for problem in problems:
-        if not problem.capture:  # a folder: reported every run while it lasts, not stored
-            summary.axis_problems.append(problem.reason)
-            continue
-        reject(
-            store, method, problem.robot, problem.axis, problem.capture,
-            problem.path.relative_to(root).as_posix(),
-            digest(problem.path) or "", problem.reason, kind="layout",
-        )  # fmt: skip
-    store.record_axis_activity(_activity(discovered), started.isoformat(timespec="seconds"))
-    files, waiting, failed = split_settled(discovered, settle_s, time.time())
-    summary.waiting = len(waiting)
-    for file, reason in failed:
-        unreadable(file, reason)
-    future_from = datetime.now() + _FUTURE_TOLERANCE
-    for file in [f for f in files if f.captured_at > future_from]:
-        reject(
-            store, method, file.robot, file.axis, file.capture, relative(file), "",
-            f"{relative(file)}: dated {file.captured_at.isoformat()}, in the future (a logger "
-            "clock?); not scored before that date", kind="future", transient=True,
-        )  # fmt: skip
-    files = [f for f in files if f.captured_at <= future_from]
-    summary.changed, changes_seen = _changed_files(store, root, files, digest)
-
-    rejected = store.rejected_files(method, phash)
-    alarmed = {
-        (r["robot"], r["axis"], r["capture"])
-        for r in store.rows(
-            "SELECT robot, axis, capture FROM scores WHERE method=? AND alarm=1", (method,)
-        )
-    }
-    params = params_json(config)
-
-    grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
-    for file in files:
-        grouped[(file.robot, file.axis)].append(file)
-    axes = [_Axis(robot, axis, axis_files) for (robot, axis), axis_files in grouped.items()]
-
-    def usable(state: _Axis, file: FleetFile) -> bool:
-        hashed = digest(file.path)
-        return (
-            hashed is not None
-            and (relative(file), hashed) not in rejected
-            and (
-                state.robot,
-                state.axis,
-                file.capture,
-            )
-            not in alarmed
-        )
-
-    fit_jobs: list[FitJob] = []
-    for state in axes:
-        rows = store.rows(
-            "SELECT * FROM baselines WHERE robot=? AND axis=? AND method=? ORDER BY epoch DESC "
-            "LIMIT 1",
-            (state.robot, state.axis, method),
-        )
-        latest = rows[0] if rows else None
-        if latest is not None and latest["retired_at"] is None:
-            if latest["params"] != params:
-                differences = "; ".join(parameter_differences(latest["params"], params))
-                raise StoreError(
-                    f"store '{store.path}': the baseline of robot {state.robot} axis "
-                    f"{state.axis} ({method}) was made with other parameters ({differences}). "
-                    "Use the same options, another store, or re-baseline the axis."
-                )
-            state.baseline = latest
-            by_name = {f.capture: f for f in state.files}
-            stored = by_name.get(latest["capture"])
-            hashed = None if stored is None else digest(stored.path)
-            if stored is None or hashed != latest["file_hash"]:
-                what = (
-                    "is missing or waiting"
-                    if stored is None
-                    else "cannot be read"
-                    if hashed is None
-                    else "changed after it was fitted"
-                )
-                summary.axis_problems.append(
-                    f"{latest['path']}: baseline file {what}; robot {state.robot} axis "
-                    f"{state.axis} is not scored (re-baseline it)"
-                )
-                continue
-            state.candidates = [stored]
-            fit_jobs.append(FitJob(stored, relative(stored), config))
-            continue
-        state.epoch = 1 if latest is None else int(latest["epoch"]) + 1
-        ordered = state.files
-        if latest is None:
-            if config.baseline is not None and config.baseline in {f.capture for f in ordered}:
-                ordered = [
-                    f for f in ordered if _key(f) >= _key(_by_capture(ordered, config.baseline))
-                ]
-        else:
-            request = store.rows(
-                "SELECT from_capture FROM rebaselines WHERE robot=? AND axis=? AND method=? "
-                "AND retired_epoch=? ORDER BY id DESC LIMIT 1",
-                (state.robot, state.axis, method, latest["epoch"]),
-            )
-            chosen = request[0]["from_capture"] if request else None
-            if chosen is not None:
-                if chosen not in {f.capture for f in ordered}:
-                    summary.axis_problems.append(
-                        f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
-                        "the fleet folder; the axis is not scored"
-                    )
-                    continue
-                ordered = [f for f in ordered if _key(f) >= _key(_by_capture(ordered, chosen))]
-            else:
-                seen = store.rows(
-                    "SELECT max(captured_at) AS last FROM scores WHERE robot=? AND axis=? "
-                    "AND method=?",
-                    (state.robot, state.axis, method),
-                )[0]["last"]
-                ordered = [f for f in ordered if seen is None or f.captured_at.isoformat() > seen]
-        state.candidates = [f for f in ordered if usable(state, f)]
-        if state.candidates:
-            fit_jobs.append(FitJob(state.candidates[0], relative(state.candidates[0]), config))
-
-    by_axis = {(s.robot, s.axis): s for s in axes}
-    counts = {"baselines": 0, "captures": 0}
-
-    def fit_chunk(fit_jobs: list[FitJob]) -> None:
-        while fit_jobs:
-            retry: list[FitJob] = []
-            for _, outcome in parallel_map(fit_baseline, fit_jobs, workers=workers, dask=dask):
-                file = outcome.job.file
-                state = by_axis[(file.robot, file.axis)]
-                counts["baselines"] += 1
-                if progress is not None:
-                    progress("baselines", counts["baselines"], len(axes))
-                if state.baseline is not None:
-                    if outcome.model is None:
-                        summary.axis_problems.append(
-                            f"{outcome.error}; the stored baseline cannot be refitted"
-                        )
-                    else:
-                        state.model, state.rates_hz = outcome.model, outcome.rates_hz
-                        state.reference = outcome.reference
-                    continue
-                if outcome.model is None:
-                    reject(
-                        store, method, file.robot, file.axis, file.capture, outcome.job.relative,
-                        digest(file.path) or "", str(outcome.error), kind=outcome.kind,
-                        params_hash=phash, transient=outcome.transient,
-                    )  # fmt: skip
-                    state.candidates = state.candidates[1:]
-                    if (
-                        config.baseline is not None
-                        and state.epoch == 1
-                        and file.capture == config.baseline
-                    ):
-                        state.candidates = []
-                    if state.candidates:
-                        retry.append(
-                            FitJob(state.candidates[0], relative(state.candidates[0]), config)
-                        )
-                    continue
-                baseline_id = insert_baseline(store, outcome, state.epoch, config)
-                if baseline_id is None:
-                    summary.axis_problems.append(
-                        f"{state.robot}/{state.axis}: another process chose a different baseline "
-                        "at the same time; run monitor again"
-                    )
-                    continue
-                summary.new_baselines += 1
-                state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
-                state.model, state.rates_hz = outcome.model, outcome.rates_hz
-                state.reference = outcome.reference
-            fit_jobs = retry
-
-    def score_chunk(states: Sequence[_Axis]) -> None:
-        jobs: list[ScoreJob] = []
-        for state in states:
-            if state.model is None or state.baseline is None:
-                continue
-            baseline_id = int(state.baseline["id"])
-            done_captures = {
-                r["capture"]
-                for r in store.rows(
-                    "SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,)
-                )
-            }
-            start = (
-                datetime.fromisoformat(state.baseline["captured_at"]),
-                state.baseline["capture"],
-            )
-            chosen = (
-                int(state.baseline["epoch"]) == 1 and config.baseline == state.baseline["capture"]
-            )
-            ever_scored: set[str] | None = None
-            for file in state.files:
-                if file.capture in done_captures:
-                    continue
-                hashed = digest(file.path)
-                if hashed is None or (relative(file), hashed) in rejected:
-                    continue
-                if _key(file) <= start:
-                    if ever_scored is None:
-                        ever_scored = store.scored_captures(state.robot, state.axis, method)
-                    if not chosen and file.capture not in ever_scored:
-                        _out_of_order(store, method, file, relative(file), hashed, state.baseline)
-                    continue
-                jobs.append(
-                    ScoreJob(
-                        file, relative(file), baseline_id, state.model, state.rates_hz,
-                        state.reference,
-                    )
-                )  # fmt: skip
-
-        # Commit in capture order per axis, whatever order results complete in.
-        pending: dict[int, ScoreOutcome] = {}
-        queue_of: dict[int, list[int]] = defaultdict(list)
-        for index, job in enumerate(jobs):
-            queue_of[job.baseline_id].append(index)
-        for count, (index, result) in enumerate(
-            parallel_map(score_capture, jobs, workers=workers, dask=dask), start=1
-        ):
-            pending[index] = result
-            queue = queue_of[jobs[index].baseline_id]
-            while queue and queue[0] in pending:
-                ready = pending.pop(queue.pop(0))
-                if commit_score(store, ready, config) and ready.error is None:
-                    summary.scored += 1
-            if progress is not None:
-                progress("captures", counts["captures"] + count, counts["captures"] + len(jobs))
-        counts["captures"] += len(jobs)
-
-    # Axes are handled a chunk at a time so that the driver never holds more than
-    # _AXES_PER_CHUNK fitted models (a few MB each) however large the fleet.
-    for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
-        chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
-        states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
-        fit_chunk(chunk)
-        score_chunk(states)
-        for state in states:
-            state.model = None
-
-    store.resolve_transient(method, seen_at)
-    summary.rejected, rejections_seen = _standing_rejections(store, root, method, phash, digest)
-    summary.acknowledged = changes_seen + rejections_seen
-    if stale_after is not None:
-        summary.stale = _stale_axes(store, started, stale_after)
-    for row in store.rows(
-        "SELECT b.robot, b.axis, (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id "
-        "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1) AS alarm FROM baselines b "
-        "WHERE b.method=? AND b.retired_at IS NULL ORDER BY b.robot, b.axis",
-        (method,),
-    ):
-        if row["alarm"]:
-            summary.alarms.append((row["robot"], row["axis"]))
-    return summary
-
-
 #: Axes whose first capture's columns are compared with the requested signals.
 _AXES_CHECKED = 8
 
@@ -638,7 +681,7 @@ def _activity(files: Sequence[FleetFile]) -> list[tuple[str, str, int, str]]:
     ]
 
 
-def _stale_axes(store: Store, now_utc: datetime, stale_after: timedelta) -> list[str]:
+def _stale_axes(store: StoreBackend, now_utc: datetime, stale_after: timedelta) -> list[str]:
     """Axes without a new capture file for longer than ``stale_after``, one line each."""
     lines = []
     for row in store.axis_activity().itertuples(index=False):
@@ -655,19 +698,3 @@ def _stale_axes(store: Store, now_utc: datetime, stale_after: timedelta) -> list
 def _days(span: timedelta) -> str:
     hours = span.total_seconds() / 3600
     return f"{hours / 24:.1f} d" if hours >= 24 else f"{hours:.1f} h"
-
-
-def _out_of_order(
-    store: Store, method: str, file: FleetFile, relative: str, hashed: str, baseline: Any
-) -> None:
-    """A capture dated before the axis's baseline that was never scored: it arrived late."""
-    reject(
-        store, method, file.robot, file.axis, file.capture, relative, hashed,
-        f"{relative}: dated before the baseline {baseline['capture']} of epoch "
-        f"{baseline['epoch']} and never scored (it arrived out of order); re-baseline the axis "
-        "with --from to score it", kind="out of order",
-    )  # fmt: skip
-
-
-def _by_capture(files: Sequence[FleetFile], capture: str) -> FleetFile:
-    return next(f for f in files if f.capture == capture)

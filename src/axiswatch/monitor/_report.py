@@ -18,7 +18,7 @@ import pandas as pd
 
 from axiswatch._plotting import plot_distance_trend
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import StoreBackend
 
 __all__ = ["write_report"]
 
@@ -87,7 +87,7 @@ def _format(value: Any) -> str:
 
 
 def write_report(
-    store: Store,
+    store: StoreBackend,
     out: str | Path,
     *,
     labels: pd.DataFrame | None = None,
@@ -100,7 +100,7 @@ def write_report(
 
     Parameters
     ----------
-    store : Store
+    store : StoreBackend
     out : str or Path
         Folder (created if needed).
     labels : DataFrame, optional
@@ -127,7 +127,7 @@ def write_report(
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>axiswatch fleet report</title>",
         f"<style>{_STYLE}</style></head><body>",
         "<h1>axiswatch fleet report</h1>",
-        f"<p class='note'>Store: {html.escape(str(store.path))}. State after the last capture "
+        f"<p class='note'>Store: {html.escape(store.location)}. State after the last capture "
         "of each axis: <b>ALARM</b> when the alarm rule fired and has not cleared, "
         "<i>stale</i> when no new capture arrived for too long, <i>bad data</i> when the newest "
         "capture failed the data-quality check, <i>calibrating</i> while the threshold is not "
@@ -137,18 +137,19 @@ def write_report(
     ]
     if not rejections.empty:
         parts += ["<h2>Rejected captures</h2>", _table(rejections[["method", "path", "error"]])]
-    changed = store.frame("SELECT path, detected_at FROM changed_files ORDER BY path")
+    changed = store.changed_file_table()
     if not changed.empty:
         parts += ["<h2>Files changed after they were scored</h2>", _table(changed)]
     parts += ["<h2>Axes</h2>", f"<p class='note'>{html.escape(_LEGEND)}</p>"]
-    for (robot, axis), axis_rows in results.groupby(["robot", "axis"], sort=True):
+    for (robot_key, axis_key), axis_rows in results.groupby(["robot", "axis"], sort=True):
+        robot, axis = str(robot_key), str(axis_key)
         fault_dates = None
         events: list[tuple[str, str]] = []
         if labels is not None:
             own = labels[(labels.robot == robot) & (labels.axis == axis)].sort_values("date")
             fault_dates = own[own.fault != "none"].date
-            changed = own.task.ne(own.task.shift()) & own.task.shift().notna()
-            events = [(str(r.date), f"task -> {r.task}") for r in own[changed].itertuples()]
+            task_changed = own.task.ne(own.task.shift()) & own.task.shift().notna()
+            events = [(str(r.date), f"task -> {r.task}") for r in own[task_changed].itertuples()]
         figure = _figure(axis_rows, f"{robot}/{axis}", fault_dates, events)
         name = f"{robot}_{axis}.png"
         buffer = io.BytesIO()
