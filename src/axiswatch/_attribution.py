@@ -212,14 +212,11 @@ def plot_difference_spectrogram(
     -------
     matplotlib Axes
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from axiswatch._plotting import new_axes
 
     cube = difference_spectrogram(baseline, test)
     if ax is None:
-        _, ax = plt.subplots(figsize=(7, 1.2 + 1.1 * cube.shape[0]))
+        ax = new_axes(figsize=(7, 1.2 + 1.1 * cube.shape[0]))
     n_channels, n_rows, n_bins = cube.shape
     image = np.concatenate([cube[k].T for k in range(n_channels)], axis=0)
     limit = float(np.max(np.abs(image))) or 1.0

@@ -16,7 +16,7 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._plotting import plot_distance_trend
+from axiswatch._plotting import new_axes, plot_distance_trend
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._store import StoreBackend
 
@@ -49,15 +49,9 @@ def _figure(
     fault_dates: pd.Series | None,
     events: list[tuple[str, str]],
 ) -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     methods = sorted(axis_rows.method.unique())
-    figure, axes = plt.subplots(
-        len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True
-    )
+    axes = new_axes(len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True)
+    figure = axes[0, 0].figure
     for ax, method in zip(axes[:, 0], methods, strict=True):
         plot_distance_trend(
             axis_rows[axis_rows.method == method],
@@ -113,11 +107,6 @@ def write_report(
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = fleet_summary(store, stale_after=stale_after)
@@ -154,7 +143,6 @@ def write_report(
         name = f"{robot}_{axis}.png"
         buffer = io.BytesIO()
         figure.savefig(buffer, format="png", dpi=90)
-        plt.close(figure)
         _replace(out / name, buffer.getvalue())
         encoded = base64.b64encode(buffer.getvalue()).decode("ascii")
         parts.append(f"<h3 id='{html.escape(robot)}-{html.escape(axis)}'>{robot} / {axis}</h3>")
