@@ -385,8 +385,7 @@ def rejections(
     debug: bool = DEBUG,
 ) -> None:
     """List rejected captures and changed files; retry or acknowledge them."""
-    from axiswatch.monitor._store import now
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor._store import Store, now
 
     with _failures(debug):
         if retry and ack:
