@@ -151,11 +151,11 @@ def case_fleet(robots: int, quick: bool, method: str = "mechanics") -> dict[str,
             path.rename(target)
         config = MonitorConfig(method=method)
         with Store(Path(folder) / "fleet.db") as store:
-            monitor_fleet(root, store, config, workers=2)
+            monitor_fleet(root, store, config, workers=2, settle_s=0.0)
             for path in new_day:
                 (held / path.relative_to(root)).rename(path)
             start = time.perf_counter()
-            summary = monitor_fleet(root, store, config, workers=2)
+            summary = monitor_fleet(root, store, config, workers=2, settle_s=0.0)
             elapsed = time.perf_counter() - start
     assert summary.scored == len(new_day) == robots * 6, summary
     note = f"{len(new_day)} new captures scored into the store"

@@ -391,10 +391,6 @@ class MemoryStore:
         rows = sorted(((c.path, stamp) for c, stamp in self._changed), key=lambda row: row[0])
         return pd.DataFrame(rows, columns=["path", "detected_at"])
 
-
-def _json(details: dict[str, Any], *, sort_keys: bool) -> str:
-    return json.dumps(details, sort_keys=sort_keys)
-
     # --- standing problems and axis activity ---------------------------------------------------
 
     def resolve_transient(self, method: str, seen_before: str) -> None:
@@ -472,3 +468,7 @@ def _json(details: dict[str, Any], *, sort_keys: bool) -> str:
         ]  # fmt: skip
         columns = ["kind", "method", "path", "error", "since", "acknowledged_at"]
         return pd.DataFrame(sorted(rows, key=lambda r: (r[2], r[0], r[1])), columns=columns)
+
+
+def _json(details: dict[str, Any], *, sort_keys: bool) -> str:
+    return json.dumps(details, sort_keys=sort_keys)
