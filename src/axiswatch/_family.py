@@ -52,6 +52,7 @@ FAST_RATES_HZ: tuple[float, ...] = (20.0, 50.0, 100.0, 250.0, 500.0, 1000.0, 200
 CAPTURE_S = 4.0
 
 FrictionFault = Literal["coulomb", "viscous", "both"]
+_FRICTION_FAULTS: tuple[FrictionFault, ...] = ("coulomb", "viscous", "both")
 
 
 @dataclass(frozen=True)
@@ -189,7 +190,7 @@ def draw_robot(seed: int) -> SimulatedRobot:
     size = _log_uniform(rng, 0.3, 3.0) if kind == "arm" else _log_uniform(rng, 0.05, 0.5)
     gear_ratio = float(rng.choice([50.0, 80.0, 100.0, 120.0, 160.0]))
     coulomb = NOMINAL_AXIS.coulomb * size * rng.uniform(0.5, 1.5)
-    friction_fault: FrictionFault = rng.choice(["coulomb", "viscous", "both"])  # type: ignore[assignment]
+    friction_fault = _FRICTION_FAULTS[int(rng.integers(len(_FRICTION_FAULTS)))]
     growth = {"coulomb": (3.0, 0.0), "viscous": (0.0, 2.5), "both": (2.0, 1.5)}[friction_fault]
     position_rate, fast_rate = _rates(rng)
     bits = int(rng.choice([12, 14, 16, 20]))
