@@ -271,3 +271,18 @@ def running_rms(values: np.ndarray, width: int) -> np.ndarray:
             total += x[k] ** 2
         out[i] = np.sqrt(total / width)
     return out
+
+
+def robust_spread(values: list[float]) -> float:
+    """1.4826 x the median absolute deviation, by sorting by hand (NaN with fewer than 3)."""
+    finite = sorted(v for v in values if v == v and abs(v) != float("inf"))
+    if len(finite) < 3:
+        return float("nan")
+
+    def median(xs: list[float]) -> float:
+        xs = sorted(xs)
+        mid = len(xs) // 2
+        return xs[mid] if len(xs) % 2 else 0.5 * (xs[mid - 1] + xs[mid])
+
+    centre = median(finite)
+    return 1.4826 * median([abs(v - centre) for v in finite])
