@@ -5,8 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from axiswatch._family import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, draw_robot
-from axiswatch._robot import AxisSpec, Fault, Task, _reference, _simulate_axis, simulate_capture
+from axiswatch.datasets._family import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, draw_robot
+from axiswatch.datasets._robot import (
+    AxisSpec,
+    Fault,
+    Task,
+    _reference,
+    _simulate_axis,
+    simulate_capture,
+)
 
 
 def test_split_is_disjoint_and_draws_are_deterministic() -> None:

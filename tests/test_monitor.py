@@ -11,13 +11,15 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-from axiswatch._ledger import alarm_step, rebaseline
-from axiswatch._monitor import monitor_fleet
-from axiswatch._results import fleet_results, fleet_summary
-from axiswatch._robot import TASKS, simulate_capture
-from axiswatch._scoring import MonitorConfig
-from axiswatch._store import Store
+import axiswatch._mechanics
+import axiswatch.datasets as awd
+from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._ledger import alarm_step, rebaseline
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._results import fleet_results, fleet_summary
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
 from tests.naive import alarm_states_naive
 
 
@@ -231,13 +233,13 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     # The product default (docs/evaluation.md): friction develops on axis2 from day 8 (severity
     # 0.2 on day 8, 1.0 on day 12); axis1 stays healthy. Captures of 3 s (a task cycle at least).
     root = tmp_path / "fleet"
-    aw.simulate_fleet(
+    awd.simulate_fleet(
         root,
         n_robots=1,
         n_axes=2,
         n_days=12,
         task_change_days=(),
-        faults=[aw.FleetFault("robot01", "axis2", "friction", onset_day=8)],
+        faults=[awd.FleetFault("robot01", "axis2", "friction", onset_day=8)],
     )
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(root, store, MonitorConfig(method="mechanics"))
@@ -251,7 +253,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     assert params["align_phase"] is False
     # Same-task calibration gives a threshold below what healthy task changes need: the floor.
     floor = MonitorConfig(method="mechanics").threshold_floor()
-    assert floor == pytest.approx(aw.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
+    assert floor == pytest.approx(aw._mechanics.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
     assert (results.threshold.dropna() >= floor).all()
 
 

@@ -118,7 +118,8 @@ def attribute(
     Examples
     --------
     >>> import numpy as np
-    >>> from axiswatch import FeatureSpec, PCADetector, features_from_signals
+    >>> from axiswatch import FeatureSpec, PCADetector
+    >>> from axiswatch._features import features_from_signals
     >>> rng = np.random.default_rng(0)
     >>> spec = FeatureSpec(signals=("a", "b"), combinations="none", segment_length=16, hop=8)
     >>> quiet = features_from_signals(rng.normal(size=(800, 2)), 100.0, spec)

@@ -233,7 +233,7 @@ class IndicatorModel:
 
     Examples
     --------
-    >>> from axiswatch._family import draw_robot
+    >>> from axiswatch.datasets import draw_robot
     >>> robot = draw_robot(0)
     >>> model = IndicatorModel().fit(robot.capture(0, seed=0),
     ...                              [robot.capture(0, seed=k) for k in range(1, 6)])

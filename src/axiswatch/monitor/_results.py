@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from axiswatch._store import Store
+from axiswatch.monitor._store import Store
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary"]
 

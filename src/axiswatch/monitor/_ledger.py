@@ -15,9 +15,9 @@ from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
 
 from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
-from axiswatch._scoring import FitOutcome, MonitorConfig, ScoreOutcome
-from axiswatch._store import Store
 from axiswatch.exceptions import CalibrationError, StoreError
+from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome
+from axiswatch.monitor._store import Store
 
 __all__ = [
     "alarm_step",

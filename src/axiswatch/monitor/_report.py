@@ -15,8 +15,8 @@ from typing import Any
 import pandas as pd
 
 from axiswatch._plotting import plot_distance_trend
-from axiswatch._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch._store import Store
+from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor._store import Store
 
 __all__ = ["write_report"]
 

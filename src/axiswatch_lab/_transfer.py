@@ -35,12 +35,12 @@ from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._family import SimulatedRobot, draw_robot
 from axiswatch._indicator_model import IndicatorModel, pool_fleet
-from axiswatch._parallel import parallel_map
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import Readings
-from axiswatch._robot import FAULT_KINDS, Fault
+from axiswatch.datasets._family import SimulatedRobot, draw_robot
+from axiswatch.datasets._robot import FAULT_KINDS, Fault
+from axiswatch.monitor._parallel import parallel_map
 
 __all__ = ["TransferDesign", "real_data_transfer", "robot_transfer", "transfer_study"]
 

@@ -23,7 +23,7 @@ from typing import Literal
 import numpy as np
 
 from axiswatch._capture import Capture
-from axiswatch._robot import (
+from axiswatch.datasets._robot import (
     INTEGRATION_RATE_HZ,
     NOMINAL_AXIS,
     AxisSpec,

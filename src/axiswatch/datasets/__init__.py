@@ -1,0 +1,58 @@
+"""Data: the paper's lab data set, the robot-axis simulator and simulated fleets, recorded data.
+
+As ``sklearn.datasets``: everything here produces or reads captures; nothing here decides health.
+"""
+
+from axiswatch.datasets._family import (
+    DEVELOPMENT_ROBOTS,
+    HELD_OUT_ROBOTS,
+    SimulatedRobot,
+    draw_robot,
+)
+from axiswatch.datasets._lab import (
+    LAB_DAYS,
+    LabDay,
+    lab_dataset,
+)
+from axiswatch.datasets._recorded import (
+    NOMINAL_RATE_HZ,
+    Segment,
+    default_data_dir,
+    read_dataset,
+    read_recording,
+)
+from axiswatch.datasets._robot import (
+    DEFAULT_FLEET_FAULTS,
+    NOMINAL_AXIS,
+    TASKS,
+    AxisSpec,
+    Fault,
+    FleetFault,
+    Task,
+    simulate_capture,
+    simulate_fleet,
+)
+
+__all__ = [
+    "AxisSpec",
+    "DEFAULT_FLEET_FAULTS",
+    "DEVELOPMENT_ROBOTS",
+    "Fault",
+    "FleetFault",
+    "HELD_OUT_ROBOTS",
+    "LAB_DAYS",
+    "LabDay",
+    "NOMINAL_AXIS",
+    "NOMINAL_RATE_HZ",
+    "Segment",
+    "SimulatedRobot",
+    "TASKS",
+    "Task",
+    "default_data_dir",
+    "draw_robot",
+    "lab_dataset",
+    "read_dataset",
+    "read_recording",
+    "simulate_capture",
+    "simulate_fleet",
+]
