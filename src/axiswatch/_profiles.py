@@ -170,6 +170,11 @@ class AxisProfile:
             raise CaptureError(f"{path}: not a valid TOML axis profile: {exc}.") from exc
         return cls.from_dict(data, source=str(path))
 
+    @classmethod
+    def find(cls, root: str | Path, robot: str, axis: str) -> AxisProfile | None:
+        """The fleet lookup of :func:`find_profile`."""
+        return find_profile(root, robot, axis)
+
     def role_of(self, column: str) -> str:
         """The role a file column plays (the column's own name when the profile does not map it)."""
         return self.columns.get(column, column)

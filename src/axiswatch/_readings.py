@@ -106,8 +106,8 @@ INDICATORS: tuple[Indicator, ...] = (
     Indicator(
         "viscous_friction", "motion in both directions at more than one speed", "both", "friction"
     ),
-    Indicator("load_forward", "steady motion in the positive direction", "both", "drive"),
-    Indicator("load_backward", "steady motion in the negative direction", "both", "drive"),
+    Indicator("load_forward", "steady motion in the positive direction", "both", "drive load"),
+    Indicator("load_backward", "steady motion in the negative direction", "both", "drive load"),
     Indicator(
         "impulsiveness",
         f"a torque rate >= {MIN_BAND_RATE_HZ:g} Hz and {MIN_BAND_MOTION_S:g} s of motion",
