@@ -40,6 +40,7 @@ from axiswatch._profiles import AxisProfile
 from axiswatch._readings import Readings
 from axiswatch.datasets._family import SimulatedRobot, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS, Fault
+from axiswatch.exceptions import CalibrationError
 from axiswatch.monitor._parallel import parallel_map
 
 __all__ = ["TransferDesign", "real_data_transfer", "robot_transfer", "transfer_study"]
@@ -98,15 +99,19 @@ def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict
     profile = _profile(robot, design.kinematics)
     reader = IndicatorModel(profile)
     n_tasks = len(robot.tasks)
-    fleet = []
+    fleet: dict[int, IndicatorModel] = {}
+    unfitted = []
     for t in range(n_tasks):
         read = [
             reader.readings(robot.capture(t, seed=f"fleet{k}"))
             for k in range(design.n_calibration + 1)
         ]
-        fleet.append(IndicatorModel(profile).fit_readings(read))
-    prior = pool_fleet(fleet)
-    for model in fleet:
+        try:
+            fleet[t] = IndicatorModel(profile).fit_readings(read)
+        except CalibrationError:
+            unfitted.append(robot.tasks[t].name)  # reported: the axis cannot be monitored
+    prior = pool_fleet(list(fleet.values()))
+    for model in fleet.values():
         model.use_fleet(prior)
     health = ("healthy", *FAULT_KINDS)
     tests: dict[tuple[int, str], list[Readings]] = {
@@ -123,9 +128,10 @@ def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict
         for t in range(n_tasks)
         for h in health
     }
+    bases = sorted(fleet)
     distances = {
         (b, key): [fleet[b].assess_readings(r).distance for r in read]
-        for b in range(n_tasks)
+        for b in bases
         for key, read in tests.items()
     }
     record: dict[str, object] = {
@@ -134,37 +140,35 @@ def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict
         "rate_hz": robot.spec.fast_rate_hz,
         "position_rate_hz": robot.spec.position_rate_hz,
         "friction_fault": robot.friction_fault,
+        "axes_not_fitted": ";".join(unfitted),
     }
     all_d = [d for v in distances.values() for d in v]
     record["share_scored"] = float(np.mean([math.isfinite(d) for d in all_d]))
     healthy_other = {
         b: [d for t in range(n_tasks) if t != b for d in distances[(b, (t, "healthy"))]]
-        for b in range(n_tasks)
+        for b in bases
     }
     record["far99"] = float(
         np.mean(
-            [
-                d > fleet[b].threshold_
-                for b in range(n_tasks)
-                for d in healthy_other[b]
-                if math.isfinite(d)
-            ]
+            [d > fleet[b].threshold_ for b in bases for d in healthy_other[b] if math.isfinite(d)]
         )
     )
-    oracle_models = [IndicatorModel(profile).fit_readings(m.fit_readings_) for m in fleet]
+    oracle_models = {
+        t: IndicatorModel(profile).fit_readings(m.fit_readings_) for t, m in fleet.items()
+    }
     for fault in FAULT_KINDS:
         aurocs = [
             _auroc(
                 healthy_other[b], [d for t in range(n_tasks) for d in distances[(b, (t, fault))]]
             )
-            for b in range(n_tasks)
+            for b in bases
         ]
         oracle = [
             _auroc(
                 [oracle_models[t].assess_readings(r).distance for r in tests[(t, "healthy")]],
                 [oracle_models[t].assess_readings(r).distance for r in tests[(t, fault)]],
             )
-            for t in range(n_tasks)
+            for t in bases
         ]
         record[f"auroc_{fault}"] = float(np.nanmean(aurocs))
         record[f"oracle_{fault}"] = float(np.nanmean(oracle))
@@ -172,7 +176,7 @@ def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict
             np.mean(
                 [
                     d > fleet[b].threshold_
-                    for b in range(n_tasks)
+                    for b in bases
                     for t in range(n_tasks)
                     for d in distances[(b, (t, fault))]
                 ]
@@ -343,21 +347,31 @@ def _linear_axis(folder: Path, n_calibration: int, percentile: float) -> list[di
     return rows
 
 
+REAL_DATASETS: tuple[str, ...] = ("hydraulic_actuator", "genesis_linear_axis")
+
+
 def real_data_transfer(
-    data_root: str | Path, *, n_calibration: int = 5, percentile: float = 99.0
+    data_root: str | Path,
+    *,
+    n_calibration: int = 5,
+    percentile: float = 99.0,
+    datasets: Sequence[str] = REAL_DATASETS,
 ) -> pd.DataFrame:
     """The same model on the real data sets found under ``data_root`` (absent ones skipped)."""
-    root = Path(data_root)
-    rows: list[dict[str, object]] = []
     with threadpool_limits(1):
-        rows = _real_rows(root, n_calibration, percentile)
+        rows = _real_rows(Path(data_root), n_calibration, percentile, datasets)
     return pd.DataFrame(rows)
 
 
-def _real_rows(root: Path, n_calibration: int, percentile: float) -> list[dict[str, object]]:
+def _real_rows(
+    root: Path, n_calibration: int, percentile: float, datasets: Sequence[str]
+) -> list[dict[str, object]]:
     rows: list[dict[str, object]] = []
-    if (root / "hydraulic_actuator" / "index.csv").is_file():
+    if "hydraulic_actuator" in datasets and (root / "hydraulic_actuator" / "index.csv").is_file():
         rows += _hydraulic(root / "hydraulic_actuator", n_calibration, percentile)
-    if (root / "genesis_linear_axis" / "normal.npz").is_file():
+    if (
+        "genesis_linear_axis" in datasets
+        and (root / "genesis_linear_axis" / "normal.npz").is_file()
+    ):
         rows += _linear_axis(root / "genesis_linear_axis", n_calibration, percentile)
     return rows
