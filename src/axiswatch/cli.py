@@ -112,6 +112,13 @@ def monitor(
         "1.0", help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline)."
     ),
     align: bool = typer.Option(True, help="Align each capture's phase to the baseline's."),
+    profile: Annotated[
+        Path | None,
+        typer.Option(
+            help="Axis profile (TOML: column names, units, kinematics) for every axis; default: "
+            "each axis's axis.toml, its robot's robot.toml or the fleet's axiswatch.toml."
+        ),
+    ] = None,
     workers: int = typer.Option(1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(None, help="Dask scheduler address for scoring."),
     progress: bool = typer.Option(True, help="Progress bar on stderr (only on a terminal)."),
@@ -123,6 +130,7 @@ def monitor(
     file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
     """
     from axiswatch._features import FeatureSpec
+    from axiswatch._profiles import AxisProfile
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor._store import Store
@@ -143,6 +151,7 @@ def monitor(
             ),
             lra_noise_level=_noise_level(lra_noise_level),
             align_phase=align,
+            profile=None if profile is None else AxisProfile.from_toml(profile),
         )
         with Store(store) as opened, _progress(progress) as update:
             result = monitor_fleet(

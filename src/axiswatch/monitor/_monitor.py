@@ -380,7 +380,14 @@ def monitor_fleet(
                 if (relative(file), digest(file.path)) in rejected:
                     continue
                 jobs.append(
-                    ScoreJob(file, relative(file), baseline_id, state.model, state.rates_hz)
+                    ScoreJob(
+                        file,
+                        relative(file),
+                        baseline_id,
+                        state.model,
+                        state.rates_hz,
+                        config.profile,
+                    )
                 )
 
         # Commit in capture order per axis, whatever order results complete in.

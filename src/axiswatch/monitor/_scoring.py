@@ -22,6 +22,7 @@ from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetecto
 from axiswatch._features import FeatureSpec
 from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._model import HealthModel
+from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import AxiswatchError
 from axiswatch.monitor._fleet import FleetFile
@@ -75,6 +76,11 @@ class MonitorConfig:
         form; ``"auto"`` estimates it from each baseline's own noise.
     align_phase : bool, default=True
         Align every capture to the baseline's phase of the task cycle (``HealthModel``).
+    profile : AxisProfile, optional
+        Column names, units and time stamps of every axis's files (``--profile FILE``). When
+        None, each axis's profile is looked up in the fleet folder (:meth:`AxisProfile.find`:
+        ``<axis>/axis.toml``, ``<robot>/robot.toml``, ``axiswatch.toml``), and files without one
+        are read as the project's format.
 
     Examples
     --------
@@ -92,6 +98,7 @@ class MonitorConfig:
     features: FeatureSpec = MONITOR_FEATURES
     lra_noise_level: float | Literal["auto"] = 1.0
     align_phase: bool = True
+    profile: AxisProfile | None = None
 
     def __post_init__(self) -> None:
         if self.method not in ("lra", "pca", "mechanics"):
@@ -152,7 +159,16 @@ class MonitorConfig:
         if stage is not None:
             params["stage"] = {"name": type(stage).__name__, **vars(stage)}
             params["threshold_floor"] = self.threshold_floor()
+        if self.profile is not None:  # absent otherwise, so stores made before it still match
+            params["profile"] = self.profile.source
         return params
+
+
+def profile_for(file: FleetFile, given: AxisProfile | None) -> AxisProfile | None:
+    """The profile a capture file is read with: the given one, else the fleet folder's."""
+    if given is not None:
+        return given
+    return AxisProfile.find(file.path.parents[2], file.robot, file.axis)
 
 
 def file_hash(path: Path) -> str:
@@ -205,7 +221,8 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
-        capture = read_capture(path, job.config.features.signals)
+        profile = profile_for(job.file, job.config.profile)
+        capture = read_capture(path, job.config.features.signals, profile=profile)
         model = HealthModel(
             job.config.features,
             job.config.detector(),
@@ -228,6 +245,7 @@ class ScoreJob:
     baseline_id: int
     model: HealthModel
     rates_hz: dict[str, float]
+    profile: AxisProfile | None = None
 
 
 @dataclass(frozen=True)
@@ -257,7 +275,12 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
         model = job.model
-        capture = read_capture(path, model.features.signals, expected_rates_hz=job.rates_hz)
+        capture = read_capture(
+            path,
+            model.features.signals,
+            expected_rates_hz=job.rates_hz,
+            profile=profile_for(job.file, job.profile),
+        )
         features, lag = model.featurize(capture)
         details: dict[str, Any] = {
             "phase_lag_samples": int(lag),
