@@ -30,8 +30,10 @@ Indicators (the signal called torque may be a motor current or a pressure differ
   Without kinematics the angle-domain indicator is ``order_lines``
   (:mod:`axiswatch._orders`), read against a reference by :class:`~axiswatch.IndicatorModel`.
 
-Choices (band as a fraction of the rate, the 10 % motion threshold, the cubic) were fixed on the
-development robots of :mod:`axiswatch._family`; docs/evaluation.md gives what alternatives gave.
+The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
+reading the drive loads on every capture, the kinematic band set by the speed and the tooth
+orders were chosen on the development robots of :mod:`axiswatch.datasets` (docs/evaluation.md,
+"Transfer", gives what the alternatives gave there).
 """
 
 from __future__ import annotations
