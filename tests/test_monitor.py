@@ -15,7 +15,8 @@ import axiswatch._mechanics
 import axiswatch.datasets as awd
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._ledger import alarm_step, rebaseline
+from axiswatch.monitor._decision import alarm_step
+from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
@@ -52,7 +53,10 @@ def test_alarm_step_matches_naive_state_machine(k: int, n: int, m: int) -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"method": "svm"}, r"'method' parameter must be 'lra', 'pca' or 'mechanics'. Got 'svm'"),
+        (
+            {"method": "svm"},
+            r"'method' parameter must be one of 'mechanics', 'lra', 'pca'.* Got 'svm'",
+        ),
         ({"percentile": 100.0}, r"'percentile' parameter must be a float in \(0, 100\). Got 100"),
         ({"calibration_size": 1}, r"'calibration_size' parameter must be an int >= 2 .* Got 1"),
         ({"alarm_k": 3, "alarm_n": 2}, r"needs 1 <= k <= n .* Got k=3, n=2"),

@@ -26,6 +26,8 @@ from axiswatch._attribution import (
 )
 from axiswatch._calibration import (
     HalfLaplaceFit,
+    Threshold,
+    alarm_threshold,
     fit_half_laplace,
     half_laplace_threshold,
 )
@@ -48,10 +50,10 @@ from axiswatch._features import (
     extract_features,
     stft_features,
 )
-from axiswatch._indicator_model import (
-    IndicatorModel,
-    pool_fleet,
+from axiswatch._formats import (
+    register_format,
 )
+from axiswatch._indicator_model import IndicatorModel
 from axiswatch._mechanics import (
     INDICATORS,
     MechanicsStage,
@@ -111,6 +113,8 @@ __all__ = [
     "StftStage",
     "Store",
     "StoreError",
+    "Threshold",
+    "alarm_threshold",
     "align_phase",
     "as_capture",
     "attribute",
@@ -121,10 +125,19 @@ __all__ = [
     "lra_embedding",
     "monitor_fleet",
     "phase_lag",
-    "pool_fleet",
     "read_capture",
+    "register_format",
     "resample_capture",
     "stft_features",
     "upsample_pchip",
     "write_capture",
 ]
+
+
+# Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private module);
+# pickles then refer to it too, which every class listed here can be loaded from.
+for _name in __all__:
+    _public = globals()[_name]
+    if isinstance(_public, type) and _public.__module__.startswith(f"{__name__}._"):
+        _public.__module__ = __name__
+del _name, _public

@@ -252,6 +252,11 @@ class IndicatorModel:
         self.percentile = percentile
         self.fleet = fleet
 
+    @staticmethod
+    def pool(models: Sequence[IndicatorModel]) -> FleetPrior:
+        """:func:`pool_fleet`: the fleet prior of fitted models of one profile's axes."""
+        return pool_fleet(models)
+
     def readings(self, capture: Capture) -> Readings:
         """The capture's indicators (:func:`~axiswatch.read_indicators` with the profile's
         kinematics)."""

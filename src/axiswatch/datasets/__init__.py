@@ -56,3 +56,12 @@ __all__ = [
     "simulate_capture",
     "simulate_fleet",
 ]
+
+
+# Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private module);
+# pickles then refer to it too, which every class listed here can be loaded from.
+for _name in __all__:
+    _public = globals()[_name]
+    if isinstance(_public, type) and _public.__module__.startswith(f"{__name__}._"):
+        _public.__module__ = __name__
+del _name, _public

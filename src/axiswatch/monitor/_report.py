@@ -14,9 +14,9 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._plotting import plot_distance_trend
+from axiswatch._plotting import new_axes, plot_distance_trend
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import StoreBackend
 
 __all__ = ["write_report"]
 
@@ -46,15 +46,9 @@ def _figure(
     fault_dates: pd.Series | None,
     events: list[tuple[str, str]],
 ) -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     methods = sorted(axis_rows.method.unique())
-    figure, axes = plt.subplots(
-        len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True
-    )
+    axes = new_axes(len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True)
+    figure = axes[0, 0].figure
     for ax, method in zip(axes[:, 0], methods, strict=True):
         plot_distance_trend(
             axis_rows[axis_rows.method == method],
@@ -83,12 +77,14 @@ def _format(value: Any) -> str:
     return "" if value is None else str(value)
 
 
-def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None = None) -> Path:
+def write_report(
+    store: StoreBackend, out: str | Path, *, labels: pd.DataFrame | None = None
+) -> Path:
     """Write ``out/index.html`` and one PNG per axis; return the page's path.
 
     Parameters
     ----------
-    store : Store
+    store : StoreBackend
     out : str or Path
         Folder (created if needed).
     labels : DataFrame, optional
@@ -99,11 +95,6 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = fleet_summary(store)
@@ -113,7 +104,7 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>axiswatch fleet report</title>",
         f"<style>{_STYLE}</style></head><body>",
         "<h1>axiswatch fleet report</h1>",
-        f"<p class='note'>Store: {html.escape(str(store.path))}. State after the last capture "
+        f"<p class='note'>Store: {html.escape(store.location)}. State after the last capture "
         "of each axis: <b>ALARM</b> when the alarm rule fired and has not cleared, "
         "<i>calibrating</i> while the threshold is not set yet.</p>",
         "<h2>Fleet summary</h2>",
@@ -121,24 +112,24 @@ def write_report(store: Store, out: str | Path, *, labels: pd.DataFrame | None =
     ]
     if not rejections.empty:
         parts += ["<h2>Rejected captures</h2>", _table(rejections[["method", "path", "error"]])]
-    changed = store.frame("SELECT path, detected_at FROM changed_files ORDER BY path")
+    changed = store.changed_file_table()
     if not changed.empty:
         parts += ["<h2>Files changed after they were scored</h2>", _table(changed)]
     parts += ["<h2>Axes</h2>", f"<p class='note'>{html.escape(_LEGEND)}</p>"]
-    for (robot, axis), axis_rows in results.groupby(["robot", "axis"], sort=True):
+    for (robot_key, axis_key), axis_rows in results.groupby(["robot", "axis"], sort=True):
+        robot, axis = str(robot_key), str(axis_key)
         fault_dates = None
         events: list[tuple[str, str]] = []
         if labels is not None:
             own = labels[(labels.robot == robot) & (labels.axis == axis)].sort_values("date")
             fault_dates = own[own.fault != "none"].date
-            changed = own.task.ne(own.task.shift()) & own.task.shift().notna()
-            events = [(str(r.date), f"task -> {r.task}") for r in own[changed].itertuples()]
+            task_changed = own.task.ne(own.task.shift()) & own.task.shift().notna()
+            events = [(str(r.date), f"task -> {r.task}") for r in own[task_changed].itertuples()]
         figure = _figure(axis_rows, f"{robot}/{axis}", fault_dates, events)
         name = f"{robot}_{axis}.png"
         figure.savefig(out / name, dpi=90)
         buffer = io.BytesIO()
         figure.savefig(buffer, format="png", dpi=90)
-        plt.close(figure)
         encoded = base64.b64encode(buffer.getvalue()).decode("ascii")
         parts.append(f"<h3 id='{html.escape(robot)}-{html.escape(axis)}'>{robot} / {axis}</h3>")
         parts.append(

@@ -5,45 +5,31 @@ Pipeline stage below the report and the CLI; it only reads.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
+import pandas as pd
 
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import StoreBackend
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary"]
 
 
-def fleet_results(store: Store, *, robot: str | None = None, axis: str | None = None) -> Any:
+def fleet_results(
+    store: StoreBackend, *, robot: str | None = None, axis: str | None = None
+) -> pd.DataFrame:
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
 
     Further columns: ``captured_at``, ``epoch``, ``role``, ``over``, ``reason``, ``details``.
     Baseline rows are included (role ``baseline``, no distance).
     """
-    frame = store.frame(
-        "SELECT s.robot, s.axis, s.capture, s.method, s.distance, s.threshold, s.alarm, "
-        "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details FROM scores s "
-        "JOIN baselines b ON b.id = s.baseline_id "
-        "WHERE (? IS NULL OR s.robot=?) AND (? IS NULL OR s.axis=?) "
-        "ORDER BY s.robot, s.axis, s.method, s.captured_at, s.capture, b.epoch",
-        (robot, robot, axis, axis),
-    )
-    frame["alarm"] = frame["alarm"].astype(bool)
-    frame["over"] = frame["over"].astype(bool)
-    frame["distance"] = frame["distance"].astype(np.float64)
-    frame["threshold"] = frame["threshold"].astype(np.float64)
-    return frame
+    return store.score_table(robot=robot, axis=axis)
 
 
-def fleet_rejections(store: Store) -> Any:
+def fleet_rejections(store: StoreBackend) -> pd.DataFrame:
     """Rejected capture files: robot, axis, capture, method, path, error, rejected_at."""
-    return store.frame(
-        "SELECT robot, axis, capture, method, path, error, rejected_at FROM rejections "
-        "ORDER BY robot, axis, path, method, id"
-    )
+    return store.rejection_table()
 
 
-def fleet_summary(store: Store) -> Any:
+def fleet_summary(store: StoreBackend) -> pd.DataFrame:
     """One row per axis and method of the active baselines: the fleet's state at a glance.
 
     Columns: ``robot``, ``axis``, ``method``, ``epoch``, ``baseline`` (capture), ``threshold``,
@@ -51,24 +37,7 @@ def fleet_summary(store: Store) -> Any:
     ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``state``
     (``calibrating``, ``ok`` or ``ALARM``), ``rejected`` (files of the axis rejected).
     """
-    frame = store.frame(
-        "SELECT b.robot, b.axis, b.method, b.epoch, b.capture AS baseline, b.threshold, "
-        "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
-        "AS scored, "
-        "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
-        "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.alarm=1 AND NOT coalesce("
-        "(SELECT p.alarm FROM scores p WHERE p.baseline_id=b.id AND p.role='monitor' "
-        "AND p.id<s.id ORDER BY p.id DESC LIMIT 1), 0)) AS alarms, "
-        "(SELECT s.capture FROM scores s WHERE s.baseline_id=b.id ORDER BY s.id DESC LIMIT 1) "
-        "AS last_capture, "
-        "(SELECT s.distance FROM scores s WHERE s.baseline_id=b.id ORDER BY s.id DESC LIMIT 1) "
-        "AS last_distance, "
-        "(SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor' "
-        "ORDER BY s.id DESC LIMIT 1) AS last_alarm, "
-        "(SELECT count(*) FROM rejections r WHERE r.robot=b.robot AND r.axis=b.axis "
-        "AND r.method=b.method) AS rejected "
-        "FROM baselines b WHERE b.retired_at IS NULL ORDER BY b.robot, b.axis, b.method"
-    )
+    frame = store.summary_table()
     state = np.where(
         frame["threshold"].isna(),
         "calibrating",
