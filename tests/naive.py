@@ -326,3 +326,18 @@ def axis_decisions_naive(
             alarm = alarm_states_naive(overs, k=k, n=n, m=m)[-1]
             decisions.append(("monitor", threshold, overs[-1], alarm))
     return decisions
+
+
+def robust_spread(values: list[float]) -> float:
+    """1.4826 x the median absolute deviation, by sorting by hand (NaN with fewer than 3)."""
+    finite = sorted(v for v in values if v == v and abs(v) != float("inf"))
+    if len(finite) < 3:
+        return float("nan")
+
+    def median(xs: list[float]) -> float:
+        xs = sorted(xs)
+        mid = len(xs) // 2
+        return xs[mid] if len(xs) % 2 else 0.5 * (xs[mid - 1] + xs[mid])
+
+    centre = median(finite)
+    return 1.4826 * median([abs(v - centre) for v in finite])

@@ -173,6 +173,13 @@ def monitor(
     align: bool = typer.Option(
         DEFAULTS.align_phase, help="Align each capture's phase to the baseline's."
     ),
+    profile: Annotated[
+        Path | None,
+        typer.Option(
+            help="Axis profile (TOML: column names, units, kinematics) for every axis; default: "
+            "each axis's axis.toml, its robot's robot.toml or the fleet's axiswatch.toml."
+        ),
+    ] = None,
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(
         None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
@@ -197,6 +204,7 @@ def monitor(
     """
     import dataclasses
 
+    from axiswatch._profiles import AxisProfile
     from axiswatch.monitor._monitor import check_request, monitor_fleet
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._store import Store
@@ -219,6 +227,7 @@ def monitor(
                 ),
                 lra_noise_level=_noise_level(lra_noise_level),
                 align_phase=align,
+                profile=None if profile is None else AxisProfile.from_toml(profile),
             )
             silence = _duration(stale_after, "--stale-after")
             check_request(root, config)

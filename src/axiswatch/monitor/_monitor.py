@@ -58,6 +58,7 @@ from axiswatch.monitor._scoring import (
     file_hash,
     fit_baseline,
     params_hash,
+    profile_for,
     score_capture,
 )
 from axiswatch.monitor._store import Baseline, ChangedFile, StoreBackend, now_us
@@ -191,7 +192,7 @@ class _Run:
         )
 
     def fit_job(self, file: FleetFile) -> FitJob:
-        return FitJob(file, self.relative(file.path), self.config.model())
+        return FitJob(file, self.relative(file.path), self.config.model(), self.config.profile)
 
     def report(self, stage: str, done: int, total: int) -> None:
         if self.progress is not None:
@@ -402,7 +403,15 @@ def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
                     _out_of_order(run, file, baseline)
                 continue
             jobs.append(
-                ScoreJob(file, relative, baseline.id, state.model, state.rates_hz, state.reference)
+                ScoreJob(
+                    file,
+                    relative,
+                    baseline.id,
+                    state.model,
+                    state.rates_hz,
+                    profile=run.config.profile,
+                    reference=state.reference,
+                )
             )
     return jobs
 
@@ -623,7 +632,7 @@ def check_request(root: str | Path, config: MonitorConfig) -> None:
     """
     root = Path(root)
     check_fleet_root(root)
-    _check_signals(root, config.features.signals)
+    _check_signals(root, config)
     if (
         config.baseline is not None
         and next(root.glob(f"*/*/{escape(config.baseline)}"), None) is None
@@ -638,9 +647,12 @@ def check_request(root: str | Path, config: MonitorConfig) -> None:
 _AXES_CHECKED = 8
 
 
-def _check_signals(root: Path, signals: Sequence[str]) -> None:
-    """Raise when a requested signal is a column of no capture among the first of a few axes."""
+def _check_signals(root: Path, config: MonitorConfig) -> None:
+    """Raise when a requested signal is a column of no capture among the first of a few axes
+    (axes read through a profile, which maps their own column names, are not looked at)."""
+    signals = config.features.signals
     files, _ = discover_fleet(root)
+    files = [f for f in files if profile_for(f, config.profile) is None]
     firsts = list({(f.robot, f.axis): f for f in reversed(files)}.values())[-_AXES_CHECKED:]
     seen: dict[str, list[str]] = {}
     for file in firsts:

@@ -22,6 +22,7 @@ from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector
 from axiswatch._features import FeatureSpec
 from axiswatch._model import HealthModel
+from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CaptureError
 from axiswatch.monitor._decision import DecisionRule
@@ -84,6 +85,11 @@ class MonitorConfig:
         A detector to use instead of the method's (an unfitted estimator; cloned when fitted).
     stage : FeatureStage or None, default=None
         A feature stage to use instead of the method's.
+    profile : AxisProfile, optional
+        Column names, units and time stamps of every axis's files (``--profile FILE``). When
+        None, each axis's profile is looked up in the fleet folder (:meth:`AxisProfile.find`:
+        ``<axis>/axis.toml``, ``<robot>/robot.toml``, ``axiswatch.toml``), and files without one
+        are read as the project's format.
 
     Examples
     --------
@@ -105,6 +111,7 @@ class MonitorConfig:
     align_phase: bool = True
     detector: BaselineDetector | None = None
     stage: FeatureStage | None = None
+    profile: AxisProfile | None = None
 
     def __post_init__(self) -> None:
         method_preset(self.method)
@@ -178,6 +185,8 @@ class MonitorConfig:
         if model.stage is not None:
             params["stage"] = {"name": type(model.stage).__name__, **vars(model.stage)}
             params["threshold_floor"] = self.threshold_floor()
+        if self.profile is not None:  # absent otherwise, so stores made before it still match
+            params["profile"] = self.profile.source
         return params
 
 
@@ -206,6 +215,13 @@ def params_hash(config: MonitorConfig) -> str:
     """Short hash of the parameters (what a rejection made under them depended on)."""
     text = json.dumps(config.params(), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def profile_for(file: FleetFile, given: AxisProfile | None) -> AxisProfile | None:
+    """The profile a capture file is read with: the given one, else the fleet folder's."""
+    if given is not None:
+        return given
+    return AxisProfile.find(file.path.parents[2], file.robot, file.axis)
 
 
 def file_hash(path: Path) -> str:
@@ -250,6 +266,7 @@ class FitJob:
     file: FleetFile
     relative: str
     model: HealthModel
+    profile: AxisProfile | None = None
 
 
 @dataclass(frozen=True)
@@ -279,7 +296,9 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
-        capture = read_capture(path, job.model.features.signals)
+        capture = read_capture(
+            path, job.model.features.signals, profile=profile_for(job.file, job.profile)
+        )
         problem = data_quality_problem(capture)
         if problem is not None:
             error = _bad_data(job.relative, problem)
@@ -305,6 +324,7 @@ class ScoreJob:
     baseline_id: int
     model: HealthModel
     rates_hz: dict[str, float]
+    profile: AxisProfile | None = None
     reference: QualityReference | None = None
 
 
@@ -337,7 +357,12 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
         model = job.model
-        capture = read_capture(path, model.features.signals, expected_rates_hz=job.rates_hz)
+        capture = read_capture(
+            path,
+            model.features.signals,
+            expected_rates_hz=job.rates_hz,
+            profile=profile_for(job.file, job.profile),
+        )
         problem = data_quality_problem(capture, job.reference)
         if problem is not None:
             error = _bad_data(job.relative, problem)
