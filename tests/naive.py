@@ -271,3 +271,16 @@ def running_rms(values: np.ndarray, width: int) -> np.ndarray:
             total += x[k] ** 2
         out[i] = np.sqrt(total / width)
     return out
+
+
+def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) -> np.ndarray:
+    """Per-column terms of the indicator distance, column by column, row by row."""
+    terms = np.zeros(baseline.shape[1])
+    for j in range(baseline.shape[1]):
+        baseline_mean = sum(baseline[i, j] for i in range(baseline.shape[0])) / baseline.shape[0]
+        test_mean = sum(test[i, j] for i in range(test.shape[0])) / test.shape[0]
+        shift = test_mean - baseline_mean
+        if one_sided and shift < 0:
+            shift = 0.0
+        terms[j] = shift * shift
+    return terms
