@@ -11,6 +11,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
+from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._ledger import alarm_step, rebaseline
 from axiswatch._monitor import monitor_fleet
 from axiswatch._results import fleet_results, fleet_summary
@@ -253,6 +254,27 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     floor = MonitorConfig(method="mechanics").threshold_floor()
     assert floor == pytest.approx(aw.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
     assert (results.threshold.dropna() >= floor).all()
+    # Every monitored capture carries its explanation; every reason names where its threshold
+    # comes from (the floor, when the fit is lower) and, over it, the top indicator.
+    with Store(tmp_path / "s.db") as store:
+        fits = {
+            r["robot"] + r["axis"]: HalfLaplaceFit(**json.loads(r["calibration"]))
+            for r in store.rows("SELECT robot, axis, calibration FROM baselines")
+        }
+    monitored = results[results.role == "monitor"]
+    for row in monitored.itertuples():
+        details = json.loads(row.details)
+        shares = [entry["share"] for entry in details["indicators"].values()]
+        assert set(details["indicators"]) == set(aw.COLUMNS)
+        assert sum(shares) == pytest.approx(1.0 if row.distance > 0 else 0.0, abs=1e-9)
+        fitted = fits[row.robot + row.axis].threshold(99.0)
+        origin = "task-change allowance" if row.threshold > fitted else "99th pct of the half"
+        assert f"threshold {row.threshold:.4g} ({origin}" in row.reason, row.reason
+        assert ("; top indicator " in row.reason) == bool(row.over or row.alarm), row.reason
+    raised = monitored[monitored.alarm]
+    assert "; top indicator viscous_friction +" in raised.reason.iloc[-1]
+    assert "likely friction" in raised.reason.iloc[-1]
+    assert raised.top_indicator.str.startswith("viscous_friction +").all()
 
 
 def test_threshold_floor_is_zero_for_the_papers_methods() -> None:

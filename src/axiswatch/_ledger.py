@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
 
+from axiswatch._attribution import describe_top_indicator
 from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch._scoring import FitOutcome, MonitorConfig, ScoreOutcome
 from axiswatch._store import Store
@@ -22,6 +23,7 @@ from axiswatch.exceptions import CalibrationError, StoreError
 __all__ = [
     "alarm_step",
     "commit_score",
+    "describe_threshold",
     "insert_baseline",
     "now",
     "params_json",
@@ -145,6 +147,27 @@ def _percentile_text(percentile: float) -> str:
     return f"{percentile:g}th pct"
 
 
+def describe_threshold(threshold: float, fit: HalfLaplaceFit, percentile: float) -> str:
+    """Where a stored threshold comes from: the fitted percentile, or the task-change allowance.
+
+    The threshold is the fit's percentile raised, where lower, to ``threshold_floor`` (see
+    :func:`commit_score`), so a threshold above the fitted value is the floor. Once the library's
+    one threshold rule (``alarm_threshold(...).describe()``) exists, this reads it instead.
+
+    Examples
+    --------
+    >>> fit = HalfLaplaceFit(scale=1.4, n_distances=5, ks_statistic=0.2, ks_pvalue=0.9)
+    >>> describe_threshold(fit.threshold(99), fit, 99.0)
+    '99th pct of the half-Laplace fit of 5 healthy captures'
+    >>> describe_threshold(12.94, fit, 99.0)
+    'task-change allowance, above the 6.447 fitted on 5 healthy captures'
+    """
+    fitted = fit.threshold(percentile)
+    if threshold > fitted:
+        return f"task-change allowance, above the {fitted:.4g} fitted on {fit.n_distances} healthy captures"
+    return f"{_percentile_text(percentile)} of the half-Laplace fit of {fit.n_distances} healthy captures"
+
+
 def commit_score(store: Store, outcome: ScoreOutcome, config: MonitorConfig) -> bool:
     """Write one capture's result; return True when this call wrote it."""
     job = outcome.job
@@ -248,8 +271,11 @@ def commit_score(store: Store, outcome: ScoreOutcome, config: MonitorConfig) -> 
             comparison = ">" if over else "<="
             reason = (
                 f"distance {distance:.4g} {comparison} threshold {threshold:.4g} "
-                f"({_percentile_text(config.percentile)} of {fit.n_distances} healthy captures)"
+                f"({describe_threshold(threshold, fit, config.percentile)})"
             )
+            top = describe_top_indicator(details.get("indicators", {}))
+            if (over or alarm) and top is not None:
+                reason += f"; top indicator {top}"
             n_over = sum(recent[-n:])
             if n > 1:
                 reason += f"; {n_over} of last {min(n, len(recent))} over"

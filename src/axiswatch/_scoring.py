@@ -16,6 +16,7 @@ from typing import Any, Literal
 
 from threadpoolctl import threadpool_limits
 
+from axiswatch._attribution import explain_indicators
 from axiswatch._calibration import half_laplace_threshold
 from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
@@ -272,6 +273,8 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
             details["lra_tie_broken"] = bool(result.tie_broken)
         else:
             distance = float(detector.distance(features.X))
+        if isinstance(model.stage_, MechanicsStage) and isinstance(detector, IndicatorDetector):
+            details["indicators"] = explain_indicators(model.stage_, detector, features.X)
     except (AxiswatchError, ValueError, OSError) as exc:
         error = _one_line(exc, path, job.relative)
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error)
