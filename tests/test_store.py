@@ -36,7 +36,7 @@ def test_a_failed_transaction_is_rolled_back(tmp_path: Path) -> None:
 def test_other_schema_version_is_refused(tmp_path: Path) -> None:
     with Store(tmp_path / "s.db") as store, store.write() as db:
         db.execute("UPDATE schema_version SET version = 7")
-    with pytest.raises(StoreError, match=r"has schema version 7; this axiswatch reads version 1"):
+    with pytest.raises(StoreError, match=r"has schema version 7; this axiswatch reads version 2"):
         Store(tmp_path / "s.db")
 
 

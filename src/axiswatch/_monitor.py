@@ -46,7 +46,7 @@ from axiswatch._scoring import (
     fit_baseline,
     score_capture,
 )
-from axiswatch._store import Store
+from axiswatch._store import AlarmState, Store
 from axiswatch.exceptions import StoreError
 
 __all__ = ["MonitorSummary", "monitor_fleet"]
@@ -62,8 +62,10 @@ class MonitorSummary:
     """What one ``monitor`` run did and what the fleet's state is afterwards.
 
     Exit status of ``axiswatch monitor`` (:attr:`exit_code`): 0 when nothing needs attention;
-    otherwise the sum of 4 (at least one axis is in alarm) and 8 (a capture is rejected, a
-    scored file changed, or an axis cannot be scored); so 4, 8 or 12.
+    otherwise the sum of 4 (at least one axis is in an alarm nobody acknowledged) and 8 (a
+    capture is rejected, a scored file changed, or an axis cannot be scored); so 4, 8 or 12.
+    ``alarms`` lists the axes in unacknowledged alarm, ``acknowledged`` the alarms someone saw
+    (``Store.acknowledge``) that have not cleared and been raised again since.
     """
 
     method: str
@@ -74,6 +76,7 @@ class MonitorSummary:
     changed: list[str] = field(default_factory=list)
     axis_problems: list[str] = field(default_factory=list)
     alarms: list[tuple[str, str]] = field(default_factory=list)
+    acknowledged: list[AlarmState] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
@@ -412,14 +415,11 @@ def monitor_fleet(
             state.model = None
 
     summary.rejected = _standing_rejections(store, root, method)
-    for row in store.rows(
-        "SELECT b.robot, b.axis, (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id "
-        "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1) AS alarm FROM baselines b "
-        "WHERE b.method=? AND b.retired_at IS NULL ORDER BY b.robot, b.axis",
-        (method,),
-    ):
-        if row["alarm"]:
-            summary.alarms.append((row["robot"], row["axis"]))
+    for alarm in store.alarms(method):
+        if alarm.acknowledged:
+            summary.acknowledged.append(alarm)
+        else:
+            summary.alarms.append((alarm.robot, alarm.axis))
     return summary
 
 

@@ -26,6 +26,11 @@ Tables (schema version 1):
     repaired file is tried again.
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
+``acknowledgements`` (schema version 2)
+    who saw an alarm, when, and what they noted: the alarm is named by the score that raised
+    it, so an alarm that clears and is raised again needs a new acknowledgement; a
+    re-baseline after maintenance is recorded here too. A version-1 store gains the table when
+    it is opened (nothing else changes).
 """
 
 from __future__ import annotations
@@ -33,6 +38,8 @@ from __future__ import annotations
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -40,11 +47,27 @@ import pandas as pd
 
 from axiswatch.exceptions import StoreError
 
-__all__ = ["SCHEMA_VERSION", "Store"]
+__all__ = ["SCHEMA_VERSION", "AlarmState", "Store"]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
-_SCHEMA = """
+_ACKNOWLEDGEMENTS = """
+CREATE TABLE acknowledgements (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    score_id INTEGER REFERENCES scores (id),
+    rebaseline INTEGER NOT NULL,
+    acknowledged_by TEXT NOT NULL,
+    note TEXT NOT NULL,
+    acknowledged_at TEXT NOT NULL
+)
+"""
+
+_SCHEMA = (
+    """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
 CREATE TABLE baselines (
     id INTEGER PRIMARY KEY,
@@ -121,6 +144,53 @@ CREATE TABLE changed_files (
     UNIQUE (path, scored_hash, current_hash)
 );
 """
+    + _ACKNOWLEDGEMENTS
+)
+
+#: The alarm episode of every baseline chosen by ``{where}`` whose last monitored capture is in
+#: alarm: the score that raised it (the first alarmed one after the last clean one) and its
+#: latest acknowledgement.
+_ALARMS = """
+WITH last AS (
+    SELECT b.id AS baseline_id, b.robot, b.axis, b.method,
+        (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
+         ORDER BY s.id DESC LIMIT 1) AS alarm,
+        (SELECT max(s.id) FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
+         AND s.alarm=0) AS last_clean
+    FROM baselines b {where}
+)
+SELECT l.robot, l.axis, l.method, l.baseline_id, r.id AS raised_score_id,
+    r.capture AS raised_capture, r.captured_at AS raised_at, a.acknowledged_by, a.note,
+    a.acknowledged_at
+FROM last l
+JOIN scores r ON r.id = (SELECT min(s.id) FROM scores s WHERE s.baseline_id=l.baseline_id
+    AND s.role='monitor' AND s.alarm=1 AND s.id > coalesce(l.last_clean, 0))
+LEFT JOIN acknowledgements a ON a.id = (SELECT max(k.id) FROM acknowledgements k
+    WHERE k.score_id=r.id)
+WHERE l.alarm=1
+ORDER BY l.robot, l.axis, l.method
+"""
+
+
+@dataclass(frozen=True)
+class AlarmState:
+    """An axis in alarm (one method): since which capture, and whether someone saw it."""
+
+    robot: str
+    axis: str
+    method: str
+    baseline_id: int
+    raised_score_id: int
+    raised_capture: str
+    raised_at: str
+    acknowledged_by: str | None
+    note: str | None
+    acknowledged_at: str | None
+
+    @property
+    def acknowledged(self) -> bool:
+        """An acknowledgement names this alarm (it was not cleared and raised again since)."""
+        return self.acknowledged_by is not None
 
 
 class Store:
@@ -184,6 +254,10 @@ class Store:
                     f"(tables {sorted(tables)}); use a new file for the store."
                 )
             version = connection.execute("SELECT max(version) FROM schema_version").fetchone()[0]
+            if version == 1:  # version 2 only adds the acknowledgements table
+                connection.execute(_ACKNOWLEDGEMENTS)
+                connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
+                version = SCHEMA_VERSION
             if version != SCHEMA_VERSION:
                 raise StoreError(
                     f"store '{self.path}' has schema version {version}; this axiswatch reads "
@@ -212,6 +286,130 @@ class Store:
         cursor = self._connection.execute(sql, parameters)
         columns = [d[0] for d in cursor.description]
         return pd.DataFrame([tuple(r) for r in cursor.fetchall()], columns=columns)
+
+    # --- alarms and the people who saw them ------------------------------------------------
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method."""
+        where = "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
+        rows = self.rows(_ALARMS.format(where=where), (method, method))
+        return [AlarmState(**dict(row)) for row in rows]
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
+
+        Parameters
+        ----------
+        robot, axis : str
+        by : str
+            Who (not empty).
+        note : str
+            What they saw or did (not empty).
+        method : str or None, default=None
+            Only this method's alarm; default every method in alarm on the axis.
+        rebaseline : bool, default=False
+            The record of a re-baseline after maintenance: made for the latest baseline of each
+            method whether or not it is in alarm (it names the alarm when there is one). The
+            caller retires the baselines (``rebaseline`` of the ledger) before.
+
+        Returns
+        -------
+        list of str
+            The methods acknowledged.
+
+        Raises
+        ------
+        ValueError
+            If ``by`` or ``note`` is empty.
+        StoreError
+            If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
+            alarm.
+        """
+        for name, value in (("by", by), ("note", note)):
+            if not value.strip():
+                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
+        stamp = datetime.now(UTC).isoformat(timespec="seconds")
+        with self.write() as db:
+            baselines = db.execute(
+                "SELECT b.id, b.method FROM baselines b WHERE b.robot=? AND b.axis=? "
+                "AND (? IS NULL OR b.method=?) AND b.epoch=(SELECT max(o.epoch) FROM baselines o "
+                "WHERE o.robot=b.robot AND o.axis=b.axis AND o.method=b.method) "
+                + ("" if rebaseline else "AND b.retired_at IS NULL ")
+                + "ORDER BY b.method",
+                (robot, axis, method, method),
+            ).fetchall()
+            if not baselines:
+                raise StoreError(f"{label} has no active baseline in store '{self.path}'.")
+            alarms = {
+                int(row["baseline_id"]): int(row["raised_score_id"])
+                for row in db.execute(
+                    _ALARMS.format(where="WHERE b.robot=? AND b.axis=?"), (robot, axis)
+                )
+            }
+            chosen = [(r["id"], r["method"], alarms.get(r["id"])) for r in baselines]
+            if not rebaseline:
+                chosen = [c for c in chosen if c[2] is not None]
+                if not chosen:
+                    raise StoreError(
+                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
+                        "re-baseline it: axiswatch ack --rebaseline)."
+                    )
+            for baseline_id, method_name, score_id in chosen:
+                db.execute(
+                    "INSERT INTO acknowledgements (robot, axis, method, baseline_id, score_id, "
+                    "rebaseline, acknowledged_by, note, acknowledged_at) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (
+                        robot,
+                        axis,
+                        method_name,
+                        baseline_id,
+                        score_id,
+                        int(rebaseline),
+                        by,
+                        note,
+                        stamp,
+                    ),
+                )
+        return [str(c[1]) for c in chosen]
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
+        that raised the alarm seen; empty for a re-baseline without alarm), ``rebaseline``,
+        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        frame = self.frame(
+            "SELECT a.robot, a.axis, a.method, s.capture, a.rebaseline, a.acknowledged_by, "
+            "a.note, a.acknowledged_at FROM acknowledgements a "
+            "LEFT JOIN scores s ON s.id = a.score_id "
+            "WHERE (? IS NULL OR a.robot=?) AND (? IS NULL OR a.axis=?) ORDER BY a.id",
+            (robot, robot, axis, axis),
+        )
+        frame["rebaseline"] = frame["rebaseline"].astype(bool)
+        return frame
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
+        return self.frame(
+            "SELECT robot, axis, method, retired_epoch, from_capture, requested_at "
+            "FROM rebaselines ORDER BY id"
+        )
+
+    def changed_files(self) -> pd.DataFrame:
+        """Files whose content changed after they were scored: ``robot, axis, path, detected_at``."""
+        return self.frame(
+            "SELECT robot, axis, path, detected_at FROM changed_files ORDER BY path, id"
+        )
 
     def close(self) -> None:
         """Close the connection."""
