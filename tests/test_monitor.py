@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
+from typer.testing import CliRunner
 
 import axiswatch as aw
 from axiswatch._calibration import HalfLaplaceFit
@@ -18,6 +19,7 @@ from axiswatch._results import fleet_results, fleet_summary
 from axiswatch._robot import TASKS, simulate_capture
 from axiswatch._scoring import MonitorConfig
 from axiswatch._store import Store
+from axiswatch.cli import app
 from axiswatch.exceptions import StoreError
 from tests.naive import alarm_states_naive
 
@@ -275,6 +277,13 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     assert "; top indicator viscous_friction +" in raised.reason.iloc[-1]
     assert "likely friction" in raised.reason.iloc[-1]
     assert raised.top_indicator.str.startswith("viscous_friction +").all()
+    assert results.top_indicator[~(results.over | results.alarm)].isna().all()
+    shown = CliRunner().invoke(
+        app, ["results", "--store", str(tmp_path / "s.db"), "--axis", "axis2", "--indicators"]
+    )
+    header = shown.output.splitlines()[0].split()
+    assert header[-7:] == ["top_indicator", *aw.COLUMNS], header
+    assert "2026-03-12.parquet mechanics" in shown.output
 
 
 def test_threshold_floor_is_zero_for_the_papers_methods() -> None:

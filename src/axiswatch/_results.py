@@ -14,6 +14,7 @@ import pandas as pd
 from axiswatch._attribution import describe_top_indicator
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._ledger import describe_threshold
+from axiswatch._mechanics import COLUMNS
 from axiswatch._store import Store
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
@@ -23,8 +24,9 @@ def fleet_results(store: Store, *, robot: str | None = None, axis: str | None = 
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
 
     Further columns: ``captured_at``, ``epoch``, ``role``, ``over``, ``reason``, ``details``
-    (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the default method, the indicator with the largest share of
-    the distance, its shift and likely meaning; None otherwise). Baseline rows are included
+    (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the default method,
+    over the threshold or in alarm: the indicator with the largest share of the distance, its
+    shift and likely meaning; None otherwise). Baseline rows are included
     (role ``baseline``, no distance).
     """
     frame = store.frame(
@@ -39,9 +41,11 @@ def fleet_results(store: Store, *, robot: str | None = None, axis: str | None = 
     frame["over"] = frame["over"].astype(bool)
     frame["distance"] = frame["distance"].astype(np.float64)
     frame["threshold"] = frame["threshold"].astype(np.float64)
+    # Named only where it explains an alarm: "likely a damaged gear tooth" on a capture under
+    # the threshold would read as a finding.
     frame["top_indicator"] = [
-        describe_top_indicator(json.loads(details).get("indicators", {}))
-        for details in frame["details"]
+        describe_top_indicator(json.loads(details).get("indicators", {})) if flagged else None
+        for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
     ]
     return frame
 
@@ -63,7 +67,9 @@ def indicator_spreads(results: pd.DataFrame) -> pd.DataFrame:
         {name: entry["spreads"] for name, entry in json.loads(d).get("indicators", {}).items()}
         for d in results["details"]
     ]
-    return pd.DataFrame(rows, index=results.index, dtype=np.float64)
+    frame = pd.DataFrame(rows, index=results.index, dtype=np.float64)
+    known = [name for name in COLUMNS if name in frame.columns]  # in the stage's order
+    return frame[known + [name for name in frame.columns if name not in known]]
 
 
 def fleet_rejections(store: Store) -> Any:
