@@ -94,22 +94,21 @@ def _day(stamp: str | None) -> str:
 def _alarm_line(
     last: Any, state: AlarmState, captures_in_alarm: int, threshold_origin: str | None
 ) -> str:
-    indicators = json.loads(last["details"]).get("indicators", {}) if last is not None else {}
-    top = describe_top_indicator(indicators)
-    what = f"{top}. " if top else ""
-    origin = f" ({threshold_origin})" if threshold_origin else ""
-    distance = (
-        f"Distance {last['distance']:.4g} > threshold {last['threshold']:.4g}{origin}."
-        if last is not None and last["over"]
-        else f"Last distance {last['distance']:.4g}, threshold {last['threshold']:.4g}{origin}; "
-        "the alarm holds until enough clean captures."
-        if last is not None
-        else ""
-    )
     plural = "s" if captures_in_alarm != 1 else ""
-    return (
-        f"ALARM since {_day(state.raised_at)} ({captures_in_alarm} capture{plural} in alarm): "
-        f"{what}{distance}"
+    line = f"ALARM since {_day(state.raised_at)} ({captures_in_alarm} capture{plural} in alarm): "
+    if last is None:
+        return line
+    top = describe_top_indicator(json.loads(last["details"]).get("indicators", {}))
+    if top:
+        line += f"{top}. "
+    origin = f" ({threshold_origin})" if threshold_origin else ""
+    if last["over"]:
+        return (
+            line + f"Distance {last['distance']:.4g} > threshold {last['threshold']:.4g}{origin}."
+        )
+    return line + (
+        f"Last distance {last['distance']:.4g} under threshold {last['threshold']:.4g}{origin}; "
+        "the alarm holds until enough clean captures in a row."
     )
 
 

@@ -43,9 +43,10 @@ def _span(figure: Any, start: pd.Timestamp, stop: pd.Timestamp, colour: str, lab
         type="rect", xref="x", yref="paper", x0=start - _HALF_DAY, x1=stop + _HALF_DAY,
         y0=0, y1=1, fillcolor=colour, opacity=0.15, line_width=0, layer="below",
     )  # fmt: skip
+    # Labelled at the span's right end: a baseline's label then never covers the calibration's.
     figure.add_annotation(
-        x=start, xref="x", y=1.0, yref="paper", text=label, showarrow=False, xanchor="left",
-        yanchor="bottom", font={"size": 10, "color": colour},
+        x=stop + _HALF_DAY, xref="x", y=1.0, yref="paper", text=label, showarrow=False,
+        xanchor="right", yanchor="bottom", font={"size": 10, "color": colour},
     )  # fmt: skip
 
 
@@ -221,6 +222,8 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
             go.Scatter(
                 x=scored.when[keep], y=[e["spreads"] for e in values], mode="lines+markers",
                 name=name, marker={"size": 4}, line={"width": 1},
+                # The deficit column mirrors the friction's: hidden until asked for (legend).
+                visible="legendonly" if name == "viscous_friction_deficit" else True,
                 customdata=[
                     [c, e["value"], e["baseline"], e["share"]]
                     for c, e in zip(scored.capture[keep], values, strict=True)
