@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-import axiswatch as aw
+import axiswatch_lab as lab
 
 
 def _loop(first: np.ndarray, second: np.ndarray) -> float:
@@ -23,7 +23,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     a, b = rng.normal(size=(2, 150, 40))
     start = time.perf_counter()
-    fast = aw.energy_distance(a, b)
+    fast = lab.energy_distance(a, b)
     fast_s = time.perf_counter() - start
     start = time.perf_counter()
     slow = _loop(a, b)

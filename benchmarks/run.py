@@ -32,6 +32,8 @@ from typing import Any
 import numpy as np
 
 import axiswatch as aw
+import axiswatch._alignment
+import axiswatch.datasets as awd
 
 ONE_THREAD = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -79,7 +81,7 @@ def case_lra(n_rows: int, quick: bool) -> dict[str, Any]:
     X_t = aw.extract_features(synthetic_capture(seconds, 2)).X[:n_rows]
 
     def fast() -> float:
-        return aw.lra_structured(aw.low_rank_basis(X_s), aw.low_rank_basis(X_t)).delta
+        return aw._alignment.lra_structured(aw.low_rank_basis(X_s), aw.low_rank_basis(X_t)).delta
 
     fast_s = _median_time(fast, 1 if quick else 5)
     out: dict[str, Any] = {"case": f"LRA N={n_rows:,} (K={X_s.shape[1]})", "fast_s": fast_s}
@@ -88,7 +90,8 @@ def case_lra(n_rows: int, quick: bool) -> dict[str, Any]:
         return out
     dense_deltas: list[float] = []
     dense_s = _median_time(
-        lambda: dense_deltas.append(aw.lra_dense(X_s, X_t).delta), 1 if n_rows >= 2000 else 3
+        lambda: dense_deltas.append(aw._alignment.lra_dense(X_s, X_t).delta),
+        1 if n_rows >= 2000 else 3,
     )
     fast_delta = fast()
     out.update(dense_s=dense_s, ratio=dense_s / fast_s, delta=fast_delta)
@@ -132,10 +135,10 @@ def case_fleet(robots: int, quick: bool, method: str = "mechanics") -> dict[str,
     hash the fleet, fit each axis's baseline from its file, read, align, featurize and score every
     new capture on 2 worker processes, commit each result to the SQLite store).
     """
-    from axiswatch._monitor import monitor_fleet
-    from axiswatch._robot import simulate_fleet
-    from axiswatch._scoring import MonitorConfig
-    from axiswatch._store import Store
+    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor._store import Store
 
     with tempfile.TemporaryDirectory() as folder:
         root = Path(folder) / "fleet"
@@ -168,8 +171,8 @@ def case_fleet(robots: int, quick: bool, method: str = "mechanics") -> dict[str,
 def case_mechanics(quick: bool) -> dict[str, Any]:
     """The product default (mechanics indicators) on one 3 s simulated capture, against the
     paper's LRA at the monitor's hop 8 on the same capture, in the same process."""
-    baseline = aw.simulate_capture("heavy", seed=1)
-    capture = aw.simulate_capture("palletize", seed=2)
+    baseline = awd.simulate_capture("heavy", seed=1)
+    capture = awd.simulate_capture("palletize", seed=2)
     stage = aw.MechanicsStage().fit(baseline)
     detector = aw.IndicatorDetector().fit(stage.baseline_rows_)
     lra = aw.HealthModel(aw.FeatureSpec(hop=8), aw.LRADetector()).fit(baseline)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch.datasets as awd
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
@@ -36,15 +37,15 @@ def robot_capture(rng: np.random.Generator) -> aw.Capture:
 @pytest.fixture(scope="session")
 def lab_features() -> list[np.ndarray]:
     """Real features: the lab dataset's ten days, as in the lab experiment."""
-    from axiswatch._experiments import LAB_FEATURES
+    from axiswatch_lab._experiments import LAB_FEATURES
 
-    return [aw.extract_features(d.capture, LAB_FEATURES).X for d in aw.lab_dataset(seed=3)]
+    return [aw.extract_features(d.capture, LAB_FEATURES).X for d in awd.lab_dataset(seed=3)]
 
 
 @pytest.fixture(scope="session")
 def small_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A healthy simulated fleet, 1 robot x 2 axes x 9 days of 0.5 s captures (copy before use)."""
-    from axiswatch._robot import simulate_fleet
+    from axiswatch.datasets._robot import simulate_fleet
 
     root = tmp_path_factory.mktemp("fleet") / "fleet"
     simulate_fleet(

@@ -9,12 +9,12 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from axiswatch._monitor import monitor_fleet
-from axiswatch._results import fleet_summary
-from axiswatch._scoring import MonitorConfig
-from axiswatch._store import SCHEMA_VERSION, Store
 from axiswatch.cli import app
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._results import fleet_summary
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import SCHEMA_VERSION, Store
 from tests.test_monitor import faulty_copy
 
 runner = CliRunner()

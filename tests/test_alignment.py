@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch._alignment
 import axiswatch._alignment as aw_alignment
 
 from .naive import lra_delta
@@ -131,7 +132,7 @@ def test_low_rank_representation_minimises_objective(rng: np.random.Generator) -
     def objective(R: np.ndarray) -> float:
         return 0.5 * np.linalg.norm(X - R @ X) ** 2 + lam * np.linalg.norm(R, "nuc")
 
-    R = aw.low_rank_representation(X, lam)
+    R = aw._alignment.low_rank_representation(X, lam)
     best = objective(R)
     for _ in range(50):
         perturbation = rng.normal(size=R.shape) * 1e-3
@@ -160,7 +161,7 @@ def test_shape_mismatch_and_nan() -> None:
     ):
         aw.lra_embedding(np.ones((10, 3)), np.ones((9, 3)))
     with pytest.raises(ValueError, match=r"same shape \(rows are paired\)"):
-        aw.lra_dense(np.ones((10, 3)), np.ones((9, 3)))
+        aw._alignment.lra_dense(np.ones((10, 3)), np.ones((9, 3)))
     with pytest.raises(ValueError, match=r"X_t contains NaN"):
         aw.lra_embedding(np.ones((10, 3)), np.full((10, 3), np.nan))
     with pytest.raises(ValueError, match=r"X_s must have shape \(n_rows, n_features\)"):
@@ -170,9 +171,9 @@ def test_shape_mismatch_and_nan() -> None:
 def test_structured_rejects_mismatched_bases() -> None:
     a = aw.low_rank_basis(np.eye(4) * 3)
     with pytest.raises(ValueError, match=r"same number of rows"):
-        aw.lra_structured(a, aw.low_rank_basis(np.eye(5) * 3))
+        aw._alignment.lra_structured(a, aw.low_rank_basis(np.eye(5) * 3))
     with pytest.raises(ValueError, match=r"different noise levels"):
-        aw.lra_structured(a, aw.low_rank_basis(np.eye(4) * 3, noise_level=2.0))
+        aw._alignment.lra_structured(a, aw.low_rank_basis(np.eye(4) * 3, noise_level=2.0))
     with pytest.raises(ValueError, match=r"'noise_level' parameter must be a float > 0"):
         aw.low_rank_basis(np.eye(4), noise_level=-1.0)
 
@@ -220,8 +221,8 @@ def test_gram_basis_equals_direct_svd(singular_values: np.ndarray, seed: int) ->
                 reference.vectors @ ((reference.vectors.T @ probe) * reference.weights[:, None]),
                 atol=1e-9,
             )
-        expected = aw.lra_structured(*svd, mu=mu, n_components=d).delta
-        got = aw.lra_structured(*gram, mu=mu, n_components=d).delta
+        expected = aw._alignment.lra_structured(*svd, mu=mu, n_components=d).delta
+        got = aw._alignment.lra_structured(*gram, mu=mu, n_components=d).delta
         assert abs(got - expected) <= _delta_tolerance(expected)
 
 
@@ -230,8 +231,12 @@ def test_gram_basis_equals_direct_svd_on_real_features(lab_features: list[np.nda
         source = aw.low_rank_basis(lab_features[0], lam, method="svd")
         fast_source = aw.low_rank_basis(lab_features[0], lam, method="gram")
         for X_t in lab_features[1:5]:
-            expected = aw.lra_structured(source, aw.low_rank_basis(X_t, lam, method="svd")).delta
-            got = aw.lra_structured(fast_source, aw.low_rank_basis(X_t, lam, method="gram")).delta
+            expected = aw._alignment.lra_structured(
+                source, aw.low_rank_basis(X_t, lam, method="svd")
+            ).delta
+            got = aw._alignment.lra_structured(
+                fast_source, aw.low_rank_basis(X_t, lam, method="gram")
+            ).delta
             assert abs(got - expected) <= _delta_tolerance(expected)
 
 

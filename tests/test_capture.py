@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 import axiswatch as aw
+import axiswatch._capture
 from axiswatch import CaptureError
 
 
@@ -27,7 +28,7 @@ def test_round_trip_keeps_values_and_rates(
 
 
 def test_slow_signal_is_blank_between_its_instants(robot_capture: aw.Capture) -> None:
-    frame = aw.capture_to_frame(robot_capture)
+    frame = aw._capture.capture_to_frame(robot_capture)
     assert len(frame) == 2000
     assert frame["position"].notna().sum() == 250
     assert frame["position"].iloc[1:8].isna().all()
@@ -73,7 +74,7 @@ def test_nan_inside_fast_signal(tmp_path: Path) -> None:
 
 
 def test_nan_inside_slow_signal(tmp_path: Path, robot_capture: aw.Capture) -> None:
-    frame = aw.capture_to_frame(robot_capture)
+    frame = aw._capture.capture_to_frame(robot_capture)
     frame.loc[8 * 100, "position"] = np.nan
     with pytest.raises(CaptureError, match=r"column 'position' is not uniformly sampled"):
         aw.read_capture(_write(tmp_path, frame))

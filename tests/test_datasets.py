@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch.datasets as awd
 
 from .conftest import SHARED_DATA
 
@@ -42,7 +43,7 @@ def folder(tmp_path: Path) -> Path:
 
 
 def test_segments_follow_days_csv(folder: Path) -> None:
-    segments = aw.read_dataset(folder)
+    segments = awd.read_dataset(folder)
     assert [(s.segment_id, s.condition, s.healthy, s.role, s.start) for s in segments] == [
         ("h0__s0", "load0", True, "baseline", 0),
         ("h0__s1", "load0", True, "test_healthy_same_condition", 50),
@@ -55,15 +56,15 @@ def test_segments_follow_days_csv(folder: Path) -> None:
 
 
 def test_unknown_rate_gets_the_nominal_rate(folder: Path) -> None:
-    capture = aw.read_recording(folder / "b1.npz")
-    assert capture.rates_hz["x"] == aw.NOMINAL_RATE_HZ
+    capture = awd.read_recording(folder / "b1.npz")
+    assert capture.rates_hz["x"] == awd.NOMINAL_RATE_HZ
     assert capture.metadata["fs_stated"] == "false"
-    assert aw.read_recording(folder / "b1.npz", nominal_rate_hz=5.0).rates_hz["x"] == 5.0
+    assert awd.read_recording(folder / "b1.npz", nominal_rate_hz=5.0).rates_hz["x"] == 5.0
 
 
 def test_without_days_csv_each_recording_is_one_segment(folder: Path) -> None:
     (folder / "days.csv").unlink()
-    segments = aw.read_dataset(folder, recordings=["b1"])
+    segments = awd.read_dataset(folder, recordings=["b1"])
     assert [(s.segment_id, s.role, len(s.capture.signals["x"])) for s in segments] == [
         ("b1", "recording", 100)
     ]
@@ -74,25 +75,25 @@ def test_missing_folder(tmp_path: Path) -> None:
         aw.DataNotFoundError,
         match=r"nope: dataset folder not found; expected a folder with index.csv",
     ):
-        aw.read_dataset(tmp_path / "nope")
+        awd.read_dataset(tmp_path / "nope")
 
 
 def test_missing_index(folder: Path) -> None:
     (folder / "index.csv").unlink()
     with pytest.raises(FileNotFoundError, match=r"index.csv: missing; a dataset folder lists"):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_missing_recording_file(folder: Path) -> None:
     (folder / "b1.npz").unlink()
     with pytest.raises(aw.DataNotFoundError, match=r"b1.npz: no such recording file"):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_index_without_health_column(folder: Path) -> None:
     (folder / "index.csv").write_text("recording_id,condition_id\nh0,load0\n")
     with pytest.raises(aw.CaptureError, match=r"index.csv: missing column\(s\) \['health'\]"):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_unknown_health_label(folder: Path) -> None:
@@ -100,13 +101,13 @@ def test_unknown_health_label(folder: Path) -> None:
     with pytest.raises(
         aw.CaptureError, match=r"'health' must be 'healthy' or 'faulty'; found 'broken'"
     ):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_unreadable_csv(folder: Path) -> None:
     (folder / "index.csv").write_text("")
     with pytest.raises(aw.CaptureError, match=r"index.csv: cannot read CSV table"):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_days_naming_an_unlisted_recording(folder: Path) -> None:
@@ -114,7 +115,7 @@ def test_days_naming_an_unlisted_recording(folder: Path) -> None:
     with pytest.raises(
         aw.CaptureError, match=r"days.csv: recording\(s\) \['zz'\] are not listed in index.csv"
     ):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_segment_outside_recording(folder: Path) -> None:
@@ -122,7 +123,7 @@ def test_segment_outside_recording(folder: Path) -> None:
     with pytest.raises(
         aw.CaptureError, match=r"segment 'b1__s0' covers samples 0..150 but recording 'b1' has 100"
     ):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_segment_bounds_not_integers(folder: Path) -> None:
@@ -130,13 +131,13 @@ def test_segment_bounds_not_integers(folder: Path) -> None:
     with pytest.raises(
         aw.CaptureError, match=r"segment 'b1__s0' has start=0, stop='end'; expected sample numbers"
     ):
-        aw.read_dataset(folder)
+        awd.read_dataset(folder)
 
 
 def test_recording_missing_array(tmp_path: Path) -> None:
     _recording(tmp_path / "r.npz", channels=None)
     with pytest.raises(aw.CaptureError, match=r"r.npz: missing array 'channels'"):
-        aw.read_recording(tmp_path / "r.npz")
+        awd.read_recording(tmp_path / "r.npz")
 
 
 def test_recording_shape_mismatch(tmp_path: Path) -> None:
@@ -144,7 +145,7 @@ def test_recording_shape_mismatch(tmp_path: Path) -> None:
     with pytest.raises(
         aw.CaptureError, match=r"one row per name in 'channels' \(3\); got shape \(2, 100\)"
     ):
-        aw.read_recording(tmp_path / "r.npz")
+        awd.read_recording(tmp_path / "r.npz")
 
 
 def test_recording_bad_rate(tmp_path: Path) -> None:
@@ -152,22 +153,22 @@ def test_recording_bad_rate(tmp_path: Path) -> None:
     with pytest.raises(
         aw.CaptureError, match=r"'fs' must be a positive number of Hz, or NaN when unknown"
     ):
-        aw.read_recording(tmp_path / "r.npz")
+        awd.read_recording(tmp_path / "r.npz")
 
 
 def test_recording_bad_meta(tmp_path: Path) -> None:
     _recording(tmp_path / "r.npz", meta="{not json")
     with pytest.raises(aw.CaptureError, match=r"'meta' must be a JSON object; Expecting"):
-        aw.read_recording(tmp_path / "r.npz")
+        awd.read_recording(tmp_path / "r.npz")
     _recording(tmp_path / "r.npz", meta="[1, 2]")
     with pytest.raises(aw.CaptureError, match=r"'meta' must be a JSON object; got list"):
-        aw.read_recording(tmp_path / "r.npz")
+        awd.read_recording(tmp_path / "r.npz")
 
 
 def test_recording_not_npz(tmp_path: Path) -> None:
     (tmp_path / "r.npz").write_bytes(b"not a zip file")
     with pytest.raises(aw.CaptureError, match=r"r.npz: cannot read .npz recording"):
-        aw.read_recording(tmp_path / "r.npz")
+        awd.read_recording(tmp_path / "r.npz")
 
 
 def test_default_data_dir_from_project_root(tmp_path: Path) -> None:
@@ -176,7 +177,7 @@ def test_default_data_dir_from_project_root(tmp_path: Path) -> None:
     (project / "pyproject.toml").write_text("")
     (tmp_path / "shared" / "data" / "gearbox").mkdir(parents=True)
     assert (
-        aw.default_data_dir("gearbox", cwd=project / "sub")
+        awd.default_data_dir("gearbox", cwd=project / "sub")
         == tmp_path / "shared" / "data" / "gearbox"
     )
 
@@ -185,10 +186,10 @@ def test_default_data_dir_from_project_root(tmp_path: Path) -> None:
 def test_real_folders_load() -> None:
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is absent")
-    gearbox = aw.read_dataset(SHARED_DATA / "gearbox_spectraquest", recordings=["healthy_load00"])
+    gearbox = awd.read_dataset(SHARED_DATA / "gearbox_spectraquest", recordings=["healthy_load00"])
     assert len(gearbox) == 4
     assert gearbox[0].capture.names == ("a1", "a2", "a3", "a4")
-    assert gearbox[0].capture.rates_hz["a1"] == aw.NOMINAL_RATE_HZ  # the rig's rate is unknown
-    voraus = aw.read_dataset(SHARED_DATA / "voraus_ad_test")
+    assert gearbox[0].capture.rates_hz["a1"] == awd.NOMINAL_RATE_HZ  # the rig's rate is unknown
+    voraus = awd.read_dataset(SHARED_DATA / "voraus_ad_test")
     assert [s.healthy for s in voraus] == [False, True, True, True]
     assert voraus[0].capture.rates_hz["motor_torque_1"] == 100.0

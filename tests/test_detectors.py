@@ -7,6 +7,7 @@ import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import axiswatch as aw
+import axiswatch._alignment
 
 from .naive import lra_delta, pca_distance
 
@@ -93,7 +94,7 @@ def test_baseline_basis_is_computed_once(
     calls: list[int] = []
     real = detectors.low_rank_basis
 
-    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw.LowRankBasis:
+    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw._alignment.LowRankBasis:
         calls.append(X.shape[0])
         return real(X, noise_level)
 

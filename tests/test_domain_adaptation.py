@@ -6,32 +6,32 @@ import numpy as np
 import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-import axiswatch as aw
+import axiswatch_lab as lab
 
 from .naive import energy_distance
 
 
-@parametrize_with_checks([aw.EnergyDetector(n_components=2)])
+@parametrize_with_checks([lab.EnergyDetector(n_components=2)])
 def test_scikit_learn_contract(estimator, check) -> None:  # type: ignore[no-untyped-def]
     check(estimator)
 
 
 def test_energy_distance_matches_reference(rng: np.random.Generator) -> None:
     a, b = rng.normal(size=(30, 4)), rng.normal(size=(25, 4)) + 0.5
-    assert aw.energy_distance(a, b) == pytest.approx(energy_distance(a, b), rel=1e-10)
-    assert aw.energy_distance(a, a) == 0.0
+    assert lab.energy_distance(a, b) == pytest.approx(energy_distance(a, b), rel=1e-10)
+    assert lab.energy_distance(a, a) == 0.0
 
 
 def test_energy_distance_width_mismatch(rng: np.random.Generator) -> None:
     with pytest.raises(ValueError, match=r"same number of features; got 4 and 3"):
-        aw.energy_distance(rng.normal(size=(5, 4)), rng.normal(size=(5, 3)))
+        lab.energy_distance(rng.normal(size=(5, 4)), rng.normal(size=(5, 3)))
 
 
 def test_energy_detector_is_energy_distance_in_the_baseline_subspace(
     rng: np.random.Generator,
 ) -> None:
     X_s, X_t = rng.normal(size=(80, 5)), rng.normal(size=(60, 5)) + 0.3
-    det = aw.EnergyDetector(n_components=3).fit(X_s)
+    det = lab.EnergyDetector(n_components=3).fit(X_s)
     mean = X_s.mean(axis=0)
     P = det.pca_.components_.T
     expected = energy_distance((X_s - mean) @ P, (X_t - mean) @ P)
@@ -42,8 +42,8 @@ def test_coral_aligns_an_affine_change_but_not_a_change_of_shape(
     rng: np.random.Generator,
 ) -> None:
     X = rng.normal(size=(400, 4))
-    coral = aw.CORALDetector().fit(X)
-    energy = aw.EnergyDetector().fit(X)
+    coral = lab.CORALDetector().fit(X)
+    energy = lab.EnergyDetector().fit(X)
     affine = rng.normal(size=(400, 4)) @ np.diag([3.0, 0.5, 2.0, 1.0]) + 4.0
     skewed = rng.exponential(size=(400, 4))
     assert coral.distance(affine) < 0.2 * energy.distance(affine)
@@ -58,7 +58,7 @@ def test_coral_aligns_an_affine_change_but_not_a_change_of_shape(
 def test_subspace_alignment_keeps_the_spread(rng: np.random.Generator) -> None:
     scales = np.array([3.0, 2.0, 0.1, 0.1])
     X = rng.normal(size=(300, 4)) * scales
-    det = aw.SubspaceAlignmentDetector().fit(X)
+    det = lab.SubspaceAlignmentDetector().fit(X)
     assert det.n_components_ == 2
     rotated = (rng.normal(size=(300, 4)) * scales)[:, [1, 0, 2, 3]]
     louder = rng.normal(size=(300, 4)) * scales * 3.0

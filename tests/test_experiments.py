@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from axiswatch._experiments import alarm_summary, lab_roc, robot_a, robot_b
+from axiswatch_lab._experiments import alarm_summary, lab_roc, robot_a, robot_b
 
 
 @pytest.fixture(scope="module")

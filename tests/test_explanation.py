@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch.datasets as awd
 from axiswatch._attribution import describe_top_indicator, explain_indicators
 from axiswatch._calibration import HalfLaplaceFit
-from axiswatch._ledger import describe_threshold
-from axiswatch._mechanics import INDICATORS, LIKELY_FAULTS
+from axiswatch._mechanics import COLUMNS, INDICATORS, LIKELY_FAULTS
+from axiswatch.monitor._ledger import describe_threshold
 from tests.naive import indicator_terms
 
 
@@ -28,12 +29,12 @@ def test_indicator_terms_match_the_loop_twin_and_add_up_to_the_distance(
 
 @pytest.fixture(scope="module")
 def bearing() -> tuple[aw.MechanicsStage, aw.IndicatorDetector, aw.Capture]:
-    stage = aw.MechanicsStage().fit(aw.simulate_capture("short_fast", seed=11))
+    stage = aw.MechanicsStage().fit(awd.simulate_capture("short_fast", seed=11))
     detector = aw.IndicatorDetector().fit(stage.baseline_rows_)
     return (
         stage,
         detector,
-        aw.simulate_capture("short_fast", fault=aw.Fault("bearing", 0.6), seed=21),
+        awd.simulate_capture("short_fast", fault=awd.Fault("bearing", 0.6), seed=21),
     )
 
 
@@ -43,7 +44,7 @@ def test_explanation_reads_the_stage_and_splits_the_distance(
     stage, detector, capture = bearing
     X = stage.transform(capture).X
     why = explain_indicators(stage, detector, X)
-    assert list(why) == list(aw.COLUMNS)
+    assert list(why) == list(COLUMNS)
     assert sum(e["share"] for e in why.values()) == pytest.approx(1.0, abs=1e-12)
     # Values and baselines are the stage's own readings (log10, mean of both directions).
     readings = stage.readings(capture)
@@ -69,14 +70,14 @@ def test_explanation_reads_the_stage_and_splits_the_distance(
 
 def test_no_indicator_moved_up_gives_no_top_indicator() -> None:
     calm = {
-        name: {"value": 1.0, "baseline": 1.0, "spreads": -0.5, "share": 0.0} for name in aw.COLUMNS
+        name: {"value": 1.0, "baseline": 1.0, "spreads": -0.5, "share": 0.0} for name in COLUMNS
     }
     assert describe_top_indicator(calm) is None
     assert describe_top_indicator({}) is None
 
 
 def test_every_column_has_a_likely_fault() -> None:
-    assert set(LIKELY_FAULTS) == set(aw.COLUMNS)
+    assert set(LIKELY_FAULTS) == set(COLUMNS)
 
 
 def test_threshold_description_names_its_origin() -> None:

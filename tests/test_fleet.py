@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from axiswatch._fleet import discover_fleet, parse_capture_time
+from axiswatch.monitor._fleet import discover_fleet, parse_capture_time
 
 
 def _touch(root: Path, *names: str) -> None:

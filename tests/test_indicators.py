@@ -6,16 +6,16 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-from axiswatch._indicators import (
+from axiswatch._stages import StftStage
+from axiswatch.datasets._robot import Fault, simulate_capture
+from axiswatch_lab._indicators import (
     STATES,
     OrderStage,
     ResidualStage,
     StateStage,
-    StftStage,
     fit_axis_model,
     operating_states,
 )
-from axiswatch._robot import Fault, simulate_capture
 
 from .naive import least_squares_normal_equations
 

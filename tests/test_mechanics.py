@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch._mechanics
+import axiswatch.datasets as awd
 from axiswatch._mechanics import ENERGY_LEVELS
 from tests import naive
 
@@ -26,13 +28,13 @@ def test_viscous_friction_recovers_the_coefficient_whatever_coulomb_inertia_and_
     for inertia, coulomb, load in ((2.0, 7.0, 5.0), (9.0, 30.0, -40.0)):
         tau = inertia * a + 4.0 * v + coulomb * np.sign(v) + load
         # Exact up to rounding: the trapezoid rule makes the inertia's work telescope.
-        assert aw.viscous_friction(q, v, tau, 1000.0) == pytest.approx(4.0, rel=1e-9)
+        assert aw._mechanics.viscous_friction(q, v, tau, 1000.0) == pytest.approx(4.0, rel=1e-9)
 
 
 def test_viscous_friction_matches_the_loop_twin(rng: np.random.Generator) -> None:
     _, q, v, a = _moves_out_and_back()
     tau = 3.0 * a + 2.5 * v + 6.0 * np.sign(v) + 0.3 * rng.normal(size=v.size)
-    assert aw.viscous_friction(q, v, tau, 1000.0) == pytest.approx(
+    assert aw._mechanics.viscous_friction(q, v, tau, 1000.0) == pytest.approx(
         naive.viscous_friction(q, v, tau, 1000.0, list(ENERGY_LEVELS)), rel=1e-9
     )
 
@@ -44,29 +46,31 @@ def test_a_move_cut_by_the_capture_keeps_the_windows_inside_it() -> None:
     _, q, v, a = _moves_out_and_back()
     tau = 5.0 * a + 4.0 * v + 9.0 * np.sign(v)
     for cut in (300, 480, 650):
-        assert aw.viscous_friction(q[cut:], v[cut:], tau[cut:], 1000.0) == pytest.approx(
+        assert aw._mechanics.viscous_friction(q[cut:], v[cut:], tau[cut:], 1000.0) == pytest.approx(
             4.0, rel=1e-9
         )
     # That move alone: usable when cut at 300, not at 480.
     alone = slice(300, 950)
-    assert aw.viscous_friction(q[alone], v[alone], tau[alone], 1000.0) == pytest.approx(4.0)
-    assert np.isnan(aw.viscous_friction(q[480:950], v[480:950], tau[480:950], 1000.0))
+    assert aw._mechanics.viscous_friction(q[alone], v[alone], tau[alone], 1000.0) == pytest.approx(
+        4.0
+    )
+    assert np.isnan(aw._mechanics.viscous_friction(q[480:950], v[480:950], tau[480:950], 1000.0))
 
 
 def test_viscous_friction_is_nan_without_a_complete_move() -> None:
     v = np.linspace(0.0, 1.0, 500)  # accelerating until the capture ends
-    assert np.isnan(aw.viscous_friction(np.cumsum(v) / 1000, v, v, 1000.0))
+    assert np.isnan(aw._mechanics.viscous_friction(np.cumsum(v) / 1000, v, v, 1000.0))
 
 
 def test_moves_merges_noise_gaps_and_drops_blips() -> None:
     v = np.r_[np.zeros(50), np.ones(60), [0.0], np.ones(60), np.zeros(50), -np.ones(5), np.zeros(9)]
-    assert aw.moves(v, min_gap=10) == [(50, 171)]
+    assert aw._mechanics.moves(v, min_gap=10) == [(50, 171)]
 
 
 def test_angle_locked_f_matches_the_hat_matrix_twin(rng: np.random.Generator) -> None:
     theta = np.sort(rng.uniform(0, 150, 1500))
     y = rng.normal(size=theta.size) + 0.3 * np.sin(5.43 * theta) + np.cos(2 * theta)
-    fast = aw.angle_locked_f(y, theta, [5.43, 6.43], nuisance_orders=[1, 2, 3])
+    fast = aw._mechanics.angle_locked_f(y, theta, [5.43, 6.43], nuisance_orders=[1, 2, 3])
     assert fast == pytest.approx(naive.angle_locked_f(y, theta, [5.43, 6.43], [1, 2, 3]), rel=1e-8)
 
 
@@ -74,7 +78,10 @@ def test_angle_locked_f_of_noise_follows_the_f_distribution() -> None:
     # Mean of F(p, n - k) is (n - k) / (n - k - 2) ~ 1.001; 200 draws give a standard error ~0.05.
     rng = np.random.default_rng(7)
     theta = np.linspace(0, 200, 2000)
-    values = [aw.angle_locked_f(rng.normal(size=theta.size), theta, [3.3, 4.7]) for _ in range(200)]
+    values = [
+        aw._mechanics.angle_locked_f(rng.normal(size=theta.size), theta, [3.3, 4.7])
+        for _ in range(200)
+    ]
     assert np.mean(values) == pytest.approx(1.0, abs=0.15)
 
 
@@ -94,14 +101,18 @@ def test_line_ratio_is_about_one_for_coloured_noise_and_large_for_a_line() -> No
     theta = np.linspace(0, 300, 6000)
     orders = [5.43 + k for k in (-2, -1, 0, 1, 2)] + [10.86 + k for k in (-1, 0, 1)]
     draws = [_ar1(rng, theta.size) for _ in range(21)]
-    assert 0.75 < np.median([aw.line_ratio(x, theta, orders, [-0.25, 0.25]) for x in draws]) < 1.35
+    assert (
+        0.75
+        < np.median([aw._mechanics.line_ratio(x, theta, orders, [-0.25, 0.25]) for x in draws])
+        < 1.35
+    )
     line = draws[0] + 0.5 * np.cos(5.43 * theta)
-    assert aw.line_ratio(line, theta, orders, [-0.25, 0.25]) > 3
+    assert aw._mechanics.line_ratio(line, theta, orders, [-0.25, 0.25]) > 3
 
 
 @pytest.fixture(scope="module")
 def stage() -> aw.MechanicsStage:
-    return aw.MechanicsStage().fit(aw.simulate_capture("short_fast", seed=11))
+    return aw.MechanicsStage().fit(awd.simulate_capture("short_fast", seed=11))
 
 
 def _shift(stage: aw.MechanicsStage, capture: aw.Capture) -> np.ndarray:
@@ -116,10 +127,10 @@ def test_each_fault_raises_its_own_indicator_on_every_task(
     # Shifts in units of the healthy cross-task spread, measured: friction 5.8-6.9 (viscous),
     # tooth 2.5-7.7 (the larger of impulsiveness and tooth lines), bearing 4.4-10.8 (bearing
     # lines); a healthy task change moves no column by more than 2.4.
-    column = {name: j for j, name in enumerate(aw.COLUMNS)}
+    column = {name: j for j, name in enumerate(aw._mechanics.COLUMNS)}
 
     def shift(kind: str) -> np.ndarray:
-        return _shift(stage, aw.simulate_capture(task, fault=aw.Fault(kind, 0.6), seed=21))  # type: ignore[arg-type]
+        return _shift(stage, awd.simulate_capture(task, fault=awd.Fault(kind, 0.6), seed=21))  # type: ignore[arg-type]
 
     assert shift("friction")[column["viscous_friction"]] > 4.0
     tooth = shift("tooth")
@@ -134,13 +145,13 @@ def test_each_fault_raises_its_own_indicator_on_every_task(
 def test_healthy_task_changes_stay_within_a_few_spreads(stage: aw.MechanicsStage) -> None:
     # Measured worst case over these tasks: +2.36 spreads (viscous friction, heavy: 10 kg payload).
     for task in ("long_slow", "heavy", "inspect", "palletize"):
-        assert np.all(_shift(stage, aw.simulate_capture(task, seed=31)) < 3.0), task
+        assert np.all(_shift(stage, awd.simulate_capture(task, seed=31)) < 3.0), task
 
 
 def test_reversal_bursts_are_nan_where_the_torque_does_not_reverse() -> None:
     t = np.arange(0, 1, 1e-3)
     torque = 20 + np.sin(2 * np.pi * 3 * t)  # gravity holds one flank all the time
-    assert np.isnan(aw.reversal_bursts(torque, np.ones_like(t), 1000.0, t >= 0))
+    assert np.isnan(aw._mechanics.reversal_bursts(torque, np.ones_like(t), 1000.0, t >= 0))
 
 
 def test_reversal_bursts_only_count_the_selected_samples() -> None:
@@ -150,23 +161,25 @@ def test_reversal_bursts_only_count_the_selected_samples() -> None:
     band[[500, 1000, 1500]] = [3.0, 30.0, 3.0]
     late = t > 1.2  # only the reversal at 1.5 s
     expected = 3.0 / np.sqrt(2 * np.pi * 50)
-    assert aw.reversal_bursts(torque, band, 1000.0, late) == pytest.approx(expected, rel=1e-3)
+    assert aw._mechanics.reversal_bursts(torque, band, 1000.0, late) == pytest.approx(
+        expected, rel=1e-3
+    )
 
 
 def test_scales_of_the_wrong_length_are_rejected() -> None:
     with pytest.raises(ValueError, match=r"'scales' parameter of MechanicsStage must be 5"):
-        aw.MechanicsStage(scales=(1.0, 1.0)).fit(aw.simulate_capture("short_fast", seed=0))
+        aw.MechanicsStage(scales=(1.0, 1.0)).fit(awd.simulate_capture("short_fast", seed=0))
 
 
 def test_band_beyond_nyquist_is_rejected() -> None:
     with pytest.raises(
         ValueError, match=r"'band_hz' parameter of MechanicsStage.*Got \(40.0, 1500.0\)"
     ):
-        aw.MechanicsStage(band_hz=(40.0, 1500.0)).fit(aw.simulate_capture("short_fast", seed=0))
+        aw.MechanicsStage(band_hz=(40.0, 1500.0)).fit(awd.simulate_capture("short_fast", seed=0))
 
 
 def test_too_short_capture_is_rejected() -> None:
-    short = aw.simulate_capture("short_fast", duration_s=0.1, seed=0)
+    short = awd.simulate_capture("short_fast", duration_s=0.1, seed=0)
     with pytest.raises(aw.CaptureError, match="too short for the mechanics indicators"):
         aw.MechanicsStage().fit(short)
 
@@ -185,21 +198,21 @@ def test_baseline_without_motion_is_rejected() -> None:
 
 
 def test_a_capture_missing_a_direction_takes_the_baselines_row(stage: aw.MechanicsStage) -> None:
-    capture = aw.simulate_capture("long_slow", duration_s=0.9, phase_s=0.0, seed=3)  # forward only
+    capture = awd.simulate_capture("long_slow", duration_s=0.9, phase_s=0.0, seed=3)  # forward only
     X = stage.transform(capture).X
     assert stage.baseline_rows_ is not None
     np.testing.assert_array_equal(X[1], stage.baseline_rows_[1])
 
 
 def test_reversal_bursts_match_the_loop_twin() -> None:
-    capture = aw.simulate_capture("long_fast", fault=aw.Fault("backlash", 0.6), seed=4)
+    capture = awd.simulate_capture("long_fast", fault=awd.Fault("backlash", 0.6), seed=4)
     signals, rate = aw.resample_capture(capture, ("position", "speed", "torque"))
     speed, torque = signals[:, 1], signals[:, 2]
     from scipy.signal import butter, sosfiltfilt
 
     band = sosfiltfilt(butter(4, [40, 300], btype="bandpass", fs=rate, output="sos"), torque)
     where = np.abs(speed) > 0.1 * np.abs(speed).max()
-    fast = aw.reversal_bursts(torque, band, rate, where)
+    fast = aw._mechanics.reversal_bursts(torque, band, rate, where)
     assert np.isfinite(fast)
     assert fast == pytest.approx(naive.reversal_bursts(torque, band, rate, where, 10.0), rel=1e-12)
 

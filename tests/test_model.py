@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-from axiswatch._experiments import LAB_FEATURES
+import axiswatch.datasets as awd
+from axiswatch_lab._experiments import LAB_FEATURES
 
 
 def test_lab_dataset_flags_only_the_anomaly() -> None:
-    day1, *rest = aw.lab_dataset(seed=4)
+    day1, *rest = awd.lab_dataset(seed=4)
     model = aw.HealthModel(LAB_FEATURES, aw.LRADetector()).fit(day1.capture)
     model.calibrate([d.capture for d in rest if not d.anomalous], percentile=99)
     verdicts = {d.day: model.assess(d.capture) for d in rest}

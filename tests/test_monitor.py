@@ -12,15 +12,18 @@ from threadpoolctl import threadpool_limits
 from typer.testing import CliRunner
 
 import axiswatch as aw
+import axiswatch._mechanics
+import axiswatch.datasets as awd
 from axiswatch._calibration import HalfLaplaceFit
-from axiswatch._ledger import alarm_step, rebaseline
-from axiswatch._monitor import monitor_fleet
-from axiswatch._results import fleet_results, fleet_summary
-from axiswatch._robot import TASKS, simulate_capture
-from axiswatch._scoring import MonitorConfig
-from axiswatch._store import Store
+from axiswatch._mechanics import COLUMNS
 from axiswatch.cli import app
+from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._ledger import alarm_step, rebaseline
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._results import fleet_results, fleet_summary
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
 from tests.naive import alarm_states_naive
 
 
@@ -80,7 +83,7 @@ def test_baseline_calibration_and_threshold(fleet: Path, tmp_path: Path) -> None
     assert axis.threshold.iloc[1:].to_numpy() == pytest.approx(expected, rel=1e-12)
     reason = axis.reason.iloc[-1]
     assert reason.startswith("distance ")
-    assert "(99th pct of 5 healthy captures)" in reason
+    assert "(99th pct of the half-Laplace fit of 5 healthy captures)" in reason
     details = json.loads(axis.details.iloc[-1])
     assert set(details) >= {"phase_lag_samples", "phase_lag_s", "n_rows", "pvalue"}
 
@@ -234,13 +237,13 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     # The product default (docs/evaluation.md): friction develops on axis2 from day 8 (severity
     # 0.2 on day 8, 1.0 on day 12); axis1 stays healthy. Captures of 3 s (a task cycle at least).
     root = tmp_path / "fleet"
-    aw.simulate_fleet(
+    awd.simulate_fleet(
         root,
         n_robots=1,
         n_axes=2,
         n_days=12,
         task_change_days=(),
-        faults=[aw.FleetFault("robot01", "axis2", "friction", onset_day=8)],
+        faults=[awd.FleetFault("robot01", "axis2", "friction", onset_day=8)],
     )
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(root, store, MonitorConfig(method="mechanics"))
@@ -254,7 +257,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     assert params["align_phase"] is False
     # Same-task calibration gives a threshold below what healthy task changes need: the floor.
     floor = MonitorConfig(method="mechanics").threshold_floor()
-    assert floor == pytest.approx(aw.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
+    assert floor == pytest.approx(aw._mechanics.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
     assert (results.threshold.dropna() >= floor).all()
     # Every monitored capture carries its explanation; every reason names where its threshold
     # comes from (the floor, when the fit is lower) and, over it, the top indicator.
@@ -267,7 +270,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     for row in monitored.itertuples():
         details = json.loads(row.details)
         shares = [entry["share"] for entry in details["indicators"].values()]
-        assert set(details["indicators"]) == set(aw.COLUMNS)
+        assert set(details["indicators"]) == set(COLUMNS)
         assert sum(shares) == pytest.approx(1.0 if row.distance > 0 else 0.0, abs=1e-9)
         fitted = fits[row.robot + row.axis].threshold(99.0)
         origin = "task-change allowance" if row.threshold > fitted else "99th pct of the half"
@@ -282,7 +285,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
         app, ["results", "--store", str(tmp_path / "s.db"), "--axis", "axis2", "--indicators"]
     )
     header = shown.output.splitlines()[0].split()
-    assert header[-7:] == ["top_indicator", *aw.COLUMNS], header
+    assert header[-7:] == ["top_indicator", *COLUMNS], header
     assert "2026-03-12.parquet mechanics" in shown.output
 
 

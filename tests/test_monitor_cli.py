@@ -17,6 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
+import axiswatch._capture
 from axiswatch.cli import app
 
 runner = CliRunner()
@@ -65,7 +66,7 @@ def test_every_command_has_help() -> None:
 def _write_bad_captures(axis: Path, root: Path) -> dict[str, str]:
     """One file per bad-input case; returns the expected part of each rejection reason."""
     good = aw.read_capture(axis / "2026-03-02.parquet")
-    frame = aw.capture_to_frame(good)
+    frame = aw._capture.capture_to_frame(good)
     cases: dict[str, str] = {}
 
     def csv(name: str, table: pd.DataFrame, expected: str) -> None:

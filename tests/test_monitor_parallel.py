@@ -12,10 +12,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from axiswatch._monitor import monitor_fleet
-from axiswatch._results import fleet_results
-from axiswatch._scoring import MonitorConfig
-from axiswatch._store import Store
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._results import fleet_results
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
 
 _COMPARED = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]
 
@@ -59,8 +59,8 @@ def test_dask_local_cluster_equals_serial(
 def test_one_axis_per_chunk_equals_serial(
     serial: pd.DataFrame, small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import axiswatch._monitor
+    import axiswatch.monitor._monitor
 
-    monkeypatch.setattr(axiswatch._monitor, "_AXES_PER_CHUNK", 1)
+    monkeypatch.setattr(axiswatch.monitor._monitor, "_AXES_PER_CHUNK", 1)
     fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
     pd.testing.assert_frame_equal(_run(fleet, tmp_path / "k.db"), serial)

@@ -4,16 +4,36 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from types import ModuleType
+
+import pytest
 
 import axiswatch as aw
+import axiswatch.datasets
+import axiswatch.monitor
+import axiswatch_lab
+
+SUBPACKAGES = {"cli", "datasets", "exceptions", "monitor"}
 
 
-def test_all_is_sorted_and_complete() -> None:
-    assert aw.__all__ == sorted(aw.__all__)
-    for name in aw.__all__:
-        assert hasattr(aw, name), name
-    public = {n for n in dir(aw) if not n.startswith("_") and n not in ("exceptions", "cli")}
-    assert public - set(aw.__all__) <= {"annotations"}
+@pytest.mark.parametrize(
+    "namespace",
+    [aw, axiswatch.monitor, axiswatch.datasets, axiswatch_lab],
+    ids=lambda m: m.__name__,
+)
+def test_all_is_sorted_and_complete(namespace: ModuleType) -> None:
+    assert namespace.__all__ == sorted(namespace.__all__)
+    for name in namespace.__all__:
+        assert hasattr(namespace, name), name
+    public = {n for n in dir(namespace) if not n.startswith("_")} - SUBPACKAGES
+    assert public - set(namespace.__all__) <= {"annotations"}
+
+
+def test_top_namespace_is_the_library_in_about_forty_names() -> None:
+    # The fleet service, the data sets and the research package have namespaces of their own.
+    assert len(aw.__all__) <= 40
+    assert not set(aw.__all__) & set(axiswatch.datasets.__all__)
+    assert not set(aw.__all__) & set(axiswatch_lab.__all__)
 
 
 def test_import_has_no_side_effects() -> None:

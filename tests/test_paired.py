@@ -11,8 +11,10 @@ import pandas as pd
 import pytest
 
 import axiswatch as aw
+import axiswatch._mechanics
+import axiswatch_lab as lab
 from axiswatch._detectors import PCADetector
-from axiswatch._paired import DEFAULT_STAGES, PairedDesign, paired_evaluation
+from axiswatch_lab._paired import DEFAULT_STAGES, PairedDesign, paired_evaluation
 
 #: The columns of paired.csv, as the issue names them.
 PAIRED_COLUMNS = [
@@ -101,28 +103,28 @@ def test_command_writes_paired_csv_and_figure(tmp_path: Path) -> None:
 
 def test_mechanics_scales_are_those_of_the_development_protocol() -> None:
     # MECHANICS_SCALES is a constant of the code; it must be what the protocol measures.
-    np.testing.assert_allclose(aw.development_scales(), aw.MECHANICS_SCALES, rtol=5e-3)
+    np.testing.assert_allclose(lab.development_scales(), aw._mechanics.MECHANICS_SCALES, rtol=5e-3)
 
 
 def test_task_change_scale_is_that_of_the_development_protocol() -> None:
-    assert aw.development_task_change_scale() == pytest.approx(
-        aw.MECHANICS_TASK_CHANGE_SCALE, rel=5e-3
+    assert lab.development_task_change_scale() == pytest.approx(
+        aw._mechanics.MECHANICS_TASK_CHANGE_SCALE, rel=5e-3
     )
 
 
 def test_development_design_shares_no_task_or_seed_with_the_reported_one() -> None:
     reported = PairedDesign()
-    assert not set(aw.DEVELOPMENT_DESIGN.test_tasks) & set(reported.test_tasks)
-    assert aw.DEVELOPMENT_DESIGN.seed != reported.seed
+    assert not set(lab.DEVELOPMENT_DESIGN.test_tasks) & set(reported.test_tasks)
+    assert lab.DEVELOPMENT_DESIGN.seed != reported.seed
 
 
 def test_protocol_selects_the_mechanics_stage_with_the_indicator_detector() -> None:
     # Measured on the development design: worst AUROC 0.78 (mean 0.95, far99 0.00); the next
     # best is 0.56. The product default (STAGE_METHODS) is this choice.
-    ranking = aw.select_default()
+    ranking = lab.select_default()
     best = ranking.iloc[0]
     assert (best.features, best.method) == ("mechanics", "indicator")
     assert best.worst_auroc > ranking.iloc[1].worst_auroc + 0.1
-    from axiswatch._experiments import STAGE_METHODS
+    from axiswatch_lab._experiments import STAGE_METHODS
 
     assert STAGE_METHODS["mechanics"] == (aw.MechanicsStage, aw.IndicatorDetector)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
+import axiswatch.monitor as awm
 
 
 def _score(seed: int) -> tuple[int, float, int]:
@@ -40,14 +41,14 @@ ITEMS = list(range(6))
 
 @pytest.fixture(scope="module")
 def serial() -> dict[int, tuple[int, float]]:
-    results = list(aw.parallel_map(_score, ITEMS))
+    results = list(awm.parallel_map(_score, ITEMS))
     assert [index for index, _ in results] == ITEMS  # in order
     assert {pid for _, (_, _, pid) in results} == {os.getpid()}  # in process
     return {index: (seed, distance) for index, (seed, distance, _) in results}
 
 
 def test_processes_give_identical_results(serial: dict[int, tuple[int, float]]) -> None:
-    results = dict(aw.parallel_map(_score, iter(ITEMS), workers=2))
+    results = dict(awm.parallel_map(_score, iter(ITEMS), workers=2))
     assert {i: (seed, distance) for i, (seed, distance, _) in results.items()} == serial
     assert os.getpid() not in {pid for _, _, pid in results.values()}
 
@@ -60,8 +61,8 @@ def test_dask_local_cluster_gives_identical_results(serial: dict[int, tuple[int,
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
-        by_client = dict(aw.parallel_map(_score, ITEMS, dask=client))
-        by_address = dict(aw.parallel_map(_score, ITEMS, dask=cluster.scheduler_address))
+        by_client = dict(awm.parallel_map(_score, ITEMS, dask=client))
+        by_address = dict(awm.parallel_map(_score, ITEMS, dask=cluster.scheduler_address))
         assert client.status == "running"  # a given client is left open
     for results in (by_client, by_address):
         assert {i: (seed, distance) for i, (seed, distance, _) in results.items()} == serial
@@ -70,22 +71,22 @@ def test_dask_local_cluster_gives_identical_results(serial: dict[int, tuple[int,
 @pytest.mark.parametrize("workers", [1, 2])
 def test_errors_reach_the_caller(workers: int) -> None:
     with pytest.raises(ArithmeticError, match=r"item 3 failed"):
-        dict(aw.parallel_map(_fail_on_three, range(5), workers=workers))
+        dict(awm.parallel_map(_fail_on_three, range(5), workers=workers))
 
 
 @pytest.mark.parametrize("workers", [0, 1.5, True])
 def test_bad_workers(workers: object) -> None:
     with pytest.raises(ValueError, match=r"'workers' parameter must be an int >= 1. Got"):
-        aw.parallel_map(abs, [1], workers=workers)  # type: ignore[arg-type]
+        awm.parallel_map(abs, [1], workers=workers)  # type: ignore[arg-type]
 
 
 def test_bad_dask_option() -> None:
     pytest.importorskip("distributed")
     with pytest.raises(TypeError, match=r"'dask' parameter must be a scheduler address"):
-        aw.parallel_map(abs, [1], dask=8786)
+        awm.parallel_map(abs, [1], dask=8786)
 
 
 def test_dask_not_installed(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "distributed", None)
     with pytest.raises(ImportError, match=r"The 'dask' option needs dask.distributed"):
-        aw.parallel_map(abs, [1], dask="tcp://127.0.0.1:8786")
+        awm.parallel_map(abs, [1], dask="tcp://127.0.0.1:8786")

@@ -15,15 +15,17 @@ import pandas as pd
 import pytest
 
 import axiswatch as aw
+import axiswatch.datasets as awd
+import axiswatch_lab as lab
 
 from .conftest import SHARED_DATA
 
 
-def _dataset(name: str, recordings: list[str]) -> list[aw.Segment]:
+def _dataset(name: str, recordings: list[str]) -> list[awd.Segment]:
     folder = SHARED_DATA / name
     if not folder.is_dir():
         pytest.skip(f"{folder} is absent")
-    return aw.read_dataset(folder, recordings=recordings)
+    return awd.read_dataset(folder, recordings=recordings)
 
 
 @pytest.mark.realdata
@@ -31,8 +33,8 @@ def test_gearbox_reduced() -> None:
     segments = _dataset(
         "gearbox_spectraquest", ["healthy_load00", "healthy_load10", "broken_load10"]
     )
-    distances, table = aw.evaluate_dataset(
-        segments, aw.GEARBOX_FEATURES, methods=["pca", "energy"], baseline_conditions=["load00"]
+    distances, table = lab.evaluate_dataset(
+        segments, lab.GEARBOX_FEATURES, methods=["pca", "energy"], baseline_conditions=["load00"]
     )
     assert list(table.columns) == [
         "method",
@@ -60,7 +62,7 @@ def test_gearbox_reduced() -> None:
 @pytest.mark.realdata
 def test_cwru_reduced_has_no_healthy_other_condition() -> None:
     segments = _dataset("cwru_12k_de", ["normal_load0_12k", "IR007_load0", "B007_load1"])
-    distances, table = aw.evaluate_dataset(segments, aw.CWRU_FEATURES, methods=["energy"])
+    distances, table = lab.evaluate_dataset(segments, lab.CWRU_FEATURES, methods=["energy"])
     row = table.iloc[0]
     assert row.baseline_condition == "load0hp"
     assert math.isnan(row.auroc)
@@ -72,10 +74,10 @@ def test_cwru_reduced_has_no_healthy_other_condition() -> None:
     assert faults.min() > 20 * calibration.max()
 
 
-def _toy_segments(rng: np.random.Generator) -> list[aw.Segment]:
-    def segment(i: int, condition: str, healthy: bool, scale: float) -> aw.Segment:
+def _toy_segments(rng: np.random.Generator) -> list[awd.Segment]:
+    def segment(i: int, condition: str, healthy: bool, scale: float) -> awd.Segment:
         capture = aw.as_capture({"a": scale * rng.normal(size=256)}, 100.0)
-        return aw.Segment(f"s{i}", f"{condition}-{healthy}", condition, healthy, "x", i, capture)
+        return awd.Segment(f"s{i}", f"{condition}-{healthy}", condition, healthy, "x", i, capture)
 
     return [
         *(segment(i, "c0", True, 1.0) for i in range(4)),
@@ -88,7 +90,7 @@ def test_protocol_on_toy_segments(rng: np.random.Generator) -> None:
     spec = aw.FeatureSpec(
         signals=("a",), combinations="none", segment_length=16, hop=16, padding="valid"
     )
-    distances, table = aw.evaluate_dataset(
+    distances, table = lab.evaluate_dataset(
         _toy_segments(rng), spec, methods=["energy"], n_baseline_segments=2
     )
     assert (
@@ -103,7 +105,7 @@ def test_unknown_method(rng: np.random.Generator) -> None:
     with pytest.raises(
         ValueError, match=r"Unknown method\(s\) \['knn'\]; expected some of \['pca'"
     ):
-        aw.segment_distances(_toy_segments(rng), aw.FeatureSpec(), methods=["knn"])
+        lab.segment_distances(_toy_segments(rng), aw.FeatureSpec(), methods=["knn"])
 
 
 def test_baseline_condition_without_enough_healthy_data(rng: np.random.Generator) -> None:
@@ -112,7 +114,7 @@ def test_baseline_condition_without_enough_healthy_data(rng: np.random.Generator
         ValueError,
         match=r"'c1' needs at least 4 healthy segments .* it has 2. Conditions with healthy data: \['c0', 'c1'\]",
     ):
-        aw.segment_distances(
+        lab.segment_distances(
             _toy_segments(rng), spec, baseline_conditions=["c1"], n_baseline_segments=2
         )
 
@@ -128,7 +130,7 @@ def test_summary_of_a_dataset_without_healthy_other_condition() -> None:
             "threshold99": 10.0,
         }
     )
-    row = aw.summarize_distances(rows).iloc[0]
+    row = lab.summarize_distances(rows).iloc[0]
     assert math.isnan(row.auroc)
     assert math.isnan(row.far99)
     assert (row.dr95, row.dr99) == (1.0, 0.0)
@@ -138,10 +140,10 @@ def test_distance_figure(rng: np.random.Generator) -> None:
     spec = aw.FeatureSpec(
         signals=("a",), combinations="none", segment_length=16, hop=16, padding="valid"
     )
-    distances = aw.segment_distances(
+    distances = lab.segment_distances(
         _toy_segments(rng), spec, methods=["pca", "energy"], n_baseline_segments=2
     )
-    fig = aw.plot_distances(distances)
+    fig = lab.plot_distances(distances)
     assert len(fig.axes) == 2
     assert fig.axes[0].get_title() == "baseline c0"
 
@@ -169,7 +171,7 @@ def test_a_method_without_threshold_reports_nan() -> None:
             "threshold99": np.nan,
         }
     )
-    row = aw.summarize_distances(rows).iloc[0]
+    row = lab.summarize_distances(rows).iloc[0]
     assert math.isnan(row.dr95)
     assert math.isnan(row.dr99)
 
@@ -181,7 +183,7 @@ def test_zero_calibration_distances_give_no_threshold(rng: np.random.Generator) 
     spec = aw.FeatureSpec(
         signals=("a",), combinations="none", segment_length=16, hop=16, padding="valid"
     )
-    distances = aw.segment_distances(copies, spec, methods=["pca"], n_baseline_segments=2)
+    distances = lab.segment_distances(copies, spec, methods=["pca"], n_baseline_segments=2)
     assert distances.threshold99.isna().all()
 
 
@@ -195,7 +197,7 @@ def _cwru() -> Path:
 def test_bearing_lines_see_inner_race_faults_through_the_envelope_only() -> None:
     # Full run (all 38 recordings, `axiswatch experiment cwru-lines`): inner race AUROC 1.000 on
     # the envelope, 0.182 on the raw band; ball 0.758 / 0.203; outer race 0.370 / 0.157.
-    from axiswatch._realdata import bearing_line_readings, summarize_line_readings
+    from axiswatch_lab._realdata import bearing_line_readings, summarize_line_readings
 
     readings = bearing_line_readings(
         _cwru(), recordings=["normal_load0_12k", "IR007_load0", "IR007_load3"]
@@ -208,7 +210,7 @@ def test_bearing_lines_see_inner_race_faults_through_the_envelope_only() -> None
 
 
 def test_bearing_lines_need_the_shaft_speed(tmp_path: Path) -> None:
-    from axiswatch._realdata import bearing_line_readings
+    from axiswatch_lab._realdata import bearing_line_readings
 
     source = _cwru()
     index = pd.read_csv(source / "index.csv")

@@ -9,12 +9,12 @@ from pathlib import Path
 import pytest
 
 import axiswatch as aw
-from axiswatch._attention import AxisAttention, triage
-from axiswatch._monitor import monitor_fleet
-from axiswatch._report import write_report
-from axiswatch._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch._scoring import MonitorConfig
-from axiswatch._store import Store
+from axiswatch.monitor._attention import AxisAttention, triage
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._report import write_report
+from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
 from tests.test_monitor import faulty_copy
 
 PCA = MonitorConfig(method="pca")

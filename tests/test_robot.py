@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 import axiswatch as aw
-from axiswatch._robot import (
+import axiswatch.datasets as awd
+from axiswatch.datasets._robot import (
     _COULOMB,
     _COULOMB_GROWTH,
     _VISCOUS,
@@ -23,7 +24,7 @@ from axiswatch._robot import (
 
 
 def test_rates_lengths_and_metadata() -> None:
-    cap = aw.simulate_capture("heavy", duration_s=3.0, seed=3, metadata={"robot": "r7"})
+    cap = awd.simulate_capture("heavy", duration_s=3.0, seed=3, metadata={"robot": "r7"})
     assert cap.rates_hz == {"position": 250.0, "speed": 2000.0, "torque": 2000.0}
     assert [cap.signals[n].size for n in ("position", "speed", "torque")] == [750, 6000, 6000]
     assert cap.start_s == 0.0
@@ -33,35 +34,35 @@ def test_rates_lengths_and_metadata() -> None:
 
 
 def test_seed_makes_it_deterministic_and_phase_random() -> None:
-    a = aw.simulate_capture("light", seed=5)
-    b = aw.simulate_capture("light", seed=5)
-    c = aw.simulate_capture("light", seed=6)
+    a = awd.simulate_capture("light", seed=5)
+    b = awd.simulate_capture("light", seed=5)
+    c = awd.simulate_capture("light", seed=6)
     for name in a.names:
         np.testing.assert_array_equal(a.signals[name], b.signals[name])
     assert a.metadata["phase_s"] != c.metadata["phase_s"]
-    fixed = aw.simulate_capture("light", phase_s=0.2, seed=6)
+    fixed = awd.simulate_capture("light", phase_s=0.2, seed=6)
     assert fixed.metadata["phase_s"] == "0.200000"
 
 
-@pytest.mark.parametrize("task", list(aw.TASKS))
+@pytest.mark.parametrize("task", list(awd.TASKS))
 def test_healthy_axis_tracks_its_reference(task: str) -> None:
-    run = _simulate_axis(aw.TASKS[task], None, 3.0, 0.0)
+    run = _simulate_axis(awd.TASKS[task], None, 3.0, 0.0)
     # Measured 0.15-1.0 mrad (link side) over the eight tasks: a settled, well-tuned axis.
     assert np.abs(run.motor_position - run.reference_position).max() < 2e-3
-    assert np.ptp(run.reference_position) == pytest.approx(aw.TASKS[task].amplitude_rad, rel=1e-3)
+    assert np.ptp(run.reference_position) == pytest.approx(awd.TASKS[task].amplitude_rad, rel=1e-3)
 
 
 def test_tasks_are_varied() -> None:
-    tasks = list(aw.TASKS.values())
+    tasks = list(awd.TASKS.values())
     assert len(tasks) >= 8
     for field in ("amplitude_rad", "move_s", "payload_kg", "cycle_s"):
         assert len({getattr(t, field) for t in tasks}) >= 4, field
 
 
 def test_friction_raises_torque_at_speed_by_the_added_friction() -> None:
-    task = aw.TASKS["long_slow"]
+    task = awd.TASKS["long_slow"]
     healthy = _simulate_axis(task, None, 3.0, 0.0)
-    worn = _simulate_axis(task, aw.Fault("friction", 0.5), 3.0, 0.0)
+    worn = _simulate_axis(task, awd.Fault("friction", 0.5), 3.0, 0.0)
     speed = healthy.motor_speed
     cruising = np.abs(speed) > 0.8 * np.abs(speed).max()
     added = (worn.motor_torque - healthy.motor_torque)[cruising] * np.sign(speed[cruising])
@@ -74,8 +75,8 @@ def test_friction_raises_torque_at_speed_by_the_added_friction() -> None:
 
 @pytest.mark.parametrize("task", ["short_fast", "light", "inspect"])
 def test_backlash_shows_after_torque_reversals(task: str) -> None:
-    healthy = _simulate_axis(aw.TASKS[task], None, 3.0, 0.0)
-    loose = _simulate_axis(aw.TASKS[task], aw.Fault("backlash", 0.5), 3.0, 0.0)
+    healthy = _simulate_axis(awd.TASKS[task], None, 3.0, 0.0)
+    loose = _simulate_axis(awd.TASKS[task], awd.Fault("backlash", 0.5), 3.0, 0.0)
     energy = (loose.motor_torque - healthy.motor_torque) ** 2
     reversals = np.flatnonzero(np.diff(np.sign(healthy.transmission_torque)) != 0)
     after = np.zeros(energy.size, dtype=bool)
@@ -86,9 +87,9 @@ def test_backlash_shows_after_torque_reversals(task: str) -> None:
 
 
 def test_tooth_impacts_repeat_once_per_gear_revolution() -> None:
-    task = aw.TASKS["long_slow"]
+    task = awd.TASKS["long_slow"]
     healthy = _simulate_axis(task, None, 3.0, 0.0)
-    chipped = _simulate_axis(task, aw.Fault("tooth", 1.0), 3.0, 0.0)
+    chipped = _simulate_axis(task, awd.Fault("tooth", 1.0), 3.0, 0.0)
     impact = np.abs(chipped.motor_torque - healthy.motor_torque)
     strong = impact > 0.5 * impact.max()
     gear_angle = GEAR_RATIO * healthy.motor_position[strong] / TOOTH_STAGE_RATIO
@@ -100,9 +101,9 @@ def test_tooth_impacts_repeat_once_per_gear_revolution() -> None:
 
 
 def test_bearing_defect_is_at_its_order() -> None:
-    task = aw.TASKS["long_slow"]
+    task = awd.TASKS["long_slow"]
     healthy = _simulate_axis(task, None, 3.0, 0.0)
-    pitted = _simulate_axis(task, aw.Fault("bearing", 1.0), 3.0, 0.0)
+    pitted = _simulate_axis(task, awd.Fault("bearing", 1.0), 3.0, 0.0)
     added = pitted.motor_torque - healthy.motor_torque
     angle = GEAR_RATIO * healthy.motor_position
     moving = np.flatnonzero(healthy.motor_speed > 0.3 * healthy.motor_speed.max())
@@ -117,7 +118,7 @@ def test_bearing_defect_is_at_its_order() -> None:
 
 
 def test_simulated_captures_are_readable_in_the_file_format(tmp_path: Path) -> None:
-    cap = aw.simulate_capture("palletize", fault=aw.Fault("tooth", 0.3), seed=2)
+    cap = awd.simulate_capture("palletize", fault=awd.Fault("tooth", 0.3), seed=2)
     for suffix in (".parquet", ".csv"):
         back = aw.read_capture(aw.write_capture(cap, tmp_path / f"2026-03-01{suffix}"))
         assert back.rates_hz == pytest.approx(cap.rates_hz)
@@ -128,25 +129,25 @@ def test_simulated_captures_are_readable_in_the_file_format(tmp_path: Path) -> N
 
 def test_fault_and_task_validation() -> None:
     with pytest.raises(ValueError, match="'kind' parameter of Fault must be one of"):
-        aw.Fault("rust", 0.5)  # type: ignore[arg-type]
+        awd.Fault("rust", 0.5)  # type: ignore[arg-type]
     with pytest.raises(
         ValueError, match=r"'severity' parameter of Fault must be a float in \[0, 1\]"
     ):
-        aw.Fault("tooth", 1.5)
+        awd.Fault("tooth", 1.5)
     with pytest.raises(ValueError, match="Unknown task 'weld'"):
-        aw.simulate_capture("weld")
+        awd.simulate_capture("weld")
     with pytest.raises(ValueError, match=r"'duration_s' parameter must be a float >= 0\.1"):
-        aw.simulate_capture("heavy", duration_s=0.01)
+        awd.simulate_capture("heavy", duration_s=0.01)
 
 
 def test_fleet_layout_and_labels(tmp_path: Path) -> None:
-    labels = aw.simulate_fleet(
+    labels = awd.simulate_fleet(
         tmp_path,
         n_robots=2,
         n_axes=1,
         n_days=4,
         task_change_days=(3,),
-        faults=[aw.FleetFault("robot02", "axis1", "bearing", onset_day=2)],
+        faults=[awd.FleetFault("robot02", "axis1", "bearing", onset_day=2)],
         duration_s=0.5,
     )
     assert list(labels.columns) == ["robot", "axis", "capture", "date", "task", "fault", "severity"]
@@ -166,7 +167,7 @@ def test_fleet_layout_and_labels(tmp_path: Path) -> None:
 
 
 def test_default_fleet_has_task_change_and_faults(tmp_path: Path) -> None:
-    labels = aw.simulate_fleet(tmp_path, n_days=30, duration_s=0.2, file_format="csv")
+    labels = awd.simulate_fleet(tmp_path, n_days=30, duration_s=0.2, file_format="csv")
     assert len(labels) == 3 * 2 * 30
     assert (tmp_path / "robot03" / "axis2" / "2026-03-30.csv").is_file()
     assert set(labels.fault) == {"none", "bearing", "friction"}
@@ -175,10 +176,10 @@ def test_default_fleet_has_task_change_and_faults(tmp_path: Path) -> None:
 
 def test_fleet_validation(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="names an axis outside the fleet"):
-        aw.simulate_fleet(tmp_path, faults=[aw.FleetFault("robot09", "axis1", "tooth", 2)])
+        awd.simulate_fleet(tmp_path, faults=[awd.FleetFault("robot09", "axis1", "tooth", 2)])
     with pytest.raises(ValueError, match="'file_format' parameter must be 'parquet' or 'csv'"):
-        aw.simulate_fleet(tmp_path, file_format="xlsx")  # type: ignore[arg-type]
+        awd.simulate_fleet(tmp_path, file_format="xlsx")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="'start_date' parameter must be an ISO date"):
-        aw.simulate_fleet(tmp_path, start_date="March 1st")
+        awd.simulate_fleet(tmp_path, start_date="March 1st")
     with pytest.raises(ValueError, match="'n_days' parameter must be an int >= 1"):
-        aw.simulate_fleet(tmp_path, n_days=0)
+        awd.simulate_fleet(tmp_path, n_days=0)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from axiswatch._store import SCHEMA_VERSION, Store
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._store import SCHEMA_VERSION, Store
 
 
 def test_new_store_has_the_schema_and_wal(tmp_path: Path) -> None:

@@ -101,7 +101,8 @@ def explain_indicators(
 
     Examples
     --------
-    >>> from axiswatch import IndicatorDetector, MechanicsStage, simulate_capture
+    >>> from axiswatch import IndicatorDetector, MechanicsStage
+    >>> from axiswatch.datasets import simulate_capture
     >>> stage = MechanicsStage().fit(simulate_capture("short_fast", seed=0))
     >>> detector = IndicatorDetector().fit(stage.baseline_rows_)
     >>> X = stage.transform(simulate_capture("short_fast", seed=1)).X
@@ -207,7 +208,8 @@ def attribute(
     Examples
     --------
     >>> import numpy as np
-    >>> from axiswatch import FeatureSpec, PCADetector, features_from_signals
+    >>> from axiswatch import FeatureSpec, PCADetector
+    >>> from axiswatch._features import features_from_signals
     >>> rng = np.random.default_rng(0)
     >>> spec = FeatureSpec(signals=("a", "b"), combinations="none", segment_length=16, hop=8)
     >>> quiet = features_from_signals(rng.normal(size=(800, 2)), 100.0, spec)

@@ -56,8 +56,8 @@ from scipy.stats import kurtosis
 
 from axiswatch._capture import Capture
 from axiswatch._features import Features
-from axiswatch._indicators import FeatureStage
 from axiswatch._preprocessing import resample_capture
+from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
@@ -508,7 +508,7 @@ class MechanicsStage(FeatureStage):
 
     Examples
     --------
-    >>> from axiswatch import simulate_capture
+    >>> from axiswatch.datasets import simulate_capture
     >>> stage = MechanicsStage().fit(simulate_capture("short_fast", seed=0))
     >>> stage.transform(simulate_capture("heavy", seed=1)).X.shape
     (2, 6)

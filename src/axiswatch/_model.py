@@ -24,8 +24,8 @@ from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, LRADetector
 from axiswatch._features import Features, FeatureSpec, features_from_signals
-from axiswatch._indicators import FeatureStage
 from axiswatch._preprocessing import phase_lag, resample_capture
+from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CalibrationError
 
 __all__ = ["Assessment", "HealthModel"]

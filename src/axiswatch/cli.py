@@ -21,11 +21,6 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
-experiment_app = typer.Typer(
-    help="Reproduce the paper's experiments and the real-data evaluations.",
-    no_args_is_help=True,
-)
-app.add_typer(experiment_app, name="experiment")
 simulate_app = typer.Typer(
     help="Write simulated captures in the fleet layout.", no_args_is_help=True
 )
@@ -81,20 +76,8 @@ class Format(StrEnum):
     json = "json"
 
 
-def _print_lab(seed: int) -> None:
-    from axiswatch._experiments import lab_distances
-
-    table = lab_distances(seed=seed)
-    typer.echo("Lab dataset (paper): day 1 is the baseline; day 4 carries the torque anomaly;")
-    typer.echo("days 6-8 run the second operation (must not alarm).\n")
-    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    flagged = table[table.alarm].groupby("method").label.apply(list).to_dict()
-    for method in ("lra", "pca"):
-        typer.echo(f"{method}: alarms on {flagged.get(method, [])}")
-
-
 def _echo_summary(store: Any) -> None:
-    from axiswatch._results import fleet_summary
+    from axiswatch.monitor._results import fleet_summary
 
     summary = fleet_summary(store)
     if summary.empty:
@@ -140,9 +123,9 @@ def monitor(
     file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
     """
     from axiswatch._features import FeatureSpec
-    from axiswatch._monitor import monitor_fleet
-    from axiswatch._scoring import MonitorConfig
-    from axiswatch._store import Store
+    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor._store import Store
 
     with _failures(debug):
         config = MonitorConfig(
@@ -211,8 +194,8 @@ def results(
     """
     import json
 
-    from axiswatch._results import fleet_results, indicator_spreads
-    from axiswatch._store import Store
+    from axiswatch.monitor._results import fleet_results, indicator_spreads
+    from axiswatch.monitor._store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -259,8 +242,8 @@ def report(
     debug: bool = DEBUG,
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
-    from axiswatch._report import write_report
-    from axiswatch._store import Store
+    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor._store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -281,8 +264,8 @@ def rebaseline(
     debug: bool = DEBUG,
 ) -> None:
     """Retire an axis's baseline after maintenance; the next monitor run fits a new one."""
-    from axiswatch._ledger import rebaseline as retire
-    from axiswatch._store import Store
+    from axiswatch.monitor._ledger import rebaseline as retire
+    from axiswatch.monitor._store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -329,8 +312,8 @@ def ack(
     The report shows who saw it. With --rebaseline (after maintenance) the axis's baseline is
     also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
     """
-    from axiswatch._ledger import rebaseline as retire
-    from axiswatch._store import Store
+    from axiswatch.monitor._ledger import rebaseline as retire
+    from axiswatch.monitor._store import Store
 
     if list_:
         with _failures(debug):
@@ -384,7 +367,7 @@ def simulate_fleet_command(
     debug: bool = DEBUG,
 ) -> None:
     """Simulate a small fleet (task change on day 15, developing faults); labels in labels.csv."""
-    from axiswatch._robot import simulate_fleet
+    from axiswatch.datasets._robot import simulate_fleet
 
     with _failures(debug):
         labels = simulate_fleet(
@@ -415,11 +398,11 @@ def demo(
     """Simulate a fleet, monitor it with LRA and PCA, write the report; print the summary."""
     import tempfile
 
-    from axiswatch._monitor import monitor_fleet
-    from axiswatch._report import write_report
-    from axiswatch._robot import simulate_fleet
-    from axiswatch._scoring import MonitorConfig
-    from axiswatch._store import Store
+    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor._store import Store
 
     with _failures(debug):
         folder = Path(tempfile.mkdtemp(prefix="axiswatch-demo-")) if out is None else out
@@ -444,217 +427,19 @@ def demo(
         typer.echo(f"\nReport: {page}")
 
 
-@experiment_app.command("lab")
-def experiment_lab(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -> None:
-    """Distance of every day of the paper's lab dataset to day 1, with verdicts."""
-    _print_lab(seed)
+#: Entry-point group through which installed packages add command groups to ``axiswatch``
+#: (the research package adds ``experiment``); the CLI never imports them by name.
+PLUGIN_GROUP = "axiswatch.commands"
 
 
-_OUT = typer.Option(..., "--out", help="Folder for the figure (PNG) and the table (CSV).")
-_SEED = typer.Option(0, "--seed", help="Seed of every random draw of the experiment.")
+def _add_plugins() -> None:
+    from importlib.metadata import entry_points
 
-
-def _save(table: Any, figure: Any, out: Path, stem: str) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(out / f"{stem}.csv", index=False)
-    figure.savefig(out / f"{stem}.png", dpi=120, bbox_inches="tight")
-    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    typer.echo(f"\nWrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
-
-
-def _save_alarms(table: Any, out: Path) -> None:
-    from axiswatch._experiments import alarm_summary
-
-    alarms = alarm_summary(table)
-    alarms.to_csv(out / "alarms.csv", index=False)
-    typer.echo("\nAlarms (threshold: 99th percentile of days 2-6):")
-    typer.echo(alarms.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    typer.echo(f"Wrote {out / 'alarms.csv'}")
-
-
-@experiment_app.command("roc")
-def experiment_roc(
-    out: Path = _OUT,
-    seed: int = _SEED,
-    repetitions: int = typer.Option(10, help="Runs with fresh noise averaged (paper: 10)."),
-) -> None:
-    """Lab dataset ROC (paper fig. 2): TPR/FPR of LRA and PCA per calibration protocol."""
-    from axiswatch._experiments import lab_roc
-    from axiswatch._plotting import plot_roc
-
-    table = lab_roc(seed=seed, n_repetitions=repetitions)
-    _save(table, plot_roc(table), out, "roc")
-
-
-@experiment_app.command("robot-a")
-def experiment_robot_a(
-    out: Path = _OUT,
-    seed: int = _SEED,
-    days: int = typer.Option(190, help="Daily captures (paper: 190)."),
-) -> None:
-    """Robot A (paper fig. 3): healthy axis, task changes on days 30, 87 and 125."""
-    from axiswatch._experiments import robot_a
-    from axiswatch._plotting import plot_robot_study
-
-    table = robot_a(seed=seed, n_days=days)
-    _save(table, plot_robot_study(table, "Robot A"), out, "robot_a")
-    _save_alarms(table, out)
-
-
-@experiment_app.command("robot-b")
-def experiment_robot_b(
-    out: Path = _OUT,
-    seed: int = _SEED,
-    days: int = typer.Option(148, help="Daily captures before the breakdown (paper: 148)."),
-    fault: str = typer.Option("bearing", help="backlash, friction, tooth or bearing."),
-) -> None:
-    """Robot B (paper fig. 4): one task, a fault growing until breakdown."""
-    from axiswatch._experiments import robot_b
-    from axiswatch._plotting import plot_robot_study
-
-    table = robot_b(seed=seed, n_days=days, fault=fault)  # type: ignore[arg-type]
-    _save(table, plot_robot_study(table, "Robot B"), out, "robot_b")
-    _save_alarms(table, out)
-
-
-def _real_data_experiment(
-    name: str,
-    data: Path | None,
-    out: Path,
-    baseline_conditions: list[str] | None,
-    methods: list[str] | None,
-) -> None:
-    from axiswatch._datasets import default_data_dir, read_dataset
-    from axiswatch._realdata import (
-        CWRU_FEATURES,
-        GEARBOX_FEATURES,
-        evaluate_dataset,
-        plot_distances,
-    )
-
-    folder = default_data_dir(name) if data is None else data
-    try:
-        segments = read_dataset(folder)
-        distances, table = evaluate_dataset(
-            segments,
-            GEARBOX_FEATURES if name.startswith("gearbox") else CWRU_FEATURES,
-            baseline_conditions=baseline_conditions or None,
-            methods=methods or None,
-        )
-    except (OSError, ValueError) as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(1) from exc
-    out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(out / "summary.csv", index=False)
-    distances.to_csv(out / "distances.csv", index=False)
-    plot_distances(distances).savefig(out / "distances.png", dpi=80)
-    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    typer.echo(f"\nwrote {out / 'summary.csv'}, {out / 'distances.csv'}, {out / 'distances.png'}")
-
-
-_DATA_HELP = (
-    "Dataset folder (index.csv, days.csv, .npz); default ../shared/data/{} from the project root."
-)
-Out = Annotated[
-    Path, typer.Option("--out", help="Folder for summary.csv, distances.csv, distances.png.")
-]
-BaselineConditions = Annotated[
-    list[str] | None,
-    typer.Option(
-        "--baseline-condition",
-        help="Baseline condition (repeat for several); default every condition with enough healthy data.",
-    ),
-]
-Methods = Annotated[
-    list[str] | None,
-    typer.Option(
-        "--method", help="Method (repeat for several): pca, lra, energy, coral, sa; default all."
-    ),
-]
-
-
-@experiment_app.command("cwru-lines")
-def experiment_cwru_lines(
-    data: Annotated[
-        Path | None, typer.Option("--data", help=_DATA_HELP.format("cwru_12k_de"))
-    ] = None,
-    out: Annotated[Path, typer.Option("--out", help="Folder for lines.csv, summary.csv.")] = Path(
-        "out"
-    ),
-) -> None:
-    """The default's bearing-line indicator on CWRU (raw band and envelope), fault vs healthy."""
-    from axiswatch._datasets import default_data_dir
-    from axiswatch._realdata import bearing_line_readings, summarize_line_readings
-
-    folder = default_data_dir("cwru_12k_de") if data is None else data
-    try:
-        readings = bearing_line_readings(folder)
-    except (OSError, ValueError) as exc:
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(1) from exc
-    summary = summarize_line_readings(readings)
-    out.mkdir(parents=True, exist_ok=True)
-    readings.to_csv(out / "lines.csv", index=False)
-    summary.to_csv(out / "summary.csv", index=False)
-    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    typer.echo(f"\nwrote {out / 'lines.csv'}, {out / 'summary.csv'}")
-
-
-@experiment_app.command("paired")
-def experiment_paired(
-    out: Path = _OUT,
-    seed: int = _SEED,
-    per_cell: int = typer.Option(3, help="Captures per (task, health) cell."),
-    oracle: bool = typer.Option(True, help="Also fit on each test task's own healthy capture."),
-) -> None:
-    """Paired evaluation: does a detector see the fault rather than the task? (beyond the paper)"""
-    from axiswatch._paired import PairedDesign, paired_evaluation
-    from axiswatch._plotting import plot_paired
-
-    table = paired_evaluation(PairedDesign(n_per_cell=per_cell, seed=seed), oracle=oracle)
-    _save(table, plot_paired(table), out, "paired")
-
-
-@experiment_app.command("select")
-def experiment_select(out: Path = _OUT) -> None:
-    """Choose the product default: rank every feature stage x detector on the development design."""
-    from axiswatch._paired import development_scales, select_default
-
-    ranking = select_default()
-    out.mkdir(parents=True, exist_ok=True)
-    ranking.to_csv(out / "selection.csv", index=False)
-    typer.echo(ranking.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    scales = ", ".join(f"{v:.4g}" for v in development_scales())
-    typer.echo(f"\nMechanics indicator scales on the development design: ({scales})")
-    typer.echo(f"Wrote {out / 'selection.csv'}")
-
-
-@experiment_app.command("gearbox")
-def experiment_gearbox(
-    data: Annotated[
-        Path | None, typer.Option("--data", help=_DATA_HELP.format("gearbox_spectraquest"))
-    ] = None,
-    out: Out = Path("out"),
-    baseline_condition: BaselineConditions = None,
-    method: Methods = None,
-) -> None:
-    """Gearbox (healthy vs broken tooth at several loads): baseline on one load, test on all."""
-    _real_data_experiment("gearbox_spectraquest", data, out, baseline_condition, method)
-
-
-@experiment_app.command("cwru")
-def experiment_cwru(
-    data: Annotated[
-        Path | None, typer.Option("--data", help=_DATA_HELP.format("cwru_12k_de"))
-    ] = None,
-    out: Out = Path("out"),
-    baseline_condition: BaselineConditions = None,
-    method: Methods = None,
-) -> None:
-    """CWRU bearings (healthy only at 0 HP): fault sensitivity across loads."""
-    _real_data_experiment("cwru_12k_de", data, out, baseline_condition, method)
+    for entry in entry_points(group=PLUGIN_GROUP):
+        app.add_typer(entry.load(), name=entry.name)
 
 
 def main() -> None:
     """Entry point of the ``axiswatch`` script."""
+    _add_plugins()
     sys.exit(app())

@@ -5,7 +5,7 @@ charts' library (plotly.js) is embedded once, inline, so the page opens from a f
 server and no network. From top to bottom:
 
 1. **Needs attention now**: the axes in alarm, with bad data, stale or with an acknowledged alarm
-   (:func:`axiswatch._attention.triage`), ranked, one engineer's line each (what moved, by how
+   (:func:`axiswatch.monitor._attention.triage`), ranked, one engineer's line each (what moved, by how
    much against its healthy spread, since when, what it likely means), each a link to its axis;
    the healthy axes folded underneath with their last capture. The product default (mechanics)
    leads; the paper's methods (PCA, LRA) are in a folded section of their own.
@@ -25,10 +25,10 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._attention import METHOD_ORDER, AxisAttention, lead_method, triage
-from axiswatch._charts import distance_chart, plotly_library
-from axiswatch._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch._store import Store
+from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_method, triage
+from axiswatch.monitor._charts import distance_chart, plotly_library
+from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor._store import Store
 
 __all__ = ["write_report"]
 
@@ -216,7 +216,7 @@ def write_report(
         Ground truth of a simulated fleet (``robot``, ``axis``, ``date``, ``task``, ``fault``);
         task changes and faulty captures are then marked on each trend.
     stale_factor : float, default=3.0
-        See :func:`axiswatch._attention.triage`.
+        See :func:`axiswatch.monitor._attention.triage`.
 
     Returns
     -------

@@ -38,12 +38,16 @@ from scipy.signal import butter, hilbert, sosfiltfilt
 from sklearn.metrics import roc_auc_score
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._datasets import Segment, read_dataset
 from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
-from axiswatch._domain_adaptation import CORALDetector, EnergyDetector, SubspaceAlignmentDetector
 from axiswatch._features import FeatureSpec, extract_features
 from axiswatch._mechanics import bearing_lines
+from axiswatch.datasets._recorded import Segment, read_dataset
 from axiswatch.exceptions import CalibrationError, DataNotFoundError
+from axiswatch_lab._domain_adaptation import (
+    CORALDetector,
+    EnergyDetector,
+    SubspaceAlignmentDetector,
+)
 
 __all__ = [
     "CWRU_FEATURES",

@@ -1,7 +1,7 @@
 """One capture's work: the monitor's parameters and the self-contained jobs that score captures.
 
 Pipeline stage below the monitor's driver. A job carries everything it needs (file, fitted model,
-expected rates), runs in any process (``axiswatch._parallel.parallel_map``) on one BLAS thread,
+expected rates), runs in any process (``axiswatch.monitor._parallel.parallel_map``) on one BLAS thread,
 and returns an outcome or an error record: it never raises for a bad capture.
 """
 
@@ -21,11 +21,11 @@ from axiswatch._calibration import half_laplace_threshold
 from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
-from axiswatch._fleet import FleetFile
-from axiswatch._indicators import FeatureStage
 from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._model import HealthModel
+from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import AxiswatchError
+from axiswatch.monitor._fleet import FleetFile
 
 __all__ = [
     "MONITOR_FEATURES",

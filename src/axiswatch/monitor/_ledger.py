@@ -16,9 +16,9 @@ from importlib.metadata import PackageNotFoundError, version
 
 from axiswatch._attribution import describe_top_indicator
 from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
-from axiswatch._scoring import FitOutcome, MonitorConfig, ScoreOutcome
-from axiswatch._store import Store
 from axiswatch.exceptions import CalibrationError, StoreError
+from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome
+from axiswatch.monitor._store import Store
 
 __all__ = [
     "alarm_step",

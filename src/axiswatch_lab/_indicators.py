@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 import scipy.linalg
@@ -35,18 +34,17 @@ from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
 from axiswatch._capture import Capture
-from axiswatch._features import Features, FeatureSpec, extract_features, stft_features
+from axiswatch._features import Features, stft_features
 from axiswatch._preprocessing import resample_capture
+from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "STATES",
     "AxisModel",
-    "FeatureStage",
     "OrderStage",
     "ResidualStage",
     "StateStage",
-    "StftStage",
     "fit_axis_model",
     "operating_states",
 ]
@@ -63,22 +61,6 @@ STATES: tuple[str, ...] = (
     "decelerate-",
 )
 _REGRESSORS: tuple[str, ...] = ("acceleration", "speed", "coulomb", "cos_q", "sin_q", "offset")
-
-
-class FeatureStage(Protocol):
-    """What a detector needs from a feature stage: fit on the baseline, then transform captures.
-
-    The stages of the project subclass it to inherit :meth:`fit_transform`, which a stage that
-    keeps its baseline's features overrides so that they are not computed twice.
-    """
-
-    def fit(self, baseline: Capture) -> FeatureStage: ...
-
-    def transform(self, capture: Capture) -> Features: ...
-
-    def fit_transform(self, baseline: Capture) -> Features:
-        """Fit on the baseline and return its features."""
-        return self.fit(baseline).transform(baseline)
 
 
 @dataclass(frozen=True)
@@ -256,25 +238,6 @@ def _state_rows(
 def _bands(n_bins: int, n_bands: int) -> list[slice]:
     edges = np.unique(np.round(np.linspace(1, n_bins, n_bands + 1)).astype(int))
     return [slice(lo, hi) for lo, hi in itertools.pairwise(edges)]
-
-
-class StftStage(FeatureStage):
-    """The paper's |STFT| features as a stage (no fitting needed).
-
-    Examples
-    --------
-    >>> StftStage(FeatureSpec(segment_length=32)).spec.segment_length
-    32
-    """
-
-    def __init__(self, spec: FeatureSpec | None = None) -> None:
-        self.spec = FeatureSpec() if spec is None else spec
-
-    def fit(self, baseline: Capture) -> StftStage:
-        return self
-
-    def transform(self, capture: Capture) -> Features:
-        return extract_features(capture, self.spec)
 
 
 class ResidualStage(FeatureStage):

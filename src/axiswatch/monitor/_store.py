@@ -213,7 +213,7 @@ class Store:
     >>> import tempfile, pathlib
     >>> store = Store(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
     >>> store.version, store.rows("SELECT count(*) AS n FROM scores")[0]["n"]
-    (1, 0)
+    (2, 0)
     >>> store.close()
     """
 

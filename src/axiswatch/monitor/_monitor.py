@@ -20,7 +20,7 @@ one detection method:
 The driver process alone writes the store, one transaction per capture, committed in capture
 order per axis and computing the role, threshold and alarm state from what the store holds at
 that moment; scoring itself (read, features, distance) goes through
-:func:`axiswatch._parallel.parallel_map`. Hence a killed run resumes exactly, and a second
+:func:`axiswatch.monitor._parallel.parallel_map`. Hence a killed run resumes exactly, and a second
 process on the same store skips what the first has written.
 """
 
@@ -33,11 +33,12 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from axiswatch._fleet import FleetFile, discover_fleet
-from axiswatch._ledger import commit_score, insert_baseline, now, params_json, reject
 from axiswatch._model import HealthModel
-from axiswatch._parallel import parallel_map
-from axiswatch._scoring import (
+from axiswatch.exceptions import StoreError
+from axiswatch.monitor._fleet import FleetFile, discover_fleet
+from axiswatch.monitor._ledger import commit_score, insert_baseline, now, params_json, reject
+from axiswatch.monitor._parallel import parallel_map
+from axiswatch.monitor._scoring import (
     FitJob,
     MonitorConfig,
     ScoreJob,
@@ -46,8 +47,7 @@ from axiswatch._scoring import (
     fit_baseline,
     score_capture,
 )
-from axiswatch._store import AlarmState, Store
-from axiswatch.exceptions import StoreError
+from axiswatch.monitor._store import AlarmState, Store
 
 __all__ = ["MonitorSummary", "monitor_fleet"]
 
@@ -190,7 +190,7 @@ def monitor_fleet(
         Where results go (and what was done before).
     config : MonitorConfig, optional
     workers, dask
-        Passed to :func:`axiswatch._parallel.parallel_map`.
+        Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
     progress : callable (stage, done, total), optional
         Called as baselines are fitted and captures scored.
 

@@ -33,10 +33,11 @@ from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
-from axiswatch._indicators import FeatureStage, OrderStage, ResidualStage, StateStage, StftStage
 from axiswatch._mechanics import INDICATORS, MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
-from axiswatch._robot import FAULT_KINDS, Fault, Task, simulate_capture
+from axiswatch._stages import FeatureStage, StftStage
+from axiswatch.datasets._robot import FAULT_KINDS, Fault, Task, simulate_capture
 from axiswatch.exceptions import CaptureError
+from axiswatch_lab._indicators import OrderStage, ResidualStage, StateStage
 
 __all__ = [
     "DEFAULT_METHODS",

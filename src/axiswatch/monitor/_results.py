@@ -13,9 +13,9 @@ import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
 from axiswatch._calibration import HalfLaplaceFit
-from axiswatch._ledger import describe_threshold
 from axiswatch._mechanics import COLUMNS
-from axiswatch._store import Store
+from axiswatch.monitor._ledger import describe_threshold
+from axiswatch.monitor._store import Store
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
@@ -87,7 +87,7 @@ def fleet_summary(store: Store) -> Any:
     ``scored`` (calibration and monitored captures), ``over`` (captures over the threshold),
     ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``state``
     (``calibrating``, ``ok`` or ``ALARM``), ``rejected`` (files of the axis rejected),
-    ``threshold_origin`` (:func:`~axiswatch._ledger.describe_threshold`), ``alarm_since`` (the
+    ``threshold_origin`` (:func:`~axiswatch.monitor._ledger.describe_threshold`), ``alarm_since`` (the
     capture that raised the alarm in force) and ``acknowledged_by`` (who saw it, if anyone).
     """
     frame = store.frame(

@@ -25,7 +25,7 @@ from typing import Any
 import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
-from axiswatch._store import AlarmState
+from axiswatch.monitor._store import AlarmState
 
 __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 
@@ -127,11 +127,11 @@ def triage(
     Parameters
     ----------
     summary : DataFrame
-        :func:`~axiswatch._results.fleet_summary`.
+        :func:`~axiswatch.monitor._results.fleet_summary`.
     results : DataFrame
-        :func:`~axiswatch._results.fleet_results`.
+        :func:`~axiswatch.monitor._results.fleet_results`.
     rejections : DataFrame
-        :func:`~axiswatch._results.fleet_rejections`.
+        :func:`~axiswatch.monitor._results.fleet_rejections`.
     changed : DataFrame
         ``Store.changed_files()``.
     alarms : sequence of AlarmState

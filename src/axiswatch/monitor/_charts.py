@@ -1,7 +1,7 @@
 """Interactive trend charts of the report (Plotly; its JavaScript is embedded in the page once).
 
 Pipeline side-stage of the report. Each function takes rows of
-:func:`~axiswatch._results.fleet_results` and returns an HTML ``<div>`` that draws itself with
+:func:`~axiswatch.monitor._results.fleet_results` and returns an HTML ``<div>`` that draws itself with
 ``Plotly.newPlot`` when the page holds the library (:func:`plotly_library`), so the report is one
 file that opens from a file share with no server and no network. Zoom, pan and hover (capture,
 value, reason) come from Plotly; nothing here draws pixels.
@@ -75,7 +75,7 @@ def distance_chart(
     Parameters
     ----------
     rows : DataFrame
-        :func:`~axiswatch._results.fleet_results` rows of one axis (one or more methods).
+        :func:`~axiswatch.monitor._results.fleet_results` rows of one axis (one or more methods).
     div_id : str
         Id of the chart's ``<div>`` (unique in the page).
     indicators : bool

@@ -20,11 +20,11 @@ from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec, extract_features
-from axiswatch._indicators import FeatureStage
 from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._model import HealthModel
-from axiswatch._robot import Fault, FaultKind, simulate_capture
-from axiswatch._simulate import LAB_DAYS, lab_dataset
+from axiswatch._stages import FeatureStage
+from axiswatch.datasets._lab import LAB_DAYS, lab_dataset
+from axiswatch.datasets._robot import Fault, FaultKind, simulate_capture
 from axiswatch.exceptions import CalibrationError
 
 __all__ = [

@@ -1,0 +1,50 @@
+"""The fleet service: monitor a folder of capture files, remember every score, raise alarms.
+
+``monitor_fleet(root, store, config)`` discovers ``ROOT/<robot>/<axis>/<capture>`` files, fits each
+axis's baseline, calibrates its threshold, scores new captures and records the results in a
+:class:`Store`; ``fleet_summary``, ``fleet_results`` and ``write_report`` read them back.
+"""
+
+from axiswatch.monitor._fleet import (
+    FleetFile,
+    discover_fleet,
+    parse_capture_time,
+)
+from axiswatch.monitor._ledger import (
+    rebaseline,
+)
+from axiswatch.monitor._monitor import (
+    MonitorSummary,
+    monitor_fleet,
+)
+from axiswatch.monitor._parallel import (
+    parallel_map,
+)
+from axiswatch.monitor._report import (
+    write_report,
+)
+from axiswatch.monitor._results import (
+    fleet_results,
+    fleet_summary,
+)
+from axiswatch.monitor._scoring import (
+    MonitorConfig,
+)
+from axiswatch.monitor._store import (
+    Store,
+)
+
+__all__ = [
+    "FleetFile",
+    "MonitorConfig",
+    "MonitorSummary",
+    "Store",
+    "discover_fleet",
+    "fleet_results",
+    "fleet_summary",
+    "monitor_fleet",
+    "parallel_map",
+    "parse_capture_time",
+    "rebaseline",
+    "write_report",
+]

@@ -1,0 +1,83 @@
+"""axiswatch_lab: the research around axiswatch (depends on it; axiswatch never imports this).
+
+The paper's experiments (lab ROC, Robot A and B), the paired task-versus-fault evaluation and the
+development protocol that chose the product default, the real-data studies (gearbox, CWRU), the
+research feature stages and the domain-adaptation detectors. Commands: ``axiswatch-lab`` or
+``axiswatch experiment``.
+"""
+
+from axiswatch_lab._domain_adaptation import (
+    CORALDetector,
+    EnergyDetector,
+    SubspaceAlignmentDetector,
+    energy_distance,
+)
+from axiswatch_lab._experiments import (
+    alarm_summary,
+)
+from axiswatch_lab._indicators import (
+    STATES,
+    AxisModel,
+    OrderStage,
+    ResidualStage,
+    StateStage,
+    fit_axis_model,
+    operating_states,
+)
+from axiswatch_lab._paired import (
+    DEVELOPMENT_DESIGN,
+    PairedDesign,
+    development_scales,
+    development_task_change_scale,
+    paired_evaluation,
+    select_default,
+)
+from axiswatch_lab._plots import (
+    plot_paired,
+    plot_robot_study,
+    plot_roc,
+)
+from axiswatch_lab._realdata import (
+    CWRU_FEATURES,
+    GEARBOX_FEATURES,
+    REAL_DATA_METHODS,
+    bearing_line_readings,
+    evaluate_dataset,
+    plot_distances,
+    segment_distances,
+    summarize_distances,
+    summarize_line_readings,
+)
+
+__all__ = [
+    "AxisModel",
+    "CORALDetector",
+    "CWRU_FEATURES",
+    "DEVELOPMENT_DESIGN",
+    "EnergyDetector",
+    "GEARBOX_FEATURES",
+    "OrderStage",
+    "PairedDesign",
+    "REAL_DATA_METHODS",
+    "ResidualStage",
+    "STATES",
+    "StateStage",
+    "SubspaceAlignmentDetector",
+    "alarm_summary",
+    "bearing_line_readings",
+    "development_scales",
+    "development_task_change_scale",
+    "energy_distance",
+    "evaluate_dataset",
+    "fit_axis_model",
+    "operating_states",
+    "paired_evaluation",
+    "plot_distances",
+    "plot_paired",
+    "plot_robot_study",
+    "plot_roc",
+    "segment_distances",
+    "select_default",
+    "summarize_distances",
+    "summarize_line_readings",
+]

@@ -1,0 +1,245 @@
+"""The research package's commands: ``axiswatch-lab ...`` and, as a plugin, ``axiswatch experiment ...``.
+
+Maps options to the experiments of :mod:`axiswatch_lab`; no science here.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+experiment_app = typer.Typer(
+    help="Reproduce the paper's experiments and the real-data evaluations.",
+    no_args_is_help=True,
+)
+
+
+def _print_lab(seed: int) -> None:
+    from axiswatch_lab._experiments import lab_distances
+
+    table = lab_distances(seed=seed)
+    typer.echo("Lab dataset (paper): day 1 is the baseline; day 4 carries the torque anomaly;")
+    typer.echo("days 6-8 run the second operation (must not alarm).\n")
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    flagged = table[table.alarm].groupby("method").label.apply(list).to_dict()
+    for method in ("lra", "pca"):
+        typer.echo(f"{method}: alarms on {flagged.get(method, [])}")
+
+
+@experiment_app.command("lab")
+def experiment_lab(seed: int = typer.Option(0, help="Seed of the lab dataset's noise.")) -> None:
+    """Distance of every day of the paper's lab dataset to day 1, with verdicts."""
+    _print_lab(seed)
+
+
+_OUT = typer.Option(..., "--out", help="Folder for the figure (PNG) and the table (CSV).")
+_SEED = typer.Option(0, "--seed", help="Seed of every random draw of the experiment.")
+
+
+def _save(table: Any, figure: Any, out: Path, stem: str) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / f"{stem}.csv", index=False)
+    figure.savefig(out / f"{stem}.png", dpi=120, bbox_inches="tight")
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    typer.echo(f"\nWrote {out / (stem + '.csv')} and {out / (stem + '.png')}")
+
+
+def _save_alarms(table: Any, out: Path) -> None:
+    from axiswatch_lab._experiments import alarm_summary
+
+    alarms = alarm_summary(table)
+    alarms.to_csv(out / "alarms.csv", index=False)
+    typer.echo("\nAlarms (threshold: 99th percentile of days 2-6):")
+    typer.echo(alarms.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    typer.echo(f"Wrote {out / 'alarms.csv'}")
+
+
+@experiment_app.command("roc")
+def experiment_roc(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    repetitions: int = typer.Option(10, help="Runs with fresh noise averaged (paper: 10)."),
+) -> None:
+    """Lab dataset ROC (paper fig. 2): TPR/FPR of LRA and PCA per calibration protocol."""
+    from axiswatch_lab._experiments import lab_roc
+    from axiswatch_lab._plots import plot_roc
+
+    table = lab_roc(seed=seed, n_repetitions=repetitions)
+    _save(table, plot_roc(table), out, "roc")
+
+
+@experiment_app.command("robot-a")
+def experiment_robot_a(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    days: int = typer.Option(190, help="Daily captures (paper: 190)."),
+) -> None:
+    """Robot A (paper fig. 3): healthy axis, task changes on days 30, 87 and 125."""
+    from axiswatch_lab._experiments import robot_a
+    from axiswatch_lab._plots import plot_robot_study
+
+    table = robot_a(seed=seed, n_days=days)
+    _save(table, plot_robot_study(table, "Robot A"), out, "robot_a")
+    _save_alarms(table, out)
+
+
+@experiment_app.command("robot-b")
+def experiment_robot_b(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    days: int = typer.Option(148, help="Daily captures before the breakdown (paper: 148)."),
+    fault: str = typer.Option("bearing", help="backlash, friction, tooth or bearing."),
+) -> None:
+    """Robot B (paper fig. 4): one task, a fault growing until breakdown."""
+    from axiswatch_lab._experiments import robot_b
+    from axiswatch_lab._plots import plot_robot_study
+
+    table = robot_b(seed=seed, n_days=days, fault=fault)  # type: ignore[arg-type]
+    _save(table, plot_robot_study(table, "Robot B"), out, "robot_b")
+    _save_alarms(table, out)
+
+
+def _real_data_experiment(
+    name: str,
+    data: Path | None,
+    out: Path,
+    baseline_conditions: list[str] | None,
+    methods: list[str] | None,
+) -> None:
+    from axiswatch.datasets._recorded import default_data_dir, read_dataset
+    from axiswatch_lab._realdata import (
+        CWRU_FEATURES,
+        GEARBOX_FEATURES,
+        evaluate_dataset,
+        plot_distances,
+    )
+
+    folder = default_data_dir(name) if data is None else data
+    try:
+        segments = read_dataset(folder)
+        distances, table = evaluate_dataset(
+            segments,
+            GEARBOX_FEATURES if name.startswith("gearbox") else CWRU_FEATURES,
+            baseline_conditions=baseline_conditions or None,
+            methods=methods or None,
+        )
+    except (OSError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(1) from exc
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "summary.csv", index=False)
+    distances.to_csv(out / "distances.csv", index=False)
+    plot_distances(distances).savefig(out / "distances.png", dpi=80)
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'summary.csv'}, {out / 'distances.csv'}, {out / 'distances.png'}")
+
+
+_DATA_HELP = (
+    "Dataset folder (index.csv, days.csv, .npz); default ../shared/data/{} from the project root."
+)
+Out = Annotated[
+    Path, typer.Option("--out", help="Folder for summary.csv, distances.csv, distances.png.")
+]
+BaselineConditions = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--baseline-condition",
+        help="Baseline condition (repeat for several); default every condition with enough healthy data.",
+    ),
+]
+Methods = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--method", help="Method (repeat for several): pca, lra, energy, coral, sa; default all."
+    ),
+]
+
+
+@experiment_app.command("cwru-lines")
+def experiment_cwru_lines(
+    data: Annotated[
+        Path | None, typer.Option("--data", help=_DATA_HELP.format("cwru_12k_de"))
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", help="Folder for lines.csv, summary.csv.")] = Path(
+        "out"
+    ),
+) -> None:
+    """The default's bearing-line indicator on CWRU (raw band and envelope), fault vs healthy."""
+    from axiswatch.datasets._recorded import default_data_dir
+    from axiswatch_lab._realdata import bearing_line_readings, summarize_line_readings
+
+    folder = default_data_dir("cwru_12k_de") if data is None else data
+    try:
+        readings = bearing_line_readings(folder)
+    except (OSError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(1) from exc
+    summary = summarize_line_readings(readings)
+    out.mkdir(parents=True, exist_ok=True)
+    readings.to_csv(out / "lines.csv", index=False)
+    summary.to_csv(out / "summary.csv", index=False)
+    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'lines.csv'}, {out / 'summary.csv'}")
+
+
+@experiment_app.command("paired")
+def experiment_paired(
+    out: Path = _OUT,
+    seed: int = _SEED,
+    per_cell: int = typer.Option(3, help="Captures per (task, health) cell."),
+    oracle: bool = typer.Option(True, help="Also fit on each test task's own healthy capture."),
+) -> None:
+    """Paired evaluation: does a detector see the fault rather than the task? (beyond the paper)"""
+    from axiswatch_lab._paired import PairedDesign, paired_evaluation
+    from axiswatch_lab._plots import plot_paired
+
+    table = paired_evaluation(PairedDesign(n_per_cell=per_cell, seed=seed), oracle=oracle)
+    _save(table, plot_paired(table), out, "paired")
+
+
+@experiment_app.command("select")
+def experiment_select(out: Path = _OUT) -> None:
+    """Choose the product default: rank every feature stage x detector on the development design."""
+    from axiswatch_lab._paired import development_scales, select_default
+
+    ranking = select_default()
+    out.mkdir(parents=True, exist_ok=True)
+    ranking.to_csv(out / "selection.csv", index=False)
+    typer.echo(ranking.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    scales = ", ".join(f"{v:.4g}" for v in development_scales())
+    typer.echo(f"\nMechanics indicator scales on the development design: ({scales})")
+    typer.echo(f"Wrote {out / 'selection.csv'}")
+
+
+@experiment_app.command("gearbox")
+def experiment_gearbox(
+    data: Annotated[
+        Path | None, typer.Option("--data", help=_DATA_HELP.format("gearbox_spectraquest"))
+    ] = None,
+    out: Out = Path("out"),
+    baseline_condition: BaselineConditions = None,
+    method: Methods = None,
+) -> None:
+    """Gearbox (healthy vs broken tooth at several loads): baseline on one load, test on all."""
+    _real_data_experiment("gearbox_spectraquest", data, out, baseline_condition, method)
+
+
+@experiment_app.command("cwru")
+def experiment_cwru(
+    data: Annotated[
+        Path | None, typer.Option("--data", help=_DATA_HELP.format("cwru_12k_de"))
+    ] = None,
+    out: Out = Path("out"),
+    baseline_condition: BaselineConditions = None,
+    method: Methods = None,
+) -> None:
+    """CWRU bearings (healthy only at 0 HP): fault sensitivity across loads."""
+    _real_data_experiment("cwru_12k_de", data, out, baseline_condition, method)
+
+
+def main() -> None:
+    """Entry point of the ``axiswatch-lab`` script (the same commands as ``axiswatch experiment``)."""
+    sys.exit(experiment_app())
