@@ -284,3 +284,68 @@ def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) 
             shift = 0.0
         terms[j] = shift * shift
     return terms
+
+
+def alarm_threshold_naive(distances: list[float], percentile: float, floor: float | None) -> float:
+    """The alarm threshold spelled out: the exponential quantile at the mean distance (the
+    half-Laplace maximum-likelihood scale), or the floor where that is larger."""
+    scale = sum(distances) / len(distances)
+    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    return fitted if floor is None or floor <= fitted else floor
+
+
+def threshold_origin_naive(distances: list[float], percentile: float, floor: float | None) -> str:
+    """Where the alarm threshold of these healthy distances comes from: ``"floor"`` when the
+    floor is above the fitted exponential quantile, else ``"fit"``."""
+    scale = sum(distances) / len(distances)
+    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    return "fit" if floor is None or floor <= fitted else "floor"
+
+
+def axis_decisions_naive(
+    distances: list[float],
+    alarmed_before: list[bool],
+    *,
+    calibration_size: int,
+    percentile: float,
+    floor: float | None,
+    k: int,
+    n: int,
+    m: int,
+) -> list[tuple[str, float | None, bool, bool]]:
+    """Role, threshold, over and alarm of each capture of one baseline, spelled out: the first
+    ``calibration_size`` captures not alarmed before calibrate (the last of them sets the
+    threshold: the exponential quantile of their mean, raised to ``floor``), then every capture
+    is monitored with the k-of-n / m-clean alarm rule."""
+    decisions: list[tuple[str, float | None, bool, bool]] = []
+    healthy: list[float] = []
+    overs: list[bool] = []
+    threshold: float | None = None
+    for distance, excluded in zip(distances, alarmed_before, strict=True):
+        if threshold is None and excluded:
+            decisions.append(("excluded", None, False, False))
+        elif threshold is None:
+            healthy.append(distance)
+            if len(healthy) == calibration_size:
+                threshold = alarm_threshold_naive(healthy, percentile, floor)
+            decisions.append(("calibration", threshold, False, False))
+        else:
+            overs.append(distance > threshold)
+            alarm = alarm_states_naive(overs, k=k, n=n, m=m)[-1]
+            decisions.append(("monitor", threshold, overs[-1], alarm))
+    return decisions
+
+
+def robust_spread(values: list[float]) -> float:
+    """1.4826 x the median absolute deviation, by sorting by hand (NaN with fewer than 3)."""
+    finite = sorted(v for v in values if v == v and abs(v) != float("inf"))
+    if len(finite) < 3:
+        return float("nan")
+
+    def median(xs: list[float]) -> float:
+        xs = sorted(xs)
+        mid = len(xs) // 2
+        return xs[mid] if len(xs) % 2 else 0.5 * (xs[mid - 1] + xs[mid])
+
+    centre = median(finite)
+    return 1.4826 * median([abs(v - centre) for v in finite])

@@ -137,7 +137,8 @@ def test_ack_rebaseline_after_maintenance(alarmed: tuple[Path, Path]) -> None:
 
 def test_a_version_1_store_gains_the_acknowledgements_table(tmp_path: Path) -> None:
     path = tmp_path / "old.db"
-    with Store(path) as store, store.write() as db:
+    Store(path).close()
+    with sqlite3.connect(path) as db:
         db.execute("DROP TABLE acknowledgements")
         db.execute("DELETE FROM schema_version")
         db.execute("INSERT INTO schema_version VALUES (1)")

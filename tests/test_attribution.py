@@ -106,3 +106,10 @@ def test_difference_spectrogram_plot(disturbed: tuple[aw.Features, aw.Features])
     ax = aw._attribution.plot_difference_spectrogram(baseline, test, hop_s=32 / _RATE)
     assert ax.get_xlabel() == "time (s)"
     assert [t.get_text().split("\n")[0] for t in ax.get_yticklabels()] == ["a", "b", "c"]
+
+
+def test_non_spectral_features_are_rejected(disturbed: tuple[aw.Features, aw.Features]) -> None:
+    baseline, test = disturbed
+    named = aw.Features(test.X, test.channels, None, test.rate_hz, ("a",) * test.X.shape[1])
+    with pytest.raises(ValueError, match=r"no frequency bins .* expected spectral features"):
+        aw.attribute(aw.PCADetector().fit(baseline.X), baseline, named)

@@ -8,7 +8,7 @@ import pytest
 import axiswatch as aw
 from axiswatch import CalibrationError
 
-from .naive import exponential_quantile
+from .naive import alarm_threshold_naive, exponential_quantile
 
 
 @pytest.mark.parametrize("percentile", [50, 75, 90, 95, 97.5, 99])
@@ -73,3 +73,55 @@ def test_bad_healthy_distances(distances: list[float], message: str) -> None:
 def test_bad_threshold_arguments(kwargs: dict[str, float], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         aw.fit_half_laplace([1.0, 2.0]).threshold(**kwargs)
+
+
+@pytest.mark.parametrize("percentile", [50.0, 95.0, 99.0])
+@pytest.mark.parametrize("floor", [None, 0.0, 1.0, 50.0])
+def test_alarm_threshold_is_the_larger_of_fit_and_floor(
+    percentile: float, floor: float | None
+) -> None:
+    distances = np.random.default_rng(3).exponential(2.0, size=7).tolist()
+    threshold = aw.alarm_threshold(distances, percentile=percentile, floor=floor)
+    # The exact formula: -mean * ln(1 - q / 100), raised to the floor.
+    fitted = -float(np.mean(distances)) * np.log(1.0 - percentile / 100.0)
+    assert threshold.fitted == pytest.approx(fitted, rel=1e-12)
+    assert threshold.value == pytest.approx(
+        alarm_threshold_naive(distances, percentile, floor), rel=1e-12
+    )
+    assert threshold.origin == ("floor" if floor is not None and floor > fitted else "fit")
+    assert (threshold.n_healthy, threshold.percentile, threshold.floor) == (7, percentile, floor)
+    assert threshold.fit == aw.fit_half_laplace(distances)
+
+
+def test_alarm_threshold_tie_keeps_the_fit() -> None:
+    fitted = aw.fit_half_laplace([1.0, 3.0]).threshold(99)
+    threshold = aw.alarm_threshold([1.0, 3.0], floor=fitted)
+    assert (threshold.value, threshold.origin) == (fitted, "fit")
+
+
+def test_alarm_threshold_describes_its_origin() -> None:
+    assert (
+        aw.alarm_threshold([1.0, 2.0, 3.0, 4.0, 5.0], percentile=95).describe()
+        == "95th pct of half-Laplace fit of 5 healthy captures"
+    )
+    assert (
+        aw.alarm_threshold([1.0, 2.0], percentile=97.5).describe()
+        == "97.5th pct of half-Laplace fit of 2 healthy captures"
+    )
+    assert (
+        aw.alarm_threshold([1.0, 2.0], percentile=92).describe()
+        == "92nd pct of half-Laplace fit of 2 healthy captures"
+    )
+    floored = aw.alarm_threshold([1.0, 1.0, 1.0, 1.0, 1.0], floor=12.9)
+    assert floored.describe() == "task-change allowance 12.9 (fitted 4.61 on 5 healthy captures)"
+
+
+@pytest.mark.parametrize("floor", [-1.0, float("nan"), float("inf"), "1"])
+def test_alarm_threshold_rejects_a_bad_floor(floor: object) -> None:
+    with pytest.raises(ValueError, match=r"'floor' parameter must be a finite float >= 0 or None"):
+        aw.alarm_threshold([1.0, 2.0], floor=floor)  # type: ignore[arg-type]
+
+
+def test_alarm_threshold_rejects_a_bad_percentile() -> None:
+    with pytest.raises(ValueError, match=r"'percentile' parameter must be a float"):
+        aw.alarm_threshold([1.0, 2.0], percentile=100.0)

@@ -105,3 +105,30 @@ def test_baseline_basis_is_computed_once(
     for _ in range(3):
         det.distance(X_s + rng.normal(size=X_s.shape))
     assert len(calls) == 4  # one per test capture, none for the baseline
+
+
+def test_row_policy_pairs_rows_or_keeps_them_all(rng: np.random.Generator) -> None:
+    baseline, test = rng.normal(size=(40, 3)), rng.normal(size=(25, 3)) + 1.0
+    assert (aw.PCADetector.row_policy, aw.LRADetector.row_policy) == ("paired", "paired")
+    assert aw.IndicatorDetector.row_policy == "set"
+    pca = aw.PCADetector(n_components=2).fit(baseline)
+    _, _, vh = np.linalg.svd(baseline - baseline.mean(axis=0), full_matrices=False)
+    paired = (baseline[:25] - test) @ vh[:2].T  # the first 25 rows of both, row by row
+    assert pca.distance(test) == pytest.approx(float(np.sum(paired**2)), rel=1e-10)
+    indicator = aw.IndicatorDetector(one_sided=False).fit(baseline)
+    shift = test.mean(axis=0) - baseline.mean(axis=0)  # all 25 test rows, all 40 baseline rows
+    assert indicator.distance(test) == pytest.approx(float(shift @ shift), rel=1e-12)
+
+
+def test_diagnostics_hook(lab_features: list[np.ndarray]) -> None:
+    lra = aw.LRADetector().fit(lab_features[0])
+    result = lra.align(lab_features[1])
+    distance, diagnostics = lra.distance_and_diagnostics(lab_features[1])
+    assert distance == result.delta == lra.distance(lab_features[1])
+    assert diagnostics == {
+        "lra_eigengap": result.eigengap,
+        "lra_tie_broken": result.tie_broken,
+    }
+    assert lra.diagnostics(lab_features[1]) == diagnostics
+    pca = aw.PCADetector().fit(lab_features[0])
+    assert pca.distance_and_diagnostics(lab_features[1]) == (pca.distance(lab_features[1]), {})

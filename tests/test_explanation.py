@@ -10,7 +10,7 @@ import axiswatch.datasets as awd
 from axiswatch._attribution import describe_top_indicator, explain_indicators
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._mechanics import COLUMNS, INDICATORS, LIKELY_FAULTS
-from axiswatch.monitor._ledger import describe_threshold
+from axiswatch.monitor._decision import DecisionRule, stored_threshold
 from tests.naive import indicator_terms
 
 
@@ -83,10 +83,12 @@ def test_every_column_has_a_likely_fault() -> None:
 def test_threshold_description_names_its_origin() -> None:
     fit = HalfLaplaceFit(scale=2.0, n_distances=5, ks_statistic=0.1, ks_pvalue=0.9)
     fitted = fit.threshold(99.0)
-    assert describe_threshold(fitted, fit, 99.0) == (
-        "99th pct of the half-Laplace fit of 5 healthy captures"
+    rule = DecisionRule(percentile=99.0)
+    assert stored_threshold(fitted, fit, rule).describe() == (
+        "99th pct of half-Laplace fit of 5 healthy captures"
     )
-    assert describe_threshold(fitted + 3.0, fit, 99.0) == (
-        f"task-change allowance, above the {fitted:.4g} fitted on 5 healthy captures"
+    assert stored_threshold(fitted + 3.0, fit, rule).describe() == (
+        f"task-change allowance {fitted + 3.0:.4g} (fitted {fitted:.3g} on 5 healthy captures)"
     )
-    assert describe_threshold(fit.threshold(95.0), fit, 95.0).startswith("95th pct")
+    described = stored_threshold(fit.threshold(95.0), fit, DecisionRule(percentile=95.0))
+    assert described.describe().startswith("95th pct")

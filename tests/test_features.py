@@ -176,3 +176,16 @@ def test_peak_memory_is_the_result_plus_a_block(rng: np.random.Generator) -> Non
         tracemalloc.stop()
     # Measured X + 9 MB; one channel's complex spectrum alone would add 21 MB, its frames 20 MB.
     assert peak < X.nbytes + 14e6
+
+
+def test_non_spectral_stages_name_their_columns_instead_of_zero_frequencies(
+    robot_capture: aw.Capture,
+) -> None:
+    stage = aw.MechanicsStage()
+    features = stage.fit_transform(robot_capture)
+    assert features.frequencies_hz is None
+    assert features.column_names is not None
+    assert len(features.column_names) == features.X.shape[1]
+    assert set(features.column_channel) == {"mechanics"}
+    with pytest.raises(ValueError, match=r"no frequency bins \(channels \['mechanics'\], columns"):
+        _ = features.column_frequency_hz

@@ -87,3 +87,50 @@ def test_min_threshold_bounds_the_calibrated_one(
     high.fit(robot_capture)
     assert low.calibrate(healthy).threshold_ < 1e9
     assert high.calibrate(healthy).threshold_ == 1e9
+
+
+def test_one_feature_path_the_default_stage_is_the_aligned_stft(rng: np.random.Generator) -> None:
+    spec = aw.FeatureSpec(
+        signals=("speed", "torque"), combinations="none", segment_length=64, hop=4
+    )
+    baseline, shifted = _cycle_capture(0, rng), _cycle_capture(137, rng)
+    model = aw.HealthModel(spec, aw.PCADetector(n_components=5)).fit(baseline)
+    assert isinstance(model.stage_, aw.StftStage)
+    assert (model.stage_.spec, model.stage_.align) == (spec, True)
+    # The aligned features, computed by hand: resample, find the lag, roll, |STFT|.
+    reference, _ = aw.resample_capture(baseline, spec.signals)
+    signals, rate = aw.resample_capture(shifted, spec.signals)
+    lag = aw.phase_lag(reference, signals)
+    expected = aw.stft_features(
+        np.roll(signals, -lag, axis=0), rate, segment_length=64, hop=4, scaling="magnitude"
+    )
+    features, model_lag = model.featurize(shifted)
+    assert model_lag == lag == features.phase_lag != 0
+    np.testing.assert_array_equal(features.X, expected)
+    unaligned = aw.HealthModel(spec, aw.PCADetector(n_components=5), align_phase=False)
+    features = unaligned.fit(baseline).featurize(shifted)[0]
+    assert features.phase_lag == 0
+    np.testing.assert_array_equal(features.X, aw.extract_features(shifted, spec).X)
+
+
+def test_one_call_constructors_build_the_product_default_and_the_papers_method(
+    robot_capture: aw.Capture,
+) -> None:
+    default = aw.HealthModel.product_default(percentile=95.0)
+    assert isinstance(default.stage, aw.MechanicsStage)
+    assert isinstance(default.detector, aw.IndicatorDetector)
+    # The floor: the same percentile of the fit of healthy task changes in development.
+    assert default.min_threshold == pytest.approx(-2.81 * np.log(0.05), rel=1e-12)
+    for method, detector in (("lra", aw.LRADetector), ("pca", aw.PCADetector)):
+        paper = aw.HealthModel.paper(method)
+        assert isinstance(paper.detector, detector)
+        assert (paper.stage, paper.align_phase, paper.features) == (None, True, aw.FeatureSpec())
+    spec = aw.FeatureSpec(combinations="none", segment_length=64, hop=16)
+    by_hand = aw.HealthModel(spec, aw.PCADetector()).fit(robot_capture)
+    paper = aw.HealthModel.paper("pca", features=spec).fit(robot_capture)
+    assert paper.distance(robot_capture) == by_hand.distance(robot_capture)
+
+
+def test_paper_rejects_an_unknown_method() -> None:
+    with pytest.raises(ValueError, match=r"'method' parameter of HealthModel.paper must be 'lra'"):
+        aw.HealthModel.paper("mechanics")  # type: ignore[arg-type]

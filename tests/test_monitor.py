@@ -14,12 +14,12 @@ from typer.testing import CliRunner
 import axiswatch as aw
 import axiswatch._mechanics
 import axiswatch.datasets as awd
-from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._mechanics import COLUMNS
 from axiswatch.cli import app
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._ledger import alarm_step, rebaseline
+from axiswatch.monitor._decision import alarm_step
+from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
@@ -56,7 +56,10 @@ def test_alarm_step_matches_naive_state_machine(k: int, n: int, m: int) -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"method": "svm"}, r"'method' parameter must be 'lra', 'pca' or 'mechanics'. Got 'svm'"),
+        (
+            {"method": "svm"},
+            r"'method' parameter must be one of 'mechanics', 'lra', 'pca'.* Got 'svm'",
+        ),
         ({"percentile": 100.0}, r"'percentile' parameter must be a float in \(0, 100\). Got 100"),
         ({"calibration_size": 1}, r"'calibration_size' parameter must be an int >= 2 .* Got 1"),
         ({"alarm_k": 3, "alarm_n": 2}, r"needs 1 <= k <= n .* Got k=3, n=2"),
@@ -83,7 +86,7 @@ def test_baseline_calibration_and_threshold(fleet: Path, tmp_path: Path) -> None
     assert axis.threshold.iloc[1:].to_numpy() == pytest.approx(expected, rel=1e-12)
     reason = axis.reason.iloc[-1]
     assert reason.startswith("distance ")
-    assert "(99th pct of the half-Laplace fit of 5 healthy captures)" in reason
+    assert "(99th pct of half-Laplace fit of 5 healthy captures)" in reason
     details = json.loads(axis.details.iloc[-1])
     assert set(details) >= {"phase_lag_samples", "phase_lag_s", "n_rows", "pvalue"}
 
@@ -262,10 +265,12 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     # Every monitored capture carries its explanation; every reason names where its threshold
     # comes from (the floor, when the fit is lower) and, over it, the top indicator.
     with Store(tmp_path / "s.db") as store:
-        fits = {
-            r["robot"] + r["axis"]: HalfLaplaceFit(**json.loads(r["calibration"]))
-            for r in store.rows("SELECT robot, axis, calibration FROM baselines")
-        }
+        fits = {}
+        for robot, axis in set(zip(results.robot, results.axis, strict=True)):
+            latest = store.latest_baseline(robot, axis, "mechanics")
+            assert latest is not None
+            assert latest.fit is not None
+            fits[robot + axis] = latest.fit
     monitored = results[results.role == "monitor"]
     for row in monitored.itertuples():
         details = json.loads(row.details)
@@ -273,7 +278,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
         assert set(details["indicators"]) == set(COLUMNS)
         assert sum(shares) == pytest.approx(1.0 if row.distance > 0 else 0.0, abs=1e-9)
         fitted = fits[row.robot + row.axis].threshold(99.0)
-        origin = "task-change allowance" if row.threshold > fitted else "99th pct of the half"
+        origin = "task-change allowance" if row.threshold > fitted else "99th pct of half"
         assert f"threshold {row.threshold:.4g} ({origin}" in row.reason, row.reason
         assert ("; top indicator " in row.reason) == bool(row.over or row.alarm), row.reason
     raised = monitored[monitored.alarm]

@@ -25,7 +25,7 @@ def _triage(store: Store, method: str = "pca") -> dict[str, AxisAttention]:
         fleet_summary(store),
         fleet_results(store),
         fleet_rejections(store),
-        store.changed_files(),
+        store.changed_file_table(),
         store.alarms(),
         method=method,
     )
@@ -77,7 +77,7 @@ def test_alarms_rank_first_and_an_acknowledged_one_last(fleet: Path, tmp_path: P
         ranked = list(_triage(store).values())
     assert [(i.axis, i.kind) for i in ranked] == [("axis2", "alarm"), ("axis1", "acknowledged")]
     assert ranked[0].line.startswith("ALARM since 2026-03-10 (1 capture in alarm): Distance ")
-    assert "(99th pct of the half-Laplace fit of 5 healthy captures)." in ranked[0].line
+    assert "(99th pct of half-Laplace fit of 5 healthy captures)." in ranked[0].line
     assert re.search(r" Seen by ana on \d{4}-\d\d-\d\d: seen$", ranked[1].line), ranked[1].line
 
 

@@ -1,4 +1,7 @@
-"""The SQLite store: schema, version check, transactions."""
+"""The SQLite store: schema, WAL, version check, files that are not a store.
+
+The behaviour every backend shares (transactions, records, tables) is in test_store_contract.py.
+"""
 
 from __future__ import annotations
 
@@ -8,34 +11,30 @@ from pathlib import Path
 import pytest
 
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._store import SCHEMA_VERSION, Store
+from axiswatch.monitor._store import SCHEMA_VERSION, SQLiteStore, Store
+
+
+def _query(path: Path, sql: str) -> list[tuple[object, ...]]:
+    with sqlite3.connect(path) as connection:
+        return list(connection.execute(sql))
 
 
 def test_new_store_has_the_schema_and_wal(tmp_path: Path) -> None:
     with Store(tmp_path / "s.db") as store:
+        assert isinstance(store, SQLiteStore)
         assert store.version == SCHEMA_VERSION
-        assert store.rows("PRAGMA journal_mode")[0][0] == "wal"
-        tables = {r[0] for r in store.rows("SELECT name FROM sqlite_master WHERE type='table'")}
+    assert _query(tmp_path / "s.db", "PRAGMA journal_mode") == [("wal",)]
+    tables = {r[0] for r in _query(tmp_path / "s.db", "SELECT name FROM sqlite_master")}
     assert {"schema_version", "baselines", "scores", "rejections", "changed_files"} <= tables
     with Store(tmp_path / "s.db") as again:  # reopening keeps it
         assert again.version == SCHEMA_VERSION
-
-
-def test_a_failed_transaction_is_rolled_back(tmp_path: Path) -> None:
-    def failing(store: Store) -> None:
-        with store.write() as db:
-            db.execute("INSERT INTO schema_version VALUES (99)")
-            raise RuntimeError("boom")
-
-    with Store(tmp_path / "s.db") as store:
-        with pytest.raises(RuntimeError, match="boom"):
-            failing(store)
-        assert store.rows("SELECT max(version) FROM schema_version")[0][0] == SCHEMA_VERSION
+        assert repr(again) == f"axiswatch.monitor.SQLiteStore({str(tmp_path / 's.db')!r})"
 
 
 def test_other_schema_version_is_refused(tmp_path: Path) -> None:
-    with Store(tmp_path / "s.db") as store, store.write() as db:
-        db.execute("UPDATE schema_version SET version = 7")
+    Store(tmp_path / "s.db").close()
+    with sqlite3.connect(tmp_path / "s.db") as connection:
+        connection.execute("UPDATE schema_version SET version = 7")
     with pytest.raises(StoreError, match=r"has schema version 7; this axiswatch reads version 2"):
         Store(tmp_path / "s.db")
 

@@ -26,6 +26,8 @@ from axiswatch._attribution import (
 )
 from axiswatch._calibration import (
     HalfLaplaceFit,
+    Threshold,
+    alarm_threshold,
     fit_half_laplace,
     half_laplace_threshold,
 )
@@ -48,6 +50,10 @@ from axiswatch._features import (
     extract_features,
     stft_features,
 )
+from axiswatch._formats import (
+    register_format,
+)
+from axiswatch._indicator_model import IndicatorModel
 from axiswatch._mechanics import (
     INDICATORS,
     MechanicsStage,
@@ -62,6 +68,7 @@ from axiswatch._preprocessing import (
     resample_capture,
     upsample_pchip,
 )
+from axiswatch._profiles import AxisProfile
 from axiswatch._stages import (
     FeatureStage,
     StftStage,
@@ -83,6 +90,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Assessment",
+    "AxisProfile",
     "AxiswatchError",
     "BaselineDetector",
     "CalibrationError",
@@ -97,6 +105,7 @@ __all__ = [
     "HealthModel",
     "INDICATORS",
     "IndicatorDetector",
+    "IndicatorModel",
     "LRADetector",
     "MechanicsStage",
     "MonitorConfig",
@@ -104,6 +113,8 @@ __all__ = [
     "StftStage",
     "Store",
     "StoreError",
+    "Threshold",
+    "alarm_threshold",
     "align_phase",
     "as_capture",
     "attribute",
@@ -115,8 +126,18 @@ __all__ = [
     "monitor_fleet",
     "phase_lag",
     "read_capture",
+    "register_format",
     "resample_capture",
     "stft_features",
     "upsample_pchip",
     "write_capture",
 ]
+
+
+# Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private module);
+# pickles then refer to it too, which every class listed here can be loaded from.
+for _name in __all__:
+    _public = globals()[_name]
+    if isinstance(_public, type) and _public.__module__.startswith(f"{__name__}._"):
+        _public.__module__ = __name__
+del _name, _public

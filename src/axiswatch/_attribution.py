@@ -169,13 +169,12 @@ def _bands(n_bins: int, n_bands: int) -> list[NDArray[np.intp]]:
 
 
 def _check_pair(baseline: Features, test: Features) -> None:
-    if baseline.channels != test.channels or not np.array_equal(
-        baseline.frequencies_hz, test.frequencies_hz
-    ):
+    baseline_hz, test_hz = baseline.spectral_frequencies_hz(), test.spectral_frequencies_hz()
+    if baseline.channels != test.channels or not np.array_equal(baseline_hz, test_hz):
         raise ValueError(
             f"baseline and test features must have the same channels and frequencies; got "
-            f"channels {list(baseline.channels)} ({baseline.frequencies_hz.size} bins) and "
-            f"{list(test.channels)} ({test.frequencies_hz.size} bins)."
+            f"channels {list(baseline.channels)} ({baseline_hz.size} bins) and "
+            f"{list(test.channels)} ({test_hz.size} bins)."
         )
 
 
@@ -223,7 +222,7 @@ def attribute(
     1.0
     """
     _check_pair(baseline, test)
-    n_bins = baseline.frequencies_hz.size
+    n_bins = baseline.spectral_frequencies_hz().size
     bands = _bands(n_bins, n_bands)
     try:
         check_is_fitted(detector)
@@ -249,7 +248,7 @@ def attribute(
             occluded[:, columns] = stand_in[:, columns]
             contributions[i] = total - float(detector.distance(occluded))
     shares = contributions / total if total > 0 else np.zeros(len(cells))
-    frequencies = baseline.frequencies_hz
+    frequencies = baseline.spectral_frequencies_hz()
     table = pd.DataFrame(
         {
             "channel": [channel for channel, _ in cells],
@@ -281,7 +280,7 @@ def difference_spectrogram(baseline: Features, test: Features) -> NDArray[np.flo
     """
     _check_pair(baseline, test)
     n = min(baseline.X.shape[0], test.X.shape[0])
-    n_channels, n_bins = len(test.channels), test.frequencies_hz.size
+    n_channels, n_bins = len(test.channels), test.spectral_frequencies_hz().size
     difference = test.X[:n] - baseline.X[:n]
     return np.asarray(difference.reshape(n, n_channels, n_bins).transpose(1, 0, 2))
 
@@ -303,14 +302,11 @@ def plot_difference_spectrogram(
     -------
     matplotlib Axes
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from axiswatch._plotting import new_axes
 
     cube = difference_spectrogram(baseline, test)
     if ax is None:
-        _, ax = plt.subplots(figsize=(7, 1.2 + 1.1 * cube.shape[0]))
+        ax = new_axes(figsize=(7, 1.2 + 1.1 * cube.shape[0]))
     n_channels, n_rows, n_bins = cube.shape
     image = np.concatenate([cube[k].T for k in range(n_channels)], axis=0)
     limit = float(np.max(np.abs(image))) or 1.0
@@ -325,7 +321,7 @@ def plot_difference_spectrogram(
         extent=(0.0, width, 0.0, float(n_channels * n_bins)),
         interpolation="nearest",
     )
-    top = float(test.frequencies_hz[-1])
+    top = float(test.spectral_frequencies_hz()[-1])
     ax.set_yticks([(k + 0.5) * n_bins for k in range(n_channels)])
     ax.set_yticklabels([f"{c}\n0-{top:.3g} Hz" for c in test.channels], fontsize=7)
     for k in range(1, n_channels):

@@ -1,8 +1,12 @@
 """Alarm threshold from healthy distances: a half-Laplace fit (paper, end of "Proposed Method").
 
-Pipeline stage 5. The paper models the distance of healthy captures by the positive half of a
+The paper models the distance of healthy captures by the positive half of a
 Laplace distribution with location 0. That is the exponential distribution, whose maximum
 likelihood scale is the mean distance; a threshold at percentile ``q`` is ``-b log(1 - q/100)``.
+
+:func:`alarm_threshold` is the one rule every user of a threshold applies (the health model, the
+monitor and every study): the percentile of the fit, raised to a floor where one is given (what
+healthy task changes do to the distance, which same-task calibration captures cannot show).
 """
 
 from __future__ import annotations
@@ -10,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -17,7 +22,13 @@ from scipy import stats
 
 from axiswatch.exceptions import CalibrationError
 
-__all__ = ["HalfLaplaceFit", "fit_half_laplace", "half_laplace_threshold"]
+__all__ = [
+    "HalfLaplaceFit",
+    "Threshold",
+    "alarm_threshold",
+    "fit_half_laplace",
+    "half_laplace_threshold",
+]
 
 
 @dataclass(frozen=True)
@@ -144,3 +155,129 @@ def fit_half_laplace(healthy_distances: ArrayLike | Sequence[float]) -> HalfLapl
         )
     ks = stats.kstest(values, stats.expon(scale=scale).cdf)
     return HalfLaplaceFit(scale, int(values.size), float(ks.statistic), float(ks.pvalue))
+
+
+def _ordinal(percentile: float) -> str:
+    text = f"{percentile:g}"
+    if not text.isdigit():
+        return f"{text}th"
+    if 10 <= int(text) % 100 <= 20:
+        return f"{text}th"
+    return text + {"1": "st", "2": "nd", "3": "rd"}.get(text[-1], "th")
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """An alarm threshold and where it came from (:func:`alarm_threshold`).
+
+    Attributes
+    ----------
+    value : float
+        The threshold: a distance above it is over.
+    fit : HalfLaplaceFit
+        The half-Laplace fit of the healthy distances.
+    percentile : float
+        The fit's percentile that gave the fitted threshold.
+    n_healthy : int
+        How many healthy distances were fitted.
+    floor : float or None
+        The least threshold asked for (None: no floor).
+    origin : {"fit", "floor"}
+        ``"floor"`` when the floor exceeded the fitted threshold and became the value.
+    """
+
+    value: float
+    fit: HalfLaplaceFit
+    percentile: float
+    n_healthy: int
+    floor: float | None
+    origin: Literal["fit", "floor"]
+
+    @property
+    def fitted(self) -> float:
+        """The fit's threshold at ``percentile``, before any floor."""
+        return self.fit.threshold(self.percentile)
+
+    def describe(self) -> str:
+        """Where the value came from, in words for a service engineer.
+
+        Examples
+        --------
+        >>> alarm_threshold([1.0, 2.0, 3.0], percentile=99).describe()
+        '99th pct of half-Laplace fit of 3 healthy captures'
+        >>> alarm_threshold([1.0, 2.0, 3.0], percentile=99, floor=20.0).describe()
+        'task-change allowance 20 (fitted 9.21 on 3 healthy captures)'
+        """
+        if self.origin == "floor":
+            return (
+                f"task-change allowance {self.value:.4g} "
+                f"(fitted {self.fitted:.3g} on {self.n_healthy} healthy captures)"
+            )
+        return (
+            f"{_ordinal(self.percentile)} pct of half-Laplace fit of "
+            f"{self.n_healthy} healthy captures"
+        )
+
+
+def alarm_threshold(
+    healthy_distances: ArrayLike | Sequence[float],
+    *,
+    percentile: float = 99.0,
+    floor: float | None = None,
+) -> Threshold:
+    """The alarm threshold: ``max(percentile of the half-Laplace fit, floor)``.
+
+    The one threshold rule of axiswatch (paper, end of "Proposed Method", plus the product's
+    floor): the ``percentile`` of :func:`fit_half_laplace` of the healthy distances; where a
+    ``floor`` is given (for the product default, the same percentile of the half-Laplace fit of
+    healthy *task changes* in development) and exceeds it, the floor. A tie keeps the fit.
+
+    Parameters
+    ----------
+    healthy_distances : array-like of shape (n,)
+        Distances of captures known to be healthy; see :func:`fit_half_laplace`.
+    percentile : float in (0, 100), default=99.0
+        Percentile of the fit.
+    floor : float >= 0, optional
+        Least threshold.
+
+    Returns
+    -------
+    Threshold
+
+    Raises
+    ------
+    CalibrationError
+        From :func:`fit_half_laplace`.
+    ValueError
+        A percentile outside (0, 100), or a floor that is negative or not finite.
+
+    Examples
+    --------
+    >>> threshold = alarm_threshold([1.0, 2.0, 3.0], percentile=99)
+    >>> round(threshold.value, 4), threshold.origin  # 2 ln(100)
+    (9.2103, 'fit')
+    >>> alarm_threshold([1.0, 2.0, 3.0], floor=20.0).value
+    20.0
+    """
+    if floor is not None and not (
+        isinstance(floor, int | float) and math.isfinite(floor) and floor >= 0.0
+    ):
+        raise ValueError(
+            f"The 'floor' parameter must be a finite float >= 0 or None. Got {floor!r} instead."
+        )
+    fit = fit_half_laplace(healthy_distances)
+    fitted = fit.threshold(percentile)
+    origin: Literal["fit", "floor"]
+    if floor is not None and floor > fitted:
+        value, origin = float(floor), "floor"
+    else:
+        value, origin = fitted, "fit"
+    return Threshold(
+        value=value,
+        fit=fit,
+        percentile=float(percentile),
+        n_healthy=fit.n_distances,
+        floor=None if floor is None else float(floor),
+        origin=origin,
+    )

@@ -3,26 +3,29 @@
 Pipeline stage 0. A :class:`Capture` maps signal names to 1-D float64 arrays, each with its own
 sampling rate (the paper's robots log position at 250 Hz and speed and torque at 2 kHz).
 
-File format (the project's public data format, see README): one Parquet (``.parquet``) or CSV
-(``.csv``) file per capture. Column ``time`` holds seconds, strictly increasing; every other
+File format (the project's public data format, see README): one Parquet (``.parquet``), CSV
+(``.csv``) or NumPy (``.npz``) file per capture (the registry of formats: :mod:`axiswatch._formats`). Column ``time`` holds seconds, strictly increasing; every other
 numeric column is a signal. A signal sampled more slowly than the file's time grid has values only
 at its own instants and is blank (NaN) elsewhere. Rates are inferred from the time stamps.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from axiswatch._formats import capture_format
 from axiswatch.exceptions import CaptureError
+
+if TYPE_CHECKING:
+    from axiswatch._profiles import AxisProfile
 
 __all__ = [
     "DEFAULT_SIGNALS",
@@ -38,7 +41,6 @@ DEFAULT_SIGNALS: tuple[str, ...] = ("position", "speed", "torque")
 #: Relative tolerance on the spacing of time stamps of one signal: loggers jitter a little, but a
 #: step that is 1.5 periods or more means a missing (NaN) sample.
 _SPACING_RTOL = 0.25
-_METADATA_KEY = b"axiswatch"
 
 
 @dataclass(frozen=True)
@@ -182,57 +184,30 @@ def capture_to_frame(capture: Capture) -> pd.DataFrame:
 
 
 def write_capture(capture: Capture, path: str | Path) -> Path:
-    """Write a capture to ``path`` (``.parquet`` or ``.csv``) in the project's file format.
+    """Write a capture to ``path`` in the project's file format, by its suffix: ``.parquet``,
+    ``.csv``, ``.npz`` or a format added with :func:`~axiswatch.register_format`.
 
-    Parquet files also keep ``capture.metadata``. Returns the path written.
+    Parquet and ``.npz`` files also keep ``capture.metadata``. Returns the path written.
     """
     path = Path(path)
-    frame = capture_to_frame(capture)
-    suffix = path.suffix.lower()
-    if suffix == ".parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        table = pa.Table.from_pandas(frame, preserve_index=False)
-        meta = dict(table.schema.metadata or {})
-        meta[_METADATA_KEY] = json.dumps(dict(capture.metadata)).encode()
-        pq.write_table(table.replace_schema_metadata(meta), path)
-    elif suffix == ".csv":
-        frame.to_csv(path, index=False, float_format="%.17g")
-    else:
-        raise CaptureError(
-            f"{path}: unknown capture file type '{suffix}'; expected .parquet or .csv."
-        )
+    capture_format(path).write(capture_to_frame(capture), capture.metadata, path)
     return path
 
 
 def _read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
-    suffix = path.suffix.lower()
-    if suffix not in (".parquet", ".csv"):
-        raise CaptureError(
-            f"{path}: unknown capture file type '{suffix}'; expected .parquet or .csv."
-        )
+    file_format = capture_format(path)
     if not path.is_file():
         raise CaptureError(f"{path}: no such capture file.")
     if path.stat().st_size == 0:
         raise CaptureError(f"{path}: file is empty (0 bytes).")
-    metadata: dict[str, str] = {}
     try:
-        if suffix == ".parquet":
-            import pyarrow.parquet as pq
-
-            table = pq.read_table(path)
-            raw = (table.schema.metadata or {}).get(_METADATA_KEY)
-            if raw:
-                metadata = {str(k): str(v) for k, v in json.loads(raw).items()}
-            frame = table.to_pandas()
-        else:
-            frame = pd.read_csv(path)
+        frame, metadata = file_format.read(path)
+    except CaptureError:
+        raise
     except Exception as exc:  # pyarrow/pandas raise many types for truncated or corrupt files
-        kind = "Parquet" if suffix == ".parquet" else "CSV"
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CaptureError(
-            f"{path}: cannot read {kind} file (truncated or corrupt?): {message}"
+            f"{path}: cannot read {file_format.description} file (truncated or corrupt?): {message}"
         ) from exc
     if frame.shape[0] == 0:
         raise CaptureError(f"{path}: file has a header but no rows.")
@@ -298,19 +273,24 @@ def read_capture(
     signals: Sequence[str] | None = None,
     *,
     expected_rates_hz: Mapping[str, float] | None = None,
+    profile: AxisProfile | None = None,
 ) -> Capture:
     """Read and validate one capture file.
 
     Parameters
     ----------
     path : str or Path
-        A ``.parquet`` or ``.csv`` file in the project's capture format.
+        A ``.parquet``, ``.csv`` or ``.npz`` file in the project's capture format (or a
+        format added with :func:`~axiswatch.register_format`).
     signals : sequence of str, optional
         Signal columns to read, in this order. Default: :data:`DEFAULT_SIGNALS` when the file
         has them all, otherwise every column except ``time`` (each must be numeric).
     expected_rates_hz : mapping of str to float, optional
         Rates the signals must have (for instance the baseline's); a mismatch beyond 0.1 % is an
         error.
+    profile : AxisProfile, optional
+        Column names, units and time stamps of the file (:meth:`AxisProfile.standardise`):
+        mapped to the project's format before anything is checked.
 
     Returns
     -------
@@ -334,6 +314,8 @@ def read_capture(
     """
     path = Path(path)
     frame, metadata = _read_frame(path)
+    if profile is not None:
+        frame = profile.standardise(frame, path)
     if "time" not in frame.columns:
         raise CaptureError(
             f"{path}: missing column 'time' (seconds, strictly increasing); "

@@ -6,16 +6,18 @@ Pipeline stage 4. Both detectors follow one small interface, a scikit-learn esti
 * ``distance(X)`` returns the paper's distance of a test feature matrix to the baseline;
 * ``transform(X)`` returns the test rows in the detector's subspace.
 
-Rows are paired by index, as in the paper (``X_s P - X_t P`` and the correspondence ``C``). When
-a test matrix has a different number of rows than the baseline, the first
-``min(n_baseline, n_test)`` rows of both are compared. A new method is one subclass of
-:class:`BaselineDetector` implementing ``_fit`` and ``_distance``.
+Each detector states its row policy (``row_policy``): ``"paired"`` rows are paired by index, as
+in the paper (``X_s P - X_t P`` and the correspondence ``C``), and when a test matrix has a
+different number of rows than the baseline the first ``min(n_baseline, n_test)`` rows of both
+are compared; ``"set"`` rows are a set of readings (all kept, whatever their number). A detector
+may report diagnostics beside its distance (``distance_and_diagnostics``; LRA's eigengap). A new
+method is one subclass of :class:`BaselineDetector` implementing ``_fit`` and ``_distance``.
 """
 
 from __future__ import annotations
 
 from abc import abstractmethod
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,8 +31,22 @@ from axiswatch._noise import mp_noise_level
 __all__ = ["BaselineDetector", "IndicatorDetector", "LRADetector", "PCADetector"]
 
 
+#: How a detector compares test rows with baseline rows.
+RowPolicy = Literal["paired", "set"]
+
+
 class BaselineDetector(TransformerMixin, BaseEstimator):  # type: ignore[misc]
-    """Base class: fit on baseline features, measure the distance of test features to them."""
+    """Base class: fit on baseline features, measure the distance of test features to them.
+
+    Attributes
+    ----------
+    row_policy : {"paired", "set"}
+        ``"paired"`` (default): row ``i`` of a test matrix is compared with row ``i`` of the
+        baseline, the first ``min(n_baseline, n_test)`` rows of both. ``"set"``: the rows are
+        readings of the same quantities, all kept.
+    """
+
+    row_policy: ClassVar[RowPolicy] = "paired"
 
     def fit(self, X: Any, y: Any = None) -> BaselineDetector:
         """Store the healthy baseline's features.
@@ -55,6 +71,8 @@ class BaselineDetector(TransformerMixin, BaseEstimator):  # type: ignore[misc]
         return np.asarray(validate_data(self, X, dtype=np.float64, reset=False))
 
     def _rows(self, X: NDArray[np.float64]) -> int:
+        if self.row_policy == "set":
+            return int(X.shape[0])
         return int(min(self.baseline_.shape[0], X.shape[0]))
 
     def distance(self, X: Any) -> float:
@@ -70,6 +88,25 @@ class BaselineDetector(TransformerMixin, BaseEstimator):  # type: ignore[misc]
         """
         X = self._check_test(X)
         return float(self._distance(X[: self._rows(X)]))
+
+    def distance_and_diagnostics(self, X: Any) -> tuple[float, dict[str, float | bool]]:
+        """:meth:`distance` of test features ``X`` and what the detector can say about it.
+
+        One computation gives both (LRA's eigenproblem is solved once). The diagnostics' keys
+        name the method (``lra_eigengap``); a detector with nothing to add returns ``{}``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> PCADetector(n_components=1).fit([[0.0, 1.0], [1.0, 0.0]]).distance_and_diagnostics(
+        ...     [[0.0, 1.0], [1.0, 0.0]])
+        (0.0, {})
+        """
+        return self.distance(X), {}
+
+    def diagnostics(self, X: Any) -> dict[str, float | bool]:
+        """Diagnostics of test features ``X`` (see :meth:`distance_and_diagnostics`)."""
+        return self.distance_and_diagnostics(X)[1]
 
     @abstractmethod
     def _fit(self, X: NDArray[np.float64]) -> None: ...
@@ -229,6 +266,15 @@ class LRADetector(BaselineDetector):
     def distance(self, X: Any) -> float:
         return self.align(X).delta
 
+    def distance_and_diagnostics(self, X: Any) -> tuple[float, dict[str, float | bool]]:
+        """The LRA distance, the eigengap of its eigenproblem and whether a tie was broken
+        (:class:`~axiswatch._alignment.LRAResult`)."""
+        result = self.align(X)
+        return float(result.delta), {
+            "lra_eigengap": float(result.eigengap),
+            "lra_tie_broken": bool(result.tie_broken),
+        }
+
     def _distance(self, X: NDArray[np.float64]) -> float:  # pragma: no cover - distance overrides
         return self.align(X).delta
 
@@ -261,14 +307,13 @@ class IndicatorDetector(BaselineDetector):
     8.0
     """
 
+    row_policy: ClassVar[RowPolicy] = "set"  # rows are averaged, not paired: keep them all
+
     def __init__(self, one_sided: bool = True) -> None:
         self.one_sided = one_sided
 
     def _fit(self, X: NDArray[np.float64]) -> None:
         self.centre_ = X.mean(axis=0)
-
-    def _rows(self, X: NDArray[np.float64]) -> int:
-        return int(X.shape[0])  # rows are averaged, not paired: keep them all
 
     def _distance(self, X: NDArray[np.float64]) -> float:
         return float(np.sum(self._terms(X)))

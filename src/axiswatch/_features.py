@@ -262,26 +262,50 @@ class Features:
     channels : tuple of str
         Feature channels (signals then combinations); column ``j`` belongs to channel
         ``channels[j // n_bins]``.
-    frequencies_hz : ndarray of shape (n_bins,)
-        Frequency of each bin within a channel.
+    frequencies_hz : ndarray of shape (n_bins,) or None
+        Frequency of each bin within a channel, for spectral features; None for a stage whose
+        columns are not frequency bins (then ``column_names`` says what they are).
     rate_hz : float
         Common rate of the signals.
+    column_names : tuple of str, optional
+        Name of every column, for stages whose columns are named measurements.
+    phase_lag : int, default=0
+        Samples the capture was shifted by (circularly) to line up with the baseline's phase
+        before the features were taken; 0 without alignment.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> Features(np.ones((2, 3)), ("stats",), None, 100.0, ("mean", "std", "peak")).column_channel
+    array(['stats', 'stats', 'stats'], dtype='<U5')
     """
 
     X: NDArray[np.float64]
     channels: tuple[str, ...]
-    frequencies_hz: NDArray[np.float64]
+    frequencies_hz: NDArray[np.float64] | None
     rate_hz: float
+    column_names: tuple[str, ...] | None = None
+    phase_lag: int = 0
 
     @property
     def column_channel(self) -> NDArray[np.str_]:
         """Channel of every column, shape (n_features,)."""
-        return np.repeat(np.array(self.channels), self.frequencies_hz.size)
+        return np.repeat(np.array(self.channels), self.X.shape[1] // len(self.channels))
 
     @property
     def column_frequency_hz(self) -> NDArray[np.float64]:
-        """Frequency of every column, shape (n_features,)."""
-        return np.tile(self.frequencies_hz, len(self.channels))
+        """Frequency of every column, shape (n_features,); only for spectral features."""
+        return np.tile(self.spectral_frequencies_hz(), len(self.channels))
+
+    def spectral_frequencies_hz(self) -> NDArray[np.float64]:
+        """``frequencies_hz``, or a ValueError saying that these features have no frequency bins."""
+        if self.frequencies_hz is None:
+            raise ValueError(
+                f"These features have no frequency bins (channels {list(self.channels)}, columns "
+                f"{list(self.column_names or ())}); expected spectral features such as the "
+                "|STFT| stage's."
+            )
+        return self.frequencies_hz
 
 
 def extract_features(capture: Capture, spec: FeatureSpec | None = None) -> Features:

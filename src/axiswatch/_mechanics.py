@@ -632,4 +632,4 @@ class MechanicsStage(FeatureStage):
 
     @staticmethod
     def _features(X: NDArray[np.float64], capture: Capture) -> Features:
-        return Features(X, ("mechanics",), np.zeros(len(COLUMNS)), float(capture.rates_hz["speed"]))
+        return Features(X, ("mechanics",), None, float(capture.rates_hz["speed"]), COLUMNS)

@@ -1,13 +1,13 @@
 """A health model of one robot axis: features + detector + calibrated threshold.
 
-Pipeline stage 6, the public one-screen API::
+The public one-screen API::
 
     model = HealthModel(detector=LRADetector()).fit(baseline_capture)
     model.calibrate(healthy_captures, percentile=99)
     verdict = model.assess(new_capture)   # distance, threshold, alarm
 
-It only composes the lower stages: :func:`~axiswatch.extract_features`, a
-:class:`~axiswatch.BaselineDetector` and :func:`~axiswatch.fit_half_laplace`.
+It only composes the lower stages: a :class:`~axiswatch.FeatureStage`, a
+:class:`~axiswatch.BaselineDetector` and :func:`~axiswatch.alarm_threshold`.
 """
 
 from __future__ import annotations
@@ -15,17 +15,23 @@ from __future__ import annotations
 import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 from sklearn.base import clone
 
-from axiswatch._calibration import HalfLaplaceFit, fit_half_laplace
+from axiswatch._calibration import (
+    HalfLaplaceFit,
+    Threshold,
+    alarm_threshold,
+    half_laplace_threshold,
+)
 from axiswatch._capture import Capture
-from axiswatch._detectors import BaselineDetector, LRADetector
-from axiswatch._features import Features, FeatureSpec, features_from_signals
-from axiswatch._preprocessing import phase_lag, resample_capture
-from axiswatch._stages import FeatureStage
+from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch._features import Features, FeatureSpec
+from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
+from axiswatch._stages import FeatureStage, StftStage
 from axiswatch.exceptions import CalibrationError
 
 __all__ = ["Assessment", "HealthModel"]
@@ -55,27 +61,44 @@ class Assessment:
 
 
 class HealthModel:
-    """Baseline, threshold and verdicts for one robot axis.
+    """Baseline, threshold and verdicts for one robot axis: stage -> detector -> threshold.
+
+    One feature path: a :class:`~axiswatch.FeatureStage` turns every capture into features (the
+    paper's |STFT| with phase alignment, :class:`~axiswatch.StftStage`, unless another stage is
+    given), the detector measures their distance to the baseline's, and
+    :func:`~axiswatch.alarm_threshold` of healthy distances sets the threshold. The one-call
+    constructors :meth:`product_default` and :meth:`paper` build the two configurations a user
+    most often wants.
 
     Parameters
     ----------
     features : FeatureSpec, optional
-        How captures become features. Default :class:`FeatureSpec()`.
+        Signals and |STFT| parameters of the default stage, ``StftStage(features,
+        align=align_phase)``. Default :class:`FeatureSpec()`. With another ``stage`` it only
+        names the signals to read.
     detector : BaselineDetector, optional
         Default :class:`LRADetector()`. Cloned, never modified.
     percentile : float in (0, 100), default=99.0
         Threshold percentile of the half-Laplace fit of healthy distances.
     align_phase : bool, default=True
-        Shift every capture circularly to line up with the baseline before taking features
-        (captures start at arbitrary phases of the task cycle; the paper's distances pair rows by
-        index). Meaningful with circular padding, the default. Ignored with a ``stage``.
+        The default stage's ``align``: shift every capture circularly to line up with the
+        baseline before taking features (captures start at arbitrary phases of the task cycle;
+        the paper's distances pair rows by index). Ignored with a ``stage``.
     min_threshold : float, default=0.0
-        Lower bound of the threshold (``MonitorConfig.threshold_floor``: what healthy task
-        changes do to the distance, which same-task calibration captures cannot show).
+        Floor of the threshold (what healthy task changes do to the distance, which same-task
+        calibration captures cannot show; :meth:`product_default` sets it).
     stage : FeatureStage, optional
-        A feature stage (:class:`~axiswatch.MechanicsStage`, ...) used instead of the |STFT|
-        features: fitted on the baseline (a copy; never modified), then it reads every capture.
-        ``features`` then only names the signals to read.
+        The feature stage (:class:`~axiswatch.MechanicsStage`, ...): fitted on the baseline (a
+        copy; never modified), then it reads every capture.
+
+    Attributes
+    ----------
+    stage_ : FeatureStage
+        The fitted stage.
+    detector_ : BaselineDetector
+        The fitted detector.
+    alarm_threshold_ : Threshold
+        The threshold and where it came from (after :meth:`calibrate`).
 
     Examples
     --------
@@ -91,6 +114,8 @@ class HealthModel:
     >>> model = model.calibrate([capture(0.01) for _ in range(5)])
     >>> model.assess(capture(0.01)).alarm, model.assess(capture(0.5)).alarm
     (False, True)
+    >>> model.alarm_threshold_.describe()
+    '99th pct of half-Laplace fit of 5 healthy captures'
     """
 
     def __init__(
@@ -110,36 +135,67 @@ class HealthModel:
         self.min_threshold = min_threshold
         self.stage = stage
 
-    def _signals(self, capture: Capture) -> tuple[NDArray[np.float64], float]:
-        return resample_capture(
-            capture, self.features.signals, target_rate_hz=self.features.target_rate_hz
+    @classmethod
+    def product_default(
+        cls, *, percentile: float = 99.0, features: FeatureSpec | None = None
+    ) -> HealthModel:
+        """The product default: :class:`~axiswatch.MechanicsStage` physical indicators,
+        :class:`~axiswatch.IndicatorDetector`, and a threshold floored at the ``percentile`` of
+        the half-Laplace fit of healthy task changes in development.
+
+        Examples
+        --------
+        >>> model = HealthModel.product_default()
+        >>> type(model.stage).__name__, type(model.detector).__name__, round(model.min_threshold, 2)
+        ('MechanicsStage', 'IndicatorDetector', 12.94)
+        """
+        return cls(
+            features,
+            IndicatorDetector(),
+            percentile=percentile,
+            min_threshold=half_laplace_threshold(MECHANICS_TASK_CHANGE_SCALE, percentile),
+            stage=MechanicsStage(),
         )
 
+    @classmethod
+    def paper(
+        cls,
+        method: Literal["lra", "pca"] = "lra",
+        *,
+        features: FeatureSpec | None = None,
+        percentile: float = 99.0,
+        align_phase: bool = True,
+    ) -> HealthModel:
+        """The paper's method: |STFT| features (aligned to the baseline's phase) with Low Rank
+        Alignment (``"lra"``) or the PCA subspace distance (``"pca"``), library defaults.
+
+        Examples
+        --------
+        >>> type(HealthModel.paper("pca").detector).__name__
+        'PCADetector'
+        """
+        detectors: dict[str, type[BaselineDetector]] = {"lra": LRADetector, "pca": PCADetector}
+        if method not in detectors:
+            raise ValueError(
+                f"The 'method' parameter of HealthModel.paper must be 'lra' or 'pca'. "
+                f"Got {method!r} instead."
+            )
+        return cls(features, detectors[method](), percentile=percentile, align_phase=align_phase)
+
     def featurize(self, capture: Capture) -> tuple[Features, int]:
-        """Features of a capture, after phase alignment to the baseline; and the lag used."""
-        if self.stage_ is not None:
-            return self.stage_.transform(capture), 0
-        signals, rate = self._signals(capture)
-        lag = 0
-        if self.align_phase:
-            reference = self.baseline_signals_
-            n = min(signals.shape[0], reference.shape[0])
-            lag = phase_lag(reference[:n], signals[:n])
-            signals = np.roll(signals[:n], -lag, axis=0)
-        return features_from_signals(signals, rate, self.features, source=capture.source), lag
+        """Features of a capture (after phase alignment to the baseline, where the stage aligns)
+        and the lag used."""
+        features = self.stage_.transform(capture)
+        return features, features.phase_lag
 
     def fit(self, baseline: Capture) -> HealthModel:
         """Take ``baseline`` as the healthy reference (the paper's commissioning capture)."""
-        self.stage_: FeatureStage | None = None
-        if self.stage is not None:
-            self.stage_ = copy.deepcopy(self.stage)
-            self.baseline_features_ = self.stage_.fit_transform(baseline)
-        else:
-            signals, rate = self._signals(baseline)
-            self.baseline_signals_: NDArray[np.float64] = signals
-            self.baseline_features_ = features_from_signals(
-                signals, rate, self.features, source=baseline.source
-            )
+        self.stage_: FeatureStage = (
+            StftStage(self.features, align=self.align_phase)
+            if self.stage is None
+            else copy.deepcopy(self.stage)
+        )
+        self.baseline_features_ = self.stage_.fit_transform(baseline)
         self.detector_ = clone(self.detector).fit(self.baseline_features_.X)
         self.calibration_: HalfLaplaceFit | None = None
         return self
@@ -152,16 +208,20 @@ class HealthModel:
     def calibrate(
         self, healthy: Sequence[Capture] | NDArray[np.float64], *, percentile: float | None = None
     ) -> HealthModel:
-        """Fit the half-Laplace threshold on healthy captures (or on their distances)."""
+        """Fit the threshold on healthy captures (or on their distances): :func:`alarm_threshold`
+        at ``percentile``, floored at ``min_threshold``."""
         if percentile is not None:
             self.percentile = percentile
         if len(healthy) and isinstance(healthy[0], Capture):
             distances = np.array([self.distance(c) for c in healthy])
         else:
             distances = np.asarray(healthy, dtype=np.float64)
-        self.calibration_ = fit_half_laplace(distances)
+        self.alarm_threshold_: Threshold = alarm_threshold(
+            distances, percentile=self.percentile, floor=self.min_threshold or None
+        )
+        self.calibration_ = self.alarm_threshold_.fit
         self.healthy_distances_ = distances
-        self.threshold_ = max(self.calibration_.threshold(self.percentile), self.min_threshold)
+        self.threshold_ = self.alarm_threshold_.value
         return self
 
     def assess(self, capture: Capture) -> Assessment:

@@ -2,7 +2,8 @@
 
 Used by :mod:`axiswatch.monitor._report`; the research figures are in ``axiswatch_lab._plots``.
 Importing this module does not import matplotlib. Each function takes its table and an optional
-``ax`` (or axes), and never calls ``plt.show``.
+``ax`` (or axes); without one it draws on a new :class:`matplotlib.figure.Figure` of its own, made
+without pyplot, so no backend is chosen or switched for the user and nothing is shown.
 """
 
 from __future__ import annotations
@@ -13,16 +14,24 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-__all__ = ["plot_distance_trend"]
+__all__ = ["new_axes", "plot_distance_trend"]
 
 
-def _pyplot() -> Any:
-    import matplotlib
+def new_axes(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **kwargs: Any) -> Any:
+    """A new :class:`matplotlib.figure.Figure` and its axes (``Figure.subplots``), without pyplot.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    The figure belongs to no pyplot window manager: it needs no ``close`` and ``savefig`` writes
+    it with the renderer of the file type, whatever backend the user has chosen.
 
-    return plt
+    Examples
+    --------
+    >>> axes = new_axes(1, 2, figsize=(4.0, 2.0), squeeze=False)
+    >>> axes.shape, type(axes[0, 0].figure).__name__
+    ((1, 2), 'Figure')
+    """
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize).subplots(nrows, ncols, **kwargs)
 
 
 def plot_distance_trend(
@@ -66,7 +75,7 @@ def plot_distance_trend(
     'robot01/axis1 (lra)'
     """
     if ax is None:
-        _, ax = _pyplot().subplots(figsize=(9, 3))
+        ax = new_axes(figsize=(9, 3))
     frame = results.copy()
     frame["when"] = pd.to_datetime(frame["captured_at"])
     day = pd.Timedelta(hours=12)

@@ -8,10 +8,15 @@ paper's |STFT| features are :class:`StftStage`; the product default's physical i
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Protocol
 
+import numpy as np
+from numpy.typing import NDArray
+
 from axiswatch._capture import Capture
-from axiswatch._features import Features, FeatureSpec, extract_features
+from axiswatch._features import Features, FeatureSpec, features_from_signals
+from axiswatch._preprocessing import phase_lag, resample_capture
 
 __all__ = ["FeatureStage", "StftStage"]
 
@@ -33,19 +38,66 @@ class FeatureStage(Protocol):
 
 
 class StftStage(FeatureStage):
-    """The paper's |STFT| features as a stage (no fitting needed).
+    """The paper's |STFT| features as a stage, optionally aligned to the baseline's phase.
+
+    Parameters
+    ----------
+    spec : FeatureSpec, optional
+        Signals, combinations and STFT parameters. Default :class:`FeatureSpec()`.
+    align : bool, default=False
+        Shift every capture circularly to line up with the baseline's phase of the task cycle
+        (:func:`~axiswatch.phase_lag`, circular cross-correlation of the resampled signals)
+        before taking its features: captures start at arbitrary phases, and the paper's
+        distances pair rows by index. Meaningful with circular padding, the default. The
+        aligned capture is cut to the shorter of its and the baseline's length; the shift is
+        ``Features.phase_lag``.
+
+    Attributes
+    ----------
+    baseline_signals_ : ndarray of shape (n_samples, n_signals)
+        The baseline's resampled signals, the phase reference (only with ``align``).
 
     Examples
     --------
     >>> StftStage(FeatureSpec(segment_length=32)).spec.segment_length
     32
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(400) / 400.0
+    >>> def capture(shift):
+    ...     return Capture({"speed": np.sin(2 * np.pi * 5 * (t + shift))}, {"speed": 400.0})
+    >>> spec = FeatureSpec(signals=("speed",), combinations="none", segment_length=32)
+    >>> stage = StftStage(spec, align=True).fit(capture(0.0))
+    >>> stage.transform(capture(0.05)).phase_lag  # 20 samples ahead = 60 behind (80-sample cycle)
+    60
     """
 
-    def __init__(self, spec: FeatureSpec | None = None) -> None:
+    def __init__(self, spec: FeatureSpec | None = None, *, align: bool = False) -> None:
         self.spec = FeatureSpec() if spec is None else spec
+        self.align = align
+
+    def _signals(self, capture: Capture) -> tuple[NDArray[np.float64], float]:
+        return resample_capture(capture, self.spec.signals, target_rate_hz=self.spec.target_rate_hz)
 
     def fit(self, baseline: Capture) -> StftStage:
+        if self.align:
+            self.baseline_signals_: NDArray[np.float64] = self._signals(baseline)[0]
         return self
 
     def transform(self, capture: Capture) -> Features:
-        return extract_features(capture, self.spec)
+        signals, rate = self._signals(capture)
+        lag = 0
+        if self.align:
+            reference = self.baseline_signals_
+            n = min(signals.shape[0], reference.shape[0])
+            lag = phase_lag(reference[:n], signals[:n])
+            signals = np.roll(signals[:n], -lag, axis=0)
+        features = features_from_signals(signals, rate, self.spec, source=capture.source)
+        return dataclasses.replace(features, phase_lag=lag) if lag else features
+
+    def fit_transform(self, baseline: Capture) -> Features:
+        """Fit on the baseline and return its features (its signals resampled once)."""
+        signals, rate = self._signals(baseline)
+        if self.align:
+            self.baseline_signals_ = signals
+        return features_from_signals(signals, rate, self.spec, source=baseline.source)

@@ -16,6 +16,12 @@ from typing import Annotated, Any, Literal
 
 import typer
 
+from axiswatch.monitor._methods import methods
+from axiswatch.monitor._scoring import MonitorConfig
+
+#: The monitor's defaults: every option of ``monitor`` defaults from these fields.
+DEFAULTS = MonitorConfig()
+
 app = typer.Typer(
     help="axiswatch: predictive maintenance of robot axes that does not cry wolf on a task change.",
     no_args_is_help=True,
@@ -64,10 +70,17 @@ def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
         yield update
 
 
-class Method(StrEnum):
-    lra = "lra"
-    pca = "pca"
-    mechanics = "mechanics"
+def _registered_method(name: str | None) -> str | None:
+    """``--method``: a method registered when the command runs (plugins included)."""
+    if name is not None and name not in methods():
+        raise typer.BadParameter(
+            f"expected one of {', '.join(methods())}; got {name!r}.", param_hint="'--method'"
+        )
+    return name
+
+
+def _method_help() -> str:
+    return "; ".join(f"{name}: {preset.summary}" for name, preset in methods().items())
 
 
 class Format(StrEnum):
@@ -90,28 +103,51 @@ def _echo_summary(store: Any) -> None:
 def monitor(
     root: Annotated[Path, typer.Argument(help="Fleet folder ROOT/<robot>/<axis>/<capture>.<ext>.")],
     store: StorePath,
-    method: Annotated[
-        Method,
-        typer.Option(
-            help="Distance: the physical indicators (default, docs/evaluation.md), the paper's "
-            "LRA, or PCA."
-        ),
-    ] = Method.mechanics,
-    percentile: float = typer.Option(99.0, help="Threshold percentile of the half-Laplace fit."),
-    calibration: int = typer.Option(5, help="Captures after the baseline that set the threshold."),
-    alarm_k: int = typer.Option(1, help="Alarm when K of the last N captures are over..."),
-    alarm_n: int = typer.Option(1, help="...the threshold (K = N = 1 as in the paper)."),
-    clear_m: int = typer.Option(1, help="An alarm clears after M clean captures in a row."),
+    method: str = typer.Option(
+        DEFAULTS.method,
+        help=f"Distance method ({_method_help()}).",
+        callback=_registered_method,
+    ),
+    percentile: float = typer.Option(
+        DEFAULTS.percentile, help="Threshold percentile of the half-Laplace fit."
+    ),
+    calibration: int = typer.Option(
+        DEFAULTS.calibration_size, help="Captures after the baseline that set the threshold."
+    ),
+    alarm_k: int = typer.Option(
+        DEFAULTS.alarm_k, help="Alarm when K of the last N captures are over..."
+    ),
+    alarm_n: int = typer.Option(
+        DEFAULTS.alarm_n, help="...the threshold (K = N = 1 as in the paper)."
+    ),
+    clear_m: int = typer.Option(
+        DEFAULTS.clear_m, help="An alarm clears after M clean captures in a row."
+    ),
     baseline: str | None = typer.Option(
-        None, help="File name of the baseline capture of new axes (default: their first)."
+        DEFAULTS.baseline,
+        help="File name of the baseline capture of new axes (default: their first).",
     ),
-    signals: str = typer.Option("position,speed,torque", help="Signal columns, comma-separated."),
-    hop: int = typer.Option(8, help="Samples between STFT slices."),
-    segment_length: int = typer.Option(128, help="STFT window length in samples."),
+    signals: str = typer.Option(
+        ",".join(DEFAULTS.features.signals), help="Signal columns, comma-separated."
+    ),
+    hop: int = typer.Option(DEFAULTS.features.hop, help="Samples between STFT slices."),
+    segment_length: int = typer.Option(
+        DEFAULTS.features.segment_length, help="STFT window length in samples."
+    ),
     lra_noise_level: str = typer.Option(
-        "1.0", help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline)."
+        str(DEFAULTS.lra_noise_level),
+        help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline).",
     ),
-    align: bool = typer.Option(True, help="Align each capture's phase to the baseline's."),
+    align: bool = typer.Option(
+        DEFAULTS.align_phase, help="Align each capture's phase to the baseline's."
+    ),
+    profile: Annotated[
+        Path | None,
+        typer.Option(
+            help="Axis profile (TOML: column names, units, kinematics) for every axis; default: "
+            "each axis's axis.toml, its robot's robot.toml or the fleet's axiswatch.toml."
+        ),
+    ] = None,
     workers: int = typer.Option(1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(None, help="Dask scheduler address for scoring."),
     progress: bool = typer.Option(True, help="Progress bar on stderr (only on a terminal)."),
@@ -122,27 +158,30 @@ def monitor(
     Exit status: 0 nothing to report; 4 an axis is in alarm; 8 a capture was rejected, a scored
     file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
     """
-    from axiswatch._features import FeatureSpec
+    import dataclasses
+
+    from axiswatch._profiles import AxisProfile
     from axiswatch.monitor._monitor import monitor_fleet
-    from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
         config = MonitorConfig(
-            method=method.value,
+            method=method,
             percentile=percentile,
             calibration_size=calibration,
             alarm_k=alarm_k,
             alarm_n=alarm_n,
             clear_m=clear_m,
             baseline=baseline,
-            features=FeatureSpec(
+            features=dataclasses.replace(
+                DEFAULTS.features,
                 signals=tuple(s.strip() for s in signals.split(",") if s.strip()),
                 hop=hop,
                 segment_length=segment_length,
             ),
             lra_noise_level=_noise_level(lra_noise_level),
             align_phase=align,
+            profile=None if profile is None else AxisProfile.from_toml(profile),
         )
         with Store(store) as opened, _progress(progress) as update:
             result = monitor_fleet(
@@ -257,7 +296,9 @@ def rebaseline(
     store: StorePath,
     robot: str = typer.Option(..., help="Robot folder name."),
     axis: str = typer.Option(..., help="Axis folder name."),
-    method: Annotated[Method | None, typer.Option(help="Only this method (default: all).")] = None,
+    method: str | None = typer.Option(
+        None, help="Only this method (default: all).", callback=_registered_method
+    ),
     from_capture: str | None = typer.Option(
         None, "--from", help="File name of the new baseline (default: the next new capture)."
     ),
@@ -274,7 +315,7 @@ def rebaseline(
                 opened,
                 robot,
                 axis,
-                method=None if method is None else method.value,
+                method=method,
                 from_capture=from_capture,
             )
         start = from_capture or "the next capture that arrives"
@@ -289,9 +330,9 @@ def ack(
     store: StorePath,
     robot: str | None = typer.Option(None, help="Robot folder name (required unless --list)."),
     axis: str | None = typer.Option(None, help="Axis folder name (required unless --list)."),
-    method: Annotated[
-        Method | None, typer.Option(help="Only this method (default: every one in alarm).")
-    ] = None,
+    method: str | None = typer.Option(
+        None, help="Only this method (default: every one in alarm).", callback=_registered_method
+    ),
     by: str | None = typer.Option(None, "--by", help="Who saw the alarm (required)."),
     note: str | None = typer.Option(None, "--note", help="What was seen or done (required)."),
     rebaseline: bool = typer.Option(
@@ -331,7 +372,7 @@ def ack(
     )
     if from_capture is not None and not rebaseline:
         raise typer.BadParameter("only with --rebaseline.", param_hint="'--from'")
-    chosen = None if method is None else method.value
+    chosen = method
     with _failures(debug):
         _require_store(store)
         with Store(store) as opened:
@@ -401,7 +442,6 @@ def demo(
     from axiswatch.datasets._robot import simulate_fleet
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor._store import Store
 
     with _failures(debug):

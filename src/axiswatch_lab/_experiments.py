@@ -16,7 +16,7 @@ from sklearn.base import clone
 from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
-from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
+from axiswatch._calibration import alarm_threshold, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec, extract_features
@@ -82,7 +82,7 @@ def lab_distances(
             detector = method.detector.fit(X[0])
             distances = np.array([detector.distance(x) for x in X[1:]])
         healthy = np.array([not day.anomalous for day in data[1:]])
-        threshold = fit_half_laplace(distances[healthy]).threshold(percentile)
+        threshold = alarm_threshold(distances[healthy], percentile=percentile).value
         for day, distance in zip(data[1:], distances, strict=True):
             rows.append(
                 {
@@ -108,14 +108,16 @@ def _default_methods() -> dict[str, BaselineDetector]:
     return {"lra": LRADetector(), "pca": PCADetector()}
 
 
-def _threshold(distances: NDArray[np.float64], percentile: float) -> float:
+def _threshold(
+    distances: NDArray[np.float64], percentile: float, floor: float | None = None
+) -> float:
     try:
-        return fit_half_laplace(distances).threshold(percentile)
+        return alarm_threshold(distances, percentile=percentile, floor=floor).value
     except CalibrationError:
         # Every calibration distance is exactly 0 (LRA embeds healthy days in its closed-form
         # bulk): the fit degenerates to a point mass at 0, whose every percentile is 0.
         if distances.size and not np.any(distances):
-            return 0.0
+            return 0.0 if floor is None else floor
         raise
 
 
@@ -340,10 +342,12 @@ def alarm_summary(
         group = group.sort_values("day")
         calibration = group.iloc[:n_calibration]
         scored = group.iloc[n_calibration:]
-        threshold = _threshold(calibration.distance.to_numpy(), percentile)
         scale = task_change_scales.get(str(method))
-        if scale is not None:
-            threshold = max(threshold, half_laplace_threshold(scale, percentile))
+        threshold = _threshold(
+            calibration.distance.to_numpy(),
+            percentile,
+            None if scale is None else half_laplace_threshold(scale, percentile),
+        )
         alarm = scored.distance.to_numpy() > threshold
         healthy = (scored.fault == "none").to_numpy()
         days = scored.day.to_numpy()

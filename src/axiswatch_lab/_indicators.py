@@ -41,6 +41,7 @@ from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "STATES",
+    "STATE_COLUMNS",
     "AxisModel",
     "OrderStage",
     "ResidualStage",
@@ -334,9 +335,11 @@ class ResidualStage(FeatureStage):
             columns[row, : len(bands)] = np.log10(energy[members].mean(axis=0) + 1e-300)
             columns[row, len(bands) :] = [r.mean(), r.std(), np.max(np.abs(r)) / rms]
         centres = np.array([(b.start + b.stop - 1) / 2 for b in bands]) * rate / self.segment_length
+        stats = ("residual_mean", "residual_std", "residual_crest")
         if self.stats_only:
-            return Features(columns[:, len(bands) :], ("residual",), np.zeros(3), rate)
-        return Features(columns, ("residual",), np.concatenate([centres, [0.0, 0.0, 0.0]]), rate)
+            return Features(columns[:, len(bands) :], ("residual",), None, rate, stats)
+        names = tuple(f"log_energy_{c:.4g}_hz" for c in centres) + stats
+        return Features(columns, ("residual",), None, rate, names)
 
 
 class OrderStage(FeatureStage):
@@ -434,6 +437,16 @@ class OrderStage(FeatureStage):
         )
 
 
+#: Columns of :class:`StateStage` (one row per operating state).
+STATE_COLUMNS: tuple[str, ...] = (
+    "mean_torque",
+    "torque_std",
+    "mean_abs_speed",
+    "high_band_torque_rms",
+    "share",
+)
+
+
 class StateStage(FeatureStage):
     """Plain statistics of torque and speed per operating state (operating-point conditioning).
 
@@ -473,4 +486,4 @@ class StateStage(FeatureStage):
             rows[s, 3] = np.sqrt(rows[s, 3])
         share = np.bincount(states, minlength=len(STATES)) / states.size
         X = np.column_stack([rows, share])
-        return Features(X, ("state_stats",), np.zeros(X.shape[1]), kin.rate_hz)
+        return Features(X, ("state_stats",), None, kin.rate_hz, STATE_COLUMNS)

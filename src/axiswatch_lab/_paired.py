@@ -29,7 +29,7 @@ import pandas as pd
 from numpy.typing import NDArray
 from sklearn.metrics import roc_auc_score
 
-from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
+from axiswatch._calibration import alarm_threshold, fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec
@@ -224,12 +224,15 @@ def paired_evaluation(
                 own.append((own_X, own_groups))
         for method_name, method_factory in methods.items():
             calib_d, healthy_d, *fault_d = _distances(method_factory, base_X, groups)
-            fit = fit_half_laplace(calib_d)
-            thresholds = {q: fit.threshold(q) for q in (95, 99)}
+            thresholds = {q: alarm_threshold(calib_d, percentile=q).value for q in (95, 99)}
             scale = task_change_scales.get((stage_name, method_name))
             floored = {
-                q: max(t, 0.0 if scale is None else half_laplace_threshold(scale, q))
-                for q, t in thresholds.items()
+                q: alarm_threshold(
+                    calib_d,
+                    percentile=q,
+                    floor=None if scale is None else half_laplace_threshold(scale, q),
+                ).value
+                for q in (95, 99)
             }
             oracle_auc = {f: float("nan") for f in design.faults}
             if oracle:

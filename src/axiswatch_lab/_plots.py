@@ -9,7 +9,7 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._plotting import _pyplot
+from axiswatch._plotting import new_axes
 
 __all__ = ["plot_paired", "plot_roc", "plot_robot_study"]
 
@@ -25,9 +25,8 @@ def plot_roc(table: pd.DataFrame, ax: Any = None) -> Any:
     >>> plot_roc(table).axes[0].get_xlabel()
     'false positive rate'
     """
-    plt = _pyplot()
     if ax is None:
-        _, ax = plt.subplots(figsize=(6, 5))
+        ax = new_axes(figsize=(6, 5))
     markers = dict(zip(sorted(table.protocol.unique()), "osD^v<>", strict=False))
     colours = {"lra": "tab:blue", "pca": "tab:red"}
     for (method, protocol), group in table.groupby(["method", "protocol"], sort=False):
@@ -59,10 +58,9 @@ def plot_robot_study(table: pd.DataFrame, title: str, axes: Any = None) -> Any:
     >>> len(plot_robot_study(table, "demo").axes)
     2
     """
-    plt = _pyplot()
     methods = list(dict.fromkeys(table.method))
     if axes is None:
-        _, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4), squeeze=False)
+        axes = new_axes(1, len(methods), figsize=(6 * len(methods), 4), squeeze=False)
         axes = axes[0]
     changes = table.drop_duplicates("day").sort_values("day")
     change_days = changes.day[
@@ -102,18 +100,14 @@ def plot_paired(table: Any, ax: Any = None) -> Any:
     """
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     if ax is None:
-        figure, ax = plt.subplots(figsize=(6.5, 5.5))
-    else:
-        figure = ax.figure
+        ax = new_axes(figsize=(6.5, 5.5))
+    figure = ax.figure
     markers = {"pca": "o", "lra": "s"}
     colours = dict(
         zip(
             sorted(table.features.unique()),
-            plt.rcParams["axes.prop_cycle"].by_key()["color"],
+            matplotlib.rcParams["axes.prop_cycle"].by_key()["color"],
             strict=False,
         )
     )

@@ -37,10 +37,11 @@ from numpy.typing import NDArray
 from scipy.signal import butter, hilbert, sosfiltfilt
 from sklearn.metrics import roc_auc_score
 
-from axiswatch._calibration import fit_half_laplace
+from axiswatch._calibration import alarm_threshold
 from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch._features import FeatureSpec, extract_features
 from axiswatch._mechanics import bearing_lines
+from axiswatch._plotting import new_axes
 from axiswatch.datasets._recorded import Segment, read_dataset
 from axiswatch.exceptions import CalibrationError, DataNotFoundError
 from axiswatch_lab._domain_adaptation import (
@@ -179,8 +180,11 @@ def segment_distances(
                 ]
             )
             try:
-                fit = fit_half_laplace(distances[np.array(roles) == "calibration"])
-                thresholds = (fit.threshold(95), fit.threshold(99))
+                healthy = distances[np.array(roles) == "calibration"]
+                thresholds = (
+                    alarm_threshold(healthy, percentile=95).value,
+                    alarm_threshold(healthy, percentile=99).value,
+                )
             except CalibrationError:
                 # A method blind to these data (every healthy distance 0, e.g. LRA when no
                 # singular value exceeds sqrt(lambda)) gets no threshold: its far/dr are NaN.
@@ -275,21 +279,16 @@ def plot_distances(distances: pd.DataFrame, *, axes: Any = None) -> Any:
     distances : DataFrame
         Output of :func:`segment_distances`.
     axes : array of matplotlib Axes of shape (n_methods, n_baselines), optional
-        Default: a new figure (Agg backend).
+        Default: a new figure (no pyplot, no backend switched).
 
     Returns
     -------
     matplotlib Figure
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     methods = list(dict.fromkeys(distances.method))
     conditions = list(dict.fromkeys(distances.baseline_condition))
     if axes is None:
-        fig, axes = plt.subplots(
+        axes = new_axes(
             len(methods),
             len(conditions),
             figsize=(3.2 * len(conditions) + 1, 1.9 * len(methods) + 0.8),

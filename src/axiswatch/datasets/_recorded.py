@@ -18,23 +18,19 @@ the unknown rate for features to be comparable (the gearbox's provenance says th
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from axiswatch._capture import Capture
+from axiswatch._formats import NOMINAL_RATE_HZ, read_npz
 from axiswatch.exceptions import CaptureError, DataNotFoundError
 
 __all__ = ["NOMINAL_RATE_HZ", "Segment", "default_data_dir", "read_dataset", "read_recording"]
-
-#: Rate given to recordings whose ``fs`` is NaN: frequencies become cycles per sample.
-NOMINAL_RATE_HZ = 1.0
 
 _DAYS_COLUMNS = ("day_id", "recording_id", "start", "stop", "condition_id", "health", "role")
 _INDEX_COLUMNS = ("recording_id", "condition_id", "health")
@@ -86,15 +82,6 @@ def default_data_dir(name: str, *, cwd: str | Path | None = None) -> Path:
     return next((c for c in candidates if c.is_dir()), candidates[0])
 
 
-def _field(archive: np.lib.npyio.NpzFile, key: str, path: Path) -> np.ndarray:
-    if key not in archive.files:
-        raise CaptureError(
-            f"{path}: missing array '{key}'; expected 'signals', 'channels' and 'fs' "
-            f"(found {sorted(archive.files)})."
-        )
-    return np.asarray(archive[key])
-
-
 def read_recording(path: str | Path, *, nominal_rate_hz: float = NOMINAL_RATE_HZ) -> Capture:
     """Read one ``.npz`` recording into a :class:`Capture` (every channel at ``fs``).
 
@@ -132,40 +119,13 @@ def read_recording(path: str | Path, *, nominal_rate_hz: float = NOMINAL_RATE_HZ
     path = Path(path)
     if not path.is_file():
         raise DataNotFoundError(f"{path}: no such recording file (expected a .npz recording).")
-    try:
-        archive = np.load(path, allow_pickle=False)
-    except Exception as exc:  # numpy raises several types for a truncated or foreign file
-        raise CaptureError(
-            f"{path}: cannot read .npz recording (truncated or corrupt?): {exc}"
-        ) from exc
-    with archive:
-        signals = _field(archive, "signals", path)
-        channels = [str(c) for c in np.atleast_1d(_field(archive, "channels", path))]
-        fs_values = _field(archive, "fs", path)
-        meta_raw = str(archive["meta"]) if "meta" in archive.files else "{}"
-    if signals.ndim != 2 or signals.shape[0] != len(channels):
-        raise CaptureError(
-            f"{path}: 'signals' must have shape [n_channels, n_samples] with one row per name in "
-            f"'channels' ({len(channels)}); got shape {signals.shape}."
-        )
-    fs = float(fs_values) if fs_values.size == 1 else math.inf
-    stated = math.isfinite(fs) and fs > 0
-    if not (stated or math.isnan(fs)):
-        raise CaptureError(
-            f"{path}: 'fs' must be a positive number of Hz, or NaN when unknown; got {fs_values!r}."
-        )
-    try:
-        meta = json.loads(meta_raw)
-    except json.JSONDecodeError as exc:
-        raise CaptureError(f"{path}: 'meta' must be a JSON object; {exc}.") from exc
-    if not isinstance(meta, dict):
-        raise CaptureError(f"{path}: 'meta' must be a JSON object; got {type(meta).__name__}.")
-    metadata = {str(k): str(v) for k, v in meta.items()}
-    metadata["fs_stated"] = "true" if stated else "false"
-    rate = fs if stated else float(nominal_rate_hz)
+    recording = read_npz(path)
+    stated = not math.isnan(recording.fs)
+    metadata = {**recording.metadata, "fs_stated": "true" if stated else "false"}
+    rate = recording.fs if stated else float(nominal_rate_hz)
     return Capture(
-        {name: signals[j] for j, name in enumerate(channels)},
-        dict.fromkeys(channels, rate),
+        {name: recording.signals[j] for j, name in enumerate(recording.channels)},
+        dict.fromkeys(recording.channels, rate),
         source=str(path),
         metadata=metadata,
     )

@@ -133,9 +133,9 @@ def triage(
     rejections : DataFrame
         :func:`~axiswatch.monitor._results.fleet_rejections`.
     changed : DataFrame
-        ``Store.changed_files()``.
+        ``StoreBackend.changed_file_table()``.
     alarms : sequence of AlarmState
-        ``Store.alarms()``.
+        ``StoreBackend.alarms()``.
     method : str
     stale_factor : float, default=3.0
         An axis is stale when its last capture is more than this many of its usual capture

@@ -4,7 +4,8 @@ Pipeline side-stage of the monitor (it only looks at names, never at file conten
 
 Rules (documented in the README):
 
-* a capture file ends in ``.parquet`` or ``.csv`` (any case); other files are not captures and are
+* a capture file ends in a registered capture suffix, ``.parquet``, ``.csv`` or ``.npz`` by default
+  (any case; :func:`axiswatch.register_format` adds one); other files are not captures and are
   ignored, as are hidden files and folders (name starting with ``.``) and files directly in
   ``ROOT`` (``labels.csv``, notes);
 * ``<robot>`` and ``<axis>`` are identifiers: 1-64 letters, digits, ``_``, ``-`` or ``.``,
@@ -25,9 +26,9 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
-__all__ = ["CAPTURE_SUFFIXES", "FleetFile", "LayoutProblem", "discover_fleet", "parse_capture_time"]
+from axiswatch._formats import capture_suffixes
 
-CAPTURE_SUFFIXES: tuple[str, ...] = (".parquet", ".csv")
+__all__ = ["FleetFile", "LayoutProblem", "discover_fleet", "parse_capture_time"]
 
 _IDENTIFIER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 _STAMP = re.compile(
@@ -156,11 +157,12 @@ def discover_fleet(root: str | Path) -> tuple[list[FleetFile], list[LayoutProble
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
+    suffixes = capture_suffixes()
     for path in sorted(root.rglob("*")):
         relative = path.relative_to(root).parts
         if any(part.startswith(".") for part in relative):
             continue
-        if not path.is_file() or path.suffix.lower() not in CAPTURE_SUFFIXES or len(relative) == 1:
+        if not path.is_file() or path.suffix.lower() not in suffixes or len(relative) == 1:
             continue
         if len(relative) != 3:
             problems.append(

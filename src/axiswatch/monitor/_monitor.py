@@ -17,9 +17,10 @@ one detection method:
    over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
    row (default 1).
 
-The driver process alone writes the store, one transaction per capture, committed in capture
-order per axis and computing the role, threshold and alarm state from what the store holds at
-that moment; scoring itself (read, features, distance) goes through
+The driver process alone writes the store (any :class:`~axiswatch.monitor.StoreBackend`; the
+driver holds no SQL), one transaction per capture, committed in capture order per axis; the store
+calls the pure :func:`~axiswatch.monitor._decision.decide` inside that transaction, from what it
+holds at that moment. Scoring itself (read, features, distance) goes through
 :func:`axiswatch.monitor._parallel.parallel_map`. Hence a killed run resumes exactly, and a second
 process on the same store skips what the first has written.
 """
@@ -27,19 +28,19 @@ process on the same store skips what the first has written.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 from axiswatch._model import HealthModel
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._fleet import FleetFile, discover_fleet
-from axiswatch.monitor._ledger import commit_score, insert_baseline, now, params_json, reject
+from axiswatch.monitor._fleet import FleetFile, LayoutProblem, discover_fleet
+from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._parallel import parallel_map
 from axiswatch.monitor._scoring import (
     FitJob,
+    FitOutcome,
     MonitorConfig,
     ScoreJob,
     ScoreOutcome,
@@ -47,7 +48,7 @@ from axiswatch.monitor._scoring import (
     fit_baseline,
     score_capture,
 )
-from axiswatch.monitor._store import AlarmState, Store
+from axiswatch.monitor._store import AlarmState, Baseline, ChangedFile, StoreBackend
 
 __all__ = ["MonitorSummary", "monitor_fleet"]
 
@@ -85,7 +86,7 @@ class MonitorSummary:
         return 4 * bool(self.alarms) + 8 * attention
 
 
-# --- the driver --------------------------------------------------------------------------------
+# --- one run's context -------------------------------------------------------------------------
 
 
 @dataclass
@@ -93,55 +94,104 @@ class _Axis:
     robot: str
     axis: str
     files: list[FleetFile]
-    baseline: Any = None  # sqlite3.Row of the active baseline
+    baseline: Baseline | None = None
     model: HealthModel | None = None
     rates_hz: dict[str, float] = field(default_factory=dict)
     candidates: list[FleetFile] = field(default_factory=list)
     epoch: int = 1
 
 
+@dataclass
+class _Run:
+    """What one run knows: where, with what, the files' hashes (each file hashed once), what the
+    store held when it started, and the summary being built."""
+
+    root: Path
+    store: StoreBackend
+    config: MonitorConfig
+    workers: int
+    dask: object | None
+    progress: Progress | None
+    summary: MonitorSummary
+    hashes: dict[Path, str] = field(default_factory=dict)
+    rejected: set[tuple[str, str]] = field(default_factory=set)
+    alarmed: set[tuple[str, str, str]] = field(default_factory=set)
+    done: dict[str, int] = field(default_factory=lambda: {"baselines": 0, "captures": 0})
+
+    @property
+    def method(self) -> str:
+        return self.config.method
+
+    def digest(self, path: Path) -> str:
+        if path not in self.hashes:
+            self.hashes[path] = file_hash(path)
+        return self.hashes[path]
+
+    def relative(self, path: Path) -> str:
+        return path.relative_to(self.root).as_posix()
+
+    def is_rejected(self, file: FleetFile) -> bool:
+        return (self.relative(file.path), self.digest(file.path)) in self.rejected
+
+    def usable(self, file: FleetFile) -> bool:
+        """A candidate baseline: not rejected (this content) and never alarmed."""
+        return not self.is_rejected(file) and (
+            (file.robot, file.axis, file.capture) not in self.alarmed
+        )
+
+    def fit_job(self, file: FleetFile) -> FitJob:
+        return FitJob(file, self.relative(file.path), self.config.model(), self.config.profile)
+
+    def report(self, stage: str, done: int, total: int) -> None:
+        if self.progress is not None:
+            self.progress(stage, done, total)
+
+
 def _key(file: FleetFile) -> tuple[datetime, str]:
     return (file.captured_at, file.capture)
 
 
-def _changed_files(
-    store: Store, root: Path, files: Sequence[FleetFile], hashes: dict[Path, str]
-) -> list[str]:
+def _from_capture(files: Sequence[FleetFile], capture: str) -> list[FleetFile]:
+    """The files from ``capture`` on (it included)."""
+    start = _key(next(f for f in files if f.capture == capture))
+    return [f for f in files if _key(f) >= start]
+
+
+# --- steps of a run ----------------------------------------------------------------------------
+
+
+def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> None:
+    for problem in problems:
+        reject(
+            run.store,
+            run.method,
+            problem.robot,
+            problem.axis,
+            problem.capture,
+            run.relative(problem.path),
+            run.digest(problem.path),
+            problem.reason,
+        )
+
+
+def _changed_files(run: _Run, files: Sequence[FleetFile]) -> list[str]:
     """Files whose content differs from when they were scored (recorded, and listed)."""
-    scored: dict[str, Any] = {}
-    for row in store.rows(
-        "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-        "ORDER BY id"
-    ):
-        scored[row["path"]] = row
+    scored = run.store.scored_files()
     changed = []
     for file in files:
-        relative = file.path.relative_to(root).as_posix()
+        relative = run.relative(file.path)
         previous = scored.get(relative)
         if previous is None:
             continue
         stat = file.path.stat()
-        if (stat.st_size, stat.st_mtime_ns) == (previous["file_size"], previous["file_mtime_ns"]):
+        if (stat.st_size, stat.st_mtime_ns) == (previous.file_size, previous.file_mtime_ns):
             continue
-        if file.path not in hashes:
-            hashes[file.path] = file_hash(file.path)
-        current = hashes[file.path]
-        if current == previous["file_hash"]:
+        current = run.digest(file.path)
+        if current == previous.file_hash:
             continue
-        with store.write() as db:
-            db.execute(
-                "INSERT OR IGNORE INTO changed_files (robot, axis, capture, path, scored_hash, "
-                "current_hash, detected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (
-                    file.robot,
-                    file.axis,
-                    file.capture,
-                    relative,
-                    previous["file_hash"],
-                    current,
-                    now(),
-                ),
-            )
+        run.store.record_changed_file(
+            ChangedFile(file.robot, file.axis, file.capture, relative, previous.file_hash, current)
+        )
         changed.append(
             f"{relative}: content changed after it was scored; the stored result is kept "
             "(re-baseline the axis to score it afresh)"
@@ -149,21 +199,169 @@ def _changed_files(
     return changed
 
 
-def _standing_rejections(store: Store, root: Path, method: str) -> list[str]:
-    """Rejections whose file still has the rejected content."""
-    standing = []
-    scored = {
-        (r["path"], r["file_hash"])
-        for r in store.rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
-    }
-    for row in store.rows(
-        "SELECT path, file_hash, error FROM rejections WHERE method=? ORDER BY id", (method,)
-    ):
-        path = root / row["path"]
-        if not path.is_file() or (row["path"], row["file_hash"]) in scored:
+def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
+    """Refit the axis's active baseline, unless its file is missing or changed."""
+    params = params_json(run.config)
+    if baseline.params != params:
+        raise StoreError(
+            f"store '{run.store.location}': the baseline of robot {state.robot} axis "
+            f"{state.axis} ({run.method}) was made with parameters {baseline.params}; this "
+            f"run asks for {params}. Use the same options, another store, or "
+            "re-baseline the axis."
+        )
+    state.baseline = baseline
+    stored = next((f for f in state.files if f.capture == baseline.capture), None)
+    if stored is None or run.digest(stored.path) != baseline.file_hash:
+        what = "is missing" if stored is None else "changed after it was fitted"
+        run.summary.axis_problems.append(
+            f"{baseline.path}: baseline file {what}; robot {state.robot} axis "
+            f"{state.axis} is not scored (re-baseline it)"
+        )
+        return None
+    state.candidates = [stored]
+    return run.fit_job(stored)
+
+
+def _plan_new(run: _Run, state: _Axis, retired: Baseline | None) -> FitJob | None:
+    """The first usable candidate of a new epoch: the configured or requested baseline, else
+    the first capture (of a new axis) or the first one after everything scored (re-baseline)."""
+    state.epoch = 1 if retired is None else retired.epoch + 1
+    ordered = state.files
+    names = {f.capture for f in ordered}
+    if retired is None:
+        chosen = run.config.baseline
+        if chosen is not None and chosen in names:
+            ordered = _from_capture(ordered, chosen)
+    else:
+        chosen = run.store.requested_baseline(state.robot, state.axis, run.method, retired.epoch)
+        if chosen is not None:
+            if chosen not in names:
+                run.summary.axis_problems.append(
+                    f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
+                    "the fleet folder; the axis is not scored"
+                )
+                return None
+            ordered = _from_capture(ordered, chosen)
+        else:
+            seen = run.store.last_captured_at(state.robot, state.axis, run.method)
+            ordered = [f for f in ordered if seen is None or f.captured_at > seen]
+    state.candidates = [f for f in ordered if run.usable(f)]
+    return run.fit_job(state.candidates[0]) if state.candidates else None
+
+
+def _plan_baseline(run: _Run, state: _Axis) -> FitJob | None:
+    """The fit job of an axis: its active baseline, or the first candidate of a new epoch."""
+    latest = run.store.latest_baseline(state.robot, state.axis, run.method)
+    if latest is not None and not latest.retired:
+        return _plan_active(run, state, latest)
+    return _plan_new(run, state, latest)
+
+
+def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | None:
+    """Record a fitted (or failed) baseline candidate; the next candidate's job on failure."""
+    file = outcome.job.file
+    if state.baseline is not None:  # an active baseline, refitted
+        if outcome.model is None:
+            run.summary.axis_problems.append(
+                f"{outcome.error}; the stored baseline cannot be refitted"
+            )
+        else:
+            state.model, state.rates_hz = outcome.model, outcome.rates_hz
+        return None
+    if outcome.model is None:
+        reject(
+            run.store,
+            run.method,
+            file.robot,
+            file.axis,
+            file.capture,
+            outcome.job.relative,
+            run.digest(file.path),
+            str(outcome.error),
+        )
+        state.candidates = state.candidates[1:]
+        if state.epoch == 1 and file.capture == run.config.baseline:
+            state.candidates = []  # the chosen baseline is unusable: no other one
+        return run.fit_job(state.candidates[0]) if state.candidates else None
+    baseline_id = insert_baseline(run.store, outcome, state.epoch, run.config)
+    if baseline_id is None:
+        run.summary.axis_problems.append(
+            f"{state.robot}/{state.axis}: another process chose a different baseline "
+            "at the same time; run monitor again"
+        )
+        return None
+    run.summary.new_baselines += 1
+    state.baseline = run.store.baseline(baseline_id)
+    state.model, state.rates_hz = outcome.model, outcome.rates_hz
+    return None
+
+
+def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str], _Axis]) -> None:
+    """Fit the jobs' baselines; retry an axis's next candidate until one fits or none is left."""
+    total = len(by_axis)
+    while jobs:
+        retry: list[FitJob] = []
+        for _, outcome in parallel_map(fit_baseline, jobs, workers=run.workers, dask=run.dask):
+            file = outcome.job.file
+            run.done["baselines"] += 1
+            run.report("baselines", run.done["baselines"], total)
+            next_job = _accept_baseline(run, by_axis[(file.robot, file.axis)], outcome)
+            if next_job is not None:
+                retry.append(next_job)
+        jobs = retry
+
+
+def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
+    """One job per capture after the baseline that is neither scored under it nor rejected."""
+    jobs: list[ScoreJob] = []
+    for state in states:
+        if state.model is None or state.baseline is None:
             continue
-        if file_hash(path) == row["file_hash"]:
-            standing.append(str(row["error"]))
+        baseline = state.baseline
+        done = run.store.scored_captures(baseline.id)
+        start = (baseline.captured_at, baseline.capture)
+        for file in state.files:
+            if _key(file) <= start or file.capture in done or run.is_rejected(file):
+                continue
+            relative = run.relative(file.path)
+            jobs.append(
+                ScoreJob(
+                    file, relative, baseline.id, state.model, state.rates_hz, run.config.profile
+                )
+            )
+    return jobs
+
+
+def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
+    """Score the jobs anywhere; commit each axis's results in capture order as they complete."""
+    pending: dict[int, ScoreOutcome] = {}
+    queue_of: dict[int, list[int]] = defaultdict(list)
+    for index, job in enumerate(jobs):
+        queue_of[job.baseline_id].append(index)
+    first = run.done["captures"]
+    for count, (index, result) in enumerate(
+        parallel_map(score_capture, jobs, workers=run.workers, dask=run.dask), start=1
+    ):
+        pending[index] = result
+        queue = queue_of[jobs[index].baseline_id]
+        while queue and queue[0] in pending:
+            ready = pending.pop(queue.pop(0))
+            if commit_score(run.store, ready, run.config) and ready.error is None:
+                run.summary.scored += 1
+        run.report("captures", first + count, first + len(jobs))
+    run.done["captures"] += len(jobs)
+
+
+def _standing_rejections(run: _Run) -> list[str]:
+    """Rejections whose file still has the rejected content."""
+    scored = run.store.scored_contents(run.method)
+    standing = []
+    for rejection in run.store.rejections(run.method):
+        path = run.root / rejection.path
+        if not path.is_file() or (rejection.path, rejection.file_hash) in scored:
+            continue
+        if file_hash(path) == rejection.file_hash:
+            standing.append(rejection.error)
     return standing
 
 
@@ -173,7 +371,7 @@ _AXES_PER_CHUNK = 256
 
 def monitor_fleet(
     root: str | Path,
-    store: Store,
+    store: StoreBackend,
     config: MonitorConfig | None = None,
     *,
     workers: int = 1,
@@ -186,9 +384,10 @@ def monitor_fleet(
     ----------
     root : str or Path
         Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
-    store : Store
-        Where results go (and what was done before).
+    store : StoreBackend
+        Where results go (and what was done before): ``Store(path)``, or another backend.
     config : MonitorConfig, optional
+        Default ``MonitorConfig()``: the product default, as ``axiswatch monitor``.
     workers, dask
         Passed to :func:`axiswatch.monitor._parallel.parallel_map`.
     progress : callable (stage, done, total), optional
@@ -204,224 +403,41 @@ def monitor_fleet(
         If an axis's stored baseline was made with other parameters than ``config``.
     """
     config = MonitorConfig() if config is None else config
-    root = Path(root)
-    method = config.method
     files, problems = discover_fleet(root)
-    summary = MonitorSummary(method=method, n_files=len(files) + len(problems))
-    hashes: dict[Path, str] = {}
-
-    def digest(path: Path) -> str:
-        if path not in hashes:
-            hashes[path] = file_hash(path)
-        return hashes[path]
-
-    for problem in problems:
-        reject(
-            store, method, problem.robot, problem.axis, problem.capture,
-            problem.path.relative_to(root).as_posix(),
-            digest(problem.path), problem.reason,
-        )  # fmt: skip
-    summary.changed = _changed_files(store, root, files, hashes)
-
-    rejected = {
-        (r["path"], r["file_hash"])
-        for r in store.rows("SELECT path, file_hash FROM rejections WHERE method=?", (method,))
-    }
-    alarmed = {
-        (r["robot"], r["axis"], r["capture"])
-        for r in store.rows(
-            "SELECT robot, axis, capture FROM scores WHERE method=? AND alarm=1", (method,)
-        )
-    }
-    params = params_json(config)
+    run = _Run(
+        Path(root),
+        store,
+        config,
+        workers,
+        dask,
+        progress,
+        MonitorSummary(method=config.method, n_files=len(files) + len(problems)),
+    )
+    _record_layout_problems(run, problems)
+    run.summary.changed = _changed_files(run, files)
+    run.rejected = {(r.path, r.file_hash) for r in store.rejections(run.method)}
+    run.alarmed = store.alarmed_captures(run.method)
 
     grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
     for file in files:
         grouped[(file.robot, file.axis)].append(file)
-    axes = [_Axis(robot, axis, axis_files) for (robot, axis), axis_files in grouped.items()]
-
-    def relative(file: FleetFile) -> str:
-        return file.path.relative_to(root).as_posix()
-
-    def usable(state: _Axis, file: FleetFile) -> bool:
-        return (relative(file), digest(file.path)) not in rejected and (
-            state.robot,
-            state.axis,
-            file.capture,
-        ) not in alarmed
-
-    fit_jobs: list[FitJob] = []
-    for state in axes:
-        rows = store.rows(
-            "SELECT * FROM baselines WHERE robot=? AND axis=? AND method=? ORDER BY epoch DESC "
-            "LIMIT 1",
-            (state.robot, state.axis, method),
-        )
-        latest = rows[0] if rows else None
-        if latest is not None and latest["retired_at"] is None:
-            if latest["params"] != params:
-                raise StoreError(
-                    f"store '{store.path}': the baseline of robot {state.robot} axis "
-                    f"{state.axis} ({method}) was made with parameters {latest['params']}; this "
-                    f"run asks for {params}. Use the same options, another store, or "
-                    "re-baseline the axis."
-                )
-            state.baseline = latest
-            by_name = {f.capture: f for f in state.files}
-            stored = by_name.get(latest["capture"])
-            if stored is None or digest(stored.path) != latest["file_hash"]:
-                what = "is missing" if stored is None else "changed after it was fitted"
-                summary.axis_problems.append(
-                    f"{latest['path']}: baseline file {what}; robot {state.robot} axis "
-                    f"{state.axis} is not scored (re-baseline it)"
-                )
-                continue
-            state.candidates = [stored]
-            fit_jobs.append(FitJob(stored, relative(stored), config))
-            continue
-        state.epoch = 1 if latest is None else int(latest["epoch"]) + 1
-        ordered = state.files
-        if latest is None:
-            if config.baseline is not None and config.baseline in {f.capture for f in ordered}:
-                ordered = [
-                    f for f in ordered if _key(f) >= _key(_by_capture(ordered, config.baseline))
-                ]
-        else:
-            request = store.rows(
-                "SELECT from_capture FROM rebaselines WHERE robot=? AND axis=? AND method=? "
-                "AND retired_epoch=? ORDER BY id DESC LIMIT 1",
-                (state.robot, state.axis, method, latest["epoch"]),
-            )
-            chosen = request[0]["from_capture"] if request else None
-            if chosen is not None:
-                if chosen not in {f.capture for f in ordered}:
-                    summary.axis_problems.append(
-                        f"{state.robot}/{state.axis}: re-baseline capture '{chosen}' is not in "
-                        "the fleet folder; the axis is not scored"
-                    )
-                    continue
-                ordered = [f for f in ordered if _key(f) >= _key(_by_capture(ordered, chosen))]
-            else:
-                seen = store.rows(
-                    "SELECT max(captured_at) AS last FROM scores WHERE robot=? AND axis=? "
-                    "AND method=?",
-                    (state.robot, state.axis, method),
-                )[0]["last"]
-                ordered = [f for f in ordered if seen is None or f.captured_at.isoformat() > seen]
-        state.candidates = [f for f in ordered if usable(state, f)]
-        if state.candidates:
-            fit_jobs.append(FitJob(state.candidates[0], relative(state.candidates[0]), config))
-
-    by_axis = {(s.robot, s.axis): s for s in axes}
-    counts = {"baselines": 0, "captures": 0}
-
-    def fit_chunk(fit_jobs: list[FitJob]) -> None:
-        while fit_jobs:
-            retry: list[FitJob] = []
-            for _, outcome in parallel_map(fit_baseline, fit_jobs, workers=workers, dask=dask):
-                file = outcome.job.file
-                state = by_axis[(file.robot, file.axis)]
-                counts["baselines"] += 1
-                if progress is not None:
-                    progress("baselines", counts["baselines"], len(axes))
-                if state.baseline is not None:
-                    if outcome.model is None:
-                        summary.axis_problems.append(
-                            f"{outcome.error}; the stored baseline cannot be refitted"
-                        )
-                    else:
-                        state.model, state.rates_hz = outcome.model, outcome.rates_hz
-                    continue
-                if outcome.model is None:
-                    reject(
-                        store, method, file.robot, file.axis, file.capture, outcome.job.relative,
-                        digest(file.path), str(outcome.error),
-                    )  # fmt: skip
-                    state.candidates = state.candidates[1:]
-                    if (
-                        config.baseline is not None
-                        and state.epoch == 1
-                        and file.capture == config.baseline
-                    ):
-                        state.candidates = []
-                    if state.candidates:
-                        retry.append(
-                            FitJob(state.candidates[0], relative(state.candidates[0]), config)
-                        )
-                    continue
-                baseline_id = insert_baseline(store, outcome, state.epoch, config)
-                if baseline_id is None:
-                    summary.axis_problems.append(
-                        f"{state.robot}/{state.axis}: another process chose a different baseline "
-                        "at the same time; run monitor again"
-                    )
-                    continue
-                summary.new_baselines += 1
-                state.baseline = store.rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))[0]
-                state.model, state.rates_hz = outcome.model, outcome.rates_hz
-            fit_jobs = retry
-
-    def score_chunk(states: Sequence[_Axis]) -> None:
-        jobs: list[ScoreJob] = []
-        for state in states:
-            if state.model is None or state.baseline is None:
-                continue
-            baseline_id = int(state.baseline["id"])
-            done_captures = {
-                r["capture"]
-                for r in store.rows(
-                    "SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,)
-                )
-            }
-            start = (
-                datetime.fromisoformat(state.baseline["captured_at"]),
-                state.baseline["capture"],
-            )
-            for file in state.files:
-                if _key(file) <= start or file.capture in done_captures:
-                    continue
-                if (relative(file), digest(file.path)) in rejected:
-                    continue
-                jobs.append(
-                    ScoreJob(file, relative(file), baseline_id, state.model, state.rates_hz)
-                )
-
-        # Commit in capture order per axis, whatever order results complete in.
-        pending: dict[int, ScoreOutcome] = {}
-        queue_of: dict[int, list[int]] = defaultdict(list)
-        for index, job in enumerate(jobs):
-            queue_of[job.baseline_id].append(index)
-        for count, (index, result) in enumerate(
-            parallel_map(score_capture, jobs, workers=workers, dask=dask), start=1
-        ):
-            pending[index] = result
-            queue = queue_of[jobs[index].baseline_id]
-            while queue and queue[0] in pending:
-                ready = pending.pop(queue.pop(0))
-                if commit_score(store, ready, config) and ready.error is None:
-                    summary.scored += 1
-            if progress is not None:
-                progress("captures", counts["captures"] + count, counts["captures"] + len(jobs))
-        counts["captures"] += len(jobs)
+    by_axis = {key: _Axis(key[0], key[1], axis_files) for key, axis_files in grouped.items()}
+    fit_jobs = [job for state in by_axis.values() if (job := _plan_baseline(run, state))]
 
     # Axes are handled a chunk at a time so that the driver never holds more than
     # _AXES_PER_CHUNK fitted models (a few MB each) however large the fleet.
     for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
         chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
         states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]
-        fit_chunk(chunk)
-        score_chunk(states)
+        _fit_baselines(run, chunk, by_axis)
+        _score_in_order(run, _score_jobs(run, states))
         for state in states:
             state.model = None
 
-    summary.rejected = _standing_rejections(store, root, method)
-    for alarm in store.alarms(method):
+    run.summary.rejected = _standing_rejections(run)
+    for alarm in store.alarms(run.method):
         if alarm.acknowledged:
-            summary.acknowledged.append(alarm)
+            run.summary.acknowledged.append(alarm)
         else:
-            summary.alarms.append((alarm.robot, alarm.axis))
-    return summary
-
-
-def _by_capture(files: Sequence[FleetFile], capture: str) -> FleetFile:
-    return next(f for f in files if f.capture == capture)
+            run.summary.alarms.append((alarm.robot, alarm.axis))
+    return run.summary

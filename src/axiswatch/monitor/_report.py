@@ -28,7 +28,7 @@ import pandas as pd
 from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_method, triage
 from axiswatch.monitor._charts import distance_chart, plotly_library
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import StoreBackend
 
 __all__ = ["write_report"]
 
@@ -199,7 +199,7 @@ def _events(
 
 
 def write_report(
-    store: Store,
+    store: StoreBackend,
     out: str | Path,
     *,
     labels: pd.DataFrame | None = None,
@@ -209,7 +209,7 @@ def write_report(
 
     Parameters
     ----------
-    store : Store
+    store : StoreBackend
     out : str or Path
         Folder (created if needed).
     labels : DataFrame, optional
@@ -227,7 +227,7 @@ def write_report(
     summary = fleet_summary(store)
     results = fleet_results(store)
     rejections = fleet_rejections(store)
-    changed = store.changed_files()
+    changed = store.changed_file_table()
     alarms = store.alarms()
     acks = store.acknowledgements()
     rebaselines = store.rebaseline_requests()
@@ -243,7 +243,7 @@ def write_report(
         f"<style>{_STYLE}</style>",
         f"<script type='text/javascript'>{plotly_library()}</script></head><body>",
         "<h1>axiswatch fleet report</h1>",
-        f"<p class='meta'>Generated {_esc(generated)} from store {_esc(store.path)}. Newest "
+        f"<p class='meta'>Generated {_esc(generated)} from store {_esc(store.location)}. Newest "
         f"capture in the fleet: {_esc(_when(newest) or 'none')}. Method leading this page: "
         f"<b>{_esc(lead or 'none')}</b>"
         + (" (the product default)" if lead == "mechanics" else "")

@@ -6,21 +6,20 @@ Pipeline stage below the report and the CLI; it only reads.
 from __future__ import annotations
 
 import json
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
-from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._mechanics import COLUMNS
-from axiswatch.monitor._ledger import describe_threshold
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import StoreBackend
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
 
-def fleet_results(store: Store, *, robot: str | None = None, axis: str | None = None) -> Any:
+def fleet_results(
+    store: StoreBackend, *, robot: str | None = None, axis: str | None = None
+) -> pd.DataFrame:
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
 
     Further columns: ``captured_at``, ``epoch``, ``role``, ``over``, ``reason``, ``details``
@@ -29,18 +28,7 @@ def fleet_results(store: Store, *, robot: str | None = None, axis: str | None = 
     shift and likely meaning; None otherwise). Baseline rows are included
     (role ``baseline``, no distance).
     """
-    frame = store.frame(
-        "SELECT s.robot, s.axis, s.capture, s.method, s.distance, s.threshold, s.alarm, "
-        "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details, s.path FROM scores s "
-        "JOIN baselines b ON b.id = s.baseline_id "
-        "WHERE (? IS NULL OR s.robot=?) AND (? IS NULL OR s.axis=?) "
-        "ORDER BY s.robot, s.axis, s.method, s.captured_at, s.capture, b.epoch",
-        (robot, robot, axis, axis),
-    )
-    frame["alarm"] = frame["alarm"].astype(bool)
-    frame["over"] = frame["over"].astype(bool)
-    frame["distance"] = frame["distance"].astype(np.float64)
-    frame["threshold"] = frame["threshold"].astype(np.float64)
+    frame = store.score_table(robot=robot, axis=axis)
     # Named only where it explains an alarm: "likely a damaged gear tooth" on a capture under
     # the threshold would read as a finding.
     frame["top_indicator"] = [
@@ -72,63 +60,26 @@ def indicator_spreads(results: pd.DataFrame) -> pd.DataFrame:
     return frame[known + [name for name in frame.columns if name not in known]]
 
 
-def fleet_rejections(store: Store) -> Any:
+def fleet_rejections(store: StoreBackend) -> pd.DataFrame:
     """Rejected capture files: robot, axis, capture, method, path, error, rejected_at."""
-    return store.frame(
-        "SELECT robot, axis, capture, method, path, error, rejected_at FROM rejections "
-        "ORDER BY robot, axis, path, method, id"
-    )
+    return store.rejection_table()
 
 
-def fleet_summary(store: Store) -> Any:
+def fleet_summary(store: StoreBackend) -> pd.DataFrame:
     """One row per axis and method of the active baselines: the fleet's state at a glance.
 
     Columns: ``robot``, ``axis``, ``method``, ``epoch``, ``baseline`` (capture), ``threshold``,
     ``scored`` (calibration and monitored captures), ``over`` (captures over the threshold),
     ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``state``
     (``calibrating``, ``ok`` or ``ALARM``), ``rejected`` (files of the axis rejected),
-    ``threshold_origin`` (:func:`~axiswatch.monitor._ledger.describe_threshold`), ``alarm_since`` (the
+    ``threshold_origin`` (:meth:`~axiswatch._calibration.Threshold.describe`), ``alarm_since`` (the
     capture that raised the alarm in force) and ``acknowledged_by`` (who saw it, if anyone).
     """
-    frame = store.frame(
-        "SELECT b.robot, b.axis, b.method, b.epoch, b.capture AS baseline, b.threshold, "
-        "b.calibration, b.params, "
-        "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
-        "AS scored, "
-        "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
-        "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.alarm=1 AND NOT coalesce("
-        "(SELECT p.alarm FROM scores p WHERE p.baseline_id=b.id AND p.role='monitor' "
-        "AND p.id<s.id ORDER BY p.id DESC LIMIT 1), 0)) AS alarms, "
-        "(SELECT s.capture FROM scores s WHERE s.baseline_id=b.id ORDER BY s.id DESC LIMIT 1) "
-        "AS last_capture, "
-        "(SELECT s.distance FROM scores s WHERE s.baseline_id=b.id ORDER BY s.id DESC LIMIT 1) "
-        "AS last_distance, "
-        "(SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor' "
-        "ORDER BY s.id DESC LIMIT 1) AS last_alarm, "
-        "(SELECT count(*) FROM rejections r WHERE r.robot=b.robot AND r.axis=b.axis "
-        "AND r.method=b.method) AS rejected "
-        "FROM baselines b WHERE b.retired_at IS NULL ORDER BY b.robot, b.axis, b.method"
-    )
+    frame = store.summary_table()
     state = np.where(
         frame["threshold"].isna(),
         "calibrating",
         np.where(frame["last_alarm"].fillna(0).astype(bool), "ALARM", "ok"),
     )
     frame["state"] = state
-    frame["threshold_origin"] = [
-        None
-        if threshold is None or pd.isna(threshold) or calibration is None
-        else describe_threshold(
-            float(threshold),
-            HalfLaplaceFit(**json.loads(calibration)),
-            float(json.loads(params)["percentile"]),
-        )
-        for threshold, calibration, params in zip(
-            frame["threshold"], frame["calibration"], frame["params"], strict=True
-        )
-    ]
-    alarms = {(a.robot, a.axis, a.method): a for a in store.alarms()}
-    keys = list(zip(frame["robot"], frame["axis"], frame["method"], strict=True))
-    frame["alarm_since"] = [getattr(alarms.get(k), "raised_capture", None) for k in keys]
-    frame["acknowledged_by"] = [getattr(alarms.get(k), "acknowledged_by", None) for k in keys]
-    return frame.drop(columns=["last_alarm", "calibration", "params"])
+    return frame.drop(columns=["last_alarm"])

@@ -7,6 +7,7 @@ and returns an outcome or an error record: it never raises for a bad capture.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import hashlib
 import math
@@ -17,15 +18,17 @@ from typing import Any, Literal
 from threadpoolctl import threadpool_limits
 
 from axiswatch._attribution import explain_indicators
-from axiswatch._calibration import half_laplace_threshold
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch._detectors import BaselineDetector, IndicatorDetector
 from axiswatch._features import FeatureSpec
-from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
+from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
+from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
-from axiswatch.exceptions import AxiswatchError
+from axiswatch.exceptions import CaptureError
+from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
+from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 
 __all__ = [
     "MONITOR_FEATURES",
@@ -38,8 +41,6 @@ __all__ = [
     "fit_baseline",
     "score_capture",
 ]
-
-Method = Literal["lra", "pca", "mechanics"]
 
 #: Features of the monitor: the library's defaults (position, speed, torque and their products,
 #: Hann window of 128, circular padding, magnitude scaling) with a hop of 8 samples. At 2 kHz a
@@ -54,12 +55,13 @@ class MonitorConfig:
 
     Parameters
     ----------
-    method : {"lra", "pca", "mechanics"}, default="lra"
-        The paper's Low Rank Alignment distance, the PCA baseline (library defaults of
-        :class:`LRADetector` and :class:`PCADetector` on ``features``), or the physical
-        indicators of :class:`MechanicsStage` with :class:`IndicatorDetector`, the default chosen
-        by the development protocol of docs/evaluation.md (no phase alignment: its rows are
-        directions of motion, not time slices).
+    method : str, default="mechanics"
+        A registered method (:func:`~axiswatch.monitor.register_method`; built in:
+        ``"mechanics"``, the physical indicators of :class:`MechanicsStage` with
+        :class:`IndicatorDetector`, the product default chosen by the development protocol of
+        docs/evaluation.md; the paper's Low Rank Alignment ``"lra"`` and ``"pca"``, library
+        defaults of :class:`LRADetector` and :class:`PCADetector` on ``features``). The method's
+        preset makes the detector, the stage and the threshold floor.
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
         ``K``: captures after the baseline that calibrate the threshold.
@@ -71,19 +73,32 @@ class MonitorConfig:
         File name of the capture to use as every new axis's baseline (axes without such a file
         start at their first capture).
     features : FeatureSpec, default=MONITOR_FEATURES
+        Signals to read; for a method without a stage, its |STFT| features.
     lra_noise_level : float or "auto", default=1.0
         ``lambda`` of the LRA detector (:class:`LRADetector`'s ``noise_level``): 1 is the paper's
         form; ``"auto"`` estimates it from each baseline's own noise.
     align_phase : bool, default=True
-        Align every capture to the baseline's phase of the task cycle (``HealthModel``).
+        Align every capture to the baseline's phase of the task cycle (``HealthModel``; methods
+        with a stage read directions of motion, not time slices, and are never aligned).
+    detector : BaselineDetector or None, default=None
+        A detector to use instead of the method's (an unfitted estimator; cloned when fitted).
+    stage : FeatureStage or None, default=None
+        A feature stage to use instead of the method's.
+    profile : AxisProfile, optional
+        Column names, units and time stamps of every axis's files (``--profile FILE``). When
+        None, each axis's profile is looked up in the fleet folder (:meth:`AxisProfile.find`:
+        ``<axis>/axis.toml``, ``<robot>/robot.toml``, ``axiswatch.toml``), and files without one
+        are read as the project's format.
 
     Examples
     --------
     >>> MonitorConfig(alarm_k=2, alarm_n=3).params()["alarm"]
     {'k': 2, 'n': 3, 'clear_m': 1}
+    >>> type(MonitorConfig().model().stage).__name__  # the product default
+    'MechanicsStage'
     """
 
-    method: Method = "lra"
+    method: str = DEFAULT_METHOD
     percentile: float = 99.0
     calibration_size: int = 5
     alarm_k: int = 1
@@ -93,13 +108,12 @@ class MonitorConfig:
     features: FeatureSpec = MONITOR_FEATURES
     lra_noise_level: float | Literal["auto"] = 1.0
     align_phase: bool = True
+    detector: BaselineDetector | None = None
+    stage: FeatureStage | None = None
+    profile: AxisProfile | None = None
 
     def __post_init__(self) -> None:
-        if self.method not in ("lra", "pca", "mechanics"):
-            raise ValueError(
-                "The 'method' parameter must be 'lra', 'pca' or 'mechanics'. "
-                f"Got {self.method!r} instead."
-            )
+        method_preset(self.method)
         if not (0.0 < self.percentile < 100.0):
             raise ValueError(
                 "The 'percentile' parameter must be a float in (0, 100). "
@@ -118,42 +132,67 @@ class MonitorConfig:
         if self.clear_m < 1:
             raise ValueError(f"The 'clear_m' parameter must be >= 1. Got {self.clear_m!r} instead.")
 
-    def detector(self) -> BaselineDetector:
-        """A fresh detector of the configured method."""
-        if self.method == "lra":
-            return LRADetector(noise_level=self.lra_noise_level)
-        if self.method == "mechanics":
-            return IndicatorDetector()
-        return PCADetector()
+    @property
+    def preset(self) -> MethodPreset:
+        """The registered preset of ``method``."""
+        return method_preset(self.method)
+
+    def model(self) -> HealthModel:
+        """A fresh, unfitted health model of the configured method (detector, stage, floor)."""
+        stage = self.preset.stage(self) if self.stage is None else self.stage
+        return HealthModel(
+            self.features,
+            self.preset.detector(self) if self.detector is None else self.detector,
+            percentile=self.percentile,
+            align_phase=self.align_phase,
+            min_threshold=self.threshold_floor(),
+            stage=stage,
+        )
 
     def threshold_floor(self) -> float:
-        """Least threshold: for ``"mechanics"``, the ``percentile`` of the half-Laplace fit of
-        healthy task changes in development (``MECHANICS_TASK_CHANGE_SCALE``); else 0."""
-        if self.method != "mechanics":
-            return 0.0
-        return half_laplace_threshold(MECHANICS_TASK_CHANGE_SCALE, self.percentile)
+        """Least threshold: the ``percentile`` of the half-Laplace fit of healthy task changes
+        in development, for a method that has one (``"mechanics"``:
+        ``MECHANICS_TASK_CHANGE_SCALE``); else 0."""
+        floor = self.preset.threshold_floor(self.percentile)
+        return 0.0 if floor is None else floor
 
-    def stage(self) -> FeatureStage | None:
-        """The feature stage of the configured method (None: the |STFT| ``features``)."""
-        return MechanicsStage() if self.method == "mechanics" else None
+    def decision_rule(self) -> DecisionRule:
+        """What :func:`~axiswatch.monitor._decision.decide` needs of this configuration."""
+        return DecisionRule(
+            percentile=self.percentile,
+            calibration_size=self.calibration_size,
+            alarm_k=self.alarm_k,
+            alarm_n=self.alarm_n,
+            clear_m=self.clear_m,
+            floor=self.preset.threshold_floor(self.percentile),
+        )
 
     def params(self) -> dict[str, Any]:
         """JSON-ready parameters: features, detector, calibration and alarm rule (and the stage,
         for a stage method: the key is absent otherwise, so stores made before it still match)."""
+        model = self.model()
         params = {
             "method": self.method,
-            "detector": self.detector().get_params(),
+            "detector": model.detector.get_params(),
             "features": dataclasses.asdict(self.features),
-            "align_phase": self.align_phase and self.method != "mechanics",
+            "align_phase": self.align_phase and model.stage is None,
             "percentile": self.percentile,
             "calibration_size": self.calibration_size,
             "alarm": {"k": self.alarm_k, "n": self.alarm_n, "clear_m": self.clear_m},
         }
-        stage = self.stage()
-        if stage is not None:
-            params["stage"] = {"name": type(stage).__name__, **vars(stage)}
+        if model.stage is not None:
+            params["stage"] = {"name": type(model.stage).__name__, **vars(model.stage)}
             params["threshold_floor"] = self.threshold_floor()
+        if self.profile is not None:  # absent otherwise, so stores made before it still match
+            params["profile"] = self.profile.source
         return params
+
+
+def profile_for(file: FleetFile, given: AxisProfile | None) -> AxisProfile | None:
+    """The profile a capture file is read with: the given one, else the fleet folder's."""
+    if given is not None:
+        return given
+    return AxisProfile.find(file.path.parents[2], file.robot, file.axis)
 
 
 def file_hash(path: Path) -> str:
@@ -172,14 +211,21 @@ def _one_line(exc: BaseException, path: Path, relative: str) -> str:
 
 # --- jobs: self-contained, picklable, never raise for a bad capture -------------------------
 
+#: What makes one capture unusable: a malformed capture (:class:`CaptureError`, also raised for a
+#: capture too short or without a usable move), or a file that cannot be read (``OSError``:
+#: gone or unreadable since it was found). Any other error (a configuration error, a bug) is
+#: raised: recording it against every file would report hundreds of bad captures for one cause.
+_DATA_ERRORS = (CaptureError, OSError)
+
 
 @dataclass(frozen=True)
 class FitJob:
-    """Fit a baseline from one capture file."""
+    """Fit a baseline from one capture file (``model``: unfitted, :meth:`MonitorConfig.model`)."""
 
     file: FleetFile
     relative: str
-    config: MonitorConfig
+    model: HealthModel
+    profile: AxisProfile | None = None
 
 
 @dataclass(frozen=True)
@@ -206,15 +252,11 @@ def _fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
-        capture = read_capture(path, job.config.features.signals)
-        model = HealthModel(
-            job.config.features,
-            job.config.detector(),
-            percentile=job.config.percentile,
-            align_phase=job.config.align_phase,
-            stage=job.config.stage(),
-        ).fit(capture)
-    except (AxiswatchError, ValueError, OSError) as exc:
+        capture = read_capture(
+            path, job.model.features.signals, profile=profile_for(job.file, job.profile)
+        )
+        model = copy.deepcopy(job.model).fit(capture)
+    except _DATA_ERRORS as exc:
         return FitOutcome(job, None, {}, "", "", _one_line(exc, path, job.relative))
     features_hash = hashlib.sha256(model.baseline_features_.X.tobytes()).hexdigest()
     return FitOutcome(job, model, dict(capture.rates_hz), digest, features_hash, None)
@@ -229,6 +271,7 @@ class ScoreJob:
     baseline_id: int
     model: HealthModel
     rates_hz: dict[str, float]
+    profile: AxisProfile | None = None
 
 
 @dataclass(frozen=True)
@@ -258,7 +301,12 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
         model = job.model
-        capture = read_capture(path, model.features.signals, expected_rates_hz=job.rates_hz)
+        capture = read_capture(
+            path,
+            model.features.signals,
+            expected_rates_hz=job.rates_hz,
+            profile=profile_for(job.file, job.profile),
+        )
         features, lag = model.featurize(capture)
         details: dict[str, Any] = {
             "phase_lag_samples": int(lag),
@@ -266,16 +314,11 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
             "n_rows": int(features.X.shape[0]),
         }
         detector = model.detector_
-        if isinstance(detector, LRADetector):
-            result = detector.align(features.X)
-            distance = float(result.delta)
-            details["lra_eigengap"] = float(result.eigengap)
-            details["lra_tie_broken"] = bool(result.tie_broken)
-        else:
-            distance = float(detector.distance(features.X))
+        distance, diagnostics = detector.distance_and_diagnostics(features.X)
+        details.update(diagnostics)
         if isinstance(model.stage_, MechanicsStage) and isinstance(detector, IndicatorDetector):
             details["indicators"] = explain_indicators(model.stage_, detector, features.X)
-    except (AxiswatchError, ValueError, OSError) as exc:
+    except _DATA_ERRORS as exc:
         error = _one_line(exc, path, job.relative)
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error)
     return ScoreOutcome(job, digest, size, mtime, distance, details, None)

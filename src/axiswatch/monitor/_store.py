@@ -1,13 +1,18 @@
-"""The monitoring store: one SQLite file holding baselines, scores, rejections and changed files.
+"""The monitoring store: the :class:`StoreBackend` protocol in domain words, and :class:`SQLiteStore`.
 
-Pipeline side-stage of the monitor (storage only; the decisions live in ``_monitor``).
+Pipeline side-stage of the monitor (storage only: the decisions are ``_decision.decide``, made
+inside the store's transaction by :meth:`StoreBackend.record_score`). Every SQL statement of
+axiswatch is in this module (``tests/test_store_contract.py`` checks it, and holds the contract
+tests any other backend must pass).
+
+``Store`` is the name users open a store by (``aw.Store("fleet.db")``): the SQLite backend.
 
 Safety: the store runs in WAL mode with a busy timeout, and every write is one short transaction
 opened with ``BEGIN IMMEDIATE`` (the writer takes the lock before it reads the state it builds
 on). A process killed at any moment therefore leaves the store as it was after its last commit,
 and two processes writing at once take turns instead of corrupting it.
 
-Tables (schema version 1):
+Tables (schema version 2):
 
 ``baselines``
     one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
@@ -35,19 +40,369 @@ Tables (schema version 1):
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import sqlite3
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
+import numpy as np
 import pandas as pd
 
+from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, stored_threshold
 
-__all__ = ["SCHEMA_VERSION", "AlarmState", "Store"]
+__all__ = [
+    "SCHEMA_VERSION",
+    "AlarmState",
+    "Baseline",
+    "ChangedFile",
+    "NewBaseline",
+    "NewScore",
+    "Rejection",
+    "SQLiteStore",
+    "ScoredFile",
+    "Store",
+    "StoreBackend",
+    "now",
+]
+
+
+def now() -> str:
+    """The store's time stamp: UTC, ISO 8601, whole seconds."""
+    return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+# --- records: what goes in and comes out, in domain words --------------------------------------
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A stored baseline of one axis and method (one epoch).
+
+    ``threshold`` and ``fit`` are None while it calibrates; ``retired`` once re-baselined.
+    """
+
+    id: int
+    robot: str
+    axis: str
+    method: str
+    epoch: int
+    capture: str
+    captured_at: datetime
+    path: str
+    file_hash: str
+    features_hash: str
+    params: str
+    threshold: float | None
+    fit: HalfLaplaceFit | None
+    retired: bool
+
+
+@dataclass(frozen=True)
+class NewBaseline:
+    """A baseline to add, with the score row of its capture (role ``baseline``)."""
+
+    robot: str
+    axis: str
+    method: str
+    epoch: int
+    capture: str
+    captured_at: datetime
+    path: str
+    file_hash: str
+    features_hash: str
+    params: str
+    library_version: str
+    file_size: int
+    file_mtime_ns: int
+    reason: str
+    details: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class NewScore:
+    """A scored capture of one baseline, before its decision (role, threshold, alarm)."""
+
+    baseline_id: int
+    robot: str
+    axis: str
+    method: str
+    capture: str
+    captured_at: datetime
+    path: str
+    file_hash: str
+    file_size: int
+    file_mtime_ns: int
+    distance: float
+    details: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """A capture file that could not be used, and why (one line naming the file)."""
+
+    robot: str
+    axis: str
+    method: str
+    capture: str
+    path: str
+    file_hash: str
+    error: str
+
+
+@dataclass(frozen=True)
+class ScoredFile:
+    """What a file was when it was last scored (to notice a later change of content)."""
+
+    robot: str
+    axis: str
+    capture: str
+    path: str
+    file_hash: str
+    file_size: int
+    file_mtime_ns: int
+
+
+@dataclass(frozen=True)
+class ChangedFile:
+    """A file whose content changed after it was scored."""
+
+    robot: str
+    axis: str
+    capture: str
+    path: str
+    scored_hash: str
+    current_hash: str
+
+
+@dataclass(frozen=True)
+class AlarmState:
+    """An axis in alarm (one method): since which capture, and whether someone saw it."""
+
+    robot: str
+    axis: str
+    method: str
+    baseline_id: int
+    raised_score_id: int
+    raised_capture: str
+    raised_at: str
+    acknowledged_by: str | None
+    note: str | None
+    acknowledged_at: str | None
+
+    @property
+    def acknowledged(self) -> bool:
+        """An acknowledgement names this alarm (it was not cleared and raised again since)."""
+        return self.acknowledged_by is not None
+
+
+# --- the protocol ------------------------------------------------------------------------------
+
+
+class StoreBackend(Protocol):
+    """What the monitor needs from a store, in domain words; :class:`SQLiteStore` is the product's.
+
+    Every write is atomic: it happens whole or not at all, also when the process is killed, and
+    two processes writing one store take turns. Paths are relative to the fleet folder (POSIX).
+    A new backend passes ``tests/test_store_contract.py``.
+    """
+
+    @property
+    def location(self) -> str:
+        """Where the store is, for messages (a file path, a URL)."""
+        ...
+
+    def close(self) -> None:
+        """Release the store."""
+        ...
+
+    # writes
+
+    def add_baseline(self, baseline: NewBaseline) -> int | None:
+        """Add the baseline of an epoch and its capture's score row; return the baseline's id.
+
+        If the epoch already has a baseline (another process added it), return its id when it
+        is the same capture, None when it is another one.
+        """
+        ...
+
+    def record_score(
+        self, score: NewScore, decide: Callable[[AxisHistory], Decision], *, window: int
+    ) -> bool:
+        """Decide and write one capture's score in one transaction; False if nothing was written.
+
+        Nothing is written when the capture is already scored under the baseline or the baseline
+        is retired. Otherwise ``decide`` gets the baseline's :class:`AxisHistory` (``window``
+        recent monitored captures) and its :class:`Decision` is written; a decision that
+        completes the calibration also sets the baseline's threshold and fit and gives the
+        threshold to every calibration capture of the baseline. If ``decide`` raises, nothing is
+        written.
+        """
+        ...
+
+    def reject_capture(self, rejection: Rejection, *, baseline_id: int | None = None) -> bool:
+        """Record a rejected file (once per method, path and content); False if not recorded.
+
+        With ``baseline_id``, only while that baseline is active and the capture is not scored
+        under it.
+        """
+        ...
+
+    def record_changed_file(self, change: ChangedFile) -> None:
+        """Record that a scored file's content changed (once per path and pair of hashes)."""
+        ...
+
+    def retire_baselines(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        method: str | None = None,
+        from_capture: str | None = None,
+    ) -> list[str]:
+        """Retire the axis's active baselines (of ``method``, or all) and record the request.
+
+        Returns the methods retired, sorted. Raises :class:`~axiswatch.StoreError` when the axis
+        has no active baseline (the message lists the axes that have one), or when
+        ``from_capture`` raised an alarm under any method.
+        """
+        ...
+
+    # reads
+
+    def baseline(self, baseline_id: int) -> Baseline:
+        """The baseline with this id."""
+        ...
+
+    def latest_baseline(self, robot: str, axis: str, method: str) -> Baseline | None:
+        """The axis's baseline of the highest epoch (retired or not), or None."""
+        ...
+
+    def requested_baseline(
+        self, robot: str, axis: str, method: str, retired_epoch: int
+    ) -> str | None:
+        """The capture asked for as the next baseline when ``retired_epoch`` was retired."""
+        ...
+
+    def last_captured_at(self, robot: str, axis: str, method: str) -> datetime | None:
+        """Capture time of the latest capture scored on the axis under any baseline."""
+        ...
+
+    def scored_captures(self, baseline_id: int) -> set[str]:
+        """File names of the captures scored under a baseline (its own included)."""
+        ...
+
+    def scored_files(self) -> dict[str, ScoredFile]:
+        """Per path, the file as it was when last scored (by any method)."""
+        ...
+
+    def scored_contents(self, method: str) -> set[tuple[str, str]]:
+        """``(path, file hash)`` of every capture scored by ``method``."""
+        ...
+
+    def rejections(self, method: str) -> list[Rejection]:
+        """Rejected files of ``method``, in the order they were rejected."""
+        ...
+
+    def alarmed_captures(self, method: str) -> set[tuple[str, str, str]]:
+        """``(robot, axis, capture)`` of every capture that raised or kept an alarm."""
+        ...
+
+    def axes_in_alarm(self, method: str) -> list[tuple[str, str]]:
+        """``(robot, axis)`` whose active baseline's last monitored capture is in alarm, sorted."""
+        ...
+
+    # acknowledgements (who saw an alarm)
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method, ordered by robot, axis, method."""
+        ...
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
+
+        Parameters
+        ----------
+        robot, axis : str
+        by : str
+            Who (not empty).
+        note : str
+            What they saw or did (not empty).
+        method : str or None, default=None
+            Only this method's alarm; default every method in alarm on the axis.
+        rebaseline : bool, default=False
+            The record of a re-baseline after maintenance: made for the latest baseline of each
+            method whether or not it is in alarm (it names the alarm when there is one). The
+            caller retires the baselines (``rebaseline`` of the ledger) before.
+
+        Returns
+        -------
+        list of str
+            The methods acknowledged.
+
+        Raises
+        ------
+        ValueError
+            If ``by`` or ``note`` is empty.
+        StoreError
+            If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
+            alarm.
+        """
+        ...
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
+        that raised the alarm seen; None for a re-baseline without alarm), ``rebaseline``,
+        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ...
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
+        ...
+
+    # tables for people (results, summary, report)
+
+    def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """One row per score: robot, axis, capture, method, distance, threshold, alarm,
+        captured_at, epoch, role, over, reason, details, path; ordered by robot, axis, method,
+        capture time, capture and epoch."""
+        ...
+
+    def summary_table(self) -> pd.DataFrame:
+        """One row per active baseline: robot, axis, method, epoch, baseline, threshold, scored,
+        over, alarms (raised), last_capture, last_distance, last_alarm, rejected,
+        threshold_origin (:meth:`~axiswatch._calibration.Threshold.describe`; None while
+        calibrating), alarm_since (the capture that raised the alarm in force) and
+        acknowledged_by (who saw it, if anyone); ordered by robot, axis, method."""
+        ...
+
+    def rejection_table(self) -> pd.DataFrame:
+        """Rejections: robot, axis, capture, method, path, error, rejected_at; ordered by robot,
+        axis, path, method and then as recorded."""
+        ...
+
+    def changed_file_table(self) -> pd.DataFrame:
+        """Changed files: robot, axis, path, detected_at; ordered by path, then as recorded."""
+        ...
+
+
+# --- SQLite ------------------------------------------------------------------------------------
 
 SCHEMA_VERSION = 2
 
@@ -172,29 +527,45 @@ ORDER BY l.robot, l.axis, l.method
 """
 
 
-@dataclass(frozen=True)
-class AlarmState:
-    """An axis in alarm (one method): since which capture, and whether someone saw it."""
-
-    robot: str
-    axis: str
-    method: str
-    baseline_id: int
-    raised_score_id: int
-    raised_capture: str
-    raised_at: str
-    acknowledged_by: str | None
-    note: str | None
-    acknowledged_at: str | None
-
-    @property
-    def acknowledged(self) -> bool:
-        """An acknowledgement names this alarm (it was not cleared and raised again since)."""
-        return self.acknowledged_by is not None
+def _time(text: str) -> datetime:
+    return datetime.fromisoformat(text)
 
 
-class Store:
-    """An open monitoring store (created with the current schema when the file is new).
+def _baseline(row: sqlite3.Row) -> Baseline:
+    calibration = row["calibration"]
+    return Baseline(
+        id=int(row["id"]),
+        robot=row["robot"],
+        axis=row["axis"],
+        method=row["method"],
+        epoch=int(row["epoch"]),
+        capture=row["capture"],
+        captured_at=_time(row["captured_at"]),
+        path=row["path"],
+        file_hash=row["file_hash"],
+        features_hash=row["features_hash"],
+        params=row["params"],
+        threshold=row["threshold"],
+        fit=None if calibration is None else HalfLaplaceFit(**json.loads(calibration)),
+        retired=row["retired_at"] is not None,
+    )
+
+
+_INSERT_SCORE = (
+    "INSERT INTO scores (baseline_id, robot, axis, method, capture, captured_at, path, "
+    "file_hash, file_size, file_mtime_ns, role, distance, threshold, over, alarm, "
+    "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+)
+_INSERT_REJECTION = (
+    "INSERT OR IGNORE INTO rejections (robot, axis, method, capture, path, file_hash, "
+    "error, rejected_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
+)
+
+
+class SQLiteStore:
+    """The monitoring store in one SQLite file (created with the current schema when new).
+
+    Implements :class:`StoreBackend`; also exported as ``Store``.
 
     Parameters
     ----------
@@ -211,8 +582,8 @@ class Store:
     Examples
     --------
     >>> import tempfile, pathlib
-    >>> store = Store(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
-    >>> store.version, store.rows("SELECT count(*) AS n FROM scores")[0]["n"]
+    >>> store = SQLiteStore(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
+    >>> store.version, len(store.score_table())
     (2, 0)
     >>> store.close()
     """
@@ -236,8 +607,15 @@ class Store:
                 f"store '{self.path}' cannot be opened as an axiswatch SQLite store: {exc}."
             ) from None
 
+    def __repr__(self) -> str:
+        return f"axiswatch.monitor.SQLiteStore({str(self.path)!r})"
+
+    @property
+    def location(self) -> str:
+        return str(self.path)
+
     def _ensure_schema(self) -> int:
-        with self.write() as connection:
+        with self._write() as connection:
             tables = {
                 row[0]
                 for row in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")
@@ -266,7 +644,7 @@ class Store:
             return int(version)
 
     @contextmanager
-    def write(self) -> Iterator[sqlite3.Connection]:
+    def _write(self) -> Iterator[sqlite3.Connection]:
         """One write transaction (``BEGIN IMMEDIATE`` ... ``COMMIT``; rolled back on error)."""
         connection = self._connection
         connection.execute("BEGIN IMMEDIATE")
@@ -277,15 +655,262 @@ class Store:
             raise
         connection.execute("COMMIT")
 
-    def rows(self, sql: str, parameters: Sequence[Any] = ()) -> list[sqlite3.Row]:
-        """Rows of a read-only query."""
+    def _rows(self, sql: str, parameters: tuple[Any, ...] = ()) -> list[sqlite3.Row]:
         return list(self._connection.execute(sql, parameters))
 
-    def frame(self, sql: str, parameters: Sequence[Any] = ()) -> pd.DataFrame:
-        """A read-only query as a DataFrame."""
+    def _frame(self, sql: str, parameters: tuple[Any, ...] = ()) -> pd.DataFrame:
         cursor = self._connection.execute(sql, parameters)
         columns = [d[0] for d in cursor.description]
         return pd.DataFrame([tuple(r) for r in cursor.fetchall()], columns=columns)
+
+    def close(self) -> None:
+        """Close the connection."""
+        self._connection.close()
+
+    def __enter__(self) -> SQLiteStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- writes --------------------------------------------------------------------------------
+
+    def add_baseline(self, baseline: NewBaseline) -> int | None:
+        b = baseline
+        with self._write() as db:
+            row = db.execute(
+                "SELECT id, capture FROM baselines WHERE robot=? AND axis=? AND method=? "
+                "AND epoch=?",
+                (b.robot, b.axis, b.method, b.epoch),
+            ).fetchone()
+            if row is not None:
+                return int(row["id"]) if row["capture"] == b.capture else None
+            cursor = db.execute(
+                "INSERT INTO baselines (robot, axis, method, epoch, capture, captured_at, path, "
+                "file_hash, features_hash, params, library_version, created_at) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (
+                    b.robot, b.axis, b.method, b.epoch, b.capture, b.captured_at.isoformat(),
+                    b.path, b.file_hash, b.features_hash, b.params, b.library_version, now(),
+                ),
+            )  # fmt: skip
+            baseline_id = int(cursor.lastrowid or 0)
+            db.execute(
+                _INSERT_SCORE,
+                (
+                    baseline_id, b.robot, b.axis, b.method, b.capture, b.captured_at.isoformat(),
+                    b.path, b.file_hash, b.file_size, b.file_mtime_ns, "baseline", None, None,
+                    0, 0, b.reason, json.dumps(b.details), now(),
+                ),
+            )  # fmt: skip
+        return baseline_id
+
+    def record_score(
+        self, score: NewScore, decide: Callable[[AxisHistory], Decision], *, window: int
+    ) -> bool:
+        s = score
+        with self._write() as db:
+            if db.execute(
+                "SELECT 1 FROM scores WHERE baseline_id=? AND capture=?",
+                (s.baseline_id, s.capture),
+            ).fetchone():
+                return False
+            baseline = _baseline(
+                db.execute("SELECT * FROM baselines WHERE id=?", (s.baseline_id,)).fetchone()
+            )
+            if baseline.retired:
+                return False
+            decision = decide(self._history(db, s, baseline, window))
+            if decision.calibrated is not None:
+                db.execute(
+                    "UPDATE baselines SET threshold=?, calibration=? WHERE id=?",
+                    (
+                        decision.calibrated.value,
+                        json.dumps(dataclasses.asdict(decision.calibrated.fit)),
+                        s.baseline_id,
+                    ),
+                )
+                db.execute(
+                    "UPDATE scores SET threshold=? WHERE baseline_id=? AND role='calibration'",
+                    (decision.calibrated.value, s.baseline_id),
+                )
+            db.execute(
+                _INSERT_SCORE,
+                (
+                    s.baseline_id, s.robot, s.axis, s.method, s.capture,
+                    s.captured_at.isoformat(), s.path, s.file_hash, s.file_size,
+                    s.file_mtime_ns, decision.role, s.distance, decision.threshold,
+                    int(decision.over), int(decision.alarm), decision.reason,
+                    json.dumps({**s.details, **decision.details}, sort_keys=True), now(),
+                ),
+            )  # fmt: skip
+        return True
+
+    @staticmethod
+    def _history(
+        db: sqlite3.Connection, score: NewScore, baseline: Baseline, window: int
+    ) -> AxisHistory:
+        if baseline.threshold is not None:
+            recent = db.execute(
+                "SELECT over, alarm FROM scores WHERE baseline_id=? AND role='monitor' "
+                "ORDER BY id DESC LIMIT ?",
+                (score.baseline_id, window),
+            ).fetchall()[::-1]
+            return AxisHistory(
+                threshold=baseline.threshold,
+                fit=baseline.fit,
+                recent=tuple((bool(r["over"]), bool(r["alarm"])) for r in recent),
+            )
+        alarmed = db.execute(
+            "SELECT 1 FROM scores WHERE robot=? AND axis=? AND method=? AND capture=? AND alarm=1",
+            (score.robot, score.axis, score.method, score.capture),
+        ).fetchone()
+        distances = db.execute(
+            "SELECT distance FROM scores WHERE baseline_id=? AND role='calibration' ORDER BY id",
+            (score.baseline_id,),
+        )
+        return AxisHistory(
+            calibration_distances=tuple(float(r[0]) for r in distances),
+            alarmed_before=alarmed is not None,
+        )
+
+    def reject_capture(self, rejection: Rejection, *, baseline_id: int | None = None) -> bool:
+        r = rejection
+        with self._write() as db:
+            if baseline_id is not None:
+                if db.execute(
+                    "SELECT 1 FROM scores WHERE baseline_id=? AND capture=?",
+                    (baseline_id, r.capture),
+                ).fetchone():
+                    return False
+                retired = db.execute(
+                    "SELECT retired_at FROM baselines WHERE id=?", (baseline_id,)
+                ).fetchone()[0]
+                if retired is not None:
+                    return False
+            cursor = db.execute(
+                _INSERT_REJECTION,
+                (r.robot, r.axis, r.method, r.capture, r.path, r.file_hash, r.error, now()),
+            )
+        return cursor.rowcount > 0
+
+    def record_changed_file(self, change: ChangedFile) -> None:
+        c = change
+        with self._write() as db:
+            db.execute(
+                "INSERT OR IGNORE INTO changed_files (robot, axis, capture, path, scored_hash, "
+                "current_hash, detected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (c.robot, c.axis, c.capture, c.path, c.scored_hash, c.current_hash, now()),
+            )
+
+    def retire_baselines(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        method: str | None = None,
+        from_capture: str | None = None,
+    ) -> list[str]:
+        retired = []
+        with self._write() as db:
+            rows = db.execute(
+                "SELECT id, method, epoch FROM baselines WHERE robot=? AND axis=? "
+                "AND retired_at IS NULL AND (? IS NULL OR method=?) ORDER BY method",
+                (robot, axis, method, method),
+            ).fetchall()
+            if not rows:
+                active = db.execute(
+                    "SELECT robot, axis, method FROM baselines WHERE retired_at IS NULL"
+                )
+                raise StoreError(_no_active_baseline(self.location, robot, axis, method, active))
+            if from_capture is not None:
+                alarmed = db.execute(
+                    "SELECT method FROM scores WHERE robot=? AND axis=? AND capture=? AND alarm=1",
+                    (robot, axis, from_capture),
+                ).fetchone()
+                if alarmed:
+                    raise StoreError(_alarmed_baseline(robot, axis, from_capture, alarmed[0]))
+            stamp = now()
+            for row in rows:
+                db.execute("UPDATE baselines SET retired_at=? WHERE id=?", (stamp, row["id"]))
+                db.execute(
+                    "INSERT INTO rebaselines (robot, axis, method, retired_epoch, from_capture, "
+                    "requested_at) VALUES (?, ?, ?, ?, ?, ?)",
+                    (robot, axis, row["method"], row["epoch"], from_capture, stamp),
+                )
+                retired.append(str(row["method"]))
+        return retired
+
+    # --- reads ---------------------------------------------------------------------------------
+
+    def baseline(self, baseline_id: int) -> Baseline:
+        rows = self._rows("SELECT * FROM baselines WHERE id=?", (baseline_id,))
+        if not rows:
+            raise StoreError(f"store '{self.path}' has no baseline with id {baseline_id}.")
+        return _baseline(rows[0])
+
+    def latest_baseline(self, robot: str, axis: str, method: str) -> Baseline | None:
+        rows = self._rows(
+            "SELECT * FROM baselines WHERE robot=? AND axis=? AND method=? ORDER BY epoch DESC "
+            "LIMIT 1",
+            (robot, axis, method),
+        )
+        return _baseline(rows[0]) if rows else None
+
+    def requested_baseline(
+        self, robot: str, axis: str, method: str, retired_epoch: int
+    ) -> str | None:
+        rows = self._rows(
+            "SELECT from_capture FROM rebaselines WHERE robot=? AND axis=? AND method=? "
+            "AND retired_epoch=? ORDER BY id DESC LIMIT 1",
+            (robot, axis, method, retired_epoch),
+        )
+        return rows[0]["from_capture"] if rows else None
+
+    def last_captured_at(self, robot: str, axis: str, method: str) -> datetime | None:
+        last = self._rows(
+            "SELECT max(captured_at) FROM scores WHERE robot=? AND axis=? AND method=?",
+            (robot, axis, method),
+        )[0][0]
+        return None if last is None else _time(last)
+
+    def scored_captures(self, baseline_id: int) -> set[str]:
+        rows = self._rows("SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,))
+        return {r["capture"] for r in rows}
+
+    def scored_files(self) -> dict[str, ScoredFile]:
+        rows = self._rows(
+            "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
+            "ORDER BY id"
+        )
+        return {r["path"]: ScoredFile(**dict(r)) for r in rows}
+
+    def scored_contents(self, method: str) -> set[tuple[str, str]]:
+        rows = self._rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
+        return {(r["path"], r["file_hash"]) for r in rows}
+
+    def rejections(self, method: str) -> list[Rejection]:
+        rows = self._rows(
+            "SELECT robot, axis, method, capture, path, file_hash, error FROM rejections "
+            "WHERE method=? ORDER BY id",
+            (method,),
+        )
+        return [Rejection(**dict(r)) for r in rows]
+
+    def alarmed_captures(self, method: str) -> set[tuple[str, str, str]]:
+        rows = self._rows(
+            "SELECT robot, axis, capture FROM scores WHERE method=? AND alarm=1", (method,)
+        )
+        return {(r["robot"], r["axis"], r["capture"]) for r in rows}
+
+    def axes_in_alarm(self, method: str) -> list[tuple[str, str]]:
+        rows = self._rows(
+            "SELECT b.robot, b.axis, (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id "
+            "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1) AS alarm FROM baselines b "
+            "WHERE b.method=? AND b.retired_at IS NULL ORDER BY b.robot, b.axis",
+            (method,),
+        )
+        return [(r["robot"], r["axis"]) for r in rows if r["alarm"]]
 
     # --- alarms and the people who saw them ------------------------------------------------
 
@@ -293,7 +918,7 @@ class Store:
         """Axes in alarm after their last monitored capture (active baselines), acknowledged or
         not; one per axis and method."""
         where = "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
-        rows = self.rows(_ALARMS.format(where=where), (method, method))
+        rows = self._rows(_ALARMS.format(where=where), (method, method))
         return [AlarmState(**dict(row)) for row in rows]
 
     def acknowledge(
@@ -340,7 +965,7 @@ class Store:
                 raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
         label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
         stamp = datetime.now(UTC).isoformat(timespec="seconds")
-        with self.write() as db:
+        with self._write() as db:
             baselines = db.execute(
                 "SELECT b.id, b.method FROM baselines b WHERE b.robot=? AND b.axis=? "
                 "AND (? IS NULL OR b.method=?) AND b.epoch=(SELECT max(o.epoch) FROM baselines o "
@@ -350,7 +975,7 @@ class Store:
                 (robot, axis, method, method),
             ).fetchall()
             if not baselines:
-                raise StoreError(f"{label} has no active baseline in store '{self.path}'.")
+                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
             alarms = {
                 int(row["baseline_id"]): int(row["raised_score_id"])
                 for row in db.execute(
@@ -388,7 +1013,7 @@ class Store:
         """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
         that raised the alarm seen; empty for a re-baseline without alarm), ``rebaseline``,
         ``acknowledged_by``, ``note``, ``acknowledged_at``."""
-        frame = self.frame(
+        frame = self._frame(
             "SELECT a.robot, a.axis, a.method, s.capture, a.rebaseline, a.acknowledged_by, "
             "a.note, a.acknowledged_at FROM acknowledgements a "
             "LEFT JOIN scores s ON s.id = a.score_id "
@@ -400,23 +1025,106 @@ class Store:
 
     def rebaseline_requests(self) -> pd.DataFrame:
         """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
-        return self.frame(
+        return self._frame(
             "SELECT robot, axis, method, retired_epoch, from_capture, requested_at "
             "FROM rebaselines ORDER BY id"
         )
 
-    def changed_files(self) -> pd.DataFrame:
-        """Files whose content changed after they were scored: ``robot, axis, path, detected_at``."""
-        return self.frame(
+    # --- tables --------------------------------------------------------------------------------
+
+    def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        frame = self._frame(
+            "SELECT s.robot, s.axis, s.capture, s.method, s.distance, s.threshold, s.alarm, "
+            "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details, s.path FROM scores s "
+            "JOIN baselines b ON b.id = s.baseline_id "
+            "WHERE (? IS NULL OR s.robot=?) AND (? IS NULL OR s.axis=?) "
+            "ORDER BY s.robot, s.axis, s.method, s.captured_at, s.capture, b.epoch",
+            (robot, robot, axis, axis),
+        )
+        frame["alarm"] = frame["alarm"].astype(bool)
+        frame["over"] = frame["over"].astype(bool)
+        frame["distance"] = frame["distance"].astype(np.float64)
+        frame["threshold"] = frame["threshold"].astype(np.float64)
+        return frame
+
+    def summary_table(self) -> pd.DataFrame:
+        frame = self._frame(
+            "SELECT b.id AS baseline_id, b.robot, b.axis, b.method, b.epoch, "
+            "b.capture AS baseline, b.threshold, "
+            "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
+            "AS scored, "
+            "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
+            "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.alarm=1 AND NOT "
+            "coalesce((SELECT p.alarm FROM scores p WHERE p.baseline_id=b.id "
+            "AND p.role='monitor' AND p.id<s.id ORDER BY p.id DESC LIMIT 1), 0)) AS alarms, "
+            "(SELECT s.capture FROM scores s WHERE s.baseline_id=b.id ORDER BY s.id DESC "
+            "LIMIT 1) AS last_capture, "
+            "(SELECT s.distance FROM scores s WHERE s.baseline_id=b.id ORDER BY s.id DESC "
+            "LIMIT 1) AS last_distance, "
+            "(SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor' "
+            "ORDER BY s.id DESC LIMIT 1) AS last_alarm, "
+            "(SELECT count(*) FROM rejections r WHERE r.robot=b.robot AND r.axis=b.axis "
+            "AND r.method=b.method) AS rejected "
+            "FROM baselines b WHERE b.retired_at IS NULL ORDER BY b.robot, b.axis, b.method"
+        )
+        baselines = [self.baseline(int(i)) for i in frame.pop("baseline_id")]
+        return summary_extras(frame, baselines, self.alarms())
+
+    def rejection_table(self) -> pd.DataFrame:
+        return self._frame(
+            "SELECT robot, axis, capture, method, path, error, rejected_at FROM rejections "
+            "ORDER BY robot, axis, path, method, id"
+        )
+
+    def changed_file_table(self) -> pd.DataFrame:
+        return self._frame(
             "SELECT robot, axis, path, detected_at FROM changed_files ORDER BY path, id"
         )
 
-    def close(self) -> None:
-        """Close the connection."""
-        self._connection.close()
 
-    def __enter__(self) -> Store:
-        return self
+#: The name users open a store by (``aw.Store("fleet.db")``): the product's SQLite backend.
+Store = SQLiteStore
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+
+def summary_extras(
+    frame: pd.DataFrame, baselines: list[Baseline], alarms: list[AlarmState]
+) -> pd.DataFrame:
+    """Add ``threshold_origin``, ``alarm_since`` and ``acknowledged_by`` to a summary table
+    whose rows are ``baselines`` (in order); shared by the backends."""
+    frame["threshold_origin"] = [_threshold_origin(b) for b in baselines]
+    by_key = {(a.robot, a.axis, a.method): a for a in alarms}
+    keys = [(b.robot, b.axis, b.method) for b in baselines]
+    frame["alarm_since"] = [getattr(by_key.get(k), "raised_capture", None) for k in keys]
+    frame["acknowledged_by"] = [getattr(by_key.get(k), "acknowledged_by", None) for k in keys]
+    return frame
+
+
+def _threshold_origin(baseline: Baseline) -> str | None:
+    """Where a baseline's threshold comes from, in words (None while it calibrates)."""
+    if baseline.threshold is None or baseline.fit is None:
+        return None
+    params = json.loads(baseline.params)
+    rule = DecisionRule(percentile=float(params.get("percentile", 99.0)))
+    return stored_threshold(baseline.threshold, baseline.fit, rule).describe()
+
+
+def _no_active_baseline(
+    location: str, robot: str, axis: str, method: str | None, active: Any
+) -> str:
+    """The message of :meth:`StoreBackend.retire_baselines` for an axis without a baseline."""
+    known = sorted(f"{r[0]}/{r[1]} ({r[2]})" for r in active)
+    return (
+        f"robot '{robot}' axis '{axis}'"
+        + (f" method '{method}'" if method else "")
+        + f" has no active baseline in store '{location}'; axes with one: "
+        + (", ".join(known) or "none")
+        + "."
+    )
+
+
+def _alarmed_baseline(robot: str, axis: str, capture: str, method: str) -> str:
+    return (
+        f"capture '{capture}' of robot '{robot}' axis '{axis}' raised an alarm "
+        f"({method}); an alarmed capture cannot be a baseline. Choose a capture "
+        "recorded after the maintenance."
+    )

@@ -1,0 +1,266 @@
+"""Capture file formats: one registry from file suffix to reader and writer.
+
+Every format reads a file into the project's table form, and writes that form back: a
+:class:`pandas.DataFrame` with column ``time`` (seconds, strictly increasing) and one column per
+signal, blank (NaN) where a slower signal has no sample, plus the capture's metadata (a mapping of
+str to str). :func:`~axiswatch.read_capture` validates the table whatever file it came from, so a
+new format is a reader and a writer registered with :func:`register_format`; the fleet monitor
+finds captures by the registered suffixes (:func:`capture_suffixes`).
+
+Built in: ``.parquet`` (metadata as JSON under the schema key ``axiswatch``), ``.csv`` (no
+metadata) and ``.npz`` (the recorded-data layout of :mod:`axiswatch.datasets`: arrays
+``signals`` ``[n_channels, n_samples]``, ``channels``, ``fs`` in Hz or NaN when unknown, and an
+optional JSON ``meta``; every channel at one rate, the start time not kept).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from axiswatch.exceptions import CaptureError
+
+__all__ = [
+    "NOMINAL_RATE_HZ",
+    "CaptureFormat",
+    "NpzRecording",
+    "capture_format",
+    "capture_suffixes",
+    "read_npz",
+    "register_format",
+]
+
+#: Rate given to ``.npz`` recordings whose ``fs`` is NaN: frequencies become cycles per sample.
+NOMINAL_RATE_HZ = 1.0
+
+#: Reads a file into (table, metadata).
+Reader = Callable[[Path], tuple[pd.DataFrame, dict[str, str]]]
+#: Writes (table, metadata) to a file.
+Writer = Callable[[pd.DataFrame, Mapping[str, str], Path], None]
+
+_METADATA_KEY = b"axiswatch"
+
+
+@dataclass(frozen=True)
+class CaptureFormat:
+    """A capture file format: its suffix, a name for messages, a reader and a writer."""
+
+    suffix: str
+    description: str
+    read: Reader
+    write: Writer
+
+
+_FORMATS: dict[str, CaptureFormat] = {}
+
+
+def register_format(suffix: str, *, read: Reader, write: Writer, description: str) -> None:
+    """Register (or replace) the reader and writer of capture files ending in ``suffix``.
+
+    Parameters
+    ----------
+    suffix : str
+        File suffix with its dot, matched in any case, e.g. ``".feather"``.
+    read : callable ``(path) -> (DataFrame, dict of str to str)``
+        The file as the table form (module docstring) and its metadata. Raise
+        :class:`~axiswatch.CaptureError` naming the file for a file that is not of the format;
+        any other exception is reported as an unreadable file.
+    write : callable ``(DataFrame, metadata, path) -> None``
+        Writes the table form.
+    description : str
+        Name of the format in messages, e.g. ``"Feather"``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> register_format(".tsv", description="TSV",
+    ...     read=lambda path: (pd.read_csv(path, sep="\\t"), {}),
+    ...     write=lambda frame, metadata, path: frame.to_csv(path, sep="\\t", index=False))
+    >>> ".tsv" in capture_suffixes()
+    True
+    >>> _ = _FORMATS.pop(".tsv")  # keep the doctest's format out of the registry
+    """
+    if not (isinstance(suffix, str) and suffix.startswith(".") and len(suffix) > 1):
+        raise ValueError(
+            f"The 'suffix' parameter must be a file suffix with its dot, such as '.feather'. "
+            f"Got {suffix!r} instead."
+        )
+    _FORMATS[suffix.lower()] = CaptureFormat(suffix.lower(), description, read, write)
+
+
+def capture_suffixes() -> tuple[str, ...]:
+    """Suffixes of the registered capture formats, sorted.
+
+    Examples
+    --------
+    >>> capture_suffixes()
+    ('.csv', '.npz', '.parquet')
+    """
+    return tuple(sorted(_FORMATS))
+
+
+def capture_format(path: str | Path) -> CaptureFormat:
+    """The registered format of ``path``, by its suffix (any case).
+
+    Raises
+    ------
+    CaptureError
+        No format is registered for the suffix.
+
+    Examples
+    --------
+    >>> capture_format("fleet/r1/a1/2026-03-01.PARQUET").description
+    'Parquet'
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in _FORMATS:
+        known = capture_suffixes()
+        raise CaptureError(
+            f"{path}: unknown capture file type '{suffix}'; expected "
+            f"{', '.join(known[:-1])} or {known[-1]}."
+        )
+    return _FORMATS[suffix]
+
+
+def _read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    raw = (table.schema.metadata or {}).get(_METADATA_KEY)
+    metadata = {str(k): str(v) for k, v in json.loads(raw).items()} if raw else {}
+    return table.to_pandas(), metadata
+
+
+def _write_parquet(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[_METADATA_KEY] = json.dumps(dict(metadata)).encode()
+    pq.write_table(table.replace_schema_metadata(meta), path)
+
+
+def _read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+    return pd.read_csv(path), {}
+
+
+def _write_csv(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:
+    frame.to_csv(path, index=False, float_format="%.17g")
+
+
+@dataclass(frozen=True)
+class NpzRecording:
+    """The arrays of one ``.npz`` recording (:func:`read_npz`).
+
+    Attributes
+    ----------
+    signals : ndarray of shape (n_channels, n_samples)
+    channels : tuple of str
+    fs : float
+        Rate in Hz; NaN when the source does not state it.
+    metadata : dict of str to str
+        The ``meta`` JSON's fields, as strings.
+    """
+
+    signals: NDArray[np.generic]
+    channels: tuple[str, ...]
+    fs: float
+    metadata: dict[str, str]
+
+
+def _field(archive: np.lib.npyio.NpzFile, key: str, path: Path) -> NDArray[np.generic]:
+    if key not in archive.files:
+        raise CaptureError(
+            f"{path}: missing array '{key}'; expected 'signals', 'channels' and 'fs' "
+            f"(found {sorted(archive.files)})."
+        )
+    return np.asarray(archive[key])
+
+
+def read_npz(path: str | Path) -> NpzRecording:
+    """Read and check the arrays of one ``.npz`` recording.
+
+    Raises
+    ------
+    CaptureError
+        Naming the file: not a readable ``.npz``, a missing array, ``signals`` not 2-D with one
+        row per channel name, a rate that is neither positive nor NaN, non-JSON ``meta``.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "r1.npz"
+    >>> np.savez(path, signals=np.ones((2, 8)), channels=np.array(["a", "b"]), fs=2000.0)
+    >>> recording = read_npz(path)
+    >>> recording.channels, recording.fs, recording.signals.shape
+    (('a', 'b'), 2000.0, (2, 8))
+    """
+    path = Path(path)
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except Exception as exc:  # numpy raises several types for a truncated or foreign file
+        raise CaptureError(
+            f"{path}: cannot read .npz recording (truncated or corrupt?): {exc}"
+        ) from exc
+    with archive:
+        signals = _field(archive, "signals", path)
+        channels = tuple(str(c) for c in np.atleast_1d(_field(archive, "channels", path)))
+        fs_values = _field(archive, "fs", path)
+        meta_raw = str(archive["meta"]) if "meta" in archive.files else "{}"
+    if signals.ndim != 2 or signals.shape[0] != len(channels):
+        raise CaptureError(
+            f"{path}: 'signals' must have shape [n_channels, n_samples] with one row per name in "
+            f"'channels' ({len(channels)}); got shape {signals.shape}."
+        )
+    fs = float(fs_values) if fs_values.size == 1 else math.inf
+    if not ((math.isfinite(fs) and fs > 0) or math.isnan(fs)):
+        raise CaptureError(
+            f"{path}: 'fs' must be a positive number of Hz, or NaN when unknown; got {fs_values!r}."
+        )
+    try:
+        meta = json.loads(meta_raw)
+    except json.JSONDecodeError as exc:
+        raise CaptureError(f"{path}: 'meta' must be a JSON object; {exc}.") from exc
+    if not isinstance(meta, dict):
+        raise CaptureError(f"{path}: 'meta' must be a JSON object; got {type(meta).__name__}.")
+    return NpzRecording(signals, channels, fs, {str(k): str(v) for k, v in meta.items()})
+
+
+def _read_npz_table(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+    recording = read_npz(path)
+    stated = not math.isnan(recording.fs)
+    rate = recording.fs if stated else NOMINAL_RATE_HZ
+    columns = {"time": np.arange(recording.signals.shape[1]) / rate}
+    columns.update({name: recording.signals[j] for j, name in enumerate(recording.channels)})
+    return pd.DataFrame(columns), {**recording.metadata, "fs_stated": str(stated).lower()}
+
+
+def _write_npz(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:
+    channels = [str(c) for c in frame.columns if c != "time"]
+    values = frame[channels].to_numpy(dtype=np.float64)
+    slower = [
+        name for name, gaps in zip(channels, np.isnan(values).any(axis=0), strict=True) if gaps
+    ]
+    if slower:
+        raise CaptureError(
+            f"{path}: a .npz capture holds every signal at one rate; signal(s) {slower} are "
+            "sampled more slowly than the others (write .parquet or .csv instead)."
+        )
+    time_s = frame["time"].to_numpy(dtype=np.float64)
+    fs = (time_s.size - 1) / (time_s[-1] - time_s[0]) if time_s.size > 1 else math.nan
+    meta = json.dumps(dict(metadata))
+    np.savez(path, signals=values.T, channels=np.array(channels), fs=np.float64(fs), meta=meta)
+
+
+register_format(".parquet", read=_read_parquet, write=_write_parquet, description="Parquet")
+register_format(".csv", read=_read_csv, write=_write_csv, description="CSV")
+register_format(".npz", read=_read_npz_table, write=_write_npz, description="NumPy .npz")

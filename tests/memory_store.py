@@ -1,0 +1,507 @@
+"""A monitoring store in memory: a test double of the StoreBackend protocol, in plain Python.
+
+It passes the contract (tests/test_store_contract.py) and the monitor runs on it to the SQLite
+store's results, which shows that the driver needs nothing of a store but the protocol. One
+lock makes each write atomic among threads; a write that raises changes nothing, because every
+write computes first and changes the lists last.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import threading
+from collections.abc import Callable
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from axiswatch.exceptions import StoreError
+from axiswatch.monitor._decision import AxisHistory, Decision
+from axiswatch.monitor._store import (
+    AlarmState,
+    Baseline,
+    ChangedFile,
+    NewBaseline,
+    NewScore,
+    Rejection,
+    ScoredFile,
+    _alarmed_baseline,
+    _no_active_baseline,
+    now,
+    summary_extras,
+)
+
+
+@dataclasses.dataclass
+class _Score:
+    id: int
+    baseline_id: int
+    robot: str
+    axis: str
+    method: str
+    capture: str
+    captured_at: datetime
+    path: str
+    file_hash: str
+    file_size: int
+    file_mtime_ns: int
+    role: str
+    distance: float | None
+    threshold: float | None
+    over: bool
+    alarm: bool
+    reason: str
+    details: dict[str, Any]
+
+
+class MemoryStore:
+    """A :class:`~axiswatch.monitor.StoreBackend` held in lists (row order = id order)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._baselines: list[Baseline] = []
+        self._scores: list[_Score] = []
+        self._rejections: list[tuple[Rejection, str]] = []
+        self._changed: list[tuple[ChangedFile, str]] = []
+        self._requests: list[tuple[str, str, str, int, str | None]] = []
+        self._request_times: list[str] = []
+        self._acks: list[dict[str, Any]] = []
+
+    @property
+    def location(self) -> str:
+        return "memory"
+
+    def close(self) -> None:
+        pass
+
+    # --- writes ----------------------------------------------------------------------------
+
+    def add_baseline(self, baseline: NewBaseline) -> int | None:
+        b = baseline
+        with self._lock:
+            for old in self._baselines:
+                if (old.robot, old.axis, old.method, old.epoch) == (
+                    b.robot,
+                    b.axis,
+                    b.method,
+                    b.epoch,
+                ):
+                    return old.id if old.capture == b.capture else None
+            new = Baseline(
+                len(self._baselines) + 1, b.robot, b.axis, b.method, b.epoch, b.capture,
+                b.captured_at, b.path, b.file_hash, b.features_hash, b.params, None, None, False,
+            )  # fmt: skip
+            self._baselines.append(new)
+            row = _Score(
+                len(self._scores) + 1,
+                new.id,
+                b.robot,
+                b.axis,
+                b.method,
+                b.capture,
+                b.captured_at,
+                b.path,
+                b.file_hash,
+                b.file_size,
+                b.file_mtime_ns,
+                "baseline",
+                None,
+                None,
+                False,
+                False,
+                b.reason,
+                dict(b.details),
+            )
+            self._scores.append(row)
+            return new.id
+
+    def record_score(
+        self, score: NewScore, decide: Callable[[AxisHistory], Decision], *, window: int
+    ) -> bool:
+        s = score
+        with self._lock:
+            if s.capture in self._captures(s.baseline_id):
+                return False
+            baseline = self._baseline(s.baseline_id)
+            if baseline.retired:
+                return False
+            of_baseline = [r for r in self._scores if r.baseline_id == s.baseline_id]
+            if baseline.threshold is None:
+                history = AxisHistory(
+                    calibration_distances=tuple(
+                        float(r.distance or 0.0) for r in of_baseline if r.role == "calibration"
+                    ),
+                    alarmed_before=any(
+                        r.alarm
+                        for r in self._scores
+                        if (r.robot, r.axis, r.method, r.capture)
+                        == (s.robot, s.axis, s.method, s.capture)
+                    ),
+                )
+            else:
+                monitored = [r for r in of_baseline if r.role == "monitor"]
+                history = AxisHistory(
+                    threshold=baseline.threshold,
+                    fit=baseline.fit,
+                    recent=tuple((r.over, r.alarm) for r in monitored[-window:]),
+                )
+            decision = decide(history)
+            if decision.calibrated is not None:
+                value = decision.calibrated.value
+                index = self._baselines.index(baseline)
+                self._baselines[index] = dataclasses.replace(
+                    baseline, threshold=value, fit=decision.calibrated.fit
+                )
+                for row in of_baseline:
+                    if row.role == "calibration":
+                        row.threshold = value
+            row = _Score(
+                len(self._scores) + 1,
+                s.baseline_id,
+                s.robot,
+                s.axis,
+                s.method,
+                s.capture,
+                s.captured_at,
+                s.path,
+                s.file_hash,
+                s.file_size,
+                s.file_mtime_ns,
+                decision.role,
+                s.distance,
+                decision.threshold,
+                decision.over,
+                decision.alarm,
+                decision.reason,
+                {**s.details, **decision.details},
+            )
+            self._scores.append(row)
+            return True
+
+    def reject_capture(self, rejection: Rejection, *, baseline_id: int | None = None) -> bool:
+        r = rejection
+        with self._lock:
+            if baseline_id is not None and (
+                r.capture in self._captures(baseline_id) or self._baseline(baseline_id).retired
+            ):
+                return False
+            if any(
+                (old.method, old.path, old.file_hash) == (r.method, r.path, r.file_hash)
+                for old, _ in self._rejections
+            ):
+                return False
+            self._rejections.append((r, now()))
+            return True
+
+    def record_changed_file(self, change: ChangedFile) -> None:
+        c = change
+        key = (c.path, c.scored_hash, c.current_hash)
+        with self._lock:
+            if all((o.path, o.scored_hash, o.current_hash) != key for o, _ in self._changed):
+                self._changed.append((c, now()))
+
+    def retire_baselines(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        method: str | None = None,
+        from_capture: str | None = None,
+    ) -> list[str]:
+        with self._lock:
+            active = [b for b in self._baselines if not b.retired]
+            chosen = sorted(
+                (
+                    b
+                    for b in active
+                    if (b.robot, b.axis) == (robot, axis) and method in (None, b.method)
+                ),
+                key=lambda b: b.method,
+            )
+            if not chosen:
+                known = [(b.robot, b.axis, b.method) for b in active]
+                raise StoreError(_no_active_baseline(self.location, robot, axis, method, known))
+            if from_capture is not None:
+                for row in self._scores:
+                    if row.alarm and (row.robot, row.axis, row.capture) == (
+                        robot,
+                        axis,
+                        from_capture,
+                    ):
+                        raise StoreError(_alarmed_baseline(robot, axis, from_capture, row.method))
+            for b in chosen:
+                self._baselines[self._baselines.index(b)] = dataclasses.replace(b, retired=True)
+                self._requests.append((robot, axis, b.method, b.epoch, from_capture))
+                self._request_times.append(now())
+            return [b.method for b in chosen]
+
+    # --- reads -----------------------------------------------------------------------------
+
+    def _baseline(self, baseline_id: int) -> Baseline:
+        for b in self._baselines:
+            if b.id == baseline_id:
+                return b
+        raise StoreError(f"store 'memory' has no baseline with id {baseline_id}.")
+
+    def _captures(self, baseline_id: int) -> set[str]:
+        return {r.capture for r in self._scores if r.baseline_id == baseline_id}
+
+    def baseline(self, baseline_id: int) -> Baseline:
+        return self._baseline(baseline_id)
+
+    def latest_baseline(self, robot: str, axis: str, method: str) -> Baseline | None:
+        own = [b for b in self._baselines if (b.robot, b.axis, b.method) == (robot, axis, method)]
+        return max(own, key=lambda b: b.epoch) if own else None
+
+    def requested_baseline(
+        self, robot: str, axis: str, method: str, retired_epoch: int
+    ) -> str | None:
+        found = [r[4] for r in self._requests if r[:4] == (robot, axis, method, retired_epoch)]
+        return found[-1] if found else None
+
+    def last_captured_at(self, robot: str, axis: str, method: str) -> datetime | None:
+        times = [
+            r.captured_at
+            for r in self._scores
+            if (r.robot, r.axis, r.method) == (robot, axis, method)
+        ]
+        return max(times) if times else None
+
+    def scored_captures(self, baseline_id: int) -> set[str]:
+        return self._captures(baseline_id)
+
+    def scored_files(self) -> dict[str, ScoredFile]:
+        return {
+            r.path: ScoredFile(
+                r.robot, r.axis, r.capture, r.path, r.file_hash, r.file_size, r.file_mtime_ns
+            )
+            for r in self._scores
+        }
+
+    def scored_contents(self, method: str) -> set[tuple[str, str]]:
+        return {(r.path, r.file_hash) for r in self._scores if r.method == method}
+
+    def rejections(self, method: str) -> list[Rejection]:
+        return [r for r, _ in self._rejections if r.method == method]
+
+    def alarmed_captures(self, method: str) -> set[tuple[str, str, str]]:
+        return {
+            (r.robot, r.axis, r.capture) for r in self._scores if r.method == method and r.alarm
+        }
+
+    def _last_alarm(self, baseline_id: int, before: int | None = None) -> bool | None:
+        monitored = [
+            r
+            for r in self._scores
+            if r.baseline_id == baseline_id
+            and r.role == "monitor"
+            and (before is None or r.id < before)
+        ]
+        return monitored[-1].alarm if monitored else None
+
+    def axes_in_alarm(self, method: str) -> list[tuple[str, str]]:
+        return sorted(
+            (b.robot, b.axis)
+            for b in self._baselines
+            if b.method == method and not b.retired and self._last_alarm(b.id)
+        )
+
+    # --- acknowledgements --------------------------------------------------------------------
+
+    def _raised(self, b: Baseline) -> _Score | None:
+        """The score that raised the baseline's current alarm episode (None if not in alarm)."""
+        monitored = [r for r in self._scores if r.baseline_id == b.id and r.role == "monitor"]
+        if not monitored or not monitored[-1].alarm:
+            return None
+        clean = [r.id for r in monitored if not r.alarm]
+        last_clean = max(clean) if clean else 0
+        return next(r for r in monitored if r.alarm and r.id > last_clean)
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        found = []
+        for b in self._baselines:
+            if b.retired or method not in (None, b.method):
+                continue
+            raised = self._raised(b)
+            if raised is None:
+                continue
+            acks = [a for a in self._acks if a["score_id"] == raised.id]
+            ack = acks[-1] if acks else None
+            found.append(
+                AlarmState(
+                    b.robot, b.axis, b.method, b.id, raised.id, raised.capture,
+                    raised.captured_at.isoformat(),
+                    ack["acknowledged_by"] if ack else None,
+                    ack["note"] if ack else None,
+                    ack["acknowledged_at"] if ack else None,
+                )
+            )  # fmt: skip
+        return sorted(found, key=lambda a: (a.robot, a.axis, a.method))
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        for name, value in (("by", by), ("note", note)):
+            if not value.strip():
+                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
+        with self._lock:
+            latest: dict[str, Baseline] = {}
+            own = [
+                b
+                for b in self._baselines
+                if (b.robot, b.axis) == (robot, axis) and method in (None, b.method)
+            ]
+            for b in own:
+                if b.method not in latest or b.epoch > latest[b.method].epoch:
+                    latest[b.method] = b
+            baselines = [latest[m] for m in sorted(latest) if rebaseline or not latest[m].retired]
+            if not baselines:
+                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
+            chosen = []
+            for b in baselines:
+                raised = self._raised(b)
+                chosen.append((b, None if raised is None else raised.id))
+            if not rebaseline:
+                chosen = [c for c in chosen if c[1] is not None]
+                if not chosen:
+                    raise StoreError(
+                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
+                        "re-baseline it: axiswatch ack --rebaseline)."
+                    )
+            stamp = now()
+            for b, score_id in chosen:
+                self._acks.append(
+                    {
+                        "robot": robot,
+                        "axis": axis,
+                        "method": b.method,
+                        "score_id": score_id,
+                        "rebaseline": rebaseline,
+                        "acknowledged_by": by,
+                        "note": note,
+                        "acknowledged_at": stamp,
+                    }
+                )
+            return [b.method for b, _ in chosen]
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        captures = {r.id: r.capture for r in self._scores}
+        rows = [
+            (
+                a["robot"], a["axis"], a["method"], captures.get(a["score_id"]),
+                a["rebaseline"], a["acknowledged_by"], a["note"], a["acknowledged_at"],
+            )
+            for a in self._acks
+            if robot in (None, a["robot"]) and axis in (None, a["axis"])
+        ]  # fmt: skip
+        columns = [
+            "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
+            "acknowledged_at",
+        ]  # fmt: skip
+        return pd.DataFrame(rows, columns=columns).astype({"rebaseline": bool})
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        rows = [(*r, t) for r, t in zip(self._requests, self._request_times, strict=True)]
+        columns = ["robot", "axis", "method", "retired_epoch", "from_capture", "requested_at"]
+        return pd.DataFrame(rows, columns=columns)
+
+    # --- tables ----------------------------------------------------------------------------
+
+    def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        epochs = {b.id: b.epoch for b in self._baselines}
+        rows = [
+            {
+                "robot": r.robot,
+                "axis": r.axis,
+                "capture": r.capture,
+                "method": r.method,
+                "distance": np.nan if r.distance is None else r.distance,
+                "threshold": np.nan if r.threshold is None else r.threshold,
+                "alarm": r.alarm,
+                "captured_at": r.captured_at.isoformat(),
+                "epoch": epochs[r.baseline_id],
+                "role": r.role,
+                "over": r.over,
+                "reason": r.reason,
+                "details": _json(r.details, sort_keys=r.role != "baseline"),
+                "path": r.path,
+            }
+            for r in self._scores
+            if robot in (None, r.robot) and axis in (None, r.axis)
+        ]
+        columns = [
+            "robot", "axis", "capture", "method", "distance", "threshold", "alarm",
+            "captured_at", "epoch", "role", "over", "reason", "details", "path",
+        ]  # fmt: skip
+        frame = pd.DataFrame(rows, columns=columns)
+        frame = frame.sort_values(
+            ["robot", "axis", "method", "captured_at", "capture", "epoch"], kind="stable"
+        ).reset_index(drop=True)
+        return frame.astype(
+            {"alarm": bool, "over": bool, "distance": np.float64, "threshold": np.float64}
+        )
+
+    def summary_table(self) -> pd.DataFrame:
+        rows = []
+        active = sorted(
+            (b for b in self._baselines if not b.retired),
+            key=lambda b: (b.robot, b.axis, b.method),
+        )
+        for b in active:
+            own = [r for r in self._scores if r.baseline_id == b.id]
+            rows.append(
+                {
+                    "robot": b.robot,
+                    "axis": b.axis,
+                    "method": b.method,
+                    "epoch": b.epoch,
+                    "baseline": b.capture,
+                    "threshold": b.threshold,
+                    "scored": sum(r.role != "baseline" for r in own),
+                    "over": sum(r.over for r in own),
+                    "alarms": sum(r.alarm and not self._last_alarm(b.id, r.id) for r in own),
+                    "last_capture": own[-1].capture,
+                    "last_distance": own[-1].distance,
+                    "last_alarm": self._last_alarm(b.id),
+                    "rejected": sum(
+                        (r.robot, r.axis, r.method) == (b.robot, b.axis, b.method)
+                        for r, _ in self._rejections
+                    ),
+                }
+            )
+        columns = [
+            "robot", "axis", "method", "epoch", "baseline", "threshold", "scored", "over",
+            "alarms", "last_capture", "last_distance", "last_alarm", "rejected",
+        ]  # fmt: skip
+        return summary_extras(pd.DataFrame(rows, columns=columns), active, self.alarms())
+
+    def rejection_table(self) -> pd.DataFrame:
+        rows = [
+            (r.robot, r.axis, r.capture, r.method, r.path, r.error, stamp)
+            for r, stamp in self._rejections
+        ]
+        rows.sort(key=lambda row: (row[0], row[1], row[4], row[3]))
+        columns = ["robot", "axis", "capture", "method", "path", "error", "rejected_at"]
+        return pd.DataFrame(rows, columns=columns)
+
+    def changed_file_table(self) -> pd.DataFrame:
+        rows = sorted(
+            ((c.robot, c.axis, c.path, stamp) for c, stamp in self._changed),
+            key=lambda row: row[2],
+        )
+        return pd.DataFrame(rows, columns=["robot", "axis", "path", "detected_at"])
+
+
+def _json(details: dict[str, Any], *, sort_keys: bool) -> str:
+    return json.dumps(details, sort_keys=sort_keys)

@@ -1,0 +1,119 @@
+"""Capture formats: one registry for reading, writing and the monitor's discovery."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import axiswatch as aw
+import axiswatch._formats
+from axiswatch import CaptureError
+from axiswatch.monitor._fleet import discover_fleet
+
+
+@pytest.fixture
+def registry(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A copy of the registry for the test, so a format it adds does not outlive it."""
+    monkeypatch.setattr(axiswatch._formats, "_FORMATS", dict(axiswatch._formats._FORMATS))
+
+
+def _one_rate_capture(rng: np.random.Generator) -> aw.Capture:
+    return aw.Capture(
+        {"speed": rng.normal(size=400), "torque": rng.normal(size=400)},
+        {"speed": 2000.0, "torque": 2000.0},
+        metadata={"robot": "r1"},
+    )
+
+
+def test_builtin_suffixes() -> None:
+    assert axiswatch._formats.capture_suffixes() == (".csv", ".npz", ".parquet")
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv", ".npz"])
+def test_every_format_round_trips_through_one_interface(
+    suffix: str, tmp_path: Path, rng: np.random.Generator
+) -> None:
+    capture = _one_rate_capture(rng)
+    back = aw.read_capture(aw.write_capture(capture, tmp_path / f"2026-03-01{suffix}"))
+    assert back.names == ("speed", "torque")
+    for name in back.names:
+        np.testing.assert_array_equal(back.signals[name], capture.signals[name])
+        assert back.rates_hz[name] == pytest.approx(2000.0, rel=1e-9)
+    if suffix != ".csv":  # CSV keeps no metadata
+        assert back.metadata["robot"] == "r1"
+
+
+def test_npz_holds_one_rate(tmp_path: Path, robot_capture: aw.Capture) -> None:
+    # position at 250 Hz, speed and torque at 2 kHz
+    with pytest.raises(CaptureError, match=r"cap\.npz: a \.npz capture holds every signal at one"):
+        aw.write_capture(robot_capture, tmp_path / "cap.npz")
+
+
+def test_npz_recording_of_unknown_rate_reads_at_the_nominal_rate(tmp_path: Path) -> None:
+    path = tmp_path / "r1.npz"
+    np.savez(path, signals=np.ones((1, 8)), channels=np.array(["a1"]), fs=np.float64("nan"))
+    capture = aw.read_capture(path)
+    assert capture.rates_hz == {"a1": pytest.approx(1.0, rel=1e-12)}
+    assert capture.metadata["fs_stated"] == "false"
+
+
+def test_corrupt_npz_is_a_capture_error(tmp_path: Path) -> None:
+    path = tmp_path / "r1.npz"
+    path.write_bytes(b"not a zip archive")
+    with pytest.raises(CaptureError, match=r"r1\.npz: cannot read \.npz recording"):
+        aw.read_capture(path)
+
+
+def test_unknown_suffix_names_the_registered_ones(tmp_path: Path) -> None:
+    with pytest.raises(CaptureError, match=r"'\.txt'; expected \.csv, \.npz or \.parquet\."):
+        aw.read_capture(tmp_path / "cap.txt")
+
+
+@pytest.mark.usefixtures("registry")
+def test_a_registered_format_reaches_reading_writing_and_the_monitor(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    aw.register_format(
+        ".tsv",
+        description="TSV",
+        read=lambda path: (pd.read_csv(path, sep="\t"), {}),
+        write=lambda frame, metadata, path: frame.to_csv(path, sep="\t", index=False),
+    )
+    folder = tmp_path / "fleet" / "r1" / "a1"
+    folder.mkdir(parents=True)
+    capture = _one_rate_capture(rng)
+    written = aw.write_capture(capture, folder / "2026-03-01.TSV")
+    assert written.read_text().startswith("time\tspeed\ttorque")
+    np.testing.assert_allclose(
+        aw.read_capture(written).signals["speed"], capture.signals["speed"], rtol=1e-15
+    )
+    aw.write_capture(capture, folder / "2026-03-02.npz")
+    (folder / "notes.txt").write_text("not a capture")
+    files, problems = discover_fleet(tmp_path / "fleet")
+    assert [f.path.name for f in files] == ["2026-03-01.TSV", "2026-03-02.npz"]
+    assert problems == []
+
+
+def test_a_reader_failure_names_the_format(tmp_path: Path, registry: None) -> None:
+    def broken(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+        raise OSError("disk said no")
+
+    aw.register_format(".bad", description="Broken", read=broken, write=lambda *args: None)
+    path = tmp_path / "cap.bad"
+    path.write_text("x")
+    with pytest.raises(CaptureError, match=r"cap\.bad: cannot read Broken file .*: disk said no"):
+        aw.read_capture(path)
+
+
+@pytest.mark.parametrize("suffix", ["tsv", ".", 3])
+def test_register_format_needs_a_suffix_with_its_dot(suffix: object) -> None:
+    with pytest.raises(ValueError, match=r"'suffix' parameter must be a file suffix with its dot"):
+        aw.register_format(
+            suffix,  # type: ignore[arg-type]
+            description="x",
+            read=lambda path: (pd.DataFrame(), {}),
+            write=lambda *args: None,
+        )

@@ -1,0 +1,117 @@
+"""The monitor's methods: one default for library and CLI, a registered method reaches both."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import typer
+from numpy.typing import NDArray
+from typer.testing import CliRunner
+
+import axiswatch as aw
+import axiswatch.monitor._methods
+from axiswatch.cli import app
+from axiswatch.monitor import MethodPreset, MonitorConfig, methods, register_method
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._results import fleet_rejections, fleet_results
+
+runner = CliRunner()
+
+
+class RmsDetector(aw.BaselineDetector):
+    """A new detector, as a user would write one: the change of the features' RMS."""
+
+    def _fit(self, X: NDArray[np.float64]) -> None:
+        self.rms_ = float(np.sqrt(np.mean(X**2)))
+
+    def _distance(self, X: NDArray[np.float64]) -> float:
+        return abs(float(np.sqrt(np.mean(X**2))) - self.rms_)
+
+
+@pytest.fixture
+def registry(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Registrations of a test go to a copy of the table, dropped afterwards."""
+    monkeypatch.setattr(
+        axiswatch.monitor._methods, "_METHODS", dict(axiswatch.monitor._methods._METHODS)
+    )
+
+
+@pytest.fixture
+def fleet(small_fleet: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+
+
+def test_a_registered_detector_reaches_the_monitor_and_the_cli(
+    registry: None, fleet: Path, tmp_path: Path
+) -> None:
+    register_method("rms", MethodPreset(detector=lambda config: RmsDetector(), summary="RMS"))
+    assert list(methods()) == ["mechanics", "lra", "pca", "rms"]
+    store = tmp_path / "s.db"
+    result = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rms"])
+    assert result.exit_code == 0, result.output
+    assert "rms: 18 capture files, 2 new baseline(s), 16 capture(s) scored" in result.output
+    with aw.Store(store) as opened:
+        results = fleet_results(opened)
+    assert set(results.method) == {"rms"}
+    monitored = results[results.role == "monitor"]
+    assert len(monitored) == 6
+    assert (monitored.distance > 0).all()
+    wrong = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rmz"])
+    assert wrong.exit_code == 2
+    words = " ".join(wrong.output.replace("│", " ").split())
+    assert "expected one of mechanics, lra, pca, rms; got 'rmz'" in words
+
+
+def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:
+    preset = MethodPreset(detector=lambda config: RmsDetector())
+    with pytest.raises(ValueError, match=r"letters, digits, '_' and '-'. Got 'a b' instead"):
+        register_method("a b", preset)
+    with pytest.raises(ValueError, match=r"'pca' is registered already; pass replace=True"):
+        register_method("pca", preset)
+    register_method("pca", preset, replace=True)
+    assert isinstance(MonitorConfig(method="pca").model().detector, RmsDetector)
+
+
+def test_a_configuration_error_stops_the_run_and_rejects_nothing(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # Before, jobs caught any ValueError: this error was stored as a rejection of every file.
+    config = MonitorConfig(stage=aw.MechanicsStage(band_hz=(300.0, 40.0)))
+    with aw.Store(tmp_path / "s.db") as store:
+        with pytest.raises(ValueError, match=r"'band_hz' parameter of MechanicsStage must"):
+            monitor_fleet(fleet, store, config)
+        assert fleet_rejections(store).empty
+
+
+def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
+    defaults = MonitorConfig()
+    assert defaults.method == "mechanics"
+    command = typer.main.get_command(app).commands["monitor"]  # type: ignore[attr-defined]
+    options = {p.name: p.default for p in command.params}
+    assert options["method"] == defaults.method
+    assert options["percentile"] == defaults.percentile
+    assert options["calibration"] == defaults.calibration_size
+    assert (options["alarm_k"], options["alarm_n"], options["clear_m"]) == (
+        defaults.alarm_k,
+        defaults.alarm_n,
+        defaults.clear_m,
+    )
+    assert options["signals"] == ",".join(defaults.features.signals)
+    assert options["hop"] == defaults.features.hop
+    assert options["segment_length"] == defaults.features.segment_length
+    assert options["align"] is defaults.align_phase
+    # The same run by both: the fixture's short captures give the default's rejections.
+    with aw.Store(tmp_path / "library.db") as store:
+        monitor_fleet(fleet, store)
+        by_library = fleet_rejections(store)
+    runner.invoke(app, ["monitor", str(fleet), "--store", str(tmp_path / "cli.db")])
+    with aw.Store(tmp_path / "cli.db") as store:
+        by_cli = fleet_rejections(store)
+    assert set(by_cli.method) == {"mechanics"}
+    assert len(by_cli) == 18
+    columns = ["robot", "axis", "capture", "method", "path", "error"]
+    pd.testing.assert_frame_equal(by_library[columns], by_cli[columns])
