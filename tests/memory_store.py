@@ -21,6 +21,7 @@ import pandas as pd
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision
 from axiswatch.monitor._store import (
+    AlarmState,
     Baseline,
     ChangedFile,
     NewBaseline,
@@ -31,6 +32,7 @@ from axiswatch.monitor._store import (
     _no_active_baseline,
     now,
     now_us,
+    summary_extras,
 )
 
 
@@ -68,6 +70,8 @@ class MemoryStore:
         self._requests: list[tuple[str, str, str, int, str | None]] = []
         self._seen_changes: dict[tuple[str, str, str], str] = {}
         self._activity: dict[tuple[str, str], tuple[int, str, str]] = {}
+        self._request_times: list[str] = []
+        self._acks: list[dict[str, Any]] = []
 
     @property
     def location(self) -> str:
@@ -237,6 +241,7 @@ class MemoryStore:
             for b in chosen:
                 self._baselines[self._baselines.index(b)] = dataclasses.replace(b, retired=True)
                 self._requests.append((robot, axis, b.method, b.epoch, from_capture))
+                self._request_times.append(now())
             return [b.method for b in chosen]
 
     # --- reads -----------------------------------------------------------------------------
@@ -310,6 +315,113 @@ class MemoryStore:
             if b.method == method and not b.retired and self._last_alarm(b.id)
         )
 
+    # --- acknowledgements --------------------------------------------------------------------
+
+    def _raised(self, b: Baseline) -> _Score | None:
+        """The score that raised the baseline's current alarm episode (None if not in alarm)."""
+        monitored = [r for r in self._scores if r.baseline_id == b.id and r.role == "monitor"]
+        if not monitored or not monitored[-1].alarm:
+            return None
+        clean = [r.id for r in monitored if not r.alarm]
+        last_clean = max(clean) if clean else 0
+        return next(r for r in monitored if r.alarm and r.id > last_clean)
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        found = []
+        for b in self._baselines:
+            if b.retired or method not in (None, b.method):
+                continue
+            raised = self._raised(b)
+            if raised is None:
+                continue
+            acks = [a for a in self._acks if a["score_id"] == raised.id]
+            ack = acks[-1] if acks else None
+            found.append(
+                AlarmState(
+                    b.robot, b.axis, b.method, b.id, raised.id, raised.capture,
+                    raised.captured_at.isoformat(),
+                    ack["acknowledged_by"] if ack else None,
+                    ack["note"] if ack else None,
+                    ack["acknowledged_at"] if ack else None,
+                )
+            )  # fmt: skip
+        return sorted(found, key=lambda a: (a.robot, a.axis, a.method))
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        for name, value in (("by", by), ("note", note)):
+            if not value.strip():
+                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
+        with self._lock:
+            latest: dict[str, Baseline] = {}
+            own = [
+                b
+                for b in self._baselines
+                if (b.robot, b.axis) == (robot, axis) and method in (None, b.method)
+            ]
+            for b in own:
+                if b.method not in latest or b.epoch > latest[b.method].epoch:
+                    latest[b.method] = b
+            baselines = [latest[m] for m in sorted(latest) if rebaseline or not latest[m].retired]
+            if not baselines:
+                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
+            chosen = []
+            for b in baselines:
+                raised = self._raised(b)
+                chosen.append((b, None if raised is None else raised.id))
+            if not rebaseline:
+                chosen = [c for c in chosen if c[1] is not None]
+                if not chosen:
+                    raise StoreError(
+                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
+                        "re-baseline it: axiswatch ack --rebaseline)."
+                    )
+            stamp = now()
+            for b, score_id in chosen:
+                self._acks.append(
+                    {
+                        "robot": robot,
+                        "axis": axis,
+                        "method": b.method,
+                        "score_id": score_id,
+                        "rebaseline": rebaseline,
+                        "acknowledged_by": by,
+                        "note": note,
+                        "acknowledged_at": stamp,
+                    }
+                )
+            return [b.method for b, _ in chosen]
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        captures = {r.id: r.capture for r in self._scores}
+        rows = [
+            (
+                a["robot"], a["axis"], a["method"], captures.get(a["score_id"]),
+                a["rebaseline"], a["acknowledged_by"], a["note"], a["acknowledged_at"],
+            )
+            for a in self._acks
+            if robot in (None, a["robot"]) and axis in (None, a["axis"])
+        ]  # fmt: skip
+        columns = [
+            "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
+            "acknowledged_at",
+        ]  # fmt: skip
+        return pd.DataFrame(rows, columns=columns).astype({"rebaseline": bool})
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        rows = [(*r, t) for r, t in zip(self._requests, self._request_times, strict=True)]
+        columns = ["robot", "axis", "method", "retired_epoch", "from_capture", "requested_at"]
+        return pd.DataFrame(rows, columns=columns)
+
     # --- tables ----------------------------------------------------------------------------
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
@@ -329,13 +441,14 @@ class MemoryStore:
                 "over": r.over,
                 "reason": r.reason,
                 "details": _json(r.details, sort_keys=r.role != "baseline"),
+                "path": r.path,
             }
             for r in self._scores
             if robot in (None, r.robot) and axis in (None, r.axis)
         ]
         columns = [
             "robot", "axis", "capture", "method", "distance", "threshold", "alarm",
-            "captured_at", "epoch", "role", "over", "reason", "details",
+            "captured_at", "epoch", "role", "over", "reason", "details", "path",
         ]  # fmt: skip
         frame = pd.DataFrame(rows, columns=columns)
         frame = frame.sort_values(
@@ -347,10 +460,11 @@ class MemoryStore:
 
     def summary_table(self) -> pd.DataFrame:
         rows = []
-        for b in sorted(
+        active = sorted(
             (b for b in self._baselines if not b.retired),
             key=lambda b: (b.robot, b.axis, b.method),
-        ):
+        )
+        for b in active:
             own = [r for r in self._scores if r.baseline_id == b.id]
             rows.append(
                 {
@@ -376,7 +490,7 @@ class MemoryStore:
             "robot", "axis", "method", "epoch", "baseline", "threshold", "scored", "over",
             "alarms", "last_capture", "last_distance", "last_alarm", "rejected",
         ]  # fmt: skip
-        return pd.DataFrame(rows, columns=columns)
+        return summary_extras(pd.DataFrame(rows, columns=columns), active, self.alarms())
 
     def rejection_table(self) -> pd.DataFrame:
         rows = [
@@ -388,8 +502,11 @@ class MemoryStore:
         return pd.DataFrame(rows, columns=columns)
 
     def changed_file_table(self) -> pd.DataFrame:
-        rows = sorted(((c.path, stamp) for c, stamp in self._changed), key=lambda row: row[0])
-        return pd.DataFrame(rows, columns=["path", "detected_at"])
+        rows = sorted(
+            ((c.robot, c.axis, c.path, stamp) for c, stamp in self._changed),
+            key=lambda row: row[2],
+        )
+        return pd.DataFrame(rows, columns=["robot", "axis", "path", "detected_at"])
 
     # --- standing problems and axis activity ---------------------------------------------------
 

@@ -286,12 +286,33 @@ def longest_run_naive(values: list[float]) -> tuple[int, int]:
     return best, best_start
 
 
+def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) -> np.ndarray:
+    """Per-column terms of the indicator distance, column by column, row by row."""
+    terms = np.zeros(baseline.shape[1])
+    for j in range(baseline.shape[1]):
+        baseline_mean = sum(baseline[i, j] for i in range(baseline.shape[0])) / baseline.shape[0]
+        test_mean = sum(test[i, j] for i in range(test.shape[0])) / test.shape[0]
+        shift = test_mean - baseline_mean
+        if one_sided and shift < 0:
+            shift = 0.0
+        terms[j] = shift * shift
+    return terms
+
+
 def alarm_threshold_naive(distances: list[float], percentile: float, floor: float | None) -> float:
     """The alarm threshold spelled out: the exponential quantile at the mean distance (the
     half-Laplace maximum-likelihood scale), or the floor where that is larger."""
     scale = sum(distances) / len(distances)
     fitted = float(exponential_quantile(scale, percentile / 100.0))
     return fitted if floor is None or floor <= fitted else floor
+
+
+def threshold_origin_naive(distances: list[float], percentile: float, floor: float | None) -> str:
+    """Where the alarm threshold of these healthy distances comes from: ``"floor"`` when the
+    floor is above the fitted exponential quantile, else ``"fit"``."""
+    scale = sum(distances) / len(distances)
+    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    return "fit" if floor is None or floor <= fitted else "floor"
 
 
 def axis_decisions_naive(

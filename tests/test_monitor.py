@@ -9,10 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
+from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch._mechanics
 import axiswatch.datasets as awd
+from axiswatch._mechanics import COLUMNS
+from axiswatch.cli import app
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import alarm_step
@@ -86,7 +89,7 @@ def test_baseline_calibration_and_threshold(fleet: Path, tmp_path: Path) -> None
     assert axis.threshold.iloc[1:].to_numpy() == pytest.approx(expected, rel=1e-12)
     reason = axis.reason.iloc[-1]
     assert reason.startswith("distance ")
-    assert "(99th pct of 5 healthy captures)" in reason
+    assert "(99th pct of half-Laplace fit of 5 healthy captures)" in reason
     details = json.loads(axis.details.iloc[-1])
     assert set(details) >= {"phase_lag_samples", "phase_lag_s", "n_rows", "pvalue"}
 
@@ -267,6 +270,36 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     floor = MonitorConfig(method="mechanics").threshold_floor()
     assert floor == pytest.approx(aw._mechanics.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
     assert (results.threshold.dropna() >= floor).all()
+    # Every monitored capture carries its explanation; every reason names where its threshold
+    # comes from (the floor, when the fit is lower) and, over it, the top indicator.
+    with Store(tmp_path / "s.db") as store:
+        fits = {}
+        for robot, axis in set(zip(results.robot, results.axis, strict=True)):
+            latest = store.latest_baseline(robot, axis, "mechanics")
+            assert latest is not None
+            assert latest.fit is not None
+            fits[robot + axis] = latest.fit
+    monitored = results[results.role == "monitor"]
+    for row in monitored.itertuples():
+        details = json.loads(row.details)
+        shares = [entry["share"] for entry in details["indicators"].values()]
+        assert set(details["indicators"]) == set(COLUMNS)
+        assert sum(shares) == pytest.approx(1.0 if row.distance > 0 else 0.0, abs=1e-9)
+        fitted = fits[row.robot + row.axis].threshold(99.0)
+        origin = "task-change allowance" if row.threshold > fitted else "99th pct of half"
+        assert f"threshold {row.threshold:.4g} ({origin}" in row.reason, row.reason
+        assert ("; top indicator " in row.reason) == bool(row.over or row.alarm), row.reason
+    raised = monitored[monitored.alarm]
+    assert "; top indicator viscous_friction +" in raised.reason.iloc[-1]
+    assert "likely friction" in raised.reason.iloc[-1]
+    assert raised.top_indicator.str.startswith("viscous_friction +").all()
+    assert results.top_indicator[~(results.over | results.alarm)].isna().all()
+    shown = CliRunner().invoke(
+        app, ["results", "--store", str(tmp_path / "s.db"), "--axis", "axis2", "--indicators"]
+    )
+    header = shown.output.splitlines()[0].split()
+    assert header[-7:] == ["top_indicator", *COLUMNS], header
+    assert "2026-03-12.parquet mechanics" in shown.output
 
 
 def test_threshold_floor_is_zero_for_the_papers_methods() -> None:

@@ -267,6 +267,13 @@ def monitor(
                 f"\n{result.acknowledged} acknowledged problem(s) not shown "
                 "('axiswatch rejections' lists them)."
             )
+        if result.acknowledged_alarms:
+            typer.echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
+            for seen in result.acknowledged_alarms:
+                typer.echo(
+                    f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
+                    f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
+                )
         if result.alarms:
             axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
             typer.echo(f"\nALARM ({result.method}) on {axes}")
@@ -279,10 +286,20 @@ def results(
     robot: str | None = typer.Option(None, help="Only this robot."),
     axis: str | None = typer.Option(None, help="Only this axis."),
     output: Annotated[Format, typer.Option("--format", help="table, csv or json.")] = Format.table,
+    indicators: bool = typer.Option(
+        False, help="Table: one column per indicator, its shift in healthy spreads."
+    ),
     debug: bool = DEBUG,
 ) -> None:
-    """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm."""
-    from axiswatch.monitor._results import fleet_results
+    """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
+
+    Then captured_at, epoch, role, over, reason, details (JSON: for the default method each
+    indicator's value, baseline, shift in healthy spreads and share of the distance) and
+    top_indicator. The table shows the first seven, role and top_indicator.
+    """
+    import json
+
+    from axiswatch.monitor._results import fleet_results, indicator_spreads
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
@@ -293,13 +310,15 @@ def results(
         if output is Format.csv:
             typer.echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
         elif output is Format.json:
-            typer.echo(frame.to_json(orient="records", indent=1))
+            records = frame.assign(details=frame["details"].map(json.loads))
+            typer.echo(records.to_json(orient="records", indent=1))
         elif frame.empty:
             typer.echo("No scored captures.")
         else:
-            typer.echo(
-                frame[[*columns, "role"]].to_string(index=False, float_format=lambda v: f"{v:.4g}")
-            )
+            table = frame[[*columns, "role", "top_indicator"]].fillna({"top_indicator": ""})
+            if indicators:
+                table = table.join(indicator_spreads(frame))
+            typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
 def _noise_level(text: str) -> float | Literal["auto"]:
@@ -421,6 +440,76 @@ def rejections(
         typer.echo(frame.to_string(index=False))
 
 
+@app.command()
+def ack(
+    store: StorePath,
+    robot: str | None = typer.Option(None, help="Robot folder name (required unless --list)."),
+    axis: str | None = typer.Option(None, help="Axis folder name (required unless --list)."),
+    method: str | None = typer.Option(
+        None, help="Only this method (default: every one in alarm).", callback=_registered_method
+    ),
+    by: str | None = typer.Option(None, "--by", help="Who saw the alarm (required)."),
+    note: str | None = typer.Option(None, "--note", help="What was seen or done (required)."),
+    rebaseline: bool = typer.Option(
+        False,
+        "--rebaseline",
+        help="Maintenance is done: also retire the baseline, as 'axiswatch rebaseline' does.",
+    ),
+    from_capture: str | None = typer.Option(
+        None, "--from", help="With --rebaseline: file name of the new baseline."
+    ),
+    list_: bool = typer.Option(
+        False, "--list", help="List the acknowledgements (of --robot/--axis if given) instead."
+    ),
+    debug: bool = DEBUG,
+) -> None:
+    """Record that an alarm was seen: it no longer makes monitor exit 4 until raised again.
+
+    The report shows who saw it. With --rebaseline (after maintenance) the axis's baseline is
+    also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
+    """
+    from axiswatch.monitor._ledger import rebaseline as retire
+    from axiswatch.monitor._store import Store
+
+    if list_:
+        with _failures(debug):
+            _require_store(store)
+            with Store(store) as opened:
+                frame = opened.acknowledgements(robot, axis)
+            if frame.empty:
+                typer.echo("No acknowledgements.")
+            else:
+                typer.echo(frame.fillna("").to_string(index=False))
+        return
+    robot, axis, by, note = (
+        _required(value, hint)
+        for value, hint in ((robot, "--robot"), (axis, "--axis"), (by, "--by"), (note, "--note"))
+    )
+    if from_capture is not None and not rebaseline:
+        raise typer.BadParameter("only with --rebaseline.", param_hint="'--from'")
+    chosen = method
+    with _failures(debug):
+        _require_store(store)
+        with Store(store) as opened:
+            if rebaseline:
+                # Retire first: it checks the request (active baseline, --from not alarmed)
+                # before anything is written, so a refused request records nothing.
+                retire(opened, robot, axis, method=chosen, from_capture=from_capture)
+            methods = opened.acknowledge(
+                robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline
+            )
+        typer.echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
+        if rebaseline:
+            start = from_capture or "the next capture that arrives"
+            typer.echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
+
+
+def _required(value: str | None, hint: str) -> str:
+    if value is None:
+        raise typer.BadParameter("required unless --list.", param_hint=f"'{hint}'")
+    return value
+
+
 @simulate_app.command("fleet")
 def simulate_fleet_command(
     out: Annotated[Path, typer.Argument(help="Output folder (the fleet ROOT).")],
@@ -478,7 +567,9 @@ def demo(
         labels = simulate_fleet(root, n_days=days, seed=seed)
         with Store(folder / "fleet.db") as opened, _progress(True) as update:
             for method in ("mechanics", "lra", "pca"):
-                monitor_fleet(root, opened, MonitorConfig(method=method), progress=update)
+                # The simulator has just written every file completely: nothing to wait for.
+                config = MonitorConfig(method=method)
+                monitor_fleet(root, opened, config, progress=update, settle_s=0)
             typer.echo("\nFleet summary (state after the last capture):")
             _echo_summary(opened, None)
             page = write_report(opened, folder / "report", labels=labels)

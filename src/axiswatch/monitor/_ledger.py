@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from importlib.metadata import PackageNotFoundError, version
 
+from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
 from axiswatch.monitor._store import NewBaseline, NewScore, Rejection, StoreBackend
@@ -102,9 +103,10 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
     rule = config.decision_rule()
+    top = describe_top_indicator(outcome.details.get("indicators", {}))
 
     def decision(history: AxisHistory) -> Decision:
-        return decide(history, outcome.distance, rule)
+        return decide(history, outcome.distance, rule, top_indicator=top)
 
     score = NewScore(
         baseline_id=job.baseline_id,

@@ -61,7 +61,7 @@ from axiswatch.monitor._scoring import (
     profile_for,
     score_capture,
 )
-from axiswatch.monitor._store import Baseline, ChangedFile, StoreBackend, now_us
+from axiswatch.monitor._store import AlarmState, Baseline, ChangedFile, StoreBackend, now_us
 
 __all__ = [
     "DEFAULT_SETTLE_S",
@@ -92,10 +92,12 @@ class MonitorSummary:
     """What one ``monitor`` run did and what the fleet's state is afterwards.
 
     Exit status of ``axiswatch monitor`` (:attr:`exit_code`): 0 when nothing needs attention;
-    otherwise the sum of 4 (at least one axis is in alarm) and 8 (a capture is rejected, a
-    scored file changed, an axis cannot be scored or is stale; acknowledged rejections and
-    changes, counted in ``acknowledged``, do not count); so 4, 8 or 12. ``waiting``: capture
-    files not settled yet (scored by a later run; no attention needed).
+    otherwise the sum of 4 (at least one axis is in an alarm nobody acknowledged) and 8 (a
+    capture is rejected, a scored file changed, an axis cannot be scored or is stale;
+    acknowledged rejections and changes, counted in ``acknowledged``, do not count); so 4, 8 or
+    12. ``alarms`` lists the axes in unacknowledged alarm, ``acknowledged_alarms`` the alarms
+    someone saw (``Store.acknowledge``) that have not cleared and been raised again since.
+    ``waiting``: capture files not settled yet (scored by a later run; no attention needed).
     """
 
     method: str
@@ -109,6 +111,7 @@ class MonitorSummary:
     stale: list[str] = field(default_factory=list)
     waiting: int = 0
     acknowledged: int = 0
+    acknowledged_alarms: list[AlarmState] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
@@ -573,7 +576,11 @@ def monitor_fleet(
 
     store.resolve_transient(run.method, seen_at)
     run.summary.rejected = _standing_rejections(run)
-    run.summary.alarms = store.axes_in_alarm(run.method)
+    for alarm in store.alarms(run.method):
+        if alarm.acknowledged:
+            run.summary.acknowledged_alarms.append(alarm)
+        else:
+            run.summary.alarms.append((alarm.robot, alarm.axis))
     if stale_after is not None:
         run.summary.stale = _stale_axes(store, started, stale_after)
     return run.summary

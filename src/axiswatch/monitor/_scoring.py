@@ -18,9 +18,11 @@ from typing import Any, Literal
 
 from threadpoolctl import threadpool_limits
 
+from axiswatch._attribution import explain_indicators
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector
+from axiswatch._detectors import BaselineDetector, IndicatorDetector
 from axiswatch._features import FeatureSpec
+from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
@@ -373,8 +375,11 @@ def _score_capture(job: ScoreJob) -> ScoreOutcome:
             "phase_lag_s": float(lag / features.rate_hz),
             "n_rows": int(features.X.shape[0]),
         }
-        distance, diagnostics = model.detector_.distance_and_diagnostics(features.X)
+        detector = model.detector_
+        distance, diagnostics = detector.distance_and_diagnostics(features.X)
         details.update(diagnostics)
+        if isinstance(model.stage_, MechanicsStage) and isinstance(detector, IndicatorDetector):
+            details["indicators"] = explain_indicators(model.stage_, detector, features.X)
     except _DATA_ERRORS as exc:
         kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)

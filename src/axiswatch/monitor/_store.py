@@ -12,7 +12,7 @@ opened with ``BEGIN IMMEDIATE`` (the writer takes the lock before it reads the s
 on). A process killed at any moment therefore leaves the store as it was after its last commit,
 and two processes writing at once take turns instead of corrupting it.
 
-Tables (schema version 1):
+Tables (schema version 2):
 
 ``baselines``
     one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
@@ -31,6 +31,11 @@ Tables (schema version 1):
     repaired file is tried again.
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
+``acknowledgements`` (schema version 2)
+    who saw an alarm, when, and what they noted: the alarm is named by the score that raised
+    it, so an alarm that clears and is raised again needs a new acknowledgement; a
+    re-baseline after maintenance is recorded here too. A version-1 store gains the table when
+    it is opened (nothing else changes).
 """
 
 from __future__ import annotations
@@ -50,10 +55,11 @@ import pandas as pd
 
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._decision import AxisHistory, Decision
+from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, stored_threshold
 
 __all__ = [
     "SCHEMA_VERSION",
+    "AlarmState",
     "Baseline",
     "ChangedFile",
     "NewBaseline",
@@ -181,6 +187,27 @@ class ChangedFile:
     path: str
     scored_hash: str
     current_hash: str
+
+
+@dataclass(frozen=True)
+class AlarmState:
+    """An axis in alarm (one method): since which capture, and whether someone saw it."""
+
+    robot: str
+    axis: str
+    method: str
+    baseline_id: int
+    raised_score_id: int
+    raised_capture: str
+    raised_at: str
+    acknowledged_by: str | None
+    note: str | None
+    acknowledged_at: str | None
+
+    @property
+    def acknowledged(self) -> bool:
+        """An acknowledgement names this alarm (it was not cleared and raised again since)."""
+        return self.acknowledged_by is not None
 
 
 # --- the protocol ------------------------------------------------------------------------------
@@ -334,18 +361,78 @@ class StoreBackend(Protocol):
         """Rejections and changed files: kind, method, path, error, since, acknowledged_at."""
         ...
 
+    # acknowledgements (who saw an alarm)
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method, ordered by robot, axis, method."""
+        ...
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
+
+        Parameters
+        ----------
+        robot, axis : str
+        by : str
+            Who (not empty).
+        note : str
+            What they saw or did (not empty).
+        method : str or None, default=None
+            Only this method's alarm; default every method in alarm on the axis.
+        rebaseline : bool, default=False
+            The record of a re-baseline after maintenance: made for the latest baseline of each
+            method whether or not it is in alarm (it names the alarm when there is one). The
+            caller retires the baselines (``rebaseline`` of the ledger) before.
+
+        Returns
+        -------
+        list of str
+            The methods acknowledged.
+
+        Raises
+        ------
+        ValueError
+            If ``by`` or ``note`` is empty.
+        StoreError
+            If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
+            alarm.
+        """
+        ...
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
+        that raised the alarm seen; None for a re-baseline without alarm), ``rebaseline``,
+        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ...
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
+        ...
+
     # tables for people (results, summary, report)
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         """One row per score: robot, axis, capture, method, distance, threshold, alarm,
-        captured_at, epoch, role, over, reason, details; ordered by robot, axis, method,
+        captured_at, epoch, role, over, reason, details, path; ordered by robot, axis, method,
         capture time, capture and epoch."""
         ...
 
     def summary_table(self) -> pd.DataFrame:
         """One row per active baseline: robot, axis, method, epoch, baseline, threshold, scored,
-        over, alarms (raised), last_capture, last_distance, last_alarm, rejected; ordered by
-        robot, axis, method."""
+        over, alarms (raised), last_capture, last_distance, last_alarm, rejected,
+        threshold_origin (:meth:`~axiswatch._calibration.Threshold.describe`; None while
+        calibrating), alarm_since (the capture that raised the alarm in force) and
+        acknowledged_by (who saw it, if anyone); ordered by robot, axis, method."""
         ...
 
     def rejection_table(self) -> pd.DataFrame:
@@ -354,15 +441,31 @@ class StoreBackend(Protocol):
         ...
 
     def changed_file_table(self) -> pd.DataFrame:
-        """Changed files: path, detected_at; ordered by path."""
+        """Changed files: robot, axis, path, detected_at; ordered by path, then as recorded."""
         ...
 
 
 # --- SQLite ------------------------------------------------------------------------------------
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
-_SCHEMA = """
+_ACKNOWLEDGEMENTS = """
+CREATE TABLE acknowledgements (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    score_id INTEGER REFERENCES scores (id),
+    rebaseline INTEGER NOT NULL,
+    acknowledged_by TEXT NOT NULL,
+    note TEXT NOT NULL,
+    acknowledged_at TEXT NOT NULL
+)
+"""
+
+_SCHEMA = (
+    """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
 CREATE TABLE baselines (
     id INTEGER PRIMARY KEY,
@@ -438,6 +541,32 @@ CREATE TABLE changed_files (
     detected_at TEXT NOT NULL,
     UNIQUE (path, scored_hash, current_hash)
 );
+"""
+    + _ACKNOWLEDGEMENTS
+)
+
+#: The alarm episode of every baseline chosen by ``{where}`` whose last monitored capture is in
+#: alarm: the score that raised it (the first alarmed one after the last clean one) and its
+#: latest acknowledgement.
+_ALARMS = """
+WITH last AS (
+    SELECT b.id AS baseline_id, b.robot, b.axis, b.method,
+        (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
+         ORDER BY s.id DESC LIMIT 1) AS alarm,
+        (SELECT max(s.id) FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
+         AND s.alarm=0) AS last_clean
+    FROM baselines b {where}
+)
+SELECT l.robot, l.axis, l.method, l.baseline_id, r.id AS raised_score_id,
+    r.capture AS raised_capture, r.captured_at AS raised_at, a.acknowledged_by, a.note,
+    a.acknowledged_at
+FROM last l
+JOIN scores r ON r.id = (SELECT min(s.id) FROM scores s WHERE s.baseline_id=l.baseline_id
+    AND s.role='monitor' AND s.alarm=1 AND s.id > coalesce(l.last_clean, 0))
+LEFT JOIN acknowledgements a ON a.id = (SELECT max(k.id) FROM acknowledgements k
+    WHERE k.score_id=r.id)
+WHERE l.alarm=1
+ORDER BY l.robot, l.axis, l.method
 """
 
 
@@ -529,7 +658,7 @@ class SQLiteStore:
     >>> import tempfile, pathlib
     >>> store = SQLiteStore(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
     >>> store.version, len(store.score_table())
-    (1, 0)
+    (2, 0)
     >>> store.close()
     """
 
@@ -578,6 +707,10 @@ class SQLiteStore:
                     f"(tables {sorted(tables)}); use a new file for the store."
                 )
             version = connection.execute("SELECT max(version) FROM schema_version").fetchone()[0]
+            if version == 1:  # version 2 only adds the acknowledgements table
+                connection.execute(_ACKNOWLEDGEMENTS)
+                connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
+                version = SCHEMA_VERSION
             if version != SCHEMA_VERSION:
                 raise StoreError(
                     f"store '{self.path}' has schema version {version}; this axiswatch reads "
@@ -887,12 +1020,130 @@ class SQLiteStore:
         )
         return [(r["robot"], r["axis"]) for r in rows if r["alarm"]]
 
+    # --- alarms and the people who saw them ------------------------------------------------
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method."""
+        where = "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
+        rows = self._rows(_ALARMS.format(where=where), (method, method))
+        return [AlarmState(**dict(row)) for row in rows]
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
+
+        Parameters
+        ----------
+        robot, axis : str
+        by : str
+            Who (not empty).
+        note : str
+            What they saw or did (not empty).
+        method : str or None, default=None
+            Only this method's alarm; default every method in alarm on the axis.
+        rebaseline : bool, default=False
+            The record of a re-baseline after maintenance: made for the latest baseline of each
+            method whether or not it is in alarm (it names the alarm when there is one). The
+            caller retires the baselines (``rebaseline`` of the ledger) before.
+
+        Returns
+        -------
+        list of str
+            The methods acknowledged.
+
+        Raises
+        ------
+        ValueError
+            If ``by`` or ``note`` is empty.
+        StoreError
+            If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
+            alarm.
+        """
+        for name, value in (("by", by), ("note", note)):
+            if not value.strip():
+                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
+        stamp = datetime.now(UTC).isoformat(timespec="seconds")
+        with self._write() as db:
+            baselines = db.execute(
+                "SELECT b.id, b.method FROM baselines b WHERE b.robot=? AND b.axis=? "
+                "AND (? IS NULL OR b.method=?) AND b.epoch=(SELECT max(o.epoch) FROM baselines o "
+                "WHERE o.robot=b.robot AND o.axis=b.axis AND o.method=b.method) "
+                + ("" if rebaseline else "AND b.retired_at IS NULL ")
+                + "ORDER BY b.method",
+                (robot, axis, method, method),
+            ).fetchall()
+            if not baselines:
+                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
+            alarms = {
+                int(row["baseline_id"]): int(row["raised_score_id"])
+                for row in db.execute(
+                    _ALARMS.format(where="WHERE b.robot=? AND b.axis=?"), (robot, axis)
+                )
+            }
+            chosen = [(r["id"], r["method"], alarms.get(r["id"])) for r in baselines]
+            if not rebaseline:
+                chosen = [c for c in chosen if c[2] is not None]
+                if not chosen:
+                    raise StoreError(
+                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
+                        "re-baseline it: axiswatch ack --rebaseline)."
+                    )
+            for baseline_id, method_name, score_id in chosen:
+                db.execute(
+                    "INSERT INTO acknowledgements (robot, axis, method, baseline_id, score_id, "
+                    "rebaseline, acknowledged_by, note, acknowledged_at) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (
+                        robot,
+                        axis,
+                        method_name,
+                        baseline_id,
+                        score_id,
+                        int(rebaseline),
+                        by,
+                        note,
+                        stamp,
+                    ),
+                )
+        return [str(c[1]) for c in chosen]
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
+        that raised the alarm seen; empty for a re-baseline without alarm), ``rebaseline``,
+        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        frame = self._frame(
+            "SELECT a.robot, a.axis, a.method, s.capture, a.rebaseline, a.acknowledged_by, "
+            "a.note, a.acknowledged_at FROM acknowledgements a "
+            "LEFT JOIN scores s ON s.id = a.score_id "
+            "WHERE (? IS NULL OR a.robot=?) AND (? IS NULL OR a.axis=?) ORDER BY a.id",
+            (robot, robot, axis, axis),
+        )
+        frame["rebaseline"] = frame["rebaseline"].astype(bool)
+        return frame
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
+        return self._frame(
+            "SELECT robot, axis, method, retired_epoch, from_capture, requested_at "
+            "FROM rebaselines ORDER BY id"
+        )
+
     # --- tables --------------------------------------------------------------------------------
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         frame = self._frame(
             "SELECT s.robot, s.axis, s.capture, s.method, s.distance, s.threshold, s.alarm, "
-            "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details FROM scores s "
+            "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details, s.path FROM scores s "
             "JOIN baselines b ON b.id = s.baseline_id "
             "WHERE (? IS NULL OR s.robot=?) AND (? IS NULL OR s.axis=?) "
             "ORDER BY s.robot, s.axis, s.method, s.captured_at, s.capture, b.epoch",
@@ -905,8 +1156,9 @@ class SQLiteStore:
         return frame
 
     def summary_table(self) -> pd.DataFrame:
-        return self._frame(
-            "SELECT b.robot, b.axis, b.method, b.epoch, b.capture AS baseline, b.threshold, "
+        frame = self._frame(
+            "SELECT b.id AS baseline_id, b.robot, b.axis, b.method, b.epoch, "
+            "b.capture AS baseline, b.threshold, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
             "AS scored, "
             "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
@@ -923,6 +1175,8 @@ class SQLiteStore:
             "AND r.method=b.method) AS rejected "
             "FROM baselines b WHERE b.retired_at IS NULL ORDER BY b.robot, b.axis, b.method"
         )
+        baselines = [self.baseline(int(i)) for i in frame.pop("baseline_id")]
+        return summary_extras(frame, baselines, self.alarms())
 
     def rejection_table(self) -> pd.DataFrame:
         return self._frame(
@@ -931,7 +1185,9 @@ class SQLiteStore:
         )
 
     def changed_file_table(self) -> pd.DataFrame:
-        return self._frame("SELECT path, detected_at FROM changed_files ORDER BY path")
+        return self._frame(
+            "SELECT robot, axis, path, detected_at FROM changed_files ORDER BY path, id"
+        )
 
     # --- standing problems and axis activity ---------------------------------------------------
 
@@ -1021,6 +1277,28 @@ def _each_path(
 
 #: The name users open a store by (``aw.Store("fleet.db")``): the product's SQLite backend.
 Store = SQLiteStore
+
+
+def summary_extras(
+    frame: pd.DataFrame, baselines: list[Baseline], alarms: list[AlarmState]
+) -> pd.DataFrame:
+    """Add ``threshold_origin``, ``alarm_since`` and ``acknowledged_by`` to a summary table
+    whose rows are ``baselines`` (in order); shared by the backends."""
+    frame["threshold_origin"] = [_threshold_origin(b) for b in baselines]
+    by_key = {(a.robot, a.axis, a.method): a for a in alarms}
+    keys = [(b.robot, b.axis, b.method) for b in baselines]
+    frame["alarm_since"] = [getattr(by_key.get(k), "raised_capture", None) for k in keys]
+    frame["acknowledged_by"] = [getattr(by_key.get(k), "acknowledged_by", None) for k in keys]
+    return frame
+
+
+def _threshold_origin(baseline: Baseline) -> str | None:
+    """Where a baseline's threshold comes from, in words (None while it calibrates)."""
+    if baseline.threshold is None or baseline.fit is None:
+        return None
+    params = json.loads(baseline.params)
+    rule = DecisionRule(percentile=float(params.get("percentile", 99.0)))
+    return stored_threshold(baseline.threshold, baseline.fit, rule).describe()
 
 
 def _no_active_baseline(
