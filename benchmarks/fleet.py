@@ -138,11 +138,11 @@ def case_fleet_day(
     new_day = _hold(root, folder / "held", 7)
     config = MonitorConfig(method=method)  # type: ignore[arg-type]
     with Store(folder / "fleet.db") as store:
-        monitor_fleet(root, store, config, workers=workers)
+        monitor_fleet(root, store, config, workers=workers, settle_s=0.0)
         _release(root, folder / "held", new_day)
         floor = floor_seconds(new_day)  # also brings the new files into the page cache
         start, cpu_start = time.perf_counter(), cpu_seconds()
-        summary = monitor_fleet(root, store, config, workers=workers)
+        summary = monitor_fleet(root, store, config, workers=workers, settle_s=0.0)
         elapsed, cpu = time.perf_counter() - start, cpu_seconds() - cpu_start
         timed_hash = score_hash(store)
     assert summary.scored == len(new_day) == robots * AXES, summary
@@ -157,7 +157,7 @@ def case_fleet_day(
     }
     if check:
         with Store(folder / "serial.db") as fresh:
-            monitor_fleet(root, fresh, config, workers=1)
+            monitor_fleet(root, fresh, config, workers=1, settle_s=0.0)
             result["identical_to_serial_uncached"] = score_hash(fresh) == timed_hash
     return result
 
@@ -187,16 +187,16 @@ def case_history(folder: Path, days: int, method: str, repeats: int = 5) -> dict
         path.rename(target)
     config = MonitorConfig(method=method)  # type: ignore[arg-type]
     with Store(folder / "fleet.db") as store:
-        monitor_fleet(root, store, config, workers=2)
+        monitor_fleet(root, store, config, workers=2, settle_s=0.0)
         _release(root, held, new_day)
         start = time.perf_counter()
-        summary = monitor_fleet(root, store, config, workers=2)
+        summary = monitor_fleet(root, store, config, workers=2, settle_s=0.0)
         day_s = time.perf_counter() - start
         assert summary.scored == AXES, summary
         idle = []
         for _ in range(repeats):
             start = time.perf_counter()
-            again = monitor_fleet(root, store, config, workers=2)
+            again = monitor_fleet(root, store, config, workers=2, settle_s=0.0)
             idle.append(time.perf_counter() - start)
             assert again.scored == 0
     nothing_new = statistics.median(idle)
@@ -240,7 +240,7 @@ def workers_curve(
     config = MonitorConfig(method=method, calibration_size=2)  # type: ignore[arg-type]
     template = folder / "commissioned.db"
     with Store(template) as store:
-        monitor_fleet(root, store, config, workers=os.cpu_count() or 1)
+        monitor_fleet(root, store, config, workers=os.cpu_count() or 1, settle_s=0.0)
     _release(root, folder / "held", new_day)
     floor = floor_seconds(new_day)
     rows: list[dict[str, Any]] = []
@@ -251,7 +251,7 @@ def workers_curve(
         load = os.getloadavg()[0]
         with Store(path) as store:
             start = time.perf_counter()
-            summary = monitor_fleet(root, store, config, **where)
+            summary = monitor_fleet(root, store, config, settle_s=0.0, **where)
             elapsed = time.perf_counter() - start
             digest = score_hash(store)
         assert summary.scored == len(new_day), summary

@@ -164,12 +164,7 @@ def case_job(method: str, quick: bool) -> dict[str, Any]:
 
     config = MonitorConfig(method=method)  # type: ignore[arg-type]
     baseline = awd.simulate_capture("heavy", seed=1)
-    model = aw.HealthModel(
-        config.features,
-        config.detector(),
-        align_phase=config.align_phase,
-        stage=config.stage(),
-    ).fit(baseline)
+    model = config.model().fit(baseline)
     key, _ = keep_model(model)
     repeats = 5 if quick else 30
     with tempfile.TemporaryDirectory() as folder, threadpool_limits(1):

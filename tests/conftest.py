@@ -51,4 +51,17 @@ def small_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     simulate_fleet(
         root, n_robots=1, n_axes=2, n_days=9, task_change_days=(), faults=[], duration_s=0.5
     )
+    settle(root)
     return root
+
+
+def settle(root: Path, age_s: float = 3600.0) -> None:
+    """Date every capture file below ``root`` ``age_s`` seconds back: delivered and settled long
+    ago, as the monitor expects before it scores a file (``settle_s``)."""
+    import os
+    import time
+
+    then = time.time() - age_s
+    for path in root.rglob("*"):
+        if path.is_file():
+            os.utime(path, (then, then))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from datetime import datetime
 from typing import Any
 
@@ -21,6 +21,7 @@ import pandas as pd
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision
 from axiswatch.monitor._store import (
+    AlarmState,
     Baseline,
     ChangedFile,
     NewBaseline,
@@ -30,6 +31,8 @@ from axiswatch.monitor._store import (
     _alarmed_baseline,
     _no_active_baseline,
     now,
+    now_us,
+    summary_extras,
 )
 
 
@@ -65,6 +68,10 @@ class MemoryStore:
         self._rejections: list[tuple[Rejection, str]] = []
         self._changed: list[tuple[ChangedFile, str]] = []
         self._requests: list[tuple[str, str, str, int, str | None]] = []
+        self._seen_changes: dict[tuple[str, str, str], str] = {}
+        self._activity: dict[tuple[str, str], tuple[int, str, str]] = {}
+        self._request_times: list[str] = []
+        self._acks: list[dict[str, Any]] = []
 
     @property
     def location(self) -> str:
@@ -184,12 +191,15 @@ class MemoryStore:
                 r.capture in self._captures(baseline_id) or self._baseline(baseline_id).retired
             ):
                 return False
-            if any(
-                (old.method, old.path, old.file_hash) == (r.method, r.path, r.file_hash)
-                for old, _ in self._rejections
-            ):
-                return False
-            self._rejections.append((r, now()))
+            for index, (old, _) in enumerate(self._rejections):
+                if (old.method, old.path, old.file_hash) == (r.method, r.path, r.file_hash):
+                    seen = old.acknowledged_at if old.error == r.error else None
+                    self._rejections[index] = (
+                        dataclasses.replace(r, acknowledged_at=seen),
+                        now_us(),
+                    )
+                    return False
+            self._rejections.append((r, now_us()))
             return True
 
     def record_changed_file(self, change: ChangedFile) -> None:
@@ -231,6 +241,7 @@ class MemoryStore:
             for b in chosen:
                 self._baselines[self._baselines.index(b)] = dataclasses.replace(b, retired=True)
                 self._requests.append((robot, axis, b.method, b.epoch, from_capture))
+                self._request_times.append(now())
             return [b.method for b in chosen]
 
     # --- reads -----------------------------------------------------------------------------
@@ -304,6 +315,113 @@ class MemoryStore:
             if b.method == method and not b.retired and self._last_alarm(b.id)
         )
 
+    # --- acknowledgements --------------------------------------------------------------------
+
+    def _raised(self, b: Baseline) -> _Score | None:
+        """The score that raised the baseline's current alarm episode (None if not in alarm)."""
+        monitored = [r for r in self._scores if r.baseline_id == b.id and r.role == "monitor"]
+        if not monitored or not monitored[-1].alarm:
+            return None
+        clean = [r.id for r in monitored if not r.alarm]
+        last_clean = max(clean) if clean else 0
+        return next(r for r in monitored if r.alarm and r.id > last_clean)
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        found = []
+        for b in self._baselines:
+            if b.retired or method not in (None, b.method):
+                continue
+            raised = self._raised(b)
+            if raised is None:
+                continue
+            acks = [a for a in self._acks if a["score_id"] == raised.id]
+            ack = acks[-1] if acks else None
+            found.append(
+                AlarmState(
+                    b.robot, b.axis, b.method, b.id, raised.id, raised.capture,
+                    raised.captured_at.isoformat(),
+                    ack["acknowledged_by"] if ack else None,
+                    ack["note"] if ack else None,
+                    ack["acknowledged_at"] if ack else None,
+                )
+            )  # fmt: skip
+        return sorted(found, key=lambda a: (a.robot, a.axis, a.method))
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        for name, value in (("by", by), ("note", note)):
+            if not value.strip():
+                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
+        with self._lock:
+            latest: dict[str, Baseline] = {}
+            own = [
+                b
+                for b in self._baselines
+                if (b.robot, b.axis) == (robot, axis) and method in (None, b.method)
+            ]
+            for b in own:
+                if b.method not in latest or b.epoch > latest[b.method].epoch:
+                    latest[b.method] = b
+            baselines = [latest[m] for m in sorted(latest) if rebaseline or not latest[m].retired]
+            if not baselines:
+                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
+            chosen = []
+            for b in baselines:
+                raised = self._raised(b)
+                chosen.append((b, None if raised is None else raised.id))
+            if not rebaseline:
+                chosen = [c for c in chosen if c[1] is not None]
+                if not chosen:
+                    raise StoreError(
+                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
+                        "re-baseline it: axiswatch ack --rebaseline)."
+                    )
+            stamp = now()
+            for b, score_id in chosen:
+                self._acks.append(
+                    {
+                        "robot": robot,
+                        "axis": axis,
+                        "method": b.method,
+                        "score_id": score_id,
+                        "rebaseline": rebaseline,
+                        "acknowledged_by": by,
+                        "note": note,
+                        "acknowledged_at": stamp,
+                    }
+                )
+            return [b.method for b, _ in chosen]
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        captures = {r.id: r.capture for r in self._scores}
+        rows = [
+            (
+                a["robot"], a["axis"], a["method"], captures.get(a["score_id"]),
+                a["rebaseline"], a["acknowledged_by"], a["note"], a["acknowledged_at"],
+            )
+            for a in self._acks
+            if robot in (None, a["robot"]) and axis in (None, a["axis"])
+        ]  # fmt: skip
+        columns = [
+            "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
+            "acknowledged_at",
+        ]  # fmt: skip
+        return pd.DataFrame(rows, columns=columns).astype({"rebaseline": bool})
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        rows = [(*r, t) for r, t in zip(self._requests, self._request_times, strict=True)]
+        columns = ["robot", "axis", "method", "retired_epoch", "from_capture", "requested_at"]
+        return pd.DataFrame(rows, columns=columns)
+
     # --- tables ----------------------------------------------------------------------------
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
@@ -323,13 +441,14 @@ class MemoryStore:
                 "over": r.over,
                 "reason": r.reason,
                 "details": _json(r.details, sort_keys=r.role != "baseline"),
+                "path": r.path,
             }
             for r in self._scores
             if robot in (None, r.robot) and axis in (None, r.axis)
         ]
         columns = [
             "robot", "axis", "capture", "method", "distance", "threshold", "alarm",
-            "captured_at", "epoch", "role", "over", "reason", "details",
+            "captured_at", "epoch", "role", "over", "reason", "details", "path",
         ]  # fmt: skip
         frame = pd.DataFrame(rows, columns=columns)
         frame = frame.sort_values(
@@ -341,10 +460,11 @@ class MemoryStore:
 
     def summary_table(self) -> pd.DataFrame:
         rows = []
-        for b in sorted(
+        active = sorted(
             (b for b in self._baselines if not b.retired),
             key=lambda b: (b.robot, b.axis, b.method),
-        ):
+        )
+        for b in active:
             own = [r for r in self._scores if r.baseline_id == b.id]
             rows.append(
                 {
@@ -370,7 +490,7 @@ class MemoryStore:
             "robot", "axis", "method", "epoch", "baseline", "threshold", "scored", "over",
             "alarms", "last_capture", "last_distance", "last_alarm", "rejected",
         ]  # fmt: skip
-        return pd.DataFrame(rows, columns=columns)
+        return summary_extras(pd.DataFrame(rows, columns=columns), active, self.alarms())
 
     def rejection_table(self) -> pd.DataFrame:
         rows = [
@@ -382,8 +502,89 @@ class MemoryStore:
         return pd.DataFrame(rows, columns=columns)
 
     def changed_file_table(self) -> pd.DataFrame:
-        rows = sorted(((c.path, stamp) for c, stamp in self._changed), key=lambda row: row[0])
-        return pd.DataFrame(rows, columns=["path", "detected_at"])
+        rows = sorted(
+            ((c.robot, c.axis, c.path, stamp) for c, stamp in self._changed),
+            key=lambda row: row[2],
+        )
+        return pd.DataFrame(rows, columns=["robot", "axis", "path", "detected_at"])
+
+    # --- standing problems and axis activity ---------------------------------------------------
+
+    def resolve_transient(self, method: str, seen_before: str) -> None:
+        with self._lock:
+            self._rejections = [
+                (r, at)
+                for r, at in self._rejections
+                if not (r.method == method and r.transient and at < seen_before)
+            ]
+
+    def _chosen(self, r: Rejection, paths: Sequence[str], method: str | None) -> bool:
+        return (method is None or r.method == method) and (not paths or r.path in paths)
+
+    def retry_rejections(self, paths: Sequence[str], method: str | None = None) -> int:
+        with self._lock:
+            kept = [(r, at) for r, at in self._rejections if not self._chosen(r, paths, method)]
+            count = len(self._rejections) - len(kept)
+            self._rejections = kept
+            return count
+
+    def acknowledge_problems(self, paths: Sequence[str], at: str, method: str | None = None) -> int:
+        count = 0
+        with self._lock:
+            for index, (r, stamp) in enumerate(self._rejections):
+                if r.acknowledged_at is None and self._chosen(r, paths, method):
+                    self._rejections[index] = (dataclasses.replace(r, acknowledged_at=at), stamp)
+                    count += 1
+            for c, _ in self._changed:
+                key = (c.path, c.scored_hash, c.current_hash)
+                if key not in self._seen_changes and (not paths or c.path in paths):
+                    self._seen_changes[key] = at
+                    count += 1
+        return count
+
+    def changed_file_acknowledged(self, change: ChangedFile) -> bool:
+        return (change.path, change.scored_hash, change.current_hash) in self._seen_changes
+
+    def record_axis_activity(self, seen: Sequence[tuple[str, str, int, str]], at: str) -> None:
+        with self._lock:
+            for robot, axis, n_files, newest in seen:
+                old = self._activity.get((robot, axis))
+                new = old is None or n_files > old[0] or newest > old[1]
+                last = at if new or old is None else old[2]
+                self._activity[(robot, axis)] = (
+                    n_files,
+                    newest if old is None else max(old[1], newest),
+                    last,
+                )
+
+    def axis_activity(self) -> pd.DataFrame:
+        rows = [(*key, *value) for key, value in sorted(self._activity.items())]
+        columns = ["robot", "axis", "n_files", "newest_capture", "last_seen_at"]
+        return pd.DataFrame(rows, columns=columns)
+
+    def latest_bad_data(self) -> pd.DataFrame:
+        newest: dict[tuple[str, str, str], str] = {}
+        for r, _ in self._rejections:
+            if r.kind == "bad data":
+                key = (r.robot, r.axis, r.method)
+                newest[key] = max(newest.get(key, r.capture), r.capture)
+        rows = [(*key, capture) for key, capture in sorted(newest.items())]
+        return pd.DataFrame(rows, columns=["robot", "axis", "method", "bad_capture"])
+
+    def problem_table(self, method: str | None = None) -> pd.DataFrame:
+        rows = [
+            (r.kind, r.method, r.path, r.error, at, r.acknowledged_at)
+            for r, at in self._rejections
+            if method is None or r.method == method
+        ] + [
+            (
+                "changed", "", c.path, "content changed after it was scored", at,
+                self._seen_changes.get((c.path, c.scored_hash, c.current_hash)),
+            )
+            for c, at in self._changed
+        ]  # fmt: skip
+        columns = ["kind", "method", "path", "error", "since", "acknowledged_at"]
+        return pd.DataFrame(sorted(rows, key=lambda r: (r[2], r[0], r[1])), columns=columns)
 
 
 def _json(details: dict[str, Any], *, sort_keys: bool) -> str:

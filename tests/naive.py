@@ -273,12 +273,46 @@ def running_rms(values: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
+def longest_run_naive(values: list[float]) -> tuple[int, int]:
+    """Longest run of one repeated value and its start, by walking the samples."""
+    best, best_start, run, start = 0, 0, 0, 0
+    for index, value in enumerate(values):
+        if index > 0 and value == values[index - 1]:
+            run += 1
+        else:
+            run, start = 1, index
+        if run > best:
+            best, best_start = run, start
+    return best, best_start
+
+
+def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) -> np.ndarray:
+    """Per-column terms of the indicator distance, column by column, row by row."""
+    terms = np.zeros(baseline.shape[1])
+    for j in range(baseline.shape[1]):
+        baseline_mean = sum(baseline[i, j] for i in range(baseline.shape[0])) / baseline.shape[0]
+        test_mean = sum(test[i, j] for i in range(test.shape[0])) / test.shape[0]
+        shift = test_mean - baseline_mean
+        if one_sided and shift < 0:
+            shift = 0.0
+        terms[j] = shift * shift
+    return terms
+
+
 def alarm_threshold_naive(distances: list[float], percentile: float, floor: float | None) -> float:
     """The alarm threshold spelled out: the exponential quantile at the mean distance (the
     half-Laplace maximum-likelihood scale), or the floor where that is larger."""
     scale = sum(distances) / len(distances)
     fitted = float(exponential_quantile(scale, percentile / 100.0))
     return fitted if floor is None or floor <= fitted else floor
+
+
+def threshold_origin_naive(distances: list[float], percentile: float, floor: float | None) -> str:
+    """Where the alarm threshold of these healthy distances comes from: ``"floor"`` when the
+    floor is above the fitted exponential quantile, else ``"fit"``."""
+    scale = sum(distances) / len(distances)
+    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    return "fit" if floor is None or floor <= fitted else "floor"
 
 
 def axis_decisions_naive(
@@ -313,3 +347,18 @@ def axis_decisions_naive(
             alarm = alarm_states_naive(overs, k=k, n=n, m=m)[-1]
             decisions.append(("monitor", threshold, overs[-1], alarm))
     return decisions
+
+
+def robust_spread(values: list[float]) -> float:
+    """1.4826 x the median absolute deviation, by sorting by hand (NaN with fewer than 3)."""
+    finite = sorted(v for v in values if v == v and abs(v) != float("inf"))
+    if len(finite) < 3:
+        return float("nan")
+
+    def median(xs: list[float]) -> float:
+        xs = sorted(xs)
+        mid = len(xs) // 2
+        return xs[mid] if len(xs) % 2 else 0.5 * (xs[mid - 1] + xs[mid])
+
+    centre = median(finite)
+    return 1.4826 * median([abs(v - centre) for v in finite])

@@ -7,11 +7,15 @@ import pytest
 
 from axiswatch._calibration import HalfLaplaceFit, Threshold
 from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, decide
-from tests.naive import axis_decisions_naive
+from tests.naive import axis_decisions_naive, threshold_origin_naive
 
 
 def decide_all(
-    distances: list[float], alarmed_before: list[bool], rule: DecisionRule
+    distances: list[float],
+    alarmed_before: list[bool],
+    rule: DecisionRule,
+    *,
+    top_indicator: str | None = None,
 ) -> list[Decision]:
     """Fold ``decide`` over one baseline's captures, keeping the history as a store does."""
     threshold: Threshold | None = None
@@ -25,7 +29,7 @@ def decide_all(
             history = AxisHistory(
                 threshold=threshold.value, fit=threshold.fit, recent=tuple(recent[-rule.window :])
             )
-        decision = decide(history, distance, rule)
+        decision = decide(history, distance, rule, top_indicator=top_indicator)
         decisions.append(decision)
         if decision.role == "calibration":
             calibration.append(distance)
@@ -76,27 +80,47 @@ def test_decide_matches_the_naive_axis_on_random_histories(seed: int) -> None:
     assert sum(d.calibrated is not None for d in decisions) == 1
     assert any(d.alarm for d in decisions)
     assert not all(d.alarm for d in decisions[40:])  # and clears after the fault
+    # Every monitored reason names the threshold's origin as the naive twin finds it.
+    healthy = [
+        d for d, decision in zip(distances, decisions, strict=True)
+        if decision.role == "calibration"
+    ][: rule.calibration_size]  # fmt: skip
+    origin = threshold_origin_naive(healthy, rule.percentile, rule.floor)
+    monitored = [d.reason for d in decisions if d.role == "monitor"]
+    assert monitored
+    assert all(("(task-change allowance " in r) == (origin == "floor") for r in monitored)
 
 
 def test_reasons_say_what_was_decided() -> None:
     rule = DecisionRule(calibration_size=2, alarm_k=2, alarm_n=3, clear_m=2, floor=50.0)
     decisions = decide_all([1.0, 3.0, 60.0, 70.0, 1.0, 1.0, 1.0], [False] * 7, rule)
+    floor = "(task-change allowance 50 (fitted 9.21 on 2 healthy captures))"
     assert [d.reason for d in decisions] == [
         "calibration capture 1 of 2: distance 1, assumed healthy",
         "calibration capture 2 of 2: distance 3, assumed healthy; threshold set to 9.21 (99th "
         "pct of the half-Laplace fit of 2 healthy distances), raised to the floor 50 that "
         "healthy task changes need (development protocol, docs/evaluation.md)",
-        "distance 60 > threshold 50 (99th pct of 2 healthy captures); 1 of last 1 over; healthy",
-        "distance 70 > threshold 50 (99th pct of 2 healthy captures); 2 of last 2 over; "
-        "ALARM raised",
-        "distance 1 <= threshold 50 (99th pct of 2 healthy captures); 2 of last 3 over; alarm "
+        f"distance 60 > threshold 50 {floor}; 1 of last 1 over; healthy",
+        f"distance 70 > threshold 50 {floor}; 2 of last 2 over; ALARM raised",
+        f"distance 1 <= threshold 50 {floor}; 2 of last 3 over; alarm "
         "persists until 2 clean captures in a row (1 so far)",
-        "distance 1 <= threshold 50 (99th pct of 2 healthy captures); 1 of last 3 over; alarm "
+        f"distance 1 <= threshold 50 {floor}; 1 of last 3 over; alarm "
         "cleared after 2 clean capture(s) in a row",
-        "distance 1 <= threshold 50 (99th pct of 2 healthy captures); 0 of last 3 over; healthy",
+        f"distance 1 <= threshold 50 {floor}; 0 of last 3 over; healthy",
     ]
     assert decisions[1].calibrated is not None
     assert decisions[1].calibrated.origin == "floor"
+    # The reason names the threshold's origin (the floor here, not the fitted percentile) and,
+    # only over the threshold or in alarm, the top indicator.
+    top = "viscous_friction +4.1 (likely friction)"
+    named = decide_all([1.0, 3.0, 60.0, 70.0, 1.0, 1.0], [False] * 6, rule, top_indicator=top)
+    flagged = [d.over or d.alarm for d in named]
+    assert flagged == [False, False, True, True, True, False]
+    assert [("; top indicator " + top) in d.reason for d in named] == flagged
+    plain = DecisionRule(calibration_size=2)
+    assert "(99th pct of half-Laplace fit of 2 healthy captures)" in (
+        decide_all([1.0, 3.0, 1.0], [False] * 3, plain)[-1].reason
+    )
     assert decisions[3].details["pvalue"] == pytest.approx(np.exp(-70.0 / 2.0))
 
 

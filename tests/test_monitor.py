@@ -9,10 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
+from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch._mechanics
 import axiswatch.datasets as awd
+from axiswatch._mechanics import COLUMNS
+from axiswatch.cli import app
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import alarm_step
@@ -21,6 +24,7 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor._store import Store
+from tests.conftest import settle
 from tests.naive import alarm_states_naive
 
 
@@ -34,7 +38,9 @@ def faulty_copy(source: Path, target: Path) -> Path:
     the PCA distance; state-machine tests need an unmistakable alarm, not a subtle one)."""
     capture = aw.read_capture(source)
     signals = {name: 10.0 * values for name, values in capture.signals.items()}
-    return aw.write_capture(aw.Capture(signals, capture.rates_hz), target)
+    written = aw.write_capture(aw.Capture(signals, capture.rates_hz), target)
+    settle(written.parent)
+    return written
 
 
 @pytest.mark.parametrize(("k", "n", "m"), [(1, 1, 1), (2, 3, 1), (2, 3, 2), (3, 3, 4)])
@@ -83,7 +89,7 @@ def test_baseline_calibration_and_threshold(fleet: Path, tmp_path: Path) -> None
     assert axis.threshold.iloc[1:].to_numpy() == pytest.approx(expected, rel=1e-12)
     reason = axis.reason.iloc[-1]
     assert reason.startswith("distance ")
-    assert "(99th pct of 5 healthy captures)" in reason
+    assert "(99th pct of half-Laplace fit of 5 healthy captures)" in reason
     details = json.loads(axis.details.iloc[-1])
     assert set(details) >= {"phase_lag_samples", "phase_lag_s", "n_rows", "pvalue"}
 
@@ -99,6 +105,7 @@ def test_rerun_scores_only_new_captures_and_both_methods_share_a_store(
         shutil.copy(
             fleet / "robot01/axis1/2026-03-05.parquet", fleet / "robot01/axis1/2026-03-10.parquet"
         )
+        settle(fleet)
         assert monitor_fleet(fleet, store, MonitorConfig(method="pca")).scored == 1
         assert monitor_fleet(fleet, store, MonitorConfig(method="lra")).scored == 17
         summary = fleet_summary(store)
@@ -146,6 +153,7 @@ def test_alarm_then_rebaseline_never_uses_the_alarmed_capture(fleet: Path, tmp_p
         # After maintenance, new captures arrive: the first is the new baseline.
         for day in range(11, 18):
             shutil.copy(axis / f"2026-03-0{day - 9}.parquet", axis / f"2026-03-{day}.parquet")
+        settle(axis)
         summary = monitor_fleet(fleet, store, config)
         results = fleet_results(store, axis="axis1")
     assert summary.alarms == []
@@ -179,7 +187,9 @@ def test_rebaseline_from_an_earlier_capture_excludes_alarmed_ones(
 def test_stored_parameters_must_match(fleet: Path, tmp_path: Path) -> None:
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(fleet, store, MonitorConfig(method="pca"))
-        with pytest.raises(StoreError, match=r"was made with parameters .* Use the same options"):
+        with pytest.raises(
+            StoreError, match=r"other parameters \(percentile: 99.0 -> 95.0\)\. Use the same"
+        ):
             monitor_fleet(fleet, store, MonitorConfig(method="pca", percentile=95.0))
 
 
@@ -245,6 +255,7 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
         task_change_days=(),
         faults=[awd.FleetFault("robot01", "axis2", "friction", onset_day=8)],
     )
+    settle(root)
     with Store(tmp_path / "s.db") as store:
         monitor_fleet(root, store, MonitorConfig(method="mechanics"))
         results = fleet_results(store)
@@ -259,6 +270,36 @@ def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) ->
     floor = MonitorConfig(method="mechanics").threshold_floor()
     assert floor == pytest.approx(aw._mechanics.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
     assert (results.threshold.dropna() >= floor).all()
+    # Every monitored capture carries its explanation; every reason names where its threshold
+    # comes from (the floor, when the fit is lower) and, over it, the top indicator.
+    with Store(tmp_path / "s.db") as store:
+        fits = {}
+        for robot, axis in set(zip(results.robot, results.axis, strict=True)):
+            latest = store.latest_baseline(robot, axis, "mechanics")
+            assert latest is not None
+            assert latest.fit is not None
+            fits[robot + axis] = latest.fit
+    monitored = results[results.role == "monitor"]
+    for row in monitored.itertuples():
+        details = json.loads(row.details)
+        shares = [entry["share"] for entry in details["indicators"].values()]
+        assert set(details["indicators"]) == set(COLUMNS)
+        assert sum(shares) == pytest.approx(1.0 if row.distance > 0 else 0.0, abs=1e-9)
+        fitted = fits[row.robot + row.axis].threshold(99.0)
+        origin = "task-change allowance" if row.threshold > fitted else "99th pct of half"
+        assert f"threshold {row.threshold:.4g} ({origin}" in row.reason, row.reason
+        assert ("; top indicator " in row.reason) == bool(row.over or row.alarm), row.reason
+    raised = monitored[monitored.alarm]
+    assert "; top indicator viscous_friction +" in raised.reason.iloc[-1]
+    assert "likely friction" in raised.reason.iloc[-1]
+    assert raised.top_indicator.str.startswith("viscous_friction +").all()
+    assert results.top_indicator[~(results.over | results.alarm)].isna().all()
+    shown = CliRunner().invoke(
+        app, ["results", "--store", str(tmp_path / "s.db"), "--axis", "axis2", "--indicators"]
+    )
+    header = shown.output.splitlines()[0].split()
+    assert header[-7:] == ["top_indicator", *COLUMNS], header
+    assert "2026-03-12.parquet mechanics" in shown.output
 
 
 def test_threshold_floor_is_zero_for_the_papers_methods() -> None:

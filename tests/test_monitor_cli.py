@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 import axiswatch as aw
 import axiswatch._capture
 from axiswatch.cli import app
+from tests.conftest import settle
 
 runner = CliRunner()
 
@@ -54,6 +55,7 @@ def test_every_command_has_help() -> None:
         ["results"],
         ["report"],
         ["rebaseline"],
+        ["ack"],
         ["simulate", "fleet"],
         ["demo"],
     ):
@@ -111,6 +113,7 @@ def _write_bad_captures(axis: Path, root: Path) -> dict[str, str]:
         (root / name).parent.mkdir(parents=True, exist_ok=True)
         frame.to_csv(root / name, index=False)
         cases[name] = expected
+    settle(root)
     return cases
 
 
@@ -202,20 +205,16 @@ def test_rebaseline_command(fleet: Path, tmp_path: Path) -> None:
     assert "1 new baseline(s)" in rerun.output
 
 
-def test_report_is_self_contained_with_pngs_beside(fleet: Path, tmp_path: Path) -> None:
+def test_report_command_writes_one_page(fleet: Path, tmp_path: Path) -> None:
     store = tmp_path / "s.db"
     for method in ("lra", "pca"):
         runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", method])
     result = runner.invoke(app, ["report", "--store", str(store), "--out", str(tmp_path / "r")])
     assert result.exit_code == 0, result.output
+    assert result.output == f"Report: {tmp_path / 'r' / 'index.html'}\n"
     page = (tmp_path / "r" / "index.html").read_text()
-    assert page.count("src='data:image/png;base64,") == 2
-    assert "Fleet summary" in page
-    assert "http" not in page  # nothing fetched from a server
-    assert sorted(p.name for p in (tmp_path / "r").glob("*.png")) == [
-        "robot01_axis1.png",
-        "robot01_axis2.png",
-    ]
+    assert "Needs attention now" in page
+    assert page.count("Plotly.newPlot(") == 4  # per axis: the lead method, the other folded
 
 
 def test_simulate_fleet_command(tmp_path: Path) -> None:
@@ -275,6 +274,7 @@ def test_killed_runs_resume_to_the_uninterrupted_result(fleet: Path, tmp_path: P
         for axis in ("axis1", "axis2"):
             folder = fleet / "robot01" / axis
             shutil.copy(folder / f"2026-03-0{day - 8}.parquet", folder / f"2026-03-{day}.parquet")
+    settle(fleet)
     reference = tmp_path / "reference.db"
     start = time.perf_counter()
     assert _run("monitor", fleet, "--method", "lra", "--store", reference).returncode == 0

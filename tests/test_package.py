@@ -36,7 +36,9 @@ def test_all_is_sorted_and_complete(namespace: ModuleType) -> None:
 
 def test_top_namespace_is_the_library_in_about_forty_names() -> None:
     # The fleet service, the data sets and the research package have namespaces of their own.
-    assert len(aw.__all__) <= 40
+    # 40 after issue 12's layout, plus issue 13's AxisProfile (agreed in the layout plan) and
+    # IndicatorModel.
+    assert len(aw.__all__) <= 42
     assert not set(aw.__all__) & set(axiswatch.datasets.__all__)
     assert not set(aw.__all__) & set(axiswatch_lab.__all__)
 

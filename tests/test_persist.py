@@ -203,7 +203,7 @@ def test_run_with_nothing_new_lists_no_folder_and_hashes_nothing(
         # A new capture changes its folder: that folder alone is listed, the file hashed.
         source = fleet / "robot01/axis1/2026-03-09.parquet"
         shutil.copy(source, source.with_name("2026-03-10.parquet"))
-        summary = monitor_fleet(fleet, store, config)
+        summary = monitor_fleet(fleet, store, config, settle_s=0.0)  # just written
     assert summary.scored == 1
     assert listed == [("robot01", "axis1")]
     assert [p.name for p in hashed] == ["2026-03-10.parquet"]
@@ -274,3 +274,34 @@ def test_a_model_that_cannot_be_stored_travels_with_its_jobs(
         monitor_fleet(small_fleet, store, config)
         assert [store.saved_model(i) for i in (1, 2)] == [None, None]
         assert fleet_results(store)[columns].equals(stored)
+
+
+def test_a_stored_model_keeps_the_baselines_data_quality_reference(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A run that scores with a stored model (no refit) still judges "no motion" against the
+    baseline capture's spans: the reference is stored with the model."""
+    import os
+
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    late = sorted(fleet.glob("*/*/*-09.parquet"))
+    captures = {path: aw.read_capture(path) for path in late}
+    for path in late:
+        path.unlink()
+    fitted = _count_fits(monkeypatch)
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        assert len(fitted) == 2
+        for path, capture in captures.items():
+            for name, values in capture.signals.items():
+                if name != "torque":  # position and speed barely move: an idle robot
+                    capture.signals[name] = values.mean() + 1e-3 * (values - values.mean())
+            aw.write_capture(capture, path)
+            os.utime(path, (path.stat().st_atime - 3600, path.stat().st_mtime - 3600))
+        summary = monitor_fleet(fleet, store, config)
+    assert len(fitted) == 2  # scored with the stored models
+    assert summary.scored == 0
+    assert len([r for r in summary.rejected if "bad data (no motion" in r]) == len(late) == 2, (
+        summary
+    )

@@ -151,10 +151,10 @@ def test_distance_figure(rng: np.random.Generator) -> None:
 def test_cli_reports_an_absent_folder(tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
-    from axiswatch.cli import app
+    from axiswatch_lab.cli import experiment_app
 
     result = CliRunner().invoke(
-        app, ["experiment", "gearbox", "--data", str(tmp_path / "none"), "--out", str(tmp_path)]
+        experiment_app, ["gearbox", "--data", str(tmp_path / "none"), "--out", str(tmp_path)]
     )
     assert result.exit_code == 1
     assert "dataset folder not found" in result.output

@@ -304,6 +304,71 @@ def test_a_rejection_under_a_baseline_needs_it_active_and_the_capture_unscored(
     assert store.reject_capture(fresh)
 
 
+def test_alarms_are_acknowledged_until_raised_again(store: StoreBackend) -> None:
+    baseline_id = store.add_baseline(new_baseline())
+    assert baseline_id is not None
+    threshold = alarm_threshold([1.0, 2.0])
+    store.record_score(
+        new_score(baseline_id, 2),
+        fixed(Decision("calibration", threshold.value, False, False, "", calibrated=threshold)),
+        window=1,
+    )
+    summary = store.summary_table()
+    assert summary.threshold_origin.tolist() == [threshold.describe()]
+    assert summary[["alarm_since", "acknowledged_by"]].values.tolist() == [[None, None]]
+    with pytest.raises(StoreError, match="is not in alarm"):
+        store.acknowledge("r1", "a1", by="ana", note="seen")
+    with pytest.raises(StoreError, match="no active baseline"):
+        store.acknowledge("r1", "a9", by="ana", note="seen")
+    with pytest.raises(ValueError, match="'by'"):
+        store.acknowledge("r1", "a1", by=" ", note="seen")
+    alarmed = Decision("monitor", threshold.value, True, True, "")
+    store.record_score(new_score(baseline_id, 3, 50.0), fixed(alarmed), window=1)
+    store.record_score(new_score(baseline_id, 4, 50.0), fixed(alarmed), window=1)
+    [alarm] = store.alarms()
+    assert (alarm.robot, alarm.axis, alarm.method, alarm.raised_capture) == (
+        "r1", "a1", "pca", "2026-03-03.csv",
+    )  # fmt: skip
+    assert alarm.raised_at.startswith("2026-03-03")
+    assert not alarm.acknowledged
+    assert store.alarms("lra") == []
+    assert store.acknowledge("r1", "a1", by="ana", note="gearbox noisy") == ["pca"]
+    [alarm] = store.alarms("pca")
+    assert (alarm.acknowledged_by, alarm.note) == ("ana", "gearbox noisy")
+    assert store.summary_table()[["alarm_since", "acknowledged_by"]].values.tolist() == [
+        ["2026-03-03.csv", "ana"]
+    ]
+    # Cleared and raised again: a new alarm, not acknowledged.
+    store.record_score(
+        new_score(baseline_id, 5), fixed(Decision("monitor", 1.0, False, False, "")), window=1
+    )
+    assert store.alarms() == []
+    store.record_score(new_score(baseline_id, 6, 50.0), fixed(alarmed), window=1)
+    [alarm] = store.alarms()
+    assert (alarm.raised_capture, alarm.acknowledged) == ("2026-03-06.csv", False)
+    # A re-baseline after maintenance is recorded (naming the alarm it ends).
+    store.retire_baselines("r1", "a1")
+    assert store.acknowledge("r1", "a1", by="bo", note="replaced", rebaseline=True) == ["pca"]
+    assert store.alarms() == []
+    table = store.acknowledgements()
+    assert list(table.columns) == [
+        "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
+        "acknowledged_at",
+    ]  # fmt: skip
+    assert table[["capture", "rebaseline", "acknowledged_by"]].values.tolist() == [
+        ["2026-03-03.csv", False, "ana"],
+        ["2026-03-06.csv", True, "bo"],
+    ]
+    assert store.acknowledgements(robot="r2").empty
+    requests = store.rebaseline_requests()
+    assert list(requests.columns) == [
+        "robot", "axis", "method", "retired_epoch", "from_capture", "requested_at",
+    ]  # fmt: skip
+    assert requests[["robot", "axis", "method", "retired_epoch"]].values.tolist() == [
+        ["r1", "a1", "pca", 1]
+    ]
+
+
 def test_changed_files_are_recorded_once(store: StoreBackend) -> None:
     change = ChangedFile("r1", "a1", "2026-03-02.csv", "r1/a1/2026-03-02.csv", "old", "new")
     store.record_changed_file(change)
@@ -312,7 +377,7 @@ def test_changed_files_are_recorded_once(store: StoreBackend) -> None:
         ChangedFile("r1", "a1", "2026-03-01.csv", "r1/a1/2026-03-01.csv", "o", "n")
     )
     table = store.changed_file_table()
-    assert list(table.columns) == ["path", "detected_at"]
+    assert list(table.columns) == ["robot", "axis", "path", "detected_at"]
     assert table.path.tolist() == ["r1/a1/2026-03-01.csv", "r1/a1/2026-03-02.csv"]
 
 

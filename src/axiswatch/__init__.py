@@ -53,6 +53,7 @@ from axiswatch._features import (
 from axiswatch._formats import (
     register_format,
 )
+from axiswatch._indicator_model import IndicatorModel
 from axiswatch._mechanics import (
     INDICATORS,
     MechanicsStage,
@@ -67,6 +68,7 @@ from axiswatch._preprocessing import (
     resample_capture,
     upsample_pchip,
 )
+from axiswatch._profiles import AxisProfile
 from axiswatch._stages import (
     FeatureStage,
     StftStage,
@@ -88,6 +90,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Assessment",
+    "AxisProfile",
     "AxiswatchError",
     "BaselineDetector",
     "CalibrationError",
@@ -102,6 +105,7 @@ __all__ = [
     "HealthModel",
     "INDICATORS",
     "IndicatorDetector",
+    "IndicatorModel",
     "LRADetector",
     "MechanicsStage",
     "MonitorConfig",

@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -23,6 +23,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from axiswatch._formats import capture_format
 from axiswatch.exceptions import CaptureError
+
+if TYPE_CHECKING:
+    from axiswatch._profiles import AxisProfile
 
 __all__ = [
     "DEFAULT_SIGNALS",
@@ -270,6 +273,7 @@ def read_capture(
     signals: Sequence[str] | None = None,
     *,
     expected_rates_hz: Mapping[str, float] | None = None,
+    profile: AxisProfile | None = None,
 ) -> Capture:
     """Read and validate one capture file.
 
@@ -284,6 +288,9 @@ def read_capture(
     expected_rates_hz : mapping of str to float, optional
         Rates the signals must have (for instance the baseline's); a mismatch beyond 0.1 % is an
         error.
+    profile : AxisProfile, optional
+        Column names, units and time stamps of the file (:meth:`AxisProfile.standardise`):
+        mapped to the project's format before anything is checked.
 
     Returns
     -------
@@ -307,6 +314,8 @@ def read_capture(
     """
     path = Path(path)
     frame, metadata = _read_frame(path)
+    if profile is not None:
+        frame = profile.standardise(frame, path)
     if "time" not in frame.columns:
         raise CaptureError(
             f"{path}: missing column 'time' (seconds, strictly increasing); "

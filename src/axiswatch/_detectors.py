@@ -316,8 +316,33 @@ class IndicatorDetector(BaselineDetector):
         self.centre_ = X.mean(axis=0)
 
     def _distance(self, X: NDArray[np.float64]) -> float:
+        return float(np.sum(self._terms(X)))
+
+    def _terms(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
         shift = X.mean(axis=0) - self.centre_
-        return float(np.sum(np.maximum(shift, 0.0) ** 2 if self.one_sided else shift**2))
+        return np.asarray(np.maximum(shift, 0.0) ** 2 if self.one_sided else shift**2)
+
+    def contributions(self, X: Any) -> NDArray[np.float64]:
+        """Each column's term of :meth:`distance`; they add up to it exactly.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_rows, n_features)
+
+        Returns
+        -------
+        ndarray of shape (n_features,)
+            ``max(mean(X_t[:, j]) - mean(X_s[:, j]), 0)**2`` (the square of the shift when
+            ``one_sided=False``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> det = IndicatorDetector().fit(np.array([[1.0, 2.0], [1.0, 4.0]]))
+        >>> det.contributions(np.array([[3.0, 1.0], [3.0, 1.0]]))
+        array([4., 0.])
+        """
+        return self._terms(self._check_test(X))
 
     def transform(self, X: Any) -> NDArray[np.float64]:
         """Each test row's shift from the baseline's mean row."""

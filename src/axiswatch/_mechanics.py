@@ -64,6 +64,7 @@ from axiswatch.exceptions import CaptureError
 __all__ = [
     "COLUMNS",
     "INDICATORS",
+    "LIKELY_FAULTS",
     "MECHANICS_SCALES",
     "MECHANICS_TASK_CHANGE_SCALE",
     "MechanicsStage",
@@ -94,6 +95,17 @@ COLUMNS: tuple[str, ...] = (
     "tooth_lines",
     "bearing_lines",
 )
+
+#: What a rise of each column most likely means: the fault its indicator watches
+#: (docs/evaluation.md, "Beyond the paper"), for the monitor's reasons and report.
+LIKELY_FAULTS: dict[str, str] = {
+    "viscous_friction": "friction (lubrication, seals, wear)",
+    "viscous_friction_deficit": "lost motion (backlash) breaking the energy balance",
+    "impulsiveness": "impacts (backlash or a damaged gear tooth)",
+    "reversal_bursts": "backlash in the gearbox",
+    "tooth_lines": "a damaged gear tooth",
+    "bearing_lines": "a bearing defect",
+}
 
 #: Speed levels (fractions of a move's peak) of the nested energy windows.
 ENERGY_LEVELS: tuple[float, ...] = (0.02, 0.15, 0.3, 0.45, 0.6, 0.75)

@@ -1,15 +1,18 @@
 """Command-line interface: maps options to library calls, no science here.
 
 Exit codes: 0 success; 1 a command failed (message on stderr; traceback only with ``--debug``);
-2 usage error (unknown option). ``monitor`` adds 4 when an axis is in alarm and 8 when a capture
-was rejected, a scored file changed or an axis cannot be scored (so 4, 8 or 12).
+2 usage error (unknown option, a value out of range). ``monitor`` adds 4 when an axis is in alarm
+and 8 when a capture was rejected, a scored file changed, an axis cannot be scored or is stale
+(so 4, 8 or 12; acknowledged problems do not count).
 """
 
 from __future__ import annotations
 
+import re
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from datetime import timedelta
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -53,6 +56,35 @@ def _failures(debug: bool) -> Iterator[None]:
 
 
 @contextmanager
+def _usage(debug: bool) -> Iterator[None]:
+    """Turn an invalid option value into one line on stderr and exit status 2."""
+    try:
+        yield
+    except ValueError as exc:
+        if debug:
+            raise
+        typer.echo(f"usage error: {exc}", err=True)
+        raise typer.Exit(2) from None
+
+
+_DURATION = re.compile(r"(?P<value>\d+(?:\.\d+)?)\s*(?P<unit>[smhd])")
+_UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+
+
+def _duration(text: str, option: str) -> timedelta | None:
+    """``3d``, ``12h``, ``30m``, ``45s`` or ``off``."""
+    if text.strip().lower() == "off":
+        return None
+    match = _DURATION.fullmatch(text.strip())
+    if match is None:
+        raise ValueError(
+            f"The '{option}' option must be a duration such as 3d, 12h, 30m, 45s, or 'off'. "
+            f"Got {text!r} instead."
+        )
+    return timedelta(seconds=float(match["value"]) * _UNIT_S[match["unit"]])
+
+
+@contextmanager
 def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
     """A rich progress bar on stderr, shown only when stderr is a terminal."""
     from rich.console import Console
@@ -89,10 +121,10 @@ class Format(StrEnum):
     json = "json"
 
 
-def _echo_summary(store: Any) -> None:
+def _echo_summary(store: Any, stale_after: timedelta | None) -> None:
     from axiswatch.monitor._results import fleet_summary
 
-    summary = fleet_summary(store)
+    summary = fleet_summary(store, stale_after=stale_after)
     if summary.empty:
         typer.echo("No axis has a baseline yet.")
         return
@@ -141,63 +173,113 @@ def monitor(
     align: bool = typer.Option(
         DEFAULTS.align_phase, help="Align each capture's phase to the baseline's."
     ),
-    workers: int = typer.Option(1, help="Local worker processes for scoring."),
-    dask: str | None = typer.Option(None, help="Dask scheduler address for scoring."),
+    profile: Annotated[
+        Path | None,
+        typer.Option(
+            help="Axis profile (TOML: column names, units, kinematics) for every axis; default: "
+            "each axis's axis.toml, its robot's robot.toml or the fleet's axiswatch.toml."
+        ),
+    ] = None,
+    workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
+    dask: str | None = typer.Option(
+        None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
+    ),
+    dask_timeout: float = typer.Option(
+        10.0, min=0.1, help="Seconds the Dask scheduler has to answer."
+    ),
+    settle: float = typer.Option(
+        10.0, min=0.0, help="Seconds a capture file must go unmodified before it is scored."
+    ),
+    stale_after: str = typer.Option(
+        "3d", help="An axis without a new capture for this long is stale (3d, 12h, ... or off)."
+    ),
     progress: bool = typer.Option(True, help="Progress bar on stderr (only on a terminal)."),
     debug: bool = DEBUG,
 ) -> None:
     """Score every capture not scored yet; print the fleet's state.
 
     Exit status: 0 nothing to report; 4 an axis is in alarm; 8 a capture was rejected, a scored
-    file changed or an axis cannot be scored; 12 both; 1 failure; 2 usage error.
+    file changed, an axis cannot be scored or is stale (acknowledged ones aside: see
+    'axiswatch rejections'); 12 both; 1 failure; 2 usage error.
     """
     import dataclasses
 
-    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch._profiles import AxisProfile
+    from axiswatch.monitor._monitor import check_request, monitor_fleet
+    from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
-        config = MonitorConfig(
-            method=method,
-            percentile=percentile,
-            calibration_size=calibration,
-            alarm_k=alarm_k,
-            alarm_n=alarm_n,
-            clear_m=clear_m,
-            baseline=baseline,
-            features=dataclasses.replace(
-                DEFAULTS.features,
-                signals=tuple(s.strip() for s in signals.split(",") if s.strip()),
-                hop=hop,
-                segment_length=segment_length,
-            ),
-            lra_noise_level=_noise_level(lra_noise_level),
-            align_phase=align,
-        )
-        with Store(store) as opened, _progress(progress) as update:
-            result = monitor_fleet(
-                root, opened, config, workers=workers, dask=dask, progress=update
+        with _usage(debug):
+            config = MonitorConfig(
+                method=method,
+                percentile=percentile,
+                calibration_size=calibration,
+                alarm_k=alarm_k,
+                alarm_n=alarm_n,
+                clear_m=clear_m,
+                baseline=baseline,
+                features=dataclasses.replace(
+                    DEFAULTS.features,
+                    signals=tuple(s.strip() for s in signals.split(",")),
+                    hop=hop,
+                    segment_length=segment_length,
+                ),
+                lra_noise_level=_noise_level(lra_noise_level),
+                align_phase=align,
+                profile=None if profile is None else AxisProfile.from_toml(profile),
             )
-            unchanged = (
-                f" ({result.unchanged_folders} axis folder(s) unchanged since the last run)"
-                if result.unchanged_folders
-                else ""
-            )
+            silence = _duration(stale_after, "--stale-after")
+            check_request(root, config)
+        # Connect before the store is opened: a wrong address leaves nothing behind.
+        client = None if dask is None else connect_dask(dask, dask_timeout)
+        try:
+            with Store(store) as opened, _progress(progress) as update:
+                result = monitor_fleet(
+                    root, opened, config, workers=workers, dask=client, progress=update,
+                    settle_s=settle, stale_after=silence,
+                )  # fmt: skip
+                unchanged = (
+                    f" ({result.unchanged_folders} axis folder(s) unchanged since the last run)"
+                    if result.unchanged_folders
+                    else ""
+                )
+                typer.echo(
+                    f"{result.method}: {result.n_files} capture files{unchanged}, "
+                    f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
+                    "in this run."
+                )
+                _echo_summary(opened, silence)
+        finally:
+            if client is not None:
+                client.close()
+        if result.waiting:
             typer.echo(
-                f"{result.method}: {result.n_files} capture files{unchanged}, "
-                f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored in "
-                "this run."
+                f"\n{result.waiting} capture file(s) modified less than {settle:g} s ago: "
+                "waiting (scored by a later run)."
             )
-            _echo_summary(opened)
         for title, lines in (
             ("Rejected captures", result.rejected),
             ("Changed files", result.changed),
             ("Axes not scored", result.axis_problems),
+            ("Stale axes", result.stale),
         ):
             if lines:
                 typer.echo(f"\n{title} ({len(lines)}):")
                 for line in lines:
                     typer.echo(f"  {line}")
+        if result.acknowledged:
+            typer.echo(
+                f"\n{result.acknowledged} acknowledged problem(s) not shown "
+                "('axiswatch rejections' lists them)."
+            )
+        if result.acknowledged_alarms:
+            typer.echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
+            for seen in result.acknowledged_alarms:
+                typer.echo(
+                    f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
+                    f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
+                )
         if result.alarms:
             axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
             typer.echo(f"\nALARM ({result.method}) on {axes}")
@@ -210,10 +292,20 @@ def results(
     robot: str | None = typer.Option(None, help="Only this robot."),
     axis: str | None = typer.Option(None, help="Only this axis."),
     output: Annotated[Format, typer.Option("--format", help="table, csv or json.")] = Format.table,
+    indicators: bool = typer.Option(
+        False, help="Table: one column per indicator, its shift in healthy spreads."
+    ),
     debug: bool = DEBUG,
 ) -> None:
-    """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm."""
-    from axiswatch.monitor._results import fleet_results
+    """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
+
+    Then captured_at, epoch, role, over, reason, details (JSON: for the default method each
+    indicator's value, baseline, shift in healthy spreads and share of the distance) and
+    top_indicator. The table shows the first seven, role and top_indicator.
+    """
+    import json
+
+    from axiswatch.monitor._results import fleet_results, indicator_spreads
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
@@ -224,13 +316,15 @@ def results(
         if output is Format.csv:
             typer.echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
         elif output is Format.json:
-            typer.echo(frame.to_json(orient="records", indent=1))
+            records = frame.assign(details=frame["details"].map(json.loads))
+            typer.echo(records.to_json(orient="records", indent=1))
         elif frame.empty:
             typer.echo("No scored captures.")
         else:
-            typer.echo(
-                frame[[*columns, "role"]].to_string(index=False, float_format=lambda v: f"{v:.4g}")
-            )
+            table = frame[[*columns, "role", "top_indicator"]].fillna({"top_indicator": ""})
+            if indicators:
+                table = table.join(indicator_spreads(frame))
+            typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
 def _noise_level(text: str) -> float | Literal["auto"]:
@@ -256,6 +350,9 @@ def _require_store(store: Path) -> None:
 def report(
     store: StorePath,
     out: Annotated[Path, typer.Option(help="Folder for index.html and the PNG figures.")],
+    stale_after: str = typer.Option(
+        "3d", help="An axis without a new capture for this long is shown stale (or off)."
+    ),
     debug: bool = DEBUG,
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
@@ -263,9 +360,11 @@ def report(
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
+        with _usage(debug):
+            silence = _duration(stale_after, "--stale-after")
         _require_store(store)
         with Store(store) as opened:
-            page = write_report(opened, out)
+            page = write_report(opened, out, stale_after=silence)
         typer.echo(f"Report: {page}")
 
 
@@ -301,6 +400,120 @@ def rebaseline(
             f"{robot}/{axis}: baseline retired ({', '.join(methods)}); the next monitor run "
             f"starts a new baseline at {start}."
         )
+
+
+@app.command()
+def rejections(
+    store: StorePath,
+    paths: Annotated[
+        list[str] | None,
+        typer.Argument(help="Capture paths as listed (ROOT-relative); default: every one."),
+    ] = None,
+    method: str | None = typer.Option(
+        None, help="Only this method (default: all).", callback=_registered_method
+    ),
+    retry: bool = typer.Option(False, "--retry", help="Forget them: the next run tries again."),
+    ack: bool = typer.Option(
+        False, "--ack", help="Acknowledge them: seen, no longer a reason for exit status 8."
+    ),
+    debug: bool = DEBUG,
+) -> None:
+    """List rejected captures and changed files; retry or acknowledge them."""
+    from axiswatch.monitor._store import Store, now
+
+    with _failures(debug):
+        if retry and ack:
+            with _usage(debug):
+                raise ValueError("choose one of --retry and --ack.")
+        _require_store(store)
+        chosen = method
+        with Store(store) as opened:
+            if retry:
+                count = opened.retry_rejections(paths or [], chosen)
+                typer.echo(
+                    f"{count} rejection(s) forgotten; the next monitor run tries them again."
+                )
+                return
+            if ack:
+                count = opened.acknowledge_problems(paths or [], now(), chosen)
+                typer.echo(f"{count} problem(s) acknowledged; they no longer set exit status 8.")
+                return
+            frame = opened.problem_table(chosen)
+        if frame.empty:
+            typer.echo("No rejected captures and no changed files.")
+            return
+        frame["acknowledged"] = frame.pop("acknowledged_at").fillna("")
+        typer.echo(frame.to_string(index=False))
+
+
+@app.command()
+def ack(
+    store: StorePath,
+    robot: str | None = typer.Option(None, help="Robot folder name (required unless --list)."),
+    axis: str | None = typer.Option(None, help="Axis folder name (required unless --list)."),
+    method: str | None = typer.Option(
+        None, help="Only this method (default: every one in alarm).", callback=_registered_method
+    ),
+    by: str | None = typer.Option(None, "--by", help="Who saw the alarm (required)."),
+    note: str | None = typer.Option(None, "--note", help="What was seen or done (required)."),
+    rebaseline: bool = typer.Option(
+        False,
+        "--rebaseline",
+        help="Maintenance is done: also retire the baseline, as 'axiswatch rebaseline' does.",
+    ),
+    from_capture: str | None = typer.Option(
+        None, "--from", help="With --rebaseline: file name of the new baseline."
+    ),
+    list_: bool = typer.Option(
+        False, "--list", help="List the acknowledgements (of --robot/--axis if given) instead."
+    ),
+    debug: bool = DEBUG,
+) -> None:
+    """Record that an alarm was seen: it no longer makes monitor exit 4 until raised again.
+
+    The report shows who saw it. With --rebaseline (after maintenance) the axis's baseline is
+    also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
+    """
+    from axiswatch.monitor._ledger import rebaseline as retire
+    from axiswatch.monitor._store import Store
+
+    if list_:
+        with _failures(debug):
+            _require_store(store)
+            with Store(store) as opened:
+                frame = opened.acknowledgements(robot, axis)
+            if frame.empty:
+                typer.echo("No acknowledgements.")
+            else:
+                typer.echo(frame.fillna("").to_string(index=False))
+        return
+    robot, axis, by, note = (
+        _required(value, hint)
+        for value, hint in ((robot, "--robot"), (axis, "--axis"), (by, "--by"), (note, "--note"))
+    )
+    if from_capture is not None and not rebaseline:
+        raise typer.BadParameter("only with --rebaseline.", param_hint="'--from'")
+    chosen = method
+    with _failures(debug):
+        _require_store(store)
+        with Store(store) as opened:
+            if rebaseline:
+                # Retire first: it checks the request (active baseline, --from not alarmed)
+                # before anything is written, so a refused request records nothing.
+                retire(opened, robot, axis, method=chosen, from_capture=from_capture)
+            methods = opened.acknowledge(
+                robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline
+            )
+        typer.echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
+        if rebaseline:
+            start = from_capture or "the next capture that arrives"
+            typer.echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
+
+
+def _required(value: str | None, hint: str) -> str:
+    if value is None:
+        raise typer.BadParameter("required unless --list.", param_hint=f"'{hint}'")
+    return value
 
 
 @simulate_app.command("fleet")
@@ -360,9 +573,11 @@ def demo(
         labels = simulate_fleet(root, n_days=days, seed=seed)
         with Store(folder / "fleet.db") as opened, _progress(True) as update:
             for method in ("mechanics", "lra", "pca"):
-                monitor_fleet(root, opened, MonitorConfig(method=method), progress=update)
+                # The simulator has just written every file completely: nothing to wait for.
+                config = MonitorConfig(method=method)
+                monitor_fleet(root, opened, config, progress=update, settle_s=0)
             typer.echo("\nFleet summary (state after the last capture):")
-            _echo_summary(opened)
+            _echo_summary(opened, None)
             page = write_report(opened, folder / "report", labels=labels)
         truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
         changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]

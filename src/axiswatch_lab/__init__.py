@@ -48,6 +48,12 @@ from axiswatch_lab._realdata import (
     summarize_distances,
     summarize_line_readings,
 )
+from axiswatch_lab._transfer import (
+    TransferDesign,
+    real_data_transfer,
+    robot_transfer,
+    transfer_study,
+)
 
 __all__ = [
     "AxisModel",
@@ -63,6 +69,7 @@ __all__ = [
     "STATES",
     "StateStage",
     "SubspaceAlignmentDetector",
+    "TransferDesign",
     "alarm_summary",
     "bearing_line_readings",
     "development_scales",
@@ -76,10 +83,13 @@ __all__ = [
     "plot_paired",
     "plot_robot_study",
     "plot_roc",
+    "real_data_transfer",
+    "robot_transfer",
     "segment_distances",
     "select_default",
     "summarize_distances",
     "summarize_line_readings",
+    "transfer_study",
 ]
 
 

@@ -214,6 +214,53 @@ def experiment_select(out: Path = _OUT) -> None:
     typer.echo(f"Wrote {out / 'selection.csv'}")
 
 
+@experiment_app.command("transfer")
+def experiment_transfer(
+    out: Annotated[Path, typer.Option("--out", help="Folder for the tables (CSV).")],
+    robots: Annotated[
+        str, typer.Option(help="'held-out' (reported), 'development' (for choices) or seeds 1,2.")
+    ] = "held-out",
+    fast: Annotated[bool, typer.Option(help="Small configuration (seconds per robot).")] = False,
+    data: Annotated[
+        Path | None, typer.Option("--data", help="Folder of the real data sets (../shared/data).")
+    ] = None,
+    workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
+) -> None:
+    """Transfer study (issue 13): held-out simulated robots and the real data sets."""
+    from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
+    from axiswatch_lab._transfer import (
+        FAST_DESIGN,
+        TransferDesign,
+        real_data_transfer,
+        transfer_study,
+    )
+
+    if robots == "held-out":
+        seeds: tuple[int, ...] = HELD_OUT_ROBOTS
+    elif robots == "development":
+        seeds = DEVELOPMENT_ROBOTS
+    else:
+        try:
+            seeds = tuple(int(s) for s in robots.split(","))
+        except ValueError:
+            typer.echo(
+                "error: --robots must be 'held-out', 'development' or seeds such as 1,2; "
+                f"got {robots!r}.",
+                err=True,
+            )
+            raise typer.Exit(2) from None
+    table = transfer_study(seeds, FAST_DESIGN if fast else TransferDesign(), workers=workers)
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "robots.csv", index=False)
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
+    folder = data if data is not None else default_data_dir("hydraulic_actuator").parent
+    real = real_data_transfer(folder)
+    real.to_csv(out / "real.csv", index=False)
+    if len(real):
+        typer.echo("\n" + real.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'robots.csv'}, {out / 'real.csv'}")
+
+
 @experiment_app.command("gearbox")
 def experiment_gearbox(
     data: Annotated[

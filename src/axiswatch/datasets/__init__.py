@@ -3,6 +3,12 @@
 As ``sklearn.datasets``: everything here produces or reads captures; nothing here decides health.
 """
 
+from axiswatch.datasets._family import (
+    DEVELOPMENT_ROBOTS,
+    HELD_OUT_ROBOTS,
+    SimulatedRobot,
+    draw_robot,
+)
 from axiswatch.datasets._lab import (
     LAB_DAYS,
     LabDay,
@@ -17,7 +23,9 @@ from axiswatch.datasets._recorded import (
 )
 from axiswatch.datasets._robot import (
     DEFAULT_FLEET_FAULTS,
+    NOMINAL_AXIS,
     TASKS,
+    AxisSpec,
     Fault,
     FleetFault,
     Task,
@@ -26,16 +34,22 @@ from axiswatch.datasets._robot import (
 )
 
 __all__ = [
+    "AxisSpec",
     "DEFAULT_FLEET_FAULTS",
+    "DEVELOPMENT_ROBOTS",
     "Fault",
     "FleetFault",
+    "HELD_OUT_ROBOTS",
     "LAB_DAYS",
     "LabDay",
+    "NOMINAL_AXIS",
     "NOMINAL_RATE_HZ",
     "Segment",
+    "SimulatedRobot",
     "TASKS",
     "Task",
     "default_data_dir",
+    "draw_robot",
     "lab_dataset",
     "read_dataset",
     "read_recording",

@@ -49,7 +49,9 @@ from axiswatch._capture import Capture, write_capture
 
 __all__ = [
     "DEFAULT_FLEET_FAULTS",
+    "NOMINAL_AXIS",
     "TASKS",
+    "AxisSpec",
     "Fault",
     "FleetFault",
     "Task",
@@ -62,7 +64,6 @@ FAULT_KINDS: tuple[str, ...] = ("backlash", "friction", "tooth", "bearing")
 
 POSITION_RATE_HZ = 250.0
 FAST_RATE_HZ = 2000.0
-_SUBSTEPS = 2
 _WARMUP_S = 0.25
 
 GEAR_RATIO = 100.0
@@ -120,6 +121,9 @@ class Task:
         Mass carried from pick to place, at the arm length of 1 m.
     offset_rad : float
         Pick position (0 = link horizontal, where gravity acts most).
+    cruise_fraction : float in [0, 1), default=0.0
+        0: minimum-jerk moves; above 0: trapezoidal moves that cruise at constant speed for this
+        share of the move (constant-speed moves, as in conveyor tracking or gluing).
 
     Examples
     --------
@@ -134,6 +138,7 @@ class Task:
     dwell_pick_s: float
     payload_kg: float
     offset_rad: float
+    cruise_fraction: float = 0.0
 
     @property
     def cycle_s(self) -> float:
@@ -202,17 +207,41 @@ class _Reference:
     carrying: NDArray[np.bool_]
 
 
+def _profile(
+    tau: NDArray[np.float64], move_s: float, cruise_fraction: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Normalised path ``s(tau)`` in [0, 1] and its time derivatives, ``tau`` in [0, 1]."""
+    T = move_s
+    if cruise_fraction <= 0.0:
+        s = tau**3 * (10 - 15 * tau + 6 * tau**2)
+        ds = 30 * tau**2 * (1 - tau) ** 2 / T
+        dds = 60 * tau * (1 - tau) * (1 - 2 * tau) / T**2
+        return s, ds, dds
+    # Trapezoid: accelerate over a share r of the move, cruise, decelerate over r.
+    r = (1.0 - cruise_fraction) / 2.0
+    peak = 1.0 / (T * (1.0 - r))
+    accel = peak / (r * T)
+    t = tau * T
+    rise, fall = t < r * T, t > (1.0 - r) * T
+    s = np.where(
+        rise,
+        0.5 * accel * t**2,
+        np.where(fall, 1.0 - 0.5 * accel * (T - t) ** 2, peak * (t - 0.5 * r * T)),
+    )
+    ds = np.where(rise, accel * t, np.where(fall, accel * (T - t), peak))
+    dds = np.where(rise, accel, np.where(fall, -accel, 0.0))
+    return s, ds, dds
+
+
 def _reference(task: Task, time_s: NDArray[np.float64]) -> _Reference:
-    """Minimum-jerk pick-and-place reference at times ``time_s`` (0 = start of a forward move)."""
+    """Pick-and-place reference at times ``time_s`` (0 = start of a forward move)."""
     t = np.mod(time_s, task.cycle_s)
     T, A = task.move_s, task.amplitude_rad
     back_start = T + task.dwell_place_s
     forward = t < T
     back = (t >= back_start) & (t < back_start + T)
     tau = np.where(forward, t / T, np.where(back, (t - back_start) / T, 0.0))
-    s = tau**3 * (10 - 15 * tau + 6 * tau**2)
-    ds = 30 * tau**2 * (1 - tau) ** 2 / T
-    dds = 60 * tau * (1 - tau) * (1 - 2 * tau) / T**2
+    s, ds, dds = _profile(tau, T, task.cruise_fraction)
     at_place = (t >= T) & (t < back_start)
     position = task.offset_rad + A * np.where(
         forward, s, np.where(back, 1 - s, np.where(at_place, 1.0, 0.0))
@@ -220,6 +249,85 @@ def _reference(task: Task, time_s: NDArray[np.float64]) -> _Reference:
     speed = A * np.where(forward, ds, np.where(back, -ds, 0.0))
     acceleration = A * np.where(forward, dds, np.where(back, -dds, 0.0))
     return _Reference(position, speed, acceleration, forward | at_place)
+
+
+@dataclass(frozen=True)
+class AxisSpec:
+    """Every physical and logging parameter of one simulated axis (link-side units).
+
+    The defaults are the project's original axis (``GEAR_RATIO``, ``_COULOMB``, ...), so that
+    :func:`simulate_capture` without a ``spec`` is unchanged; a robot family
+    (:func:`~axiswatch.draw_axis`) draws each field.
+
+    Parameters
+    ----------
+    gear_ratio, mesh_order, tooth_stage_ratio, tooth_count, bearing_order : float
+        Kinematics: motor turns per link turn, ripple cycles per motor turn, motor turns per turn
+        of the gear that may lose a tooth, its teeth, the bearing's inner-race defect order.
+    j_motor, j_link, arm_m, link_moment : float
+        Inertias (kg m^2), payload lever (m) and the link's gravity moment ``m_l l_c`` (kg m;
+        near 0 for a wrist or horizontal axis).
+    stiffness, damping, backlash : float
+        Gearbox (N m/rad, N m s/rad, rad half-gap).
+    coulomb, viscous, stribeck_speed, stribeck_peak : float
+        Friction ``(F_c + F_s exp(-(w/w_s)^2)) tanh(w/w_s) + F_v w``.
+    temperature_coefficient : float
+        Relative change of friction per kelvin away from 30 degC (oil viscosity).
+    ripple, kp, kd : float
+        Gear-mesh ripple amplitude (N m) and controller gains.
+    position_rate_hz, fast_rate_hz : float
+        Logging rates of the position and of speed and torque; each divides 4 kHz.
+    position_quantum, torque_quantum : float
+        Resolution of the logged position (rad) and torque (N m); 0 = not quantised.
+    noise_position, noise_speed, noise_torque : float
+        Sensor noise standard deviations.
+    tooth_impact, bearing_impact : float
+        Fault impacts (N m) at severity 1.
+    coulomb_growth, viscous_growth : float
+        Relative growth of the friction terms at severity 1.
+    backlash_growth : float
+        Growth of the backlash half-gap (rad) at severity 1.
+    """
+
+    gear_ratio: float = GEAR_RATIO
+    mesh_order: float = MESH_ORDER
+    tooth_stage_ratio: float = TOOTH_STAGE_RATIO
+    tooth_count: int = TOOTH_COUNT
+    bearing_order: float = BEARING_ORDER
+    j_motor: float = _J_MOTOR
+    j_link: float = _J_LINK
+    arm_m: float = _ARM_M
+    link_moment: float = _LINK_MOMENT
+    stiffness: float = _STIFFNESS
+    damping: float = _DAMPING
+    backlash: float = _BACKLASH
+    coulomb: float = _COULOMB
+    viscous: float = _VISCOUS
+    stribeck_speed: float = _STRIBECK_SPEED
+    stribeck_peak: float = 0.0
+    temperature_coefficient: float = 0.0
+    ripple: float = _RIPPLE
+    kp: float = _KP
+    kd: float = _KD
+    position_rate_hz: float = POSITION_RATE_HZ
+    fast_rate_hz: float = FAST_RATE_HZ
+    position_quantum: float = 0.0
+    torque_quantum: float = 0.0
+    noise_position: float = _NOISE_POSITION
+    noise_speed: float = _NOISE_SPEED
+    noise_torque: float = _NOISE_TORQUE
+    tooth_impact: float = _TOOTH_IMPACT
+    bearing_impact: float = _BEARING_IMPACT
+    coulomb_growth: float = _COULOMB_GROWTH
+    viscous_growth: float = _VISCOUS_GROWTH
+    backlash_growth: float = _BACKLASH_GROWTH
+
+
+#: The project's original axis.
+NOMINAL_AXIS = AxisSpec()
+
+#: Integration rate of :func:`_simulate_axis`: every logging rate divides it.
+INTEGRATION_RATE_HZ = 4000.0
 
 
 @dataclass(frozen=True)
@@ -236,37 +344,55 @@ class _Trajectory:
 
 
 def _simulate_axis(
-    task: Task, fault: Fault | None, duration_s: float, phase_s: float
+    task: Task,
+    fault: Fault | None,
+    duration_s: float,
+    phase_s: float,
+    spec: AxisSpec = NOMINAL_AXIS,
+    temperature_c: float = 30.0,
 ) -> _Trajectory:
     """Integrate the axis over ``duration_s`` seconds of the task, starting ``phase_s`` into a cycle."""
-    dt = 1.0 / (FAST_RATE_HZ * _SUBSTEPS)
+    dt = 1.0 / INTEGRATION_RATE_HZ
     n_warm = round(_WARMUP_S / dt)
     n_steps = n_warm + round(duration_s / dt)
     time_s = phase_s - _WARMUP_S + np.arange(n_steps, dtype=np.float64) * dt
     ref = _reference(task, time_s)
     payload = np.where(ref.carrying, task.payload_kg, 0.0)
-    link_inertia = _J_LINK + payload * _ARM_M**2
-    gravity_moment = _GRAVITY * (_LINK_MOMENT + payload * _ARM_M)
+    link_inertia = spec.j_link + payload * spec.arm_m**2
+    gravity_moment = _GRAVITY * (spec.link_moment + payload * spec.arm_m)
+    # The controller's model is the nominal one: it knows neither temperature nor Stribeck peak.
     feed_forward = (
-        (_J_MOTOR + link_inertia) * ref.acceleration
-        + _VISCOUS * ref.speed
-        + _COULOMB * np.tanh(ref.speed / _STRIBECK_SPEED)
+        (spec.j_motor + link_inertia) * ref.acceleration
+        + spec.viscous * ref.speed
+        + spec.coulomb * np.tanh(ref.speed / spec.stribeck_speed)
         + gravity_moment * np.cos(ref.position)
     )
     kind = fault.kind if fault is not None else None
     severity = fault.severity if fault is not None else 0.0
-    backlash = _BACKLASH + (_BACKLASH_GROWTH * severity if kind == "backlash" else 0.0)
-    coulomb = _COULOMB * (1 + (_COULOMB_GROWTH * severity if kind == "friction" else 0.0))
-    viscous = _VISCOUS * (1 + (_VISCOUS_GROWTH * severity if kind == "friction" else 0.0))
-    tooth = _TOOTH_IMPACT * severity if kind == "tooth" else 0.0
-    bearing = _BEARING_IMPACT * severity if kind == "bearing" else 0.0
-    half_tooth = math.pi / TOOTH_COUNT
+    warm = 1.0 + spec.temperature_coefficient * (temperature_c - 30.0)
+    backlash = spec.backlash + (spec.backlash_growth * severity if kind == "backlash" else 0.0)
+    coulomb = spec.coulomb * (1 + (spec.coulomb_growth * severity if kind == "friction" else 0.0))
+    viscous = spec.viscous * (1 + (spec.viscous_growth * severity if kind == "friction" else 0.0))
+    if spec.temperature_coefficient:
+        coulomb, viscous = coulomb * warm, viscous * warm
+    stribeck = spec.stribeck_peak
+    tooth = spec.tooth_impact * severity if kind == "tooth" else 0.0
+    bearing = spec.bearing_impact * severity if kind == "bearing" else 0.0
+    half_tooth = math.pi / spec.tooth_count
     damaged_at = 1.0  # angle of the damaged tooth on its gear, rad
+    stiffness, damping, j_motor = spec.stiffness, spec.damping, spec.j_motor
+    kp, kd, ripple, mesh = spec.kp, spec.kd, spec.ripple, spec.mesh_order
+    gear_ratio, stage_ratio, bearing_order = (
+        spec.gear_ratio,
+        spec.tooth_stage_ratio,
+        spec.bearing_order,
+    )
+    stribeck_speed = spec.stribeck_speed
 
     # Start on the reference, gearbox preloaded by the static load.
     q_m = float(ref.position[0])
     static = float(gravity_moment[0] * np.cos(ref.position[0]))
-    q_l = q_m - static / _STIFFNESS - math.copysign(backlash, static)
+    q_l = q_m - static / stiffness - math.copysign(backlash, static)
     w_m = w_l = float(ref.speed[0])
     out_qm = np.empty(n_steps)
     out_wm = np.empty(n_steps)
@@ -276,30 +402,32 @@ def _simulate_axis(
     # Plain floats in the loop: NumPy scalars would be several times slower.
     q_ref, w_ref, ff = ref.position.tolist(), ref.speed.tolist(), feed_forward.tolist()
     j_link, g_moment = link_inertia.tolist(), gravity_moment.tolist()
-    tanh, sin, cos = math.tanh, math.sin, math.cos
+    tanh, sin, cos, exp = math.tanh, math.sin, math.cos, math.exp
     two_pi = 2.0 * math.pi
     for i in range(n_steps):
-        torque = ff[i] + _KP * (q_ref[i] - q_m) + _KD * (w_ref[i] - w_m)
+        torque = ff[i] + kp * (q_ref[i] - q_m) + kd * (w_ref[i] - w_m)
         deflection = q_m - q_l
         if deflection > backlash:
-            transmitted = _STIFFNESS * (deflection - backlash) + _DAMPING * (w_m - w_l)
+            transmitted = stiffness * (deflection - backlash) + damping * (w_m - w_l)
         elif deflection < -backlash:
-            transmitted = _STIFFNESS * (deflection + backlash) + _DAMPING * (w_m - w_l)
+            transmitted = stiffness * (deflection + backlash) + damping * (w_m - w_l)
         else:
             transmitted = 0.0
-        motor_angle = GEAR_RATIO * q_m
-        direction = tanh(w_m / _STRIBECK_SPEED)
-        load = coulomb * direction + viscous * w_m + _RIPPLE * sin(MESH_ORDER * motor_angle)
+        motor_angle = gear_ratio * q_m
+        direction = tanh(w_m / stribeck_speed)
+        load = coulomb * direction + viscous * w_m + ripple * sin(mesh * motor_angle)
+        if stribeck:
+            load += stribeck * exp(-((w_m / stribeck_speed) ** 2)) * direction
         if tooth:
-            gear = (motor_angle / TOOTH_STAGE_RATIO - damaged_at) % two_pi
+            gear = (motor_angle / stage_ratio - damaged_at) % two_pi
             gear = gear - two_pi if gear > math.pi else gear
             if -half_tooth < gear < half_tooth:
                 load += tooth * direction * 0.5 * (1 + cos(math.pi * gear / half_tooth))
         if bearing:
-            pulse = 0.5 * (1 + cos(BEARING_ORDER * motor_angle))
+            pulse = 0.5 * (1 + cos(bearing_order * motor_angle))
             load += bearing * direction * pulse**3 * (0.6 + 0.4 * cos(motor_angle))
         out_qm[i], out_wm[i], out_ql[i], out_tau[i], out_ts[i] = q_m, w_m, q_l, torque, transmitted
-        a_m = (torque - transmitted - load) / _J_MOTOR
+        a_m = (torque - transmitted - load) / j_motor
         a_l = (transmitted - g_moment[i] * cos(q_l)) / j_link[i]
         w_m += a_m * dt
         w_l += a_l * dt
@@ -333,6 +461,7 @@ def simulate_capture(
     phase_s: float | None = None,
     seed: int | np.random.Generator | None = 0,
     metadata: Mapping[str, str] | None = None,
+    spec: AxisSpec = NOMINAL_AXIS,
 ) -> Capture:
     """Simulate one capture of a robot axis doing ``task``, possibly with a developing fault.
 
@@ -352,11 +481,15 @@ def simulate_capture(
     metadata : mapping of str to str, optional
         Added to (and overriding) the capture's metadata ``task``, ``fault``, ``severity``,
         ``phase_s``.
+    spec : AxisSpec, default=NOMINAL_AXIS
+        The axis (a robot family's draw: :func:`~axiswatch.draw_axis`). With a temperature
+        coefficient, the capture's temperature is drawn (with ``seed``) in 20-40 degC.
 
     Returns
     -------
     Capture
-        Signals ``position`` (250 Hz), ``speed`` and ``torque`` (2 kHz), ``start_s=0``.
+        Signals ``position`` (``spec.position_rate_hz``, 250 Hz by default), ``speed`` and
+        ``torque`` (``spec.fast_rate_hz``, 2 kHz), ``start_s=0``.
 
     Examples
     --------
@@ -374,27 +507,48 @@ def simulate_capture(
     rng = np.random.default_rng(seed)
     if phase_s is None:
         phase_s = float(rng.uniform(0.0, resolved.cycle_s))
-    trajectory = _simulate_axis(resolved, fault, float(duration_s), float(phase_s))
-    n_fast = round(duration_s * FAST_RATE_HZ)
-    speed = trajectory.motor_speed[::_SUBSTEPS][:n_fast]
-    torque = trajectory.motor_torque[::_SUBSTEPS][:n_fast]
-    slow = round(FAST_RATE_HZ / POSITION_RATE_HZ) * _SUBSTEPS
-    position = trajectory.motor_position[::slow][: round(duration_s * POSITION_RATE_HZ)]
+    # Drawn only for an axis whose friction depends on it, so that the original axis's captures
+    # keep their random streams.
+    temperature_c = float(rng.uniform(20.0, 40.0)) if spec.temperature_coefficient else 30.0
+    trajectory = _simulate_axis(
+        resolved, fault, float(duration_s), float(phase_s), spec, temperature_c
+    )
+    for rate in (spec.fast_rate_hz, spec.position_rate_hz):
+        if INTEGRATION_RATE_HZ % rate:
+            raise ValueError(
+                f"The logging rates of AxisSpec must divide {INTEGRATION_RATE_HZ:g} Hz. "
+                f"Got {rate!r} instead."
+            )
+    fast = round(INTEGRATION_RATE_HZ / spec.fast_rate_hz)
+    n_fast = round(duration_s * spec.fast_rate_hz)
+    speed = trajectory.motor_speed[::fast][:n_fast]
+    torque = trajectory.motor_torque[::fast][:n_fast]
+    slow = round(INTEGRATION_RATE_HZ / spec.position_rate_hz)
+    position = trajectory.motor_position[::slow][: round(duration_s * spec.position_rate_hz)]
     signals = {
-        "position": position + rng.normal(scale=_NOISE_POSITION, size=position.size),
-        "speed": speed + rng.normal(scale=_NOISE_SPEED, size=speed.size),
-        "torque": torque + rng.normal(scale=_NOISE_TORQUE, size=torque.size),
+        "position": position + rng.normal(scale=spec.noise_position, size=position.size),
+        "speed": speed + rng.normal(scale=spec.noise_speed, size=speed.size),
+        "torque": torque + rng.normal(scale=spec.noise_torque, size=torque.size),
     }
+    for name, quantum in (("position", spec.position_quantum), ("torque", spec.torque_quantum)):
+        if quantum > 0:
+            signals[name] = np.round(signals[name] / quantum) * quantum
     labels = {
         "task": resolved.name,
         "fault": fault.kind if fault is not None else "none",
         "severity": f"{fault.severity if fault is not None else 0.0:g}",
         "phase_s": f"{phase_s:.6f}",
     }
+    if spec.temperature_coefficient:
+        labels["temperature_c"] = f"{temperature_c:.2f}"
     labels.update(metadata or {})
     return Capture(
         signals,
-        {"position": POSITION_RATE_HZ, "speed": FAST_RATE_HZ, "torque": FAST_RATE_HZ},
+        {
+            "position": spec.position_rate_hz,
+            "speed": spec.fast_rate_hz,
+            "torque": spec.fast_rate_hz,
+        },
         source=f"simulated {resolved.name}",
         metadata=labels,
     )

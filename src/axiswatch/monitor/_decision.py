@@ -18,7 +18,15 @@ from typing import Any, Literal
 from axiswatch._calibration import HalfLaplaceFit, Threshold, alarm_threshold
 from axiswatch.exceptions import CalibrationError
 
-__all__ = ["AxisHistory", "Decision", "DecisionRule", "Role", "alarm_step", "decide"]
+__all__ = [
+    "AxisHistory",
+    "Decision",
+    "DecisionRule",
+    "Role",
+    "alarm_step",
+    "decide",
+    "stored_threshold",
+]
 
 Role = Literal["calibration", "monitor", "excluded"]
 
@@ -145,7 +153,9 @@ def _percentile_text(percentile: float) -> str:
     return f"{percentile:g}th pct"
 
 
-def decide(history: AxisHistory, distance: float, rule: DecisionRule) -> Decision:
+def decide(
+    history: AxisHistory, distance: float, rule: DecisionRule, *, top_indicator: str | None = None
+) -> Decision:
     """Role, threshold, over, alarm and reason of a capture at ``distance`` from the baseline.
 
     While the baseline has no threshold, the capture calibrates (assumed healthy; the
@@ -155,11 +165,18 @@ def decide(history: AxisHistory, distance: float, rule: DecisionRule) -> Decisio
     raised when ``alarm_k`` of the last ``alarm_n`` are over and cleared after ``clear_m`` clean
     captures in a row (:func:`alarm_step`).
 
+    The reason of a monitored capture names where its threshold comes from
+    (:meth:`~axiswatch._calibration.Threshold.describe`: the fitted percentile or the task-change
+    allowance) and, when the capture is over or in alarm, ``top_indicator``.
+
     Parameters
     ----------
     history : AxisHistory
     distance : float
     rule : DecisionRule
+    top_indicator : str or None, default=None
+        The indicator that explains most of the distance, in words
+        (:func:`~axiswatch._attribution.describe_top_indicator`); None when there is none.
 
     Returns
     -------
@@ -176,12 +193,14 @@ def decide(history: AxisHistory, distance: float, rule: DecisionRule) -> Decisio
     9.2103
     >>> fitted = AxisHistory(threshold=second.threshold, fit=second.calibrated.fit)
     >>> decide(fitted, 10.0, rule).reason
-    'distance 10 > threshold 9.21 (99th pct of 2 healthy captures); ALARM raised'
+    'distance 10 > threshold 9.21 (99th pct of half-Laplace fit of 2 healthy captures); ALARM raised'
+    >>> decide(fitted, 10.0, rule, top_indicator="bearing_lines +9.8").reason.split("; ")[1]
+    'top indicator bearing_lines +9.8'
     """
     if history.threshold is None:
         return _calibrate(history, distance, rule)
     assert history.fit is not None, "a baseline with a threshold has a fit"
-    return _monitor(history.threshold, history.fit, history.recent, distance, rule)
+    return _monitor(history.threshold, history.fit, history.recent, distance, rule, top_indicator)
 
 
 def _calibrate(history: AxisHistory, distance: float, rule: DecisionRule) -> Decision:
@@ -214,12 +233,22 @@ def _calibrate(history: AxisHistory, distance: float, rule: DecisionRule) -> Dec
     return Decision("calibration", threshold.value, False, False, reason, calibrated=threshold)
 
 
+def stored_threshold(threshold: float, fit: HalfLaplaceFit, rule: DecisionRule) -> Threshold:
+    """The :class:`Threshold` a stored value came from: the fitted percentile, or the floor
+    where it is above the fit's (``alarm_threshold`` takes the larger)."""
+    origin: Literal["fit", "floor"] = (
+        "floor" if threshold > fit.threshold(rule.percentile) else "fit"
+    )
+    return Threshold(threshold, fit, rule.percentile, fit.n_distances, rule.floor, origin)
+
+
 def _monitor(
     threshold: float,
     fit: HalfLaplaceFit,
     history: Sequence[tuple[bool, bool]],
     distance: float,
     rule: DecisionRule,
+    top_indicator: str | None,
 ) -> Decision:
     over = bool(distance > threshold)
     k, n, m = rule.alarm_k, rule.alarm_n, rule.clear_m
@@ -227,10 +256,10 @@ def _monitor(
     previous = bool(history[-1][1]) if history else False
     alarm = alarm_step(previous, recent, k=k, n=n, m=m)
     comparison = ">" if over else "<="
-    reason = (
-        f"distance {distance:.4g} {comparison} threshold {threshold:.4g} "
-        f"({_percentile_text(rule.percentile)} of {fit.n_distances} healthy captures)"
-    )
+    origin = stored_threshold(threshold, fit, rule)
+    reason = f"distance {distance:.4g} {comparison} threshold {threshold:.4g} ({origin.describe()})"
+    if (over or alarm) and top_indicator is not None:
+        reason += f"; top indicator {top_indicator}"
     if n > 1:
         reason += f"; {sum(recent[-n:])} of last {min(n, len(recent))} over"
     if alarm and not previous:

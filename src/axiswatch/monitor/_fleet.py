@@ -14,7 +14,13 @@ Rules (documented in the README):
   (``:`` or nothing also accepted between hours, minutes and seconds; ``T``, ``_`` or a space
   before the time); anything after it (``_run2``) is free;
 * a capture file at another depth, or with a name breaking these rules, is a *layout problem*:
-  the monitor stores it as rejected, with the reason, and goes on.
+  the monitor stores it as rejected, with the reason, and goes on;
+* symbolic links to folders are followed (a link back to a folder already read, a loop, is
+  reported and not read twice); a folder that cannot be listed and a link whose target is
+  missing (an unmounted share) are *folder problems* (``capture == ""``), reported every run;
+* files being delivered under a temporary name (``.name.csv``, ``name.csv.tmp``,
+  ``name.parquet.partial``) are not captures; a capture file modified less than ``settle_s``
+  seconds ago is *waiting* (:func:`split_settled`), scored by a later run.
 
 Captures of one axis are ordered by their date-time, then by file name.
 """
@@ -23,14 +29,22 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
 from axiswatch._formats import capture_suffixes
+from axiswatch.exceptions import DataNotFoundError
 
-__all__ = ["FleetFile", "LayoutProblem", "discover_fleet", "parse_capture_time"]
+__all__ = [
+    "FleetFile",
+    "LayoutProblem",
+    "check_fleet_root",
+    "discover_fleet",
+    "parse_capture_time",
+    "split_settled",
+]
 
 _IDENTIFIER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 _STAMP = re.compile(
@@ -123,19 +137,6 @@ def _problem(root: Path, path: Path, reason: str) -> LayoutProblem:
     return LayoutProblem(robot, axis, path.name, path, f"{relative}: {reason}")
 
 
-def _walk(root: Path, skip: Callable[[str, str], bool] | None) -> Iterator[tuple[str, ...]]:
-    """Relative parts of the files under ``root`` (no ``stat`` of files, no path objects: a
-    fleet keeps many files), leaving out hidden folders and the axis folders ``skip(robot,
-    axis)`` names."""
-    for folder, folders, names in os.walk(root):
-        parts = Path(folder).relative_to(root).parts
-        folders[:] = [f for f in folders if not f.startswith(".")]
-        if skip is not None and len(parts) == 2 and skip(*parts):
-            folders[:] = []
-            continue
-        yield from ((*parts, name) for name in names)
-
-
 def discover_fleet(
     root: str | Path, *, skip: Callable[[str, str], bool] | None = None
 ) -> tuple[list[FleetFile], list[LayoutProblem]]:
@@ -177,13 +178,8 @@ def discover_fleet(
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
-    suffixes = capture_suffixes()
-    for relative in sorted(_walk(root, skip)):
-        if relative[-1].startswith("."):
-            continue
-        if os.path.splitext(relative[-1])[1].lower() not in suffixes or len(relative) == 1:
-            continue
-        path = root.joinpath(*relative)
+    for path in _candidates(root, problems, skip):
+        relative = path.relative_to(root).parts
         if len(relative) != 3:
             problems.append(
                 _problem(
@@ -211,3 +207,119 @@ def discover_fleet(
         files.append(FleetFile(robot, axis, name, path, captured_at))
     files.sort(key=lambda f: (f.robot, f.axis, f.captured_at, f.capture))
     return files, problems
+
+
+def _folder_problem(root: Path, path: Path, reason: str) -> LayoutProblem:
+    parts = path.relative_to(root).parts
+    robot = parts[0] if parts else ""
+    axis = parts[1] if len(parts) >= 2 else ""
+    return LayoutProblem(robot, axis, "", path, f"{path.relative_to(root).as_posix()}/: {reason}")
+
+
+def _candidates(
+    root: Path,
+    problems: list[LayoutProblem],
+    skip: Callable[[str, str], bool] | None = None,
+) -> Iterator[Path]:
+    """Capture-like files below ``root`` (not directly in it), following links to folders once,
+    leaving out the axis folders ``skip(robot, axis)`` names; folder problems are appended to
+    ``problems``."""
+
+    def unreadable(error: OSError) -> None:
+        path = Path(error.filename)
+        problems.append(
+            _folder_problem(root, path, f"folder cannot be read ({error.strerror}); not scored")
+        )
+
+    suffixes = capture_suffixes()
+    seen: dict[tuple[int, int], str] = {}
+    for folder, subfolders, names in os.walk(root, followlinks=True, onerror=unreadable):
+        here = Path(folder)
+        stat = here.stat()
+        if (stat.st_dev, stat.st_ino) in seen:
+            first = seen[(stat.st_dev, stat.st_ino)]
+            problems.append(
+                _folder_problem(
+                    root,
+                    here,
+                    f"link to the folder already read as '{first or '.'}' (a symlink loop or a "
+                    "second name); not read twice",
+                )
+            )
+            subfolders[:] = []
+            continue
+        parts = here.relative_to(root).parts
+        if skip is not None and len(parts) == 2 and skip(*parts):
+            subfolders[:] = []
+            continue
+        seen[(stat.st_dev, stat.st_ino)] = here.relative_to(root).as_posix().strip(".")
+        subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
+        for name in sorted(names):
+            path = here / name
+            if name.startswith("."):
+                continue
+            if path.is_symlink() and not path.exists():
+                problems.append(
+                    _folder_problem(
+                        root,
+                        path,
+                        f"link to '{os.readlink(path)}', which does not exist (an unmounted "
+                        "share?); not scored",
+                    )
+                )
+                continue
+            if here != root and path.suffix.lower() in suffixes and path.is_file():
+                yield path
+
+
+def check_fleet_root(root: str | Path) -> None:
+    """Raise unless ``root`` is a folder holding at least one capture file.
+
+    An empty fleet folder is what an unmounted share looks like: monitoring it would show every
+    axis as it was, so it is an error rather than a quiet run.
+
+    Raises
+    ------
+    NotADirectoryError
+        If ``root`` is not a folder.
+    DataNotFoundError
+        If no capture file lies below it.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
+    if next(_candidates(root, []), None) is None:
+        raise DataNotFoundError(
+            f"fleet folder '{root}' holds no capture file (an unmounted share or a wrong path?); "
+            "expected ROOT/<robot>/<axis>/<capture>.parquet|.csv."
+        )
+
+
+def split_settled(
+    files: Sequence[FleetFile], settle_s: float, now_s: float
+) -> tuple[list[FleetFile], list[FleetFile], list[tuple[FleetFile, str]]]:
+    """Files settled for ``settle_s`` seconds (by modification time), files still waiting, and
+    files that cannot be looked at (with the reason).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, time
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "2026-03-01.csv"
+    >>> _ = path.write_text("time,speed\\n")
+    >>> file = FleetFile("r1", "a1", path.name, path, parse_capture_time(path.name))
+    >>> [len(part) for part in split_settled([file], 10.0, time.time())]
+    [0, 1, 0]
+    >>> [len(part) for part in split_settled([file], 10.0, time.time() + 60)]
+    [1, 0, 0]
+    """
+    ready: list[FleetFile] = []
+    waiting: list[FleetFile] = []
+    unreadable: list[tuple[FleetFile, str]] = []
+    for file in files:
+        try:
+            modified = file.path.stat().st_mtime
+        except OSError as exc:
+            unreadable.append((file, f"cannot be read ({exc.strerror})"))
+            continue
+        (waiting if now_s - modified < settle_s else ready).append(file)
+    return ready, waiting, unreadable

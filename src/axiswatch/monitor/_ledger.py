@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import json
 
+from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
-from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome
+from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
 from axiswatch.monitor._store import NewBaseline, NewScore, Rejection, StoreBackend
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
@@ -33,9 +34,18 @@ def reject(
     relative: str,
     digest: str,
     error: str,
+    *,
+    kind: str = "invalid",
+    params_hash: str | None = None,
+    transient: bool = False,
 ) -> None:
-    """Record a capture file of ``method`` that cannot be used (once per content)."""
-    store.reject_capture(Rejection(robot, axis, method, capture, relative, digest, error))
+    """Record a capture file of ``method`` that cannot be used (once per content; ``kind``,
+    ``params_hash`` and ``transient`` as in :class:`~axiswatch.monitor.Rejection`)."""
+    store.reject_capture(
+        Rejection(
+            robot, axis, method, capture, relative, digest, error, kind, params_hash, transient
+        )
+    )
 
 
 def insert_baseline(
@@ -80,12 +90,16 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
             job.relative,
             outcome.file_hash,
             outcome.error,
+            kind=outcome.kind,
+            params_hash=params_hash(config),
+            transient=outcome.transient,
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
     rule = config.decision_rule()
+    top = describe_top_indicator(outcome.details.get("indicators", {}))
 
     def decision(history: AxisHistory) -> Decision:
-        return decide(history, outcome.distance, rule)
+        return decide(history, outcome.distance, rule, top_indicator=top)
 
     score = NewScore(
         baseline_id=job.baseline_id,

@@ -29,14 +29,24 @@ process on the same store skips what the first has written.
 
 from __future__ import annotations
 
+import json
+import time
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import UTC, datetime, timedelta
+from glob import escape
 from pathlib import Path
+from typing import Any
 
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._fleet import FleetFile, LayoutProblem, discover_fleet
+from axiswatch.monitor._fleet import (
+    FleetFile,
+    LayoutProblem,
+    check_fleet_root,
+    discover_fleet,
+    split_settled,
+)
 from axiswatch.monitor._index import (
     FileIndex,
     axis_folder_time,
@@ -48,6 +58,7 @@ from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json
 from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._parallel import WorkerPool
 from axiswatch.monitor._persist import library_version, load_model
+from axiswatch.monitor._quality import QualityReference
 from axiswatch.monitor._scoring import (
     FitJob,
     FitOutcome,
@@ -55,13 +66,39 @@ from axiswatch.monitor._scoring import (
     ScoreJob,
     ScoreOutcome,
     fit_baseline,
+    params_hash,
+    profile_for,
     score_capture,
 )
-from axiswatch.monitor._store import Baseline, ChangedFile, RunCaches, SavedModel, StoreBackend
+from axiswatch.monitor._store import (
+    AlarmState,
+    Baseline,
+    ChangedFile,
+    RunCaches,
+    SavedModel,
+    StoreBackend,
+    now_us,
+)
 
-__all__ = ["MonitorSummary", "monitor_fleet"]
+__all__ = [
+    "DEFAULT_SETTLE_S",
+    "DEFAULT_STALE_AFTER",
+    "MonitorSummary",
+    "check_request",
+    "monitor_fleet",
+    "parameter_differences",
+]
 
 Progress = Callable[[str, int, int], None]
+
+#: Seconds a capture file must go unmodified before it is scored (a file still being written
+#: is not a capture yet); deliver files atomically (README) and this wait costs nothing.
+DEFAULT_SETTLE_S = 10.0
+#: Silence after which an axis is *stale*: no new capture file for this long.
+DEFAULT_STALE_AFTER = timedelta(days=3)
+#: A capture dated later than this after now is *future-dated* (a logger's clock is wrong): it
+#: is not scored until its date has come, so that it cannot block later captures.
+_FUTURE_TOLERANCE = timedelta(days=1)
 
 
 # --- summary -----------------------------------------------------------------------------------
@@ -72,8 +109,12 @@ class MonitorSummary:
     """What one ``monitor`` run did and what the fleet's state is afterwards.
 
     Exit status of ``axiswatch monitor`` (:attr:`exit_code`): 0 when nothing needs attention;
-    otherwise the sum of 4 (at least one axis is in alarm) and 8 (a capture is rejected, a
-    scored file changed, or an axis cannot be scored); so 4, 8 or 12.
+    otherwise the sum of 4 (at least one axis is in an alarm nobody acknowledged) and 8 (a
+    capture is rejected, a scored file changed, an axis cannot be scored or is stale;
+    acknowledged rejections and changes, counted in ``acknowledged``, do not count); so 4, 8 or
+    12. ``alarms`` lists the axes in unacknowledged alarm, ``acknowledged_alarms`` the alarms
+    someone saw (``Store.acknowledge``) that have not cleared and been raised again since.
+    ``waiting``: capture files not settled yet (scored by a later run; no attention needed).
 
     ``n_files`` counts the capture files of the axis folders this run listed;
     ``unchanged_folders`` the axis folders it did not list, unchanged since a run finished them
@@ -89,11 +130,15 @@ class MonitorSummary:
     changed: list[str] = field(default_factory=list)
     axis_problems: list[str] = field(default_factory=list)
     alarms: list[tuple[str, str]] = field(default_factory=list)
+    stale: list[str] = field(default_factory=list)
+    waiting: int = 0
+    acknowledged: int = 0
+    acknowledged_alarms: list[AlarmState] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
-        """0, or 4 (alarm) + 8 (rejected, changed or axis problem)."""
-        attention = bool(self.rejected or self.changed or self.axis_problems)
+        """0, or 4 (alarm) + 8 (rejected, changed, axis problem or stale axis)."""
+        attention = bool(self.rejected or self.changed or self.axis_problems or self.stale)
         return 4 * bool(self.alarms) + 8 * attention
 
 
@@ -110,6 +155,7 @@ class _Axis:
     rates_hz: dict[str, float] = field(default_factory=dict)
     candidates: list[FleetFile] = field(default_factory=list)
     epoch: int = 1
+    reference: QualityReference | None = None
 
 
 @dataclass
@@ -126,6 +172,9 @@ class _Run:
     progress: Progress | None
     summary: MonitorSummary
     params: str
+    params_hash: str = ""
+    owners: dict[Path, FleetFile] = field(default_factory=dict)
+    unreadable_paths: set[Path] = field(default_factory=set)
     stored_models: list[_Axis] = field(default_factory=list)  # scored without a refit
     problem_axes: set[tuple[str, str]] = field(default_factory=set)
     rejected: set[tuple[str, str]] = field(default_factory=set)
@@ -136,8 +185,17 @@ class _Run:
     def method(self) -> str:
         return self.config.method
 
-    def digest(self, path: Path) -> str:
-        return self.index.digest(path)
+    def digest(self, path: Path) -> str | None:
+        """The file's hash through the index, or None when it cannot be read (recorded as a
+        transient rejection, tried again next run)."""
+        try:
+            return self.index.digest(path)
+        except OSError as exc:
+            owner = self.owners.get(path)
+            if owner is not None and path not in self.unreadable_paths:
+                self.unreadable_paths.add(path)
+                self.unreadable(owner, f"cannot be read ({exc.strerror or exc})")
+            return None
 
     def problem(self, state: _Axis, message: str) -> None:
         """An axis that cannot be scored: reported, and its folder listed again next run."""
@@ -145,23 +203,39 @@ class _Run:
         self.problem_axes.add((state.robot, state.axis))
 
     def persist(self, outcome: FitOutcome, baseline_id: int) -> ModelRef:
-        """Keep a fitted model in the store; the reference jobs carry to it."""
+        """Keep a fitted model in the store (with the baseline's data-quality reference); the
+        reference jobs carry to it."""
         source = self.caches.model_source()
         if outcome.blob is None or source is None:
             # Not storable, or no store workers can read: the model travels with its jobs.
             inline = outcome.inline if outcome.blob is None else load_model(outcome.blob)
             return ModelRef(outcome.model_key, "", inline=inline)
+        reference = None if outcome.reference is None else dict(outcome.reference.spans)
         saved = SavedModel(
-            outcome.file_hash, self.params, library_version(), outcome.model_key, outcome.rates_hz
+            outcome.file_hash,
+            self.params,
+            library_version(),
+            outcome.model_key,
+            outcome.rates_hz,
+            reference,
         )
         self.caches.save_model(baseline_id, saved, outcome.blob)
         return ModelRef(outcome.model_key, source)
+
+    def unreadable(self, file: FleetFile, reason: str) -> None:
+        relative = self.relative(file.path)
+        reject(
+            self.store, self.method, file.robot, file.axis, file.capture, relative, "",
+            f"{relative}: {reason}; tried again next run", kind="unreadable", transient=True,
+        )  # fmt: skip
 
     def relative(self, path: Path) -> str:
         return path.relative_to(self.root).as_posix()
 
     def is_rejected(self, file: FleetFile) -> bool:
-        return (self.relative(file.path), self.digest(file.path)) in self.rejected
+        """Rejected with this content, or unreadable now."""
+        digest = self.digest(file.path)
+        return digest is None or (self.relative(file.path), digest) in self.rejected
 
     def usable(self, file: FleetFile) -> bool:
         """A candidate baseline: not rejected (this content) and never alarmed."""
@@ -170,7 +244,7 @@ class _Run:
         )
 
     def fit_job(self, file: FleetFile) -> FitJob:
-        return FitJob(file, self.relative(file.path), self.config.model())
+        return FitJob(file, self.relative(file.path), self.config.model(), self.config.profile)
 
     def report(self, stage: str, done: int, total: int) -> None:
         if self.progress is not None:
@@ -192,6 +266,9 @@ def _from_capture(files: Sequence[FleetFile], capture: str) -> list[FleetFile]:
 
 def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> None:
     for problem in problems:
+        if not problem.capture:  # a folder: reported every run while it lasts, not stored
+            run.summary.axis_problems.append(problem.reason)
+            continue
         reject(
             run.store,
             run.method,
@@ -199,24 +276,28 @@ def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> Non
             problem.axis,
             problem.capture,
             run.relative(problem.path),
-            run.digest(problem.path),
+            run.digest(problem.path) or "",
             problem.reason,
+            kind="layout",
         )
 
 
 def _changed_files(run: _Run, changed: Sequence[tuple[str, str, str]]) -> list[str]:
-    """Scored files whose content differs from when they were scored (recorded, and listed);
-    ``changed`` from :meth:`FileIndex.verify`."""
+    """Scored files whose content differs from when they were scored (recorded, and listed
+    unless acknowledged: those are counted in the summary's ``acknowledged``); ``changed`` from
+    :meth:`FileIndex.verify`."""
     messages = []
     for relative, _, current in changed:
         scored = run.caches.last_scored(relative)
         if scored is None or scored.file_hash == current:
             continue
-        run.store.record_changed_file(
-            ChangedFile(
-                scored.robot, scored.axis, scored.capture, relative, scored.file_hash, current
-            )
+        change = ChangedFile(
+            scored.robot, scored.axis, scored.capture, relative, scored.file_hash, current
         )
+        run.store.record_changed_file(change)
+        if run.store.changed_file_acknowledged(change):
+            run.summary.acknowledged += 1
+            continue
         messages.append(
             f"{relative}: content changed after it was scored; the stored result is kept "
             "(re-baseline the axis to score it afresh)"
@@ -228,16 +309,23 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
     """Refit the axis's active baseline, unless its file is missing or changed."""
     params = run.params
     if baseline.params != params:
+        differences = "; ".join(parameter_differences(baseline.params, params))
         raise StoreError(
             f"store '{run.store.location}': the baseline of robot {state.robot} axis "
-            f"{state.axis} ({run.method}) was made with parameters {baseline.params}; this "
-            f"run asks for {params}. Use the same options, another store, or "
-            "re-baseline the axis."
+            f"{state.axis} ({run.method}) was made with other parameters ({differences}). "
+            "Use the same options, another store, or re-baseline the axis."
         )
     state.baseline = baseline
     stored = next((f for f in state.files if f.capture == baseline.capture), None)
-    if stored is None or run.digest(stored.path) != baseline.file_hash:
-        what = "is missing" if stored is None else "changed after it was fitted"
+    hashed = None if stored is None else run.digest(stored.path)
+    if stored is None or hashed != baseline.file_hash:
+        what = (
+            "is missing or waiting"
+            if stored is None
+            else "cannot be read"
+            if hashed is None
+            else "changed after it was fitted"
+        )
         run.problem(
             state,
             f"{baseline.path}: baseline file {what}; robot {state.robot} axis "
@@ -246,14 +334,18 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         return None
     state.candidates = [stored]
     saved = run.caches.saved_model(baseline.id)
-    if saved is not None and (saved.file_hash, saved.params, saved.library_version) == (
-        baseline.file_hash,
-        params,
-        library_version(),
+    # A model saved without the baseline's data-quality reference is refitted: the reference
+    # judges "no motion" in every later capture.
+    if (
+        saved is not None
+        and saved.reference is not None
+        and (saved.file_hash, saved.params, saved.library_version)
+        == (baseline.file_hash, params, library_version())
     ):
         source = run.caches.model_source()
         assert source is not None  # a store that keeps models is one workers can read
         state.model, state.rates_hz = ModelRef(saved.model_hash, source), saved.rates_hz
+        state.reference = QualityReference(dict(saved.reference))
         run.stored_models.append(state)
         return None
     return run.fit_job(stored)
@@ -304,6 +396,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
         else:
             state.model = run.persist(outcome, state.baseline.id)
             state.rates_hz = outcome.rates_hz
+            state.reference = outcome.reference
         return None
     if outcome.error is not None:
         reject(
@@ -313,8 +406,11 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             file.axis,
             file.capture,
             outcome.job.relative,
-            run.digest(file.path),
+            run.digest(file.path) or "",
             str(outcome.error),
+            kind=outcome.kind,
+            params_hash=run.params_hash,
+            transient=outcome.transient,
         )
         state.candidates = state.candidates[1:]
         if state.epoch == 1 and file.capture == run.config.baseline:
@@ -332,6 +428,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
     state.baseline = run.store.baseline(baseline_id)
     state.model = run.persist(outcome, baseline_id)
     state.rates_hz = outcome.rates_hz
+    state.reference = outcome.reference
     return None
 
 
@@ -359,12 +456,44 @@ def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
         baseline = state.baseline
         done = run.store.scored_captures(baseline.id)
         start = (baseline.captured_at, baseline.capture)
+        chosen = baseline.epoch == 1 and run.config.baseline == baseline.capture
         for file in state.files:
-            if _key(file) <= start or file.capture in done or run.is_rejected(file):
+            if file.capture in done or run.is_rejected(file):
                 continue
             relative = run.relative(file.path)
-            jobs.append(ScoreJob(file, relative, baseline.id, state.model, state.rates_hz))
+            if _key(file) <= start:
+                digest = run.digest(file.path)
+                if (
+                    not chosen
+                    and digest is not None
+                    and not run.caches.was_scored(relative, digest, run.method)
+                ):
+                    _out_of_order(run, file, baseline)
+                continue
+            jobs.append(
+                ScoreJob(
+                    file,
+                    relative,
+                    baseline.id,
+                    state.model,
+                    state.rates_hz,
+                    profile=run.config.profile,
+                    reference=state.reference,
+                )
+            )
     return jobs
+
+
+def _out_of_order(run: _Run, file: FleetFile, baseline: Baseline) -> None:
+    """A capture dated before the axis's baseline that was never scored: it arrived late."""
+    relative = run.relative(file.path)
+    reject(
+        run.store, run.method, file.robot, file.axis, file.capture, relative,
+        run.digest(file.path) or "",
+        f"{relative}: dated before the baseline {baseline.capture} of epoch {baseline.epoch} and "
+        "never scored (it arrived out of order); re-baseline the axis with --from to score it",
+        kind="out of order",
+    )  # fmt: skip
 
 
 def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
@@ -385,17 +514,29 @@ def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
     run.done["captures"] += len(jobs)
 
 
+def _holds(run: _Run, params: str | None) -> bool:
+    """A rejection made under ``params`` holds for this run's parameters."""
+    return params is None or params == run.params_hash
+
+
 def _standing_rejections(run: _Run) -> list[str]:
-    """Rejections whose file still has the rejected content."""
+    """Rejections that still hold (the file still has the rejected content, or a transient
+    problem was seen again in this run), not acknowledged (those are counted)."""
     standing = []
     for rejection in run.store.rejections(run.method):
         path = run.root / rejection.path
         # Point queries: a run's cost must not follow the history of scores.
-        if not path.is_file() or run.caches.was_scored(
+        if not _holds(run, rejection.params_hash) or run.caches.was_scored(
             rejection.path, rejection.file_hash, run.method
         ):
             continue
-        if run.digest(path) == rejection.file_hash:
+        if not rejection.transient and not (
+            path.is_file() and run.digest(path) == rejection.file_hash
+        ):
+            continue
+        if rejection.acknowledged_at is not None:
+            run.summary.acknowledged += 1
+        else:
             standing.append(rejection.error)
     return standing
 
@@ -413,6 +554,8 @@ def monitor_fleet(
     dask: object | None = None,
     progress: Progress | None = None,
     verify_per_run: int | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    stale_after: timedelta | None = DEFAULT_STALE_AFTER,
 ) -> MonitorSummary:
     """Score every capture of the fleet not scored yet; keep baselines, thresholds and alarms.
 
@@ -432,6 +575,11 @@ def monitor_fleet(
         Kept files compared with the disk in this run, to find files changed in place
         (``monitor._index``); default :func:`~axiswatch.monitor._index.verify_budget` of the
         fleet's axes.
+    settle_s : float, default=DEFAULT_SETTLE_S (10)
+        A capture file modified less than this many seconds ago is still being written: it
+        waits for a later run.
+    stale_after : timedelta or None, default=DEFAULT_STALE_AFTER (3 days)
+        An axis without a new capture file for this long is stale (None: never).
 
     Returns
     -------
@@ -439,15 +587,21 @@ def monitor_fleet(
 
     Raises
     ------
+    NotADirectoryError, DataNotFoundError, ValueError
+        As :func:`check_request`, before anything is stored.
     StoreError
-        If an axis's stored baseline was made with other parameters than ``config``.
+        If an axis's stored baseline was made with other parameters than ``config`` (naming
+        them), or the store cannot be read or written (corrupt, full disk).
     """
     config = MonitorConfig() if config is None else config
+    started = datetime.now(UTC)
+    seen_at = now_us()
     root = Path(root)
     caches = run_caches(store)
     params = params_json(config)
-    index = FileIndex(caches, root, caches.start_run())
     finished = caches.axis_folder_times(config.method, params)
+    check_request(root, config, signals_known=bool(finished))
+    index = FileIndex(caches, root, caches.start_run())
     changed, dirty = index.verify(
         verify_budget(len(finished)) if verify_per_run is None else verify_per_run
     )
@@ -461,7 +615,7 @@ def monitor_fleet(
         folder_times[(robot, axis)] = axis_folder_time(root, robot, axis)
         return False
 
-    files, problems = discover_fleet(root, skip=skip)
+    discovered, problems = discover_fleet(root, skip=skip)
     with WorkerPool(workers, dask) as pool:
         run = _Run(
             root,
@@ -473,14 +627,31 @@ def monitor_fleet(
             progress,
             MonitorSummary(
                 method=config.method,
-                n_files=len(files) + len(problems),
+                n_files=len(discovered) + len(problems),
                 unchanged_folders=len(skipped),
             ),
             params,
+            params_hash=params_hash(config),
+            owners={f.path: f for f in discovered},
         )
         _record_layout_problems(run, problems)
+        # Folders not listed hold no new file: their axes' activity is left as it was.
+        store.record_axis_activity(_activity(discovered), started.isoformat(timespec="seconds"))
+        files, waiting, failed = split_settled(discovered, settle_s, time.time())
+        run.summary.waiting = len(waiting)
+        for file, reason in failed:
+            run.unreadable(file, reason)
+        files = _not_future(run, files)
+        # An axis folder with a file not scored yet (waiting, unreadable, dated in the future)
+        # must be listed again next run.
+        kept = set(files)
+        run.problem_axes |= {(f.robot, f.axis) for f in discovered if f not in kept}
         run.summary.changed = _changed_files(run, changed)
-        run.rejected = {(r.path, r.file_hash) for r in store.rejections(run.method)}
+        run.rejected = {
+            (r.path, r.file_hash)
+            for r in store.rejections(run.method)
+            if not r.transient and _holds(run, r.params_hash)
+        }
         run.alarmed = store.alarmed_captures(run.method)
 
         grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
@@ -500,9 +671,170 @@ def monitor_fleet(
             for state in states:
                 state.model = None
 
+    # An axis with a rejected capture is listed every run: ``rejections --retry`` forgets the
+    # rejection, and the file must then be tried again.
+    problem_axes = (
+        run.problem_axes
+        | {(f.robot, f.axis) for f in discovered if f.path in run.unreadable_paths}
+        | {(r.robot, r.axis) for r in store.rejections(run.method)}
+    )
     for robot_axis, mtime_ns in folder_times.items():
-        if mtime_ns is not None and robot_axis not in run.problem_axes:
+        if mtime_ns is not None and robot_axis not in problem_axes:
             caches.finish_axis_folder(*robot_axis, config.method, params, mtime_ns)
+    store.resolve_transient(run.method, seen_at)
     run.summary.rejected = _standing_rejections(run)
-    run.summary.alarms = store.axes_in_alarm(run.method)
+    for alarm in store.alarms(run.method):
+        if alarm.acknowledged:
+            run.summary.acknowledged_alarms.append(alarm)
+        else:
+            run.summary.alarms.append((alarm.robot, alarm.axis))
+    if stale_after is not None:
+        run.summary.stale = _stale_axes(store, started, stale_after)
     return run.summary
+
+
+def _not_future(run: _Run, files: Sequence[FleetFile]) -> list[FleetFile]:
+    """The files not dated in the future; those are recorded as transient rejections."""
+    future_from = datetime.now() + _FUTURE_TOLERANCE
+    for file in files:
+        if file.captured_at > future_from:
+            relative = run.relative(file.path)
+            reject(
+                run.store, run.method, file.robot, file.axis, file.capture, relative, "",
+                f"{relative}: dated {file.captured_at.isoformat()}, in the future (a logger "
+                "clock?); not scored before that date", kind="future", transient=True,
+            )  # fmt: skip
+    return [f for f in files if f.captured_at <= future_from]
+
+
+def parameter_differences(stored: str, asked: str) -> list[str]:
+    """The parameters that differ between two ``params`` JSON texts, one ``name: a -> b`` each.
+
+    Examples
+    --------
+    >>> parameter_differences('{"a": 1, "b": {"c": 2}}', '{"a": 1, "b": {"c": 3}, "d": 4}')
+    ['b.c: 2 -> 3', 'd: (none) -> 4']
+    """
+
+    def flat(value: Any, prefix: str = "") -> dict[str, Any]:
+        if isinstance(value, dict):
+            out: dict[str, Any] = {}
+            for key, item in value.items():
+                out.update(flat(item, f"{prefix}{key}."))
+            return out
+        return {prefix[:-1]: value}
+
+    old, new = flat(json.loads(stored)), flat(json.loads(asked))
+    return [
+        f"{name}: {json.dumps(old[name]) if name in old else '(none)'} -> "
+        f"{json.dumps(new[name]) if name in new else '(none)'}"
+        for name in sorted(set(old) | set(new))
+        if old.get(name, ...) != new.get(name, ...)
+    ]
+
+
+def check_request(root: str | Path, config: MonitorConfig, *, signals_known: bool = False) -> None:
+    """Check what a run asks for before anything is stored.
+
+    ``signals_known``: a run with these very parameters finished axis folders of this store
+    (``monitor._index``), so its signals were columns of the captures it scored; they are not
+    looked up again (that would list folders a run with nothing new never lists).
+
+    Raises
+    ------
+    NotADirectoryError, DataNotFoundError
+        If ``root`` is not a folder or holds no capture file (an unmounted share).
+    ValueError
+        If ``config.baseline`` names a file that no axis folder holds, or a signal is a column
+        of none of the first captures of the first axes (a typo such as ``torqe``).
+    """
+    root = Path(root)
+    check_fleet_root(root)
+    if not signals_known:
+        _check_signals(root, config)
+    if (
+        config.baseline is not None
+        and next(root.glob(f"*/*/{escape(config.baseline)}"), None) is None
+    ):
+        raise ValueError(
+            f"baseline capture '{config.baseline}' is in no axis folder of '{root}'; expected "
+            "the file name of a capture, such as 2026-03-01.parquet."
+        )
+
+
+#: Axes whose first capture's columns are compared with the requested signals.
+_AXES_CHECKED = 8
+
+
+def _check_signals(root: Path, config: MonitorConfig) -> None:
+    """Raise when a requested signal is a column of no capture among the first of a few axes
+    (axes read through a profile, which maps their own column names, are not looked at)."""
+    signals = config.features.signals
+    listed: set[tuple[str, str]] = set()
+
+    def beyond_checked(robot: str, axis: str) -> bool:
+        # Without a profile every axis is looked at: the first few folders are enough.
+        if config.profile is None and len(listed) >= _AXES_CHECKED:
+            return True
+        listed.add((robot, axis))
+        return False
+
+    files, _ = discover_fleet(root, skip=beyond_checked)
+    files = [f for f in files if profile_for(f, config.profile) is None]
+    firsts = list({(f.robot, f.axis): f for f in reversed(files)}.values())[-_AXES_CHECKED:]
+    seen: dict[str, list[str]] = {}
+    for file in firsts:
+        try:
+            seen[file.path.relative_to(root).as_posix()] = _columns(file.path)
+        except Exception:
+            continue
+    if not seen:
+        return
+    missing = [name for name in signals if not any(name in cols for cols in seen.values())]
+    if missing:
+        example, columns = next(iter(seen.items()))
+        raise ValueError(
+            f"The 'signals' parameter names {missing}, a column of none of {len(seen)} capture "
+            f"file(s) looked at; {example} has columns {columns}."
+        )
+
+
+def _columns(path: Path) -> list[str]:
+    """Column names of a capture file, read from its header only."""
+    if path.suffix.lower() == ".parquet":
+        import pyarrow.parquet as pq
+
+        return [str(name) for name in pq.read_schema(path).names]
+    import pandas as pd
+
+    return [str(name) for name in pd.read_csv(path, nrows=0).columns]
+
+
+def _activity(files: Sequence[FleetFile]) -> list[tuple[str, str, int, str]]:
+    """(robot, axis, number of capture files, newest capture) of every axis with files."""
+    grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
+    for file in files:
+        grouped[(file.robot, file.axis)].append(file)
+    return [
+        (robot, axis, len(own), max(f.capture for f in own))
+        for (robot, axis), own in sorted(grouped.items())
+    ]
+
+
+def _stale_axes(store: StoreBackend, now_utc: datetime, stale_after: timedelta) -> list[str]:
+    """Axes without a new capture file for longer than ``stale_after``, one line each."""
+    lines = []
+    for row in store.axis_activity().itertuples(index=False):
+        silence = now_utc - datetime.fromisoformat(str(row.last_seen_at))
+        if silence > stale_after:
+            lines.append(
+                f"{row.robot}/{row.axis}: stale, no new capture file for {_days(silence)} "
+                f"(last seen {row.last_seen_at}, newest {row.newest_capture}; --stale-after "
+                f"{_days(stale_after)})"
+            )
+    return lines
+
+
+def _days(span: timedelta) -> str:
+    hours = span.total_seconds() / 3600
+    return f"{hours / 24:.1f} d" if hours >= 24 else f"{hours:.1f} h"

@@ -12,13 +12,18 @@ from __future__ import annotations
 import concurrent.futures
 import itertools
 import math
+import os
+import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import ExitStack
 from typing import Any, TypeVar
 
 from threadpoolctl import threadpool_limits
 
-__all__ = ["WorkerPool", "parallel_map"]
+__all__ = ["WorkerPool", "connect_dask", "parallel_map"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -45,6 +50,46 @@ def _one_blas_thread() -> None:
     if not _limited:
         threadpool_limits(1)
         _limited = True
+
+
+#: How often a worker without ``prctl`` checks that its driver still lives, in seconds.
+_PARENT_POLL_S = 1.0
+
+
+def _end_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the driver process ends, however it ends.
+
+    A driver killed by SIGTERM or SIGKILL (``timeout``, systemd, Kubernetes) runs no clean-up
+    code, and its pool's workers would live on as orphans. On Linux the kernel sends the worker
+    SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread sees
+    the parent change. Either way a parent already gone before this ran ends the worker now.
+    """
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    else:  # pragma: no cover - exercised on macOS and Windows only
+
+        def watch() -> None:
+            while os.getppid() == parent:
+                time.sleep(_PARENT_POLL_S)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True).start()
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _start_worker(parent: int) -> None:
+    """Worker initializer: end with the driver (:func:`_end_with_parent`), one BLAS thread."""
+    global _limited
+    _end_with_parent(parent)
+    # A forked worker inherits the driver's flag but not necessarily its limits (a serial map
+    # in the driver sets both, and its ``threadpool_limits`` context restores the limits).
+    _limited = False
+    _one_blas_thread()
 
 
 def _run_batch(fn: Callable[[T], R], batch: Sequence[T]) -> list[R]:
@@ -98,7 +143,7 @@ class WorkerPool:
                 self._stack.callback(self._client.close)
         elif self.workers > 1:
             self._executor = concurrent.futures.ProcessPoolExecutor(
-                max_workers=self.workers, initializer=_one_blas_thread
+                max_workers=self.workers, initializer=_start_worker, initargs=(os.getpid(),)
             )
             self._stack.callback(self._executor.shutdown, wait=True, cancel_futures=True)
         else:
@@ -267,5 +312,53 @@ def _dask_client(dask: object) -> tuple[Any, Any, bool]:
     _dask_client_check(dask)
     distributed = _import_distributed()
     if isinstance(dask, str):
-        return distributed, distributed.Client(dask), True
+        return distributed, connect_dask(dask), True
     return distributed, dask, False
+
+
+#: Seconds a Dask scheduler has to answer before connecting counts as failed.
+DASK_CONNECT_TIMEOUT_S = 10.0
+
+
+def connect_dask(address: str, timeout_s: float = DASK_CONNECT_TIMEOUT_S) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``, or a one-line error.
+
+    Raises
+    ------
+    ConnectionError
+        If no Dask scheduler answers at ``address`` within ``timeout_s`` seconds (nothing
+        listens, a firewall drops the packets, or another service answers: its bytes read as a
+        Dask message can ask for gigabytes, a ``MemoryError``).
+    ImportError
+        If ``dask.distributed`` is not installed.
+    """
+    try:
+        import distributed
+    except ImportError as error:
+        raise ImportError(
+            "The 'dask' option needs dask.distributed, which is not installed: "
+            "pip install 'axiswatch[dask]' (or run with workers instead of dask)."
+        ) from error
+    import asyncio
+
+    async def probe() -> None:
+        # The handshake alone, on a private event loop: a Client that fails half-way leaves a
+        # background loop whose clean-up prints a traceback at exit.
+        # With the client's connection arguments from Dask's configuration (TLS certificates).
+        from distributed.comm.core import connect
+
+        security = distributed.security.Security()  # type: ignore[no-untyped-call]
+        arguments = security.get_connection_args("client")  # type: ignore[no-untyped-call]
+        comm = await connect(address, timeout=timeout_s, **arguments)  # type: ignore[no-untyped-call]
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(probe(), timeout_s))
+        return distributed.Client(  # type: ignore[no-untyped-call]
+            address, timeout=timeout_s, set_as_default=False
+        )
+    except Exception as exc:  # whatever answered, it is not a usable scheduler
+        text = (str(exc).splitlines() or [""])[0] or type(exc).__name__
+        raise ConnectionError(
+            f"no Dask scheduler answered at '{address}' within {timeout_s:g} s: {text}"
+        ) from None

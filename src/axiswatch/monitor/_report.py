@@ -1,86 +1,216 @@
-"""The HTML report of a monitoring store: fleet summary on top, one trend figure per axis.
+"""The HTML report of a monitoring store: the service engineer's view.
 
-Pipeline side-stage (reads the store, writes files). The page is self-contained (figures embedded
-as base64 PNG, no script, no server) and the PNGs are also written beside it.
+Pipeline side-stage (reads the store, writes one file). ``index.html`` is self-contained: the
+charts' library (plotly.js) is embedded once, inline, so the page opens from a file share with no
+server and no network. From top to bottom:
+
+1. **Needs attention now**: the axes in alarm, with bad data, stale or with an acknowledged alarm
+   (:func:`axiswatch.monitor._attention.triage`), ranked, one engineer's line each (what moved, by how
+   much against its healthy spread, since when, what it likely means), each a link to its axis;
+   the healthy axes folded underneath with their last capture. The product default (mechanics)
+   leads; the paper's methods (PCA, LRA) are in a folded section of their own.
+2. **Axes**: per axis its line, an interactive trend of the distance and of each indicator
+   (healthy band, threshold, baseline and calibration periods, task changes where known, alarms;
+   zoom, and hover for capture, value and reason), and a short history of events (baseline,
+   threshold, alarms raised and cleared, acknowledgements, re-baselines).
+3. Rejected captures and files changed after scoring.
 """
 
 from __future__ import annotations
 
-import base64
 import html
-import io
+import os
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from axiswatch._plotting import new_axes, plot_distance_trend
+from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_method, triage
+from axiswatch.monitor._charts import distance_chart, plotly_library
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._store import StoreBackend
 
 __all__ = ["write_report"]
 
 _STYLE = """
-body { font-family: system-ui, sans-serif; margin: 2em; max-width: 1100px; color: #222; }
-table { border-collapse: collapse; font-size: 0.85em; margin-bottom: 1em; }
-th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: right; }
+body { font-family: system-ui, sans-serif; margin: 1.5em 2em; max-width: 1150px; color: #222; }
+h1 { margin-bottom: 0.2em; }
+table { border-collapse: collapse; font-size: 0.85em; margin: 0.5em 0 1em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: right; vertical-align: top; }
 th { background: #f0f0f0; }
-td:first-child, th:first-child { text-align: left; }
-.ALARM { background: #f8d0d0; font-weight: bold; }
-.calibrating { background: #e0ecf8; }
-.note { color: #555; font-size: 0.9em; }
-img { max-width: 100%; }
+td:first-child, th:first-child, td.text { text-align: left; }
+.meta, .note { color: #555; font-size: 0.9em; }
+ol.attention { padding-left: 1.5em; }
+ol.attention li { margin: 0.4em 0; padding: 0.3em 0.5em; border-left: 5px solid #999; }
+li.alarm { border-color: #c00 !important; background: #fbe3e3; }
+li.bad-data { border-color: #d80 !important; background: #fdf0d8; }
+li.stale { border-color: #a70 !important; background: #f6f0e0; }
+li.acknowledged { border-color: #888 !important; background: #eee; }
+.kind { font-weight: bold; text-transform: uppercase; font-size: 0.8em; margin-right: 0.5em; }
+.all-clear { padding: 0.5em; background: #e3f4e3; border-left: 5px solid #393; }
+details { margin: 0.8em 0; }
+summary { cursor: pointer; font-weight: bold; }
+section.axis { border-top: 1px solid #ccc; margin-top: 1.5em; }
 """
 
+# Charts in a folded section are drawn while hidden; resize them once they are shown.
+_SCRIPT = """
+document.querySelectorAll('details').forEach(function (d) {
+  d.addEventListener('toggle', function () {
+    if (d.open) { d.querySelectorAll('.plotly-graph-div').forEach(function (g) {
+      Plotly.Plots.resize(g); }); }
+  });
+});
+"""
+
+_PAPER_NOTE = (
+    "The paper's subspace distances (PCA, LRA) of |STFT| features, kept for comparison: they "
+    "measure the task as much as the health of the axis (docs/evaluation.md), so their alarms "
+    "after a task change are not maintenance calls."
+)
+
 _LEGEND = (
-    "Each figure shows, per method, the distance of every capture to the axis's baseline over "
-    "time: green band = baseline capture, blue band = calibration captures (assumed healthy; "
-    "they set the threshold), dashed red line = alarm threshold, orange dot = over the threshold, "
-    "red cross = alarm. A new baseline (after maintenance) starts a new epoch."
+    "Distance of every capture to the axis's baseline: green band = baseline capture, blue band "
+    "= calibration captures (assumed healthy; they set the threshold), dashed red = threshold, "
+    "orange = over the threshold, red cross = alarm, dotted purple = known task change. "
+    "Indicators: each one's shift of the capture from the baseline in healthy spreads (the RMS "
+    "shift healthy task changes give, from the development protocol); green band = one spread; "
+    "the distance is the sum of the squared upward shifts, so one indicator alone reaches the "
+    "threshold at the dashed line. Drag to zoom, double-click to reset, hover for the capture, "
+    "its value and the reason."
 )
 
 
-def _figure(
-    axis_rows: pd.DataFrame,
-    title: str,
-    fault_dates: pd.Series | None,
-    events: list[tuple[str, str]],
-) -> Any:
-    methods = sorted(axis_rows.method.unique())
-    axes = new_axes(len(methods), 1, figsize=(9, 2.8 * len(methods)), squeeze=False, sharex=True)
-    figure = axes[0, 0].figure
-    for ax, method in zip(axes[:, 0], methods, strict=True):
-        plot_distance_trend(
-            axis_rows[axis_rows.method == method],
-            ax=ax,
-            title=f"{title} - {method}",
-            fault_dates=fault_dates,
-            events=events,
-        )
-    figure.tight_layout()
-    return figure
+def _esc(value: Any) -> str:
+    return html.escape("" if value is None else str(value))
 
 
-def _table(frame: pd.DataFrame) -> str:
-    rows = []
-    header = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
-    for values in frame.to_dict(orient="records"):
-        css = str(values.get("state", ""))
-        cells = "".join(f"<td>{html.escape(_format(v))}</td>" for v in values.values())
-        rows.append(f'<tr class="{html.escape(css)}">{cells}</tr>')
-    return f"<table><tr>{header}</tr>{''.join(rows)}</table>"
+def _when(stamp: Any) -> str:
+    """A stored ISO time stamp as people read it: no 'T', no midnight time of day-captures."""
+    text = "" if stamp is None else str(stamp)
+    return text.removesuffix("T00:00:00").replace("T", " ")
 
 
 def _format(value: Any) -> str:
     if isinstance(value, float):
         return "" if pd.isna(value) else f"{value:.4g}"
-    return "" if value is None else str(value)
+    return "" if value is None or value is pd.NA else str(value)
+
+
+def _table(frame: pd.DataFrame, *, text: tuple[str, ...] = ()) -> str:
+    header = "".join(f"<th>{_esc(c)}</th>" for c in frame.columns)
+    body = []
+    for values in frame.to_dict(orient="records"):
+        cells = "".join(
+            f"<td class='text'>{_esc(_format(v))}</td>"
+            if k in text
+            else f"<td>{_esc(_format(v))}</td>"
+            for k, v in values.items()
+        )
+        body.append(f"<tr>{cells}</tr>")
+    return f"<table><tr>{header}</tr>{''.join(body)}</table>"
+
+
+def _link(item: AxisAttention) -> str:
+    return f"<a href='#{_esc(item.anchor)}'>{_esc(item.robot)}/{_esc(item.axis)}</a>"
+
+
+def _first_screen(items: list[AxisAttention], method: str) -> list[str]:
+    urgent = [i for i in items if i.needs_attention]
+    calm = [i for i in items if not i.needs_attention]
+    parts = [f"<section id='attention'><h2>Needs attention now ({len(urgent)})</h2>"]
+    if urgent:
+        parts.append("<ol class='attention'>")
+        for item in urgent:
+            css = item.kind.replace(" ", "-")
+            parts.append(
+                f"<li class='{css}' data-axis='{_esc(item.robot)}/{_esc(item.axis)}' "
+                f"data-kind='{_esc(item.kind)}'><span class='kind'>{_esc(item.kind)}</span>"
+                f"{_link(item)} &mdash; {_esc(item.line)} "
+                f"<span class='note'>Last capture {_esc(_when(item.last_capture_at) or 'none')}.</span>"
+                "</li>"
+            )
+        parts.append("</ol>")
+    else:
+        parts.append(
+            f"<p class='all-clear'>No axis needs attention ({_esc(method)}): no alarm, no bad "
+            "data, no stale axis.</p>"
+        )
+    parts.append(
+        f"<details id='healthy'><summary>No action needed ({len(calm)} axes)</summary>"
+        "<table><tr><th>axis</th><th>state</th><th>last capture</th><th>note</th></tr>"
+    )
+    for item in calm:
+        parts.append(
+            f"<tr><td>{_link(item)}</td><td class='text'>{_esc(item.kind)}</td>"
+            f"<td class='text'>{_esc(_when(item.last_capture_at))}</td>"
+            f"<td class='text'>{_esc(item.line)}</td></tr>"
+        )
+    parts.append("</table></details></section>")
+    return parts
+
+
+def _events(
+    rows: pd.DataFrame, acks: pd.DataFrame, rebaselines: pd.DataFrame, limit: int = 15
+) -> pd.DataFrame:
+    """The axis's history (lead method rows, every method's acknowledgements), newest last."""
+    events: list[tuple[str, str, str, str]] = []
+    previous = False
+    for row in rows.itertuples(index=False):
+        when, capture = str(row.captured_at), str(row.capture)
+        if row.role == "baseline":
+            events.append((when, capture, f"baseline of epoch {row.epoch}", ""))
+            previous = False
+        elif row.role == "excluded":
+            events.append((when, capture, "excluded from calibration", str(row.reason)))
+        elif row.role == "calibration" and "; threshold set to" in str(row.reason):
+            tail = str(row.reason).split("; ", 1)[1]
+            events.append((when, capture, "threshold set", tail))
+        elif row.role == "monitor":
+            if row.alarm and not previous:
+                events.append((when, capture, "ALARM raised", str(row.top_indicator or row.reason)))
+            elif previous and not row.alarm:
+                events.append((when, capture, "alarm cleared", f"distance {row.distance:.4g}"))
+            previous = bool(row.alarm)
+    for ack in acks.itertuples(index=False):
+        what = "re-baseline after maintenance" if ack.rebaseline else "alarm acknowledged"
+        seen = f" (alarm raised by {ack.capture})" if isinstance(ack.capture, str) else ""
+        events.append(
+            (
+                str(ack.acknowledged_at),
+                "",
+                f"{what} ({ack.method})",
+                f"by {ack.acknowledged_by}: {ack.note}{seen}",
+            )
+        )
+    for request in rebaselines.itertuples(index=False):
+        start = str(request.from_capture or "the next capture")
+        events.append(
+            (
+                str(request.requested_at),
+                "",
+                f"baseline of epoch {request.retired_epoch} retired ({request.method})",
+                f"new baseline from {start}",
+            )
+        )
+    events.sort(key=lambda e: e[0])
+    recent = [(_when(when), *rest) for when, *rest in events[-limit:]]
+    return pd.DataFrame(recent, columns=["when", "capture", "event", "detail"])
 
 
 def write_report(
-    store: StoreBackend, out: str | Path, *, labels: pd.DataFrame | None = None
+    store: StoreBackend,
+    out: str | Path,
+    *,
+    labels: pd.DataFrame | None = None,
+    stale_after: timedelta | None = None,
+    stale_factor: float = 3.0,
 ) -> Path:
-    """Write ``out/index.html`` and one PNG per axis; return the page's path.
+    """Write ``out/index.html``, one self-contained page; return its path.
+
+    Every file is written under a temporary name and renamed into place, so a browser or a web
+    server never shows a half-written page.
 
     Parameters
     ----------
@@ -90,6 +220,11 @@ def write_report(
     labels : DataFrame, optional
         Ground truth of a simulated fleet (``robot``, ``axis``, ``date``, ``task``, ``fault``);
         task changes and faulty captures are then marked on each trend.
+    stale_after : timedelta, optional
+        The summary's ``state`` is ``stale`` for axes without a new capture file for longer
+        (see :func:`fleet_summary`).
+    stale_factor : float, default=3.0
+        See :func:`axiswatch.monitor._attention.triage`.
 
     Returns
     -------
@@ -97,49 +232,119 @@ def write_report(
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = fleet_summary(store)
+    summary = fleet_summary(store, stale_after=stale_after)
     results = fleet_results(store)
     rejections = fleet_rejections(store)
+    changed = store.changed_file_table()
+    alarms = store.alarms()
+    acks = store.acknowledgements()
+    rebaselines = store.rebaseline_requests()
+    methods = sorted(
+        set(summary.method) | set(rejections.method),
+        key=lambda m: (METHOD_ORDER.index(m) if m in METHOD_ORDER else len(METHOD_ORDER), m),
+    )
+    lead = lead_method(methods)
+    generated = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    newest = results.captured_at[results.role != "baseline"].max() if not results.empty else None
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>axiswatch fleet report</title>",
-        f"<style>{_STYLE}</style></head><body>",
+        f"<style>{_STYLE}</style>",
+        f"<script type='text/javascript'>{plotly_library()}</script></head><body>",
         "<h1>axiswatch fleet report</h1>",
-        f"<p class='note'>Store: {html.escape(store.location)}. State after the last capture "
-        "of each axis: <b>ALARM</b> when the alarm rule fired and has not cleared, "
-        "<i>calibrating</i> while the threshold is not set yet.</p>",
-        "<h2>Fleet summary</h2>",
-        _table(summary) if not summary.empty else "<p>No axis has a baseline yet.</p>",
+        f"<p class='meta'>Generated {_esc(generated)} from store {_esc(store.location)}. Newest "
+        f"capture in the fleet: {_esc(_when(newest) or 'none')}. Method leading this page: "
+        f"<b>{_esc(lead or 'none')}</b>"
+        + (" (the product default)" if lead == "mechanics" else "")
+        + ".</p>",
     ]
-    if not rejections.empty:
-        parts += ["<h2>Rejected captures</h2>", _table(rejections[["method", "path", "error"]])]
-    changed = store.changed_file_table()
-    if not changed.empty:
-        parts += ["<h2>Files changed after they were scored</h2>", _table(changed)]
-    parts += ["<h2>Axes</h2>", f"<p class='note'>{html.escape(_LEGEND)}</p>"]
-    for (robot_key, axis_key), axis_rows in results.groupby(["robot", "axis"], sort=True):
-        robot, axis = str(robot_key), str(axis_key)
-        fault_dates = None
-        events: list[tuple[str, str]] = []
-        if labels is not None:
-            own = labels[(labels.robot == robot) & (labels.axis == axis)].sort_values("date")
-            fault_dates = own[own.fault != "none"].date
-            task_changed = own.task.ne(own.task.shift()) & own.task.shift().notna()
-            events = [(str(r.date), f"task -> {r.task}") for r in own[task_changed].itertuples()]
-        figure = _figure(axis_rows, f"{robot}/{axis}", fault_dates, events)
-        name = f"{robot}_{axis}.png"
-        figure.savefig(out / name, dpi=90)
-        buffer = io.BytesIO()
-        figure.savefig(buffer, format="png", dpi=90)
-        encoded = base64.b64encode(buffer.getvalue()).decode("ascii")
-        parts.append(f"<h3 id='{html.escape(robot)}-{html.escape(axis)}'>{robot} / {axis}</h3>")
+    if lead is None:
+        parts.append("<p>No axis has a baseline or a rejected capture yet.</p></body></html>")
+        page = out / "index.html"
+        _replace(page, "\n".join(parts).encode("utf-8"))
+        return page
+    items = triage(summary, results, rejections, changed, alarms, method=lead,
+                   stale_factor=stale_factor)  # fmt: skip
+    parts += _first_screen(items, lead)
+    others = [m for m in methods if m != lead]
+    if others:
         parts.append(
-            f"<img alt='distance trend of {robot}/{axis}' src='data:image/png;base64,{encoded}'>"
+            f"<details id='paper-methods'><summary>The paper's methods ({', '.join(others)}): "
+            "shown on request</summary>"
+            f"<p class='note'>{_esc(_PAPER_NOTE)}</p>"
         )
-        alarms = axis_rows[axis_rows.alarm | axis_rows.over]
-        if not alarms.empty:
-            parts.append("<p>Captures over the threshold:</p>")
-            parts.append(_table(alarms[["capture", "method", "reason"]]))
-    parts.append("</body></html>")
+        for method in others:
+            listed = triage(summary, results, rejections, changed, alarms, method=method,
+                            stale_factor=stale_factor)  # fmt: skip
+            frame = pd.DataFrame(
+                [(f"{i.robot}/{i.axis}", i.kind, i.line) for i in listed],
+                columns=["axis", "state", "line"],
+            )
+            parts += [f"<h3>{_esc(method)}</h3>", _table(frame, text=("state", "line"))]
+        parts.append("</details>")
+    parts += ["<h2>Axes</h2>", f"<p class='note'>{_esc(_LEGEND)}</p>"]
+    by_axis = {(i.robot, i.axis): i for i in items}
+    axes = sorted(by_axis, key=lambda k: items.index(by_axis[k]))
+    for robot, axis in axes:
+        item = by_axis[(robot, axis)]
+        own = results[(results.robot == robot) & (results.axis == axis)]
+        parts.append(
+            f"<section class='axis' id='{_esc(item.anchor)}'><h3>{_esc(robot)} / {_esc(axis)} "
+            f"<span class='note'>({_esc(item.kind)})</span></h3><p>{_esc(item.line)}</p>"
+        )
+        events: list[tuple[str, str]] = []
+        fault_dates: list[str] = []
+        if labels is not None:
+            truth = labels[(labels.robot == robot) & (labels.axis == axis)].sort_values("date")
+            fault_dates = [str(d) for d in truth[truth.fault != "none"].date]
+            change = truth.task.ne(truth.task.shift()) & truth.task.shift().notna()
+            events = [(str(r.date), f"task -> {r.task}") for r in truth[change].itertuples()]
+        lead_rows = own[own.method == lead]
+        if not lead_rows.empty:
+            parts.append(
+                distance_chart(
+                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=lead == "mechanics",
+                    events=events, fault_dates=fault_dates,
+                )
+            )  # fmt: skip
+        history = _events(
+            lead_rows,
+            acks[(acks.robot == robot) & (acks.axis == axis)],
+            rebaselines[(rebaselines.robot == robot) & (rebaselines.axis == axis)],
+        )
+        if not history.empty:
+            parts += [
+                "<h4>History</h4>",
+                _table(history, text=("when", "capture", "event", "detail")),
+            ]
+        paper_rows = own[own.method.isin(others)]
+        if not paper_rows.empty:
+            parts.append(
+                f"<details class='paper'><summary>The paper's methods on {_esc(robot)}/"
+                f"{_esc(axis)} ({', '.join(dict.fromkeys(paper_rows.method))})</summary>"
+                + distance_chart(
+                    paper_rows, div_id=f"paper-{robot}-{axis}", indicators=False, events=events
+                )
+                + "</details>"
+            )
+        parts.append("</section>")
+    if not rejections.empty:
+        parts += [
+            "<h2 id='rejected'>Rejected captures</h2>",
+            _table(rejections[["method", "path", "error"]], text=("method", "path", "error")),
+        ]
+    if not changed.empty:
+        parts += [
+            "<h2>Files changed after they were scored</h2>",
+            _table(changed[["path", "detected_at"]], text=("path", "detected_at")),
+        ]
+    parts.append(f"<script type='text/javascript'>{_SCRIPT}</script></body></html>")
     page = out / "index.html"
-    page.write_text("\n".join(parts), encoding="utf-8")
+    _replace(page, "\n".join(parts).encode("utf-8"))
     return page
+
+
+def _replace(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a temporary file beside it, then a rename."""
+    temporary = path.with_name(f".{path.name}.tmp")
+    temporary.write_bytes(data)
+    os.replace(temporary, path)

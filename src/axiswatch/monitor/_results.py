@@ -5,12 +5,17 @@ Pipeline stage below the report and the CLI; it only reads.
 
 from __future__ import annotations
 
+import json
+from datetime import UTC, datetime, timedelta
+
 import numpy as np
 import pandas as pd
 
+from axiswatch._attribution import describe_top_indicator
+from axiswatch._mechanics import COLUMNS
 from axiswatch.monitor._store import StoreBackend
 
-__all__ = ["fleet_rejections", "fleet_results", "fleet_summary"]
+__all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
 
 def fleet_results(
@@ -18,10 +23,42 @@ def fleet_results(
 ) -> pd.DataFrame:
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
 
-    Further columns: ``captured_at``, ``epoch``, ``role``, ``over``, ``reason``, ``details``.
-    Baseline rows are included (role ``baseline``, no distance).
+    Further columns: ``captured_at``, ``epoch``, ``role``, ``over``, ``reason``, ``details``
+    (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the default method,
+    over the threshold or in alarm: the indicator with the largest share of the distance, its
+    shift and likely meaning; None otherwise). Baseline rows are included
+    (role ``baseline``, no distance).
     """
-    return store.score_table(robot=robot, axis=axis)
+    frame = store.score_table(robot=robot, axis=axis)
+    # Named only where it explains an alarm: "likely a damaged gear tooth" on a capture under
+    # the threshold would read as a finding.
+    frame["top_indicator"] = [
+        describe_top_indicator(json.loads(details).get("indicators", {})) if flagged else None
+        for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
+    ]
+    return frame
+
+
+def indicator_spreads(results: pd.DataFrame) -> pd.DataFrame:
+    """Each indicator's shift from the baseline in healthy spreads, one column per indicator.
+
+    Parameters
+    ----------
+    results : DataFrame
+        :func:`fleet_results` (its ``details`` column).
+
+    Returns
+    -------
+    DataFrame
+        Same index; NaN where a score has no indicators (baselines, the paper's methods).
+    """
+    rows = [
+        {name: entry["spreads"] for name, entry in json.loads(d).get("indicators", {}).items()}
+        for d in results["details"]
+    ]
+    frame = pd.DataFrame(rows, index=results.index, dtype=np.float64)
+    known = [name for name in COLUMNS if name in frame.columns]  # in the stage's order
+    return frame[known + [name for name in frame.columns if name not in known]]
 
 
 def fleet_rejections(store: StoreBackend) -> pd.DataFrame:
@@ -29,19 +66,49 @@ def fleet_rejections(store: StoreBackend) -> pd.DataFrame:
     return store.rejection_table()
 
 
-def fleet_summary(store: StoreBackend) -> pd.DataFrame:
+def fleet_summary(
+    store: StoreBackend, *, stale_after: timedelta | None = None, now: datetime | None = None
+) -> pd.DataFrame:
     """One row per axis and method of the active baselines: the fleet's state at a glance.
 
     Columns: ``robot``, ``axis``, ``method``, ``epoch``, ``baseline`` (capture), ``threshold``,
     ``scored`` (calibration and monitored captures), ``over`` (captures over the threshold),
-    ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``state``
-    (``calibrating``, ``ok`` or ``ALARM``), ``rejected`` (files of the axis rejected).
+    ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``last_seen`` (when a new
+    capture file of the axis was last seen, UTC), ``state``, ``rejected`` (files of the axis
+    rejected), ``threshold_origin`` (:meth:`~axiswatch._calibration.Threshold.describe`),
+    ``alarm_since`` (the capture that raised the alarm in force) and ``acknowledged_by`` (who
+    saw it, if anyone).
+
+    ``state``, the first that holds: ``ALARM`` (the alarm rule fired and has not cleared),
+    ``stale`` (no new capture file for longer than ``stale_after``), ``bad data`` (the newest
+    capture was rejected by the data-quality check: no motion, a stuck signal, out of range),
+    ``calibrating`` (threshold not set yet), ``ok``.
     """
     frame = store.summary_table()
-    state = np.where(
-        frame["threshold"].isna(),
-        "calibrating",
-        np.where(frame["last_alarm"].fillna(0).astype(bool), "ALARM", "ok"),
+    activity = store.axis_activity()[["robot", "axis", "last_seen_at"]]
+    frame = frame.merge(activity, on=["robot", "axis"], how="left")
+    frame = frame.merge(store.latest_bad_data(), on=["robot", "axis", "method"], how="left")
+    when = datetime.now(UTC) if now is None else now
+    seen = pd.to_datetime(frame["last_seen_at"], utc=True)
+    stale = (
+        np.zeros(len(frame), dtype=bool)
+        if stale_after is None
+        else ((pd.Timestamp(when) - seen) > pd.Timedelta(stale_after)).to_numpy(dtype=bool)
+    )
+    bad = (frame["bad_capture"].notna() & (frame["bad_capture"] > frame["last_capture"])).to_numpy(
+        dtype=bool
+    )
+    state = np.select(
+        [
+            frame["last_alarm"].fillna(0).astype(bool).to_numpy(),
+            stale,
+            bad,
+            frame["threshold"].isna(),
+        ],
+        ["ALARM", "stale", "bad data", "calibrating"],
+        "ok",
     )
     frame["state"] = state
-    return frame.drop(columns="last_alarm")
+    frame = frame.rename(columns={"last_seen_at": "last_seen"})
+    columns = [c for c in frame.columns if c not in ("last_alarm", "bad_capture", "rejected")]
+    return frame[[*columns, "rejected"]]

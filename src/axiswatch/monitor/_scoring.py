@@ -10,21 +10,26 @@ from __future__ import annotations
 import copy
 import dataclasses
 import hashlib
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from axiswatch._attribution import explain_indicators
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector
+from axiswatch._detectors import BaselineDetector, IndicatorDetector
 from axiswatch._features import FeatureSpec
+from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
+from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CaptureError
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
+from axiswatch.monitor._quality import QualityReference, data_quality_problem
 
 __all__ = [
     "MONITOR_FEATURES",
@@ -35,6 +40,7 @@ __all__ = [
     "ScoreOutcome",
     "file_hash",
     "fit_baseline",
+    "params_hash",
     "score_capture",
 ]
 
@@ -80,6 +86,11 @@ class MonitorConfig:
         A detector to use instead of the method's (an unfitted estimator; cloned when fitted).
     stage : FeatureStage or None, default=None
         A feature stage to use instead of the method's.
+    profile : AxisProfile, optional
+        Column names, units and time stamps of every axis's files (``--profile FILE``). When
+        None, each axis's profile is looked up in the fleet folder (:meth:`AxisProfile.find`:
+        ``<axis>/axis.toml``, ``<robot>/robot.toml``, ``axiswatch.toml``), and files without one
+        are read as the project's format.
 
     Examples
     --------
@@ -101,6 +112,7 @@ class MonitorConfig:
     align_phase: bool = True
     detector: BaselineDetector | None = None
     stage: FeatureStage | None = None
+    profile: AxisProfile | None = None
 
     def __post_init__(self) -> None:
         method_preset(self.method)
@@ -121,6 +133,7 @@ class MonitorConfig:
             )
         if self.clear_m < 1:
             raise ValueError(f"The 'clear_m' parameter must be >= 1. Got {self.clear_m!r} instead.")
+        _check_features(self.features)
 
     @property
     def preset(self) -> MethodPreset:
@@ -173,7 +186,43 @@ class MonitorConfig:
         if model.stage is not None:
             params["stage"] = {"name": type(model.stage).__name__, **vars(model.stage)}
             params["threshold_floor"] = self.threshold_floor()
+        if self.profile is not None:  # absent otherwise, so stores made before it still match
+            params["profile"] = self.profile.source
         return params
+
+
+def _check_features(spec: FeatureSpec) -> None:
+    signals = spec.signals
+    if not signals or any(not name or name != name.strip() for name in signals):
+        raise ValueError(
+            "The 'signals' parameter must name at least one signal column, without blanks. "
+            f"Got {list(signals)!r} instead."
+        )
+    if len(set(signals)) != len(signals):
+        raise ValueError(f"The 'signals' parameter names a column twice. Got {list(signals)!r}.")
+    if not (isinstance(spec.segment_length, int) and spec.segment_length >= 2):
+        raise ValueError(
+            "The 'segment_length' parameter must be an int >= 2 (samples per STFT window). "
+            f"Got {spec.segment_length!r} instead."
+        )
+    if not (isinstance(spec.hop, int) and 1 <= spec.hop <= spec.segment_length):
+        raise ValueError(
+            "The 'hop' parameter must be an int in [1, segment_length] (samples between STFT "
+            f"windows). Got {spec.hop!r} instead (segment_length {spec.segment_length})."
+        )
+
+
+def params_hash(config: MonitorConfig) -> str:
+    """Short hash of the parameters (what a rejection made under them depended on)."""
+    text = json.dumps(config.params(), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def profile_for(file: FleetFile, given: AxisProfile | None) -> AxisProfile | None:
+    """The profile a capture file is read with: the given one, else the fleet folder's."""
+    if given is not None:
+        return given
+    return AxisProfile.find(file.path.parents[2], file.robot, file.axis)
 
 
 def file_hash(path: Path) -> str:
@@ -188,6 +237,18 @@ def file_hash(path: Path) -> str:
 def _one_line(exc: BaseException, path: Path, relative: str) -> str:
     text = (str(exc).splitlines() or [type(exc).__name__])[0].replace(str(path), relative)
     return text if text.startswith(relative) else f"{relative}: {text}"
+
+
+def _failure_kind(exc: BaseException) -> tuple[str, bool]:
+    """Kind of a job's failure and whether it is transient: an operating-system error reading
+    the file (permission, I/O error on a share) may pass; a malformed capture does not."""
+    if isinstance(exc, OSError) and not isinstance(exc, CaptureError):
+        return "unreadable", True
+    return "invalid", False
+
+
+def _bad_data(relative: str, problem: str) -> str:
+    return f"{relative}: bad data ({problem}); a data-quality verdict, not a maintenance one"
 
 
 # --- jobs: self-contained, picklable, never raise for a bad capture -------------------------
@@ -206,6 +267,7 @@ class FitJob:
     file: FleetFile
     relative: str
     model: HealthModel
+    profile: AxisProfile | None = None
 
 
 @dataclass(frozen=True)
@@ -222,6 +284,9 @@ class FitOutcome:
     file_hash: str
     features_hash: str
     error: str | None
+    kind: str = "invalid"
+    transient: bool = False
+    reference: QualityReference | None = None
 
 
 def fit_baseline(job: FitJob) -> FitOutcome:
@@ -229,14 +294,25 @@ def fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
-        capture = read_capture(path, job.model.features.signals)
+        capture = read_capture(
+            path, job.model.features.signals, profile=profile_for(job.file, job.profile)
+        )
+        problem = data_quality_problem(capture)
+        if problem is not None:
+            error = _bad_data(job.relative, problem)
+            return FitOutcome(job, "", None, None, {}, digest, "", error, "bad data")
         model = copy.deepcopy(job.model).fit(capture)
     except _DATA_ERRORS as exc:
-        return FitOutcome(job, "", None, None, {}, "", "", _one_line(exc, path, job.relative))
+        kind, transient = _failure_kind(exc)
+        error = _one_line(exc, path, job.relative)
+        return FitOutcome(job, "", None, None, {}, "", "", error, kind, transient)
     features_hash = hashlib.sha256(model.baseline_features_.X.tobytes()).hexdigest()
     key, blob = keep_model(model)
     inline = model if blob is None else None
-    return FitOutcome(job, key, blob, inline, dict(capture.rates_hz), digest, features_hash, None)
+    return FitOutcome(
+        job, key, blob, inline, dict(capture.rates_hz), digest, features_hash, None,
+        reference=QualityReference.of(capture),
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -248,6 +324,8 @@ class ScoreJob:
     baseline_id: int
     model: ModelRef
     rates_hz: dict[str, float]
+    profile: AxisProfile | None = None
+    reference: QualityReference | None = None
 
 
 @dataclass(frozen=True)
@@ -261,6 +339,8 @@ class ScoreOutcome:
     distance: float
     details: dict[str, Any]
     error: str | None
+    kind: str = "invalid"
+    transient: bool = False
 
 
 def score_capture(job: ScoreJob) -> ScoreOutcome:
@@ -272,16 +352,29 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
         model = resolve_model(job.model)
-        capture = read_capture(path, model.features.signals, expected_rates_hz=job.rates_hz)
+        capture = read_capture(
+            path,
+            model.features.signals,
+            expected_rates_hz=job.rates_hz,
+            profile=profile_for(job.file, job.profile),
+        )
+        problem = data_quality_problem(capture, job.reference)
+        if problem is not None:
+            error = _bad_data(job.relative, problem)
+            return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "bad data")
         features, lag = model.featurize(capture)
         details: dict[str, Any] = {
             "phase_lag_samples": int(lag),
             "phase_lag_s": float(lag / features.rate_hz),
             "n_rows": int(features.X.shape[0]),
         }
-        distance, diagnostics = model.detector_.distance_and_diagnostics(features.X)
+        detector = model.detector_
+        distance, diagnostics = detector.distance_and_diagnostics(features.X)
         details.update(diagnostics)
+        if isinstance(model.stage_, MechanicsStage) and isinstance(detector, IndicatorDetector):
+            details["indicators"] = explain_indicators(model.stage_, detector, features.X)
     except _DATA_ERRORS as exc:
+        kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)
-        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error)
+        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, kind, transient)
     return ScoreOutcome(job, digest, size, mtime, distance, details, None)

@@ -12,7 +12,7 @@ opened with ``BEGIN IMMEDIATE`` (the writer takes the lock before it reads the s
 on). A process killed at any moment therefore leaves the store as it was after its last commit,
 and two processes writing at once take turns instead of corrupting it.
 
-Tables (schema version 1):
+Tables (schema version 2):
 
 ``baselines``
     one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
@@ -46,6 +46,11 @@ their rows loses no result, only time):
 ``axis_folders``
     per axis folder and method, its modification time when a run last finished the axis: a
     folder whose time is unchanged holds no new, removed or renamed file, and is not listed.
+``acknowledgements`` (schema version 2)
+    who saw an alarm, when, and what they noted: the alarm is named by the score that raised
+    it, so an alarm that clears and is raised again needs a new acknowledgement; a
+    re-baseline after maintenance is recorded here too. A version-1 store gains the table when
+    it is opened (nothing else changes).
 """
 
 from __future__ import annotations
@@ -65,10 +70,11 @@ import pandas as pd
 
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._decision import AxisHistory, Decision
+from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, stored_threshold
 
 __all__ = [
     "SCHEMA_VERSION",
+    "AlarmState",
     "Baseline",
     "ChangedFile",
     "IndexedFile",
@@ -82,6 +88,7 @@ __all__ = [
     "Store",
     "StoreBackend",
     "now",
+    "now_us",
 ]
 
 
@@ -166,6 +173,13 @@ class Rejection:
     path: str
     file_hash: str
     error: str
+    #: ``layout``, ``unreadable``, ``invalid``, ``bad data``, ``out of order`` or ``future``.
+    kind: str = "invalid"
+    #: The parameters the rejection was made under (None: it does not depend on them).
+    params_hash: str | None = None
+    #: Re-checked every run (an unreadable file, a future date); forgotten once resolved.
+    transient: bool = False
+    acknowledged_at: str | None = None
 
 
 @dataclass(frozen=True)
@@ -213,6 +227,30 @@ class SavedModel:
     library_version: str
     model_hash: str
     rates_hz: dict[str, float]
+    #: ``QualityReference.spans`` of the baseline capture (the no-motion check of later
+    #: captures); None for a model saved before it was kept, which is then refitted.
+    reference: dict[str, float] | None = None
+
+
+@dataclass(frozen=True)
+class AlarmState:
+    """An axis in alarm (one method): since which capture, and whether someone saw it."""
+
+    robot: str
+    axis: str
+    method: str
+    baseline_id: int
+    raised_score_id: int
+    raised_capture: str
+    raised_at: str
+    acknowledged_by: str | None
+    note: str | None
+    acknowledged_at: str | None
+
+    @property
+    def acknowledged(self) -> bool:
+        """An acknowledgement names this alarm (it was not cleared and raised again since)."""
+        return self.acknowledged_by is not None
 
 
 # --- the protocol ------------------------------------------------------------------------------
@@ -331,18 +369,113 @@ class StoreBackend(Protocol):
         """``(robot, axis)`` whose active baseline's last monitored capture is in alarm, sorted."""
         ...
 
+    # standing problems and axis activity (issue 11)
+
+    def resolve_transient(self, method: str, seen_before: str) -> None:
+        """Forget transient rejections of ``method`` not seen again since ``seen_before``."""
+        ...
+
+    def retry_rejections(self, paths: Sequence[str], method: str | None = None) -> int:
+        """Forget the rejections of ``paths`` (all when empty): the next run tries them again."""
+        ...
+
+    def acknowledge_problems(self, paths: Sequence[str], at: str, method: str | None = None) -> int:
+        """Mark the rejections and changed files of ``paths`` (all when empty) as seen."""
+        ...
+
+    def changed_file_acknowledged(self, change: ChangedFile) -> bool:
+        """Whether someone acknowledged this change of this file."""
+        ...
+
+    def record_axis_activity(self, seen: Sequence[tuple[str, str, int, str]], at: str) -> None:
+        """Per ``(robot, axis, n_files, newest_capture)``: ``last_seen_at`` becomes ``at`` when
+        the axis is new or has a file it did not have before."""
+        ...
+
+    def axis_activity(self) -> pd.DataFrame:
+        """robot, axis, n_files, newest_capture, last_seen_at (ISO, UTC); by robot, axis."""
+        ...
+
+    def latest_bad_data(self) -> pd.DataFrame:
+        """robot, axis, method, bad_capture: each axis's newest capture rejected as bad data."""
+        ...
+
+    def problem_table(self, method: str | None = None) -> pd.DataFrame:
+        """Rejections and changed files: kind, method, path, error, since, acknowledged_at."""
+        ...
+
+    # acknowledgements (who saw an alarm)
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method, ordered by robot, axis, method."""
+        ...
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
+
+        Parameters
+        ----------
+        robot, axis : str
+        by : str
+            Who (not empty).
+        note : str
+            What they saw or did (not empty).
+        method : str or None, default=None
+            Only this method's alarm; default every method in alarm on the axis.
+        rebaseline : bool, default=False
+            The record of a re-baseline after maintenance: made for the latest baseline of each
+            method whether or not it is in alarm (it names the alarm when there is one). The
+            caller retires the baselines (``rebaseline`` of the ledger) before.
+
+        Returns
+        -------
+        list of str
+            The methods acknowledged.
+
+        Raises
+        ------
+        ValueError
+            If ``by`` or ``note`` is empty.
+        StoreError
+            If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
+            alarm.
+        """
+        ...
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
+        that raised the alarm seen; None for a re-baseline without alarm), ``rebaseline``,
+        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ...
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
+        ...
+
     # tables for people (results, summary, report)
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         """One row per score: robot, axis, capture, method, distance, threshold, alarm,
-        captured_at, epoch, role, over, reason, details; ordered by robot, axis, method,
+        captured_at, epoch, role, over, reason, details, path; ordered by robot, axis, method,
         capture time, capture and epoch."""
         ...
 
     def summary_table(self) -> pd.DataFrame:
         """One row per active baseline: robot, axis, method, epoch, baseline, threshold, scored,
-        over, alarms (raised), last_capture, last_distance, last_alarm, rejected; ordered by
-        robot, axis, method."""
+        over, alarms (raised), last_capture, last_distance, last_alarm, rejected,
+        threshold_origin (:meth:`~axiswatch._calibration.Threshold.describe`; None while
+        calibrating), alarm_since (the capture that raised the alarm in force) and
+        acknowledged_by (who saw it, if anyone); ordered by robot, axis, method."""
         ...
 
     def rejection_table(self) -> pd.DataFrame:
@@ -351,15 +484,31 @@ class StoreBackend(Protocol):
         ...
 
     def changed_file_table(self) -> pd.DataFrame:
-        """Changed files: path, detected_at; ordered by path."""
+        """Changed files: robot, axis, path, detected_at; ordered by path, then as recorded."""
         ...
 
 
 # --- SQLite ------------------------------------------------------------------------------------
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
-_SCHEMA = """
+_ACKNOWLEDGEMENTS = """
+CREATE TABLE acknowledgements (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    score_id INTEGER REFERENCES scores (id),
+    rebaseline INTEGER NOT NULL,
+    acknowledged_by TEXT NOT NULL,
+    note TEXT NOT NULL,
+    acknowledged_at TEXT NOT NULL
+)
+"""
+
+_SCHEMA = (
+    """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
 CREATE TABLE baselines (
     id INTEGER PRIMARY KEY,
@@ -436,6 +585,32 @@ CREATE TABLE changed_files (
     UNIQUE (path, scored_hash, current_hash)
 );
 """
+    + _ACKNOWLEDGEMENTS
+)
+
+#: The alarm episode of every baseline chosen by ``{where}`` whose last monitored capture is in
+#: alarm: the score that raised it (the first alarmed one after the last clean one) and its
+#: latest acknowledgement.
+_ALARMS = """
+WITH last AS (
+    SELECT b.id AS baseline_id, b.robot, b.axis, b.method,
+        (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
+         ORDER BY s.id DESC LIMIT 1) AS alarm,
+        (SELECT max(s.id) FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
+         AND s.alarm=0) AS last_clean
+    FROM baselines b {where}
+)
+SELECT l.robot, l.axis, l.method, l.baseline_id, r.id AS raised_score_id,
+    r.capture AS raised_capture, r.captured_at AS raised_at, a.acknowledged_by, a.note,
+    a.acknowledged_at
+FROM last l
+JOIN scores r ON r.id = (SELECT min(s.id) FROM scores s WHERE s.baseline_id=l.baseline_id
+    AND s.role='monitor' AND s.alarm=1 AND s.id > coalesce(l.last_clean, 0))
+LEFT JOIN acknowledgements a ON a.id = (SELECT max(k.id) FROM acknowledgements k
+    WHERE k.score_id=r.id)
+WHERE l.alarm=1
+ORDER BY l.robot, l.axis, l.method
+"""
 
 _CACHES = """
 CREATE TABLE IF NOT EXISTS fitted_models (
@@ -446,7 +621,8 @@ CREATE TABLE IF NOT EXISTS fitted_models (
     model_hash TEXT NOT NULL,
     model BLOB NOT NULL,
     rates_hz TEXT NOT NULL,
-    saved_at TEXT NOT NULL
+    saved_at TEXT NOT NULL,
+    reference TEXT
 );
 CREATE INDEX IF NOT EXISTS fitted_models_hash ON fitted_models (model_hash);
 CREATE TABLE IF NOT EXISTS file_index (
@@ -500,10 +676,41 @@ _INSERT_SCORE = (
     "file_hash, file_size, file_mtime_ns, role, distance, threshold, over, alarm, "
     "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
+#: A rejection, or a refreshed one: a rejection whose reason changed loses its acknowledgement
+#: (it is news again).
 _INSERT_REJECTION = (
-    "INSERT OR IGNORE INTO rejections (robot, axis, method, capture, path, file_hash, "
-    "error, rejected_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
+    "INSERT INTO rejections (robot, axis, method, capture, path, file_hash, error, rejected_at, "
+    "kind, params_hash, transient) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+    "ON CONFLICT (method, path, file_hash) DO UPDATE SET error=excluded.error, "
+    "rejected_at=excluded.rejected_at, kind=excluded.kind, params_hash=excluded.params_hash, "
+    "transient=excluded.transient, acknowledged_at=CASE WHEN error=excluded.error "
+    "THEN acknowledged_at END"
 )
+
+#: Additive upgrades applied on open, each (table, column, declaration): older readers ignore
+#: them, so the schema version stays.
+_ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("rejections", "kind", "TEXT"),
+    ("rejections", "params_hash", "TEXT"),
+    ("rejections", "transient", "INTEGER NOT NULL DEFAULT 0"),
+    ("rejections", "acknowledged_at", "TEXT"),
+    ("changed_files", "acknowledged_at", "TEXT"),
+)
+_AXIS_ACTIVITY = """
+CREATE TABLE IF NOT EXISTS axis_activity (
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    n_files INTEGER NOT NULL,
+    newest_capture TEXT NOT NULL,
+    last_seen_at TEXT NOT NULL,
+    PRIMARY KEY (robot, axis)
+)
+"""
+
+
+def now_us() -> str:
+    """UTC to the microsecond: orders the rejections seen again within one run."""
+    return datetime.now(UTC).isoformat(timespec="microseconds")
 
 
 @runtime_checkable
@@ -591,7 +798,7 @@ class SQLiteStore:
     >>> import tempfile, pathlib
     >>> store = SQLiteStore(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
     >>> store.version, len(store.score_table())
-    (1, 0)
+    (2, 0)
     >>> store.close()
     """
 
@@ -620,9 +827,10 @@ class SQLiteStore:
             self._connection.execute("PRAGMA synchronous = NORMAL")
             self._connection.execute("PRAGMA foreign_keys = ON")
             self.version = self._ensure_schema()
+            self._upgrade()
         except sqlite3.DatabaseError as exc:
             raise StoreError(
-                f"store '{self.path}' cannot be opened as an axiswatch SQLite store: {exc}."
+                f"store '{self.path}': cannot be opened as an axiswatch SQLite store: {exc}."
             ) from None
 
     def __repr__(self) -> str:
@@ -651,6 +859,10 @@ class SQLiteStore:
                     f"(tables {sorted(tables)}); use a new file for the store."
                 )
             version = connection.execute("SELECT max(version) FROM schema_version").fetchone()[0]
+            if version == 1:  # version 2 only adds the acknowledgements table
+                connection.execute(_ACKNOWLEDGEMENTS)
+                connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
+                version = SCHEMA_VERSION
             if version != SCHEMA_VERSION:
                 raise StoreError(
                     f"store '{self.path}' has schema version {version}; this axiswatch reads "
@@ -667,6 +879,9 @@ class SQLiteStore:
         for statement in _CACHES.split(";"):
             if statement.strip():
                 connection.execute(statement)
+        present = {row[1] for row in connection.execute("PRAGMA table_info(fitted_models)")}
+        if "reference" not in present:  # a store made before the column: refitted once
+            connection.execute("ALTER TABLE fitted_models ADD COLUMN reference TEXT")
         if indexed is None:
             # A store made before the index: its scored files enter it as they were scored,
             # so that a later change in place is still found.
@@ -675,25 +890,50 @@ class SQLiteStore:
                 "SELECT path, file_size, file_mtime_ns, file_hash, 0 FROM scores ORDER BY id"
             )
 
+    def _upgrade(self) -> None:
+        with self._write() as connection:
+            for table, column, declaration in _ADDED_COLUMNS:
+                present = {row[1] for row in connection.execute(f"PRAGMA table_info({table})")}
+                if column not in present:
+                    connection.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
+            connection.execute(_AXIS_ACTIVITY)
+
+    @contextmanager
+    def _errors(self) -> Iterator[None]:
+        """SQLite failures (corrupt file, full disk, I/O error) as one-line StoreErrors."""
+        try:
+            yield
+        except sqlite3.Error as exc:
+            hint = ""
+            if isinstance(exc, sqlite3.OperationalError) and "disk" in str(exc):
+                hint = "; is the disk full or failing? Free space, then run again"
+            elif isinstance(exc, sqlite3.DatabaseError) and "malformed" in str(exc):
+                hint = "; the file is corrupt: restore a backup or start a new store"
+            raise StoreError(f"store '{self.path}': {exc}{hint}.") from exc
+
     @contextmanager
     def _write(self) -> Iterator[sqlite3.Connection]:
         """One write transaction (``BEGIN IMMEDIATE`` ... ``COMMIT``; rolled back on error)."""
         connection = self._connection
-        connection.execute("BEGIN IMMEDIATE")
-        try:
-            yield connection
-        except BaseException:
-            connection.execute("ROLLBACK")
-            raise
-        connection.execute("COMMIT")
+        with self._errors():
+            connection.execute("BEGIN IMMEDIATE")
+            try:
+                yield connection
+            except BaseException:
+                if connection.in_transaction:
+                    connection.execute("ROLLBACK")
+                raise
+            connection.execute("COMMIT")
 
     def _rows(self, sql: str, parameters: tuple[Any, ...] = ()) -> list[sqlite3.Row]:
-        return list(self._connection.execute(sql, parameters))
+        with self._errors():
+            return list(self._connection.execute(sql, parameters))
 
     def _frame(self, sql: str, parameters: tuple[Any, ...] = ()) -> pd.DataFrame:
-        cursor = self._connection.execute(sql, parameters)
-        columns = [d[0] for d in cursor.description]
-        return pd.DataFrame([tuple(r) for r in cursor.fetchall()], columns=columns)
+        with self._errors():
+            cursor = self._connection.execute(sql, parameters)
+            columns = [d[0] for d in cursor.description]
+            return pd.DataFrame([tuple(r) for r in cursor.fetchall()], columns=columns)
 
     # --- fitted models (monitor._persist blobs) ------------------------------------------------
 
@@ -704,8 +944,8 @@ class SQLiteStore:
 
     def saved_model(self, baseline_id: int) -> SavedModel | None:
         row = self._connection.execute(
-            "SELECT file_hash, params, library_version, model_hash, rates_hz FROM fitted_models "
-            "WHERE baseline_id=?",
+            "SELECT file_hash, params, library_version, model_hash, rates_hz, reference "
+            "FROM fitted_models WHERE baseline_id=?",
             (baseline_id,),
         ).fetchone()
         if row is None:
@@ -713,17 +953,19 @@ class SQLiteStore:
         return SavedModel(
             row["file_hash"], row["params"], row["library_version"], row["model_hash"],
             json.loads(row["rates_hz"]),
+            None if row["reference"] is None else json.loads(row["reference"]),
         )  # fmt: skip
 
     def save_model(self, baseline_id: int, saved: SavedModel, blob: bytes) -> None:
         with self._write() as db:
             db.execute(
                 "INSERT OR REPLACE INTO fitted_models (baseline_id, file_hash, params, "
-                "library_version, model_hash, model, rates_hz, saved_at) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                "library_version, model_hash, model, rates_hz, saved_at, reference) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (
                     baseline_id, saved.file_hash, saved.params, saved.library_version,
                     saved.model_hash, blob, json.dumps(saved.rates_hz), now(),
+                    None if saved.reference is None else json.dumps(saved.reference),
                 ),
             )  # fmt: skip
 
@@ -929,11 +1171,18 @@ class SQLiteStore:
                 ).fetchone()[0]
                 if retired is not None:
                     return False
-            cursor = db.execute(
+            existed = db.execute(
+                "SELECT 1 FROM rejections WHERE method=? AND path=? AND file_hash=?",
+                (r.method, r.path, r.file_hash),
+            ).fetchone()
+            db.execute(
                 _INSERT_REJECTION,
-                (r.robot, r.axis, r.method, r.capture, r.path, r.file_hash, r.error, now()),
-            )
-        return cursor.rowcount > 0
+                (
+                    r.robot, r.axis, r.method, r.capture, r.path, r.file_hash, r.error, now_us(),
+                    r.kind, r.params_hash, int(r.transient),
+                ),
+            )  # fmt: skip
+        return existed is None
 
     def record_changed_file(self, change: ChangedFile) -> None:
         c = change
@@ -1034,11 +1283,12 @@ class SQLiteStore:
 
     def rejections(self, method: str) -> list[Rejection]:
         rows = self._rows(
-            "SELECT robot, axis, method, capture, path, file_hash, error FROM rejections "
-            "WHERE method=? ORDER BY id",
+            "SELECT robot, axis, method, capture, path, file_hash, error, "
+            "coalesce(kind, 'invalid') AS kind, params_hash, transient, acknowledged_at "
+            "FROM rejections WHERE method=? ORDER BY id",
             (method,),
         )
-        return [Rejection(**dict(r)) for r in rows]
+        return [Rejection(**{**dict(r), "transient": bool(r["transient"])}) for r in rows]
 
     def alarmed_captures(self, method: str) -> set[tuple[str, str, str]]:
         rows = self._rows(
@@ -1055,12 +1305,130 @@ class SQLiteStore:
         )
         return [(r["robot"], r["axis"]) for r in rows if r["alarm"]]
 
+    # --- alarms and the people who saw them ------------------------------------------------
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method."""
+        where = "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
+        rows = self._rows(_ALARMS.format(where=where), (method, method))
+        return [AlarmState(**dict(row)) for row in rows]
+
+    def acknowledge(
+        self,
+        robot: str,
+        axis: str,
+        *,
+        by: str,
+        note: str,
+        method: str | None = None,
+        rebaseline: bool = False,
+    ) -> list[str]:
+        """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
+
+        Parameters
+        ----------
+        robot, axis : str
+        by : str
+            Who (not empty).
+        note : str
+            What they saw or did (not empty).
+        method : str or None, default=None
+            Only this method's alarm; default every method in alarm on the axis.
+        rebaseline : bool, default=False
+            The record of a re-baseline after maintenance: made for the latest baseline of each
+            method whether or not it is in alarm (it names the alarm when there is one). The
+            caller retires the baselines (``rebaseline`` of the ledger) before.
+
+        Returns
+        -------
+        list of str
+            The methods acknowledged.
+
+        Raises
+        ------
+        ValueError
+            If ``by`` or ``note`` is empty.
+        StoreError
+            If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
+            alarm.
+        """
+        for name, value in (("by", by), ("note", note)):
+            if not value.strip():
+                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
+        stamp = datetime.now(UTC).isoformat(timespec="seconds")
+        with self._write() as db:
+            baselines = db.execute(
+                "SELECT b.id, b.method FROM baselines b WHERE b.robot=? AND b.axis=? "
+                "AND (? IS NULL OR b.method=?) AND b.epoch=(SELECT max(o.epoch) FROM baselines o "
+                "WHERE o.robot=b.robot AND o.axis=b.axis AND o.method=b.method) "
+                + ("" if rebaseline else "AND b.retired_at IS NULL ")
+                + "ORDER BY b.method",
+                (robot, axis, method, method),
+            ).fetchall()
+            if not baselines:
+                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
+            alarms = {
+                int(row["baseline_id"]): int(row["raised_score_id"])
+                for row in db.execute(
+                    _ALARMS.format(where="WHERE b.robot=? AND b.axis=?"), (robot, axis)
+                )
+            }
+            chosen = [(r["id"], r["method"], alarms.get(r["id"])) for r in baselines]
+            if not rebaseline:
+                chosen = [c for c in chosen if c[2] is not None]
+                if not chosen:
+                    raise StoreError(
+                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
+                        "re-baseline it: axiswatch ack --rebaseline)."
+                    )
+            for baseline_id, method_name, score_id in chosen:
+                db.execute(
+                    "INSERT INTO acknowledgements (robot, axis, method, baseline_id, score_id, "
+                    "rebaseline, acknowledged_by, note, acknowledged_at) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (
+                        robot,
+                        axis,
+                        method_name,
+                        baseline_id,
+                        score_id,
+                        int(rebaseline),
+                        by,
+                        note,
+                        stamp,
+                    ),
+                )
+        return [str(c[1]) for c in chosen]
+
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
+        that raised the alarm seen; empty for a re-baseline without alarm), ``rebaseline``,
+        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        frame = self._frame(
+            "SELECT a.robot, a.axis, a.method, s.capture, a.rebaseline, a.acknowledged_by, "
+            "a.note, a.acknowledged_at FROM acknowledgements a "
+            "LEFT JOIN scores s ON s.id = a.score_id "
+            "WHERE (? IS NULL OR a.robot=?) AND (? IS NULL OR a.axis=?) ORDER BY a.id",
+            (robot, robot, axis, axis),
+        )
+        frame["rebaseline"] = frame["rebaseline"].astype(bool)
+        return frame
+
+    def rebaseline_requests(self) -> pd.DataFrame:
+        """Every re-baseline: ``robot, axis, method, retired_epoch, from_capture, requested_at``."""
+        return self._frame(
+            "SELECT robot, axis, method, retired_epoch, from_capture, requested_at "
+            "FROM rebaselines ORDER BY id"
+        )
+
     # --- tables --------------------------------------------------------------------------------
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         frame = self._frame(
             "SELECT s.robot, s.axis, s.capture, s.method, s.distance, s.threshold, s.alarm, "
-            "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details FROM scores s "
+            "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details, s.path FROM scores s "
             "JOIN baselines b ON b.id = s.baseline_id "
             "WHERE (? IS NULL OR s.robot=?) AND (? IS NULL OR s.axis=?) "
             "ORDER BY s.robot, s.axis, s.method, s.captured_at, s.capture, b.epoch",
@@ -1073,8 +1441,9 @@ class SQLiteStore:
         return frame
 
     def summary_table(self) -> pd.DataFrame:
-        return self._frame(
-            "SELECT b.robot, b.axis, b.method, b.epoch, b.capture AS baseline, b.threshold, "
+        frame = self._frame(
+            "SELECT b.id AS baseline_id, b.robot, b.axis, b.method, b.epoch, "
+            "b.capture AS baseline, b.threshold, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
             "AS scored, "
             "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
@@ -1091,6 +1460,8 @@ class SQLiteStore:
             "AND r.method=b.method) AS rejected "
             "FROM baselines b WHERE b.retired_at IS NULL ORDER BY b.robot, b.axis, b.method"
         )
+        baselines = [self.baseline(int(i)) for i in frame.pop("baseline_id")]
+        return summary_extras(frame, baselines, self.alarms())
 
     def rejection_table(self) -> pd.DataFrame:
         return self._frame(
@@ -1099,11 +1470,120 @@ class SQLiteStore:
         )
 
     def changed_file_table(self) -> pd.DataFrame:
-        return self._frame("SELECT path, detected_at FROM changed_files ORDER BY path")
+        return self._frame(
+            "SELECT robot, axis, path, detected_at FROM changed_files ORDER BY path, id"
+        )
+
+    # --- standing problems and axis activity ---------------------------------------------------
+
+    def resolve_transient(self, method: str, seen_before: str) -> None:
+        with self._write() as db:
+            db.execute(
+                "DELETE FROM rejections WHERE method=? AND transient=1 AND rejected_at<?",
+                (method, seen_before),
+            )
+
+    def retry_rejections(self, paths: Sequence[str], method: str | None = None) -> int:
+        with self._write() as db:
+            return _each_path(
+                db, "DELETE FROM rejections WHERE (? IS NULL OR method=?)", (method, method), paths
+            )
+
+    def acknowledge_problems(self, paths: Sequence[str], at: str, method: str | None = None) -> int:
+        with self._write() as db:
+            rejections = _each_path(
+                db,
+                "UPDATE rejections SET acknowledged_at=? WHERE acknowledged_at IS NULL "
+                "AND (? IS NULL OR method=?)",
+                (at, method, method),
+                paths,
+            )
+            changed = _each_path(
+                db,
+                "UPDATE changed_files SET acknowledged_at=? WHERE acknowledged_at IS NULL",
+                (at,),
+                paths,
+            )
+        return rejections + changed
+
+    def changed_file_acknowledged(self, change: ChangedFile) -> bool:
+        return bool(
+            self._rows(
+                "SELECT 1 FROM changed_files WHERE path=? AND scored_hash=? AND current_hash=? "
+                "AND acknowledged_at IS NOT NULL",
+                (change.path, change.scored_hash, change.current_hash),
+            )
+        )
+
+    def record_axis_activity(self, seen: Sequence[tuple[str, str, int, str]], at: str) -> None:
+        with self._write() as db:
+            for robot, axis, n_files, newest in seen:
+                db.execute(
+                    "INSERT INTO axis_activity (robot, axis, n_files, newest_capture, "
+                    "last_seen_at) VALUES (?, ?, ?, ?, ?) ON CONFLICT (robot, axis) DO UPDATE "
+                    "SET last_seen_at=CASE WHEN excluded.n_files>n_files OR "
+                    "excluded.newest_capture>newest_capture THEN excluded.last_seen_at "
+                    "ELSE last_seen_at END, n_files=excluded.n_files, "
+                    "newest_capture=max(newest_capture, excluded.newest_capture)",
+                    (robot, axis, n_files, newest, at),
+                )
+
+    def axis_activity(self) -> pd.DataFrame:
+        return self._frame(
+            "SELECT robot, axis, n_files, newest_capture, last_seen_at FROM axis_activity "
+            "ORDER BY robot, axis"
+        )
+
+    def latest_bad_data(self) -> pd.DataFrame:
+        return self._frame(
+            "SELECT robot, axis, method, max(capture) AS bad_capture FROM rejections "
+            "WHERE kind='bad data' GROUP BY robot, axis, method"
+        )
+
+    def problem_table(self, method: str | None = None) -> pd.DataFrame:
+        return self._frame(
+            "SELECT coalesce(kind, 'invalid') AS kind, method, path, error, rejected_at AS since, "
+            "acknowledged_at FROM rejections WHERE (? IS NULL OR method=?) "
+            "UNION ALL SELECT 'changed', '', path, 'content changed after it was scored', "
+            "detected_at, acknowledged_at FROM changed_files "
+            "ORDER BY path, kind, method",
+            (method, method),
+        )
+
+
+def _each_path(
+    db: sqlite3.Connection, sql: str, parameters: tuple[Any, ...], paths: Sequence[str]
+) -> int:
+    """Run ``sql`` once (no paths) or once per path (``AND path=?``); rows changed."""
+    if not paths:
+        return int(db.execute(sql, parameters).rowcount)
+    return sum(int(db.execute(sql + " AND path=?", (*parameters, p)).rowcount) for p in paths)
 
 
 #: The name users open a store by (``aw.Store("fleet.db")``): the product's SQLite backend.
 Store = SQLiteStore
+
+
+def summary_extras(
+    frame: pd.DataFrame, baselines: list[Baseline], alarms: list[AlarmState]
+) -> pd.DataFrame:
+    """Add ``threshold_origin``, ``alarm_since`` and ``acknowledged_by`` to a summary table
+    whose rows are ``baselines`` (in order); shared by the backends."""
+    frame["threshold_origin"] = [_threshold_origin(b) for b in baselines]
+    by_key = {(a.robot, a.axis, a.method): a for a in alarms}
+    keys = [(b.robot, b.axis, b.method) for b in baselines]
+    frame["alarm_since"] = [getattr(by_key.get(k), "raised_capture", None) for k in keys]
+    frame["acknowledged_by"] = [getattr(by_key.get(k), "acknowledged_by", None) for k in keys]
+    return frame
+
+
+def _threshold_origin(baseline: Baseline) -> str | None:
+    """Where a baseline's threshold comes from, in words (None while it calibrates)."""
+    if baseline.threshold is None or baseline.fit is None:
+        return None
+    params = json.loads(baseline.params)
+    rule = DecisionRule(percentile=float(params.get("percentile", 99.0)))
+    return stored_threshold(baseline.threshold, baseline.fit, rule).describe()
 
 
 def _no_active_baseline(

@@ -1,0 +1,405 @@
+"""IndicatorModel: physical indicators scored in spreads estimated from the axis and its fleet.
+
+Pipeline stage 6b (issue 13). No number in the decision comes from a simulator run; each is
+estimated from what the user has:
+
+* **centre** of an indicator: the median of its readings over the baseline and the calibration
+  captures (``K + 1`` captures of one task). A faulty first capture therefore does not become the
+  reference; it is reported (``baseline_check_``) when it disagrees with the next captures.
+* **within-task spread** ``s_w``: ``1.4826 x MAD`` of those readings (a consistent estimate of
+  the standard deviation for Gaussian readings, unmoved by one wild reading). With ``K = 5``
+  (6 readings) its relative standard error is about 45 % (MAD's efficiency is 37 %); with fewer
+  than 3 readings it is not estimated and the indicator is not scored.
+* **task-change spread** ``s_t`` (:func:`pool_fleet`): over the axes of one profile, each at its
+  own task, ``sqrt(2) x 1.4826 x MAD`` of their centres: the spread of the difference between
+  two tasks' readings, robust to a minority (under half) of faulty axes. Needs 3 axes; with
+  fewer, the model has no task-change allowance and says so (``notes_``).
+* a reading's shift is ``z = (x - centre) / sqrt(s_w^2 + s_t^2)`` (one-sided for indicators
+  that only grow with a fault); the **distance** of a capture is the largest ``z`` over the
+  indicators it gives.
+* the **threshold** is the larger of the ``percentile`` of the half-Laplace fit of the
+  calibration captures' leave-one-out distances and the fleet's **task-change allowance**: the
+  same percentile of a half-Laplace whose scale is ``median / ln 2`` of the distances between
+  the fleet's axes (each pair of axes is a healthy task change; the median keeps a faulty
+  minority from inflating it). With 3 axes there are 3 pairs: the allowance is then a rough
+  guess, and the report says how many pairs it rests on.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
+from axiswatch._capture import Capture
+from axiswatch._profiles import AxisProfile
+from axiswatch._readings import INDICATORS, Indicator, Readings, read_indicators
+from axiswatch.exceptions import CalibrationError
+
+__all__ = ["FleetPrior", "IndicatorAssessment", "IndicatorModel", "pool_fleet"]
+
+#: ``1 / Phi^-1(3/4)``: MAD -> standard deviation for Gaussian data.
+MAD_TO_SD = 1.4826
+#: Least readings for a spread; least axes for a fleet prior.
+MIN_READINGS = 3
+MIN_AXES = 3
+
+
+def _declared(name: str) -> Indicator:
+    for indicator in INDICATORS:
+        if indicator.name == name:
+            return indicator
+    if name.startswith("tooth_lines:"):
+        return Indicator(name, "kinematics", "up", f"gear stage {name.split(':', 1)[1]}", True)
+    if name.startswith("bearing_lines:"):
+        return Indicator(name, "kinematics", "up", f"bearing {name.split(':', 1)[1]}", True)
+    raise KeyError(name)
+
+
+def _transformed(readings: Readings) -> dict[str, float]:
+    """Readings on the scale they are compared in: decades for ratios, own units otherwise."""
+    out = {}
+    for name, value in readings.values.items():
+        if _declared(name).log:
+            out[name] = math.log10(value) if math.isfinite(value) and value > 0 else math.nan
+        else:
+            out[name] = value
+    return out
+
+
+def robust_spread(values: Sequence[float]) -> float:
+    """``1.4826 x`` the median absolute deviation of the finite values; NaN with fewer than 3.
+
+    Examples
+    --------
+    >>> round(robust_spread([1.0, 2.0, 3.0, 4.0, 100.0]), 4)
+    1.4826
+    """
+    finite = np.asarray([v for v in values if math.isfinite(v)], dtype=np.float64)
+    if finite.size < MIN_READINGS:
+        return math.nan
+    return float(MAD_TO_SD * np.median(np.abs(finite - np.median(finite))))
+
+
+def _shift(name: str, value: float, centre: float, scale: float) -> float:
+    z = (value - centre) / scale
+    return abs(z) if _declared(name).sided == "both" else max(z, 0.0)
+
+
+def _distance(
+    values: Mapping[str, float], centre: Mapping[str, float], scales: Mapping[str, float]
+) -> tuple[float, dict[str, float]]:
+    shifts = {
+        name: _shift(name, values[name], centre[name], scales[name])
+        for name in scales
+        if math.isfinite(values.get(name, math.nan)) and math.isfinite(centre.get(name, math.nan))
+    }
+    return (max(shifts.values()) if shifts else math.nan), shifts
+
+
+@dataclass(frozen=True)
+class FleetPrior:
+    """What a healthy task change does to each indicator, pooled over axes of one profile.
+
+    Attributes
+    ----------
+    task_spreads : dict of str to float
+        ``s_t`` per indicator (NaN where fewer than 3 axes give it).
+    allowance_scale : float
+        Half-Laplace scale of the distance between two healthy axes (``median / ln 2``).
+    centre : dict of str to float
+        The fleet's median reading per indicator.
+    n_axes, n_pairs : int
+    """
+
+    task_spreads: dict[str, float]
+    allowance_scale: float
+    centre: dict[str, float]
+    n_axes: int
+    n_pairs: int
+
+    def allowance(self, percentile: float) -> float:
+        """The task-change allowance at ``percentile``."""
+        return half_laplace_threshold(self.allowance_scale, percentile)
+
+
+def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
+    """Pool fitted models of one profile's axes into a :class:`FleetPrior`.
+
+    Raises
+    ------
+    CalibrationError
+        With fewer than 3 fitted models.
+    """
+    if len(models) < MIN_AXES:
+        raise CalibrationError(
+            f"A fleet prior needs at least {MIN_AXES} axes of one profile; got {len(models)}."
+        )
+    names = sorted({name for model in models for name in model.centre_})
+    centres = {name: [m.centre_.get(name, math.nan) for m in models] for name in names}
+    task_spreads = {name: math.sqrt(2.0) * robust_spread(v) for name, v in centres.items()}
+    fleet_centre = {
+        name: float(np.nanmedian(v)) if np.isfinite(v).any() else math.nan
+        for name, v in centres.items()
+    }
+    distances = []
+    for a, b in itertools.combinations(models, 2):
+        scales = {
+            n: math.hypot(task_spreads[n], a.within_.get(n, math.nan))
+            for n in names
+            if math.isfinite(task_spreads[n]) and task_spreads[n] > 0
+        }
+        scales = {n: s for n, s in scales.items() if math.isfinite(s)}
+        d, _ = _distance(a.centre_, b.centre_, scales)
+        if math.isfinite(d):
+            distances.append(d)
+    if not distances:
+        raise CalibrationError("No indicator is read on enough axes of the fleet to pool.")
+    scale = max(float(np.median(distances)) / math.log(2.0), 1e-12)
+    return FleetPrior(task_spreads, scale, fleet_centre, len(models), len(distances))
+
+
+@dataclass(frozen=True)
+class IndicatorAssessment:
+    """Verdict on one capture.
+
+    Attributes
+    ----------
+    distance : float
+        Largest shift, in spreads; NaN when no indicator could be scored.
+    threshold : float
+    alarm : bool
+    top : str or None
+        The indicator with the largest shift.
+    component : str or None
+        What ``top`` watches.
+    indicators : dict
+        Per indicator read: ``value``, ``baseline`` (the centre), ``spreads`` (the shift) and
+        ``share`` (its shift over the sum of shifts).
+    unavailable : dict of str to str
+        Indicators not scored, and why.
+    """
+
+    distance: float
+    threshold: float
+    alarm: bool
+    top: str | None
+    component: str | None
+    indicators: dict[str, dict[str, float]]
+    unavailable: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def scored(self) -> bool:
+        """Whether any indicator was scored."""
+        return math.isfinite(self.distance)
+
+    def reason(self) -> str:
+        """One line: what moved, or why nothing could be scored."""
+        if not self.scored:
+            return "not scored: " + "; ".join(f"{k} {v}" for k, v in self.unavailable.items())
+        assert self.top is not None
+        entry = self.indicators[self.top]
+        return (
+            f"{self.top} ({self.component}) {entry['spreads']:.1f} spreads from its baseline "
+            f"(threshold {self.threshold:.1f})"
+        )
+
+
+class IndicatorModel:
+    """Baseline, spreads and threshold of one axis's physical indicators.
+
+    Parameters
+    ----------
+    profile : AxisProfile, optional
+        Kinematics for the kinematic lines (units and columns are applied when reading files).
+    percentile : float in (0, 100), default=99.0
+    fleet : FleetPrior, optional
+        Task-change spreads and allowance of the axis's profile (:func:`pool_fleet`); can be
+        set later with :meth:`use_fleet`.
+
+    Attributes
+    ----------
+    centre_, within_ : dict of str to float
+    threshold_ : float
+    baseline_check_ : str or None
+        Why the baseline capture is not trusted as it is (None when it agrees).
+    notes_ : list of str
+        What the model could not estimate, in words.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> robot = draw_robot(0)
+    >>> model = IndicatorModel().fit(robot.capture(0, seed=0),
+    ...                              [robot.capture(0, seed=k) for k in range(1, 6)])
+    >>> model.assess(robot.capture(0, seed=9)).scored
+    True
+    """
+
+    def __init__(
+        self,
+        profile: AxisProfile | None = None,
+        *,
+        percentile: float = 99.0,
+        fleet: FleetPrior | None = None,
+    ) -> None:
+        self.profile = profile
+        self.percentile = percentile
+        self.fleet = fleet
+
+    @staticmethod
+    def pool(models: Sequence[IndicatorModel]) -> FleetPrior:
+        """:func:`pool_fleet`: the fleet prior of fitted models of one profile's axes."""
+        return pool_fleet(models)
+
+    def readings(self, capture: Capture) -> Readings:
+        """The capture's indicators (:func:`~axiswatch.read_indicators` with the profile's
+        kinematics)."""
+        kinematics = self.profile.kinematics() if self.profile is not None else {}
+        return read_indicators(capture, **kinematics)
+
+    def fit(self, baseline: Capture, calibration: Sequence[Capture]) -> IndicatorModel:
+        """Centre and within-task spreads from the baseline and the calibration captures."""
+        if len(calibration) < MIN_READINGS - 1:
+            raise CalibrationError(
+                f"IndicatorModel needs at least {MIN_READINGS - 1} calibration captures after "
+                f"the baseline (a spread needs {MIN_READINGS} readings); got {len(calibration)}."
+            )
+        read = [self.readings(c) for c in (baseline, *calibration)]
+        return self.fit_readings(read)
+
+    def fit_readings(self, read: Sequence[Readings]) -> IndicatorModel:
+        """:meth:`fit` from readings already taken (first = the baseline)."""
+        self.fit_readings_ = list(read)
+        rows = [_transformed(r) for r in read]
+        names = list(rows[0])
+        self.reasons_ = dict(read[0].reasons)
+        self.centre_: dict[str, float] = {}
+        self.within_: dict[str, float] = {}
+        for name in names:
+            values = [row[name] for row in rows]
+            spread = robust_spread(values)
+            if math.isfinite(spread) and spread > 0:
+                self.centre_[name] = float(np.nanmedian(values))
+                self.within_[name] = spread
+            elif name not in self.reasons_:
+                self.reasons_[name] = (
+                    "no spread to scale by (read on fewer than 3 of the baseline and calibration "
+                    "captures, or identical on all)"
+                )
+        self.calibration_rows_ = rows
+        self._threshold_from(rows)
+        return self
+
+    def use_fleet(self, fleet: FleetPrior | None) -> IndicatorModel:
+        """Take a fleet prior (or drop it) and recompute the threshold."""
+        self.fleet = fleet
+        self._threshold_from(self.calibration_rows_)
+        return self
+
+    @property
+    def scales_(self) -> dict[str, float]:
+        """``sqrt(s_w^2 + s_t^2)`` per scored indicator (``s_w`` alone without a fleet prior)."""
+        spreads = self.fleet.task_spreads if self.fleet is not None else {}
+        out = {}
+        for name, within in self.within_.items():
+            task = spreads.get(name, math.nan)
+            out[name] = math.hypot(within, task) if math.isfinite(task) else within
+        return out
+
+    def _threshold_from(self, rows: Sequence[Mapping[str, float]]) -> None:
+        scales = self.scales_
+        loo = []
+        for k, row in enumerate(rows):
+            others = [*rows[:k], *rows[k + 1 :]]
+            centre = {n: float(np.nanmedian([o[n] for o in others])) for n in scales}
+            d, _ = _distance(row, centre, scales)
+            if math.isfinite(d):
+                loo.append(d)
+        self.notes_: list[str] = []
+        if len(loo) < 2:
+            raise CalibrationError(
+                "No indicator could be read on the baseline and calibration captures: "
+                + "; ".join(f"{k} {v}" for k, v in self.reasons_.items())
+            )
+        # The baseline's own leave-one-out distance is checked, not fitted: a faulty baseline
+        # would inflate the threshold it is checked against.
+        fitted = fit_half_laplace(loo[1:]).threshold(self.percentile)
+        self.threshold_ = fitted
+        if self.fleet is None:
+            self.notes_.append(
+                "no task-change allowance: fewer than 3 axes of this profile to pool; "
+                "a task change may alarm"
+            )
+        else:
+            allowance = self.fleet.allowance(self.percentile)
+            self.threshold_ = max(fitted, allowance)
+            self.notes_.append(
+                f"task-change allowance {allowance:.2f} from {self.fleet.n_axes} axes "
+                f"({self.fleet.n_pairs} pairs); calibration threshold {fitted:.2f}"
+            )
+        self.baseline_check_: str | None = None
+        if loo[0] > self.threshold_:
+            self.baseline_check_ = (
+                f"the baseline capture is {loo[0]:.1f} spreads from the next captures "
+                f"(threshold {self.threshold_:.1f}): the median of all is the reference"
+            )
+        if self.fleet is not None:
+            d, shifts = _distance(self.centre_, self.fleet.centre, scales)
+            if math.isfinite(d) and d > self.fleet.allowance(self.percentile):
+                top = max(shifts, key=shifts.__getitem__)
+                self.notes_.append(
+                    f"this axis's baseline differs from its fleet's: {top} {shifts[top]:.1f} "
+                    "spreads (already worn, or a task unlike the fleet's)"
+                )
+
+    def assess(self, capture: Capture) -> IndicatorAssessment:
+        """Distance, threshold, alarm and per-indicator details of one capture."""
+        return self.assess_readings(self.readings(capture))
+
+    def assess_readings(self, readings: Readings) -> IndicatorAssessment:
+        """:meth:`assess` from readings already taken."""
+        values = _transformed(readings)
+        scales = self.scales_
+        distance, shifts = _distance(values, self.centre_, scales)
+        unavailable = {
+            name: readings.reasons.get(name, self.reasons_.get(name, "not read"))
+            for name in values
+            if name not in shifts
+        }
+        total = sum(shifts.values())
+        details: dict[str, dict[str, float]] = {
+            name: {
+                "value": values[name],
+                "baseline": self.centre_[name],
+                "spreads": z,
+                "share": z / total if total > 0 else 0.0,
+            }
+            for name, z in shifts.items()
+        }
+        top = max(shifts, key=shifts.__getitem__) if shifts else None
+        return IndicatorAssessment(
+            distance=distance,
+            threshold=self.threshold_,
+            alarm=bool(math.isfinite(distance) and distance > self.threshold_),
+            top=top,
+            component=_declared(top).component if top is not None else None,
+            indicators=details,
+            unavailable=unavailable,
+        )
+
+    def params(self) -> dict[str, Any]:
+        """JSON-ready description of what was estimated and from what."""
+        return {
+            "centre": self.centre_,
+            "within_spread": self.within_,
+            "scales": self.scales_,
+            "threshold": self.threshold_,
+            "baseline_check": self.baseline_check_,
+            "notes": self.notes_,
+        }

@@ -1,0 +1,266 @@
+"""AxisProfile: what the library must know about an axis that its capture files do not say.
+
+Pipeline stage 0b (issue 13). Every field is optional: a profile maps a controller's column names
+to the roles ``time``, ``position``, ``speed`` and ``torque``, declares units (time stamps in
+``s``, ``ms``, ``us`` or ``ns``, relative or absolute such as Unix time; position in ``rad``,
+``deg``, ``rev``, ``m`` or ``mm``, speed in the same unit per second; the torque is read as
+given, it may be a current) and the axis's kinematics (gear ratio, the gear stages whose teeth
+and the bearings whose races the indicators watch). It is a TOML file::
+
+    name = "cobot-j2"                 # axes of one name are pooled as a fleet
+    [columns]                         # file column -> role
+    "Timestamp" = "time"
+    "J2_ActPos" = "position"
+    "J2_Current" = "torque"
+    [units]
+    time = "ms"
+    position = "deg"
+    [kinematics]
+    gear_ratio = 101.0                # motor turns per turn of the position
+    [kinematics.gear_stages]          # motor turns per turn of a watched gear
+    output = 5.0
+    [kinematics.bearing_orders]       # defect frequency in orders of the motor speed
+    motor_inner_race = 5.43
+
+Fleet lookup (:func:`find_profile`): ``ROOT/<robot>/<axis>/axis.toml``, then
+``ROOT/<robot>/robot.toml``, then ``ROOT/axiswatch.toml``; the first that exists is the axis's
+profile (no merging: a file says all there is to say about the axes it covers).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from axiswatch.exceptions import CaptureError
+
+__all__ = ["AxisProfile", "find_profile"]
+
+ROLES: tuple[str, ...] = ("time", "position", "speed", "torque")
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+POSITION_UNITS: dict[str, float] = {
+    "rad": 1.0,
+    "deg": math.pi / 180.0,
+    "rev": 2.0 * math.pi,
+    "m": 1.0,
+    "mm": 1e-3,
+}
+#: Names of the profile files, most specific first (:func:`find_profile`).
+PROFILE_FILES: tuple[str, ...] = ("axis.toml", "robot.toml")
+FLEET_PROFILE = "axiswatch.toml"
+
+
+def _check(mapping: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    unknown = sorted(set(mapping) - allowed)
+    if unknown:
+        raise ValueError(
+            f"Unknown key(s) {unknown} in {where}; expected some of {sorted(allowed)}."
+        )
+
+
+@dataclass(frozen=True)
+class AxisProfile:
+    """Units, column names and kinematics of an axis (every field optional).
+
+    Parameters
+    ----------
+    name : str, optional
+        Axes with the same profile name are pooled as one fleet (:func:`~axiswatch.pool_fleet`).
+    columns : mapping of str to str, default={}
+        File column -> role (``time``, ``position``, ``speed``, ``torque``).
+    time_unit : {"s", "ms", "us", "ns"}, default="s"
+        Absolute stamps (Unix time) are allowed: the capture starts at its first stamp.
+    position_unit : {"rad", "deg", "rev", "m", "mm"}, default="rad"
+        Speed is read in the same unit per second.
+    resample_irregular : bool, default=False
+        Put irregularly stamped rows (a PLC logging every 39-55 ms) on a uniform grid at their
+        median step, by linear interpolation, instead of rejecting the file.
+    gear_ratio : float, optional
+        Motor turns per turn of the position; enables the kinematic lines.
+    gear_stages : mapping of str to float, default={}
+        Name -> motor turns per turn of a gear whose teeth are watched.
+    bearing_orders : mapping of str to float, default={}
+        Name -> bearing defect frequency in orders of the motor speed.
+    source : str, default="<memory>"
+
+    Examples
+    --------
+    >>> p = AxisProfile.from_dict({"columns": {"t": "time", "q": "position", "i": "torque"},
+    ...                            "units": {"time": "ms", "position": "deg"}})
+    >>> p.time_unit, p.position_unit, p.role_of("q")
+    ('ms', 'deg', 'position')
+    """
+
+    name: str | None = None
+    columns: Mapping[str, str] = field(default_factory=dict)
+    time_unit: str = "s"
+    position_unit: str = "rad"
+    resample_irregular: bool = False
+    gear_ratio: float | None = None
+    gear_stages: Mapping[str, float] = field(default_factory=dict)
+    bearing_orders: Mapping[str, float] = field(default_factory=dict)
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        where = f"axis profile {self.source}"
+        for column, role in self.columns.items():
+            if role not in ROLES:
+                raise ValueError(
+                    f"{where}: column {column!r} maps to role {role!r}; expected one of {list(ROLES)}."
+                )
+        if self.time_unit not in TIME_UNITS:
+            raise ValueError(
+                f"{where}: time unit must be one of {list(TIME_UNITS)}. Got {self.time_unit!r} instead."
+            )
+        if self.position_unit not in POSITION_UNITS:
+            raise ValueError(
+                f"{where}: position unit must be one of {list(POSITION_UNITS)}. "
+                f"Got {self.position_unit!r} instead."
+            )
+        if self.gear_ratio is not None and not self.gear_ratio > 0:
+            raise ValueError(f"{where}: gear_ratio must be > 0. Got {self.gear_ratio!r} instead.")
+        for label, table in (
+            ("gear_stages", self.gear_stages),
+            ("bearing_orders", self.bearing_orders),
+        ):
+            for key, value in table.items():
+                if not (isinstance(value, int | float) and value > 0):
+                    raise ValueError(f"{where}: {label}.{key} must be a number > 0. Got {value!r}.")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "<memory>") -> AxisProfile:
+        """A profile from the TOML file's tables (``name``, ``columns``, ``units``,
+        ``resample_irregular``, ``kinematics``)."""
+        _check(data, {"name", "columns", "units", "resample_irregular", "kinematics"}, source)
+        units = dict(data.get("units", {}))
+        _check(units, {"time", "position", "torque"}, f"{source} [units]")
+        kinematics = dict(data.get("kinematics", {}))
+        _check(
+            kinematics, {"gear_ratio", "gear_stages", "bearing_orders"}, f"{source} [kinematics]"
+        )
+        ratio = kinematics.get("gear_ratio")
+        return cls(
+            name=data.get("name"),
+            columns=dict(data.get("columns", {})),
+            time_unit=units.get("time", "s"),
+            position_unit=units.get("position", "rad"),
+            resample_irregular=bool(data.get("resample_irregular", False)),
+            gear_ratio=None if ratio is None else float(ratio),
+            gear_stages=dict(kinematics.get("gear_stages", {})),
+            bearing_orders=dict(kinematics.get("bearing_orders", {})),
+            source=source,
+        )
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> AxisProfile:
+        """Read a profile file; errors name the file and the key."""
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise CaptureError(f"{path}: no such axis profile file.") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise CaptureError(f"{path}: not a valid TOML axis profile: {exc}.") from exc
+        return cls.from_dict(data, source=str(path))
+
+    @classmethod
+    def find(cls, root: str | Path, robot: str, axis: str) -> AxisProfile | None:
+        """The fleet lookup of :func:`find_profile`."""
+        return find_profile(root, robot, axis)
+
+    def role_of(self, column: str) -> str:
+        """The role a file column plays (the column's own name when the profile does not map it)."""
+        return self.columns.get(column, column)
+
+    def kinematics(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`~axiswatch.read_indicators`."""
+        return {
+            "gear_ratio": self.gear_ratio,
+            "gear_stages": dict(self.gear_stages),
+            "bearing_orders": dict(self.bearing_orders),
+        }
+
+    def standardise(self, frame: pd.DataFrame, path: Path) -> pd.DataFrame:
+        """The file's table in the project's format: roles as column names, time in seconds from
+        the first stamp, position in rad (or m) and speed per second."""
+        renamed = frame.rename(columns={c: self.role_of(str(c)) for c in frame.columns})
+        duplicated = renamed.columns[renamed.columns.duplicated()].tolist()
+        if duplicated:
+            raise CaptureError(
+                f"{path}: the axis profile {self.source} maps two columns to {duplicated}."
+            )
+        if "time" not in renamed.columns:
+            raise CaptureError(
+                f"{path}: no time column; the axis profile {self.source} maps "
+                f"{dict(self.columns)} and the file has {list(map(str, frame.columns))}."
+            )
+        stamps = renamed["time"]
+        if not pd.api.types.is_numeric_dtype(stamps):
+            raise CaptureError(
+                f"{path}: column 'time' must hold numbers in {self.time_unit}; got {stamps.iloc[0]!r}."
+            )
+        # Subtract the first stamp in the file's own integers or floats before scaling: Unix
+        # nanoseconds as float64 would lose the sub-microsecond steps.
+        first = stamps.iloc[0]
+        relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
+        renamed["time"] = relative
+        scale = POSITION_UNITS[self.position_unit]
+        for role in ("position", "speed"):
+            if role in renamed.columns and scale != 1.0:
+                renamed[role] = pd.to_numeric(renamed[role], errors="coerce") * scale
+        if self.resample_irregular and len(relative) > 2:
+            renamed = _uniform(renamed, path)
+        return renamed
+
+
+def _uniform(frame: pd.DataFrame, path: Path) -> pd.DataFrame:
+    time_s = frame["time"].to_numpy(dtype=np.float64)
+    steps = np.diff(time_s)
+    if (steps <= 0).any():
+        k = int(np.flatnonzero(steps <= 0)[0])
+        raise CaptureError(
+            f"{path}: column 'time' must be strictly increasing; row {k + 1} has "
+            f"t={time_s[k + 1]!r} s after t={time_s[k]!r} s."
+        )
+    step = float(np.median(steps))
+    grid = np.arange(0.0, time_s[-1] + 0.5 * step, step)
+    grid = grid[grid <= time_s[-1]]
+    uniform = {"time": grid}
+    for column in frame.columns:
+        if column != "time" and pd.api.types.is_numeric_dtype(frame[column]):
+            values = frame[column].to_numpy(dtype=np.float64)
+            present = ~np.isnan(values)
+            uniform[str(column)] = np.interp(grid, time_s[present], values[present])
+    return pd.DataFrame(uniform)
+
+
+def find_profile(root: str | Path, robot: str, axis: str) -> AxisProfile | None:
+    """The profile of ``ROOT/<robot>/<axis>``: its ``axis.toml``, else the robot's
+    ``robot.toml``, else the fleet's ``axiswatch.toml``; None when there is none.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "r1" / "a1").mkdir(parents=True)
+    >>> _ = (root / "axiswatch.toml").write_text('name = "fleet"')
+    >>> _ = (root / "r1" / "robot.toml").write_text('name = "r1-model"')
+    >>> find_profile(root, "r1", "a1").name
+    'r1-model'
+    """
+    root = Path(root)
+    for candidate in (
+        root / robot / axis / PROFILE_FILES[0],
+        root / robot / PROFILE_FILES[1],
+        root / FLEET_PROFILE,
+    ):
+        if candidate.is_file():
+            return AxisProfile.from_toml(candidate)
+    return None

@@ -1,0 +1,405 @@
+"""Physical indicators of an axis that adapt to the capture: its rate, units and motion.
+
+Pipeline stage 2d (issue 13), the successor of ``_mechanics`` for captures the project's
+simulator never made. Every window, band and gap is set in seconds or hertz and derived from the
+capture's own rate; every indicator declares what it needs (:data:`INDICATORS`), and a capture
+that cannot give it gets NaN and the reason, while the others are read. Readings carry a sign
+(a friction coefficient may come out negative on a gravity-loaded axis: that is a reading, not
+an error). Only a capture from which no motion can be read at all is refused.
+
+Indicators (the signal called torque may be a motor current or a pressure difference):
+
+* ``coulomb_friction``, ``viscous_friction``: least squares of the torque while moving
+  (``|speed|`` above 10 % of its peak) on ``sign(speed)``, ``speed``, the acceleration and a
+  cubic in the position (gravity and payload as a smooth function of where the axis is, the same
+  in both directions). Needs motion in both directions; the viscous term also needs moves at
+  more than one speed (on constant-speed moves of one speed it is not separable from Coulomb's,
+  and the Coulomb reading is then the friction at that speed).
+* ``load_forward``, ``load_backward``: the mean of ``torque * sign(speed)`` over the steady
+  motion (above half the peak speed) in each direction: friction plus the mean gravity and
+  payload there; the friction reading of a stroke that moves one way only.
+* ``impulsiveness``: kurtosis of the torque's band ``[0.04, 0.4] x rate`` while moving, divided
+  by its own running RMS over 0.1 s (at least 8 samples). Needs a rate of 100 Hz or more (a
+  band from 4 Hz) and 1 s of motion.
+* ``reversal_bursts``: :func:`~axiswatch._mechanics.reversal_bursts` on that band. Needs a
+  torque that changes sign while moving, and the same rate.
+* kinematic lines (with an :class:`~axiswatch.AxisProfile` giving a gear ratio):
+  ``tooth_lines:<stage>`` for every gear stage and ``bearing_lines:<name>`` for every bearing,
+  :func:`~axiswatch._mechanics.line_ratio` at the component's orders. Need the component's
+  highest order to fall inside the band at the median moving speed and 20 motor revolutions.
+  Without kinematics the angle-domain indicator is ``order_lines``
+  (:mod:`axiswatch._orders`), read against a reference by :class:`~axiswatch.IndicatorModel`.
+
+The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
+reading the drive loads on every capture, the kinematic band set by the speed and the tooth
+orders were chosen on the development robots of :mod:`axiswatch.datasets` (docs/evaluation.md,
+"Transfer", gives what the alternatives gave there).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+from scipy.interpolate import PchipInterpolator
+from scipy.signal import butter, savgol_filter, sosfiltfilt
+from scipy.stats import kurtosis
+
+from axiswatch._capture import Capture
+from axiswatch._mechanics import bearing_lines, line_ratio, reversal_bursts, running_rms
+from axiswatch.exceptions import CaptureError
+
+__all__ = [
+    "INDICATORS",
+    "Indicator",
+    "Motion",
+    "Readings",
+    "motion",
+    "read_indicators",
+]
+
+#: Relative band of the impulsive indicators, in units of the torque's rate (a decade below a
+#: margin under the Nyquist frequency).
+BAND_FRACTION: tuple[float, float] = (0.04, 0.4)
+#: Least torque rate for the band indicators (Hz): the band then starts at 4 Hz.
+MIN_BAND_RATE_HZ = 100.0
+#: Least motion of the band indicators (s): a kurtosis needs some 50 samples at 100 Hz.
+MIN_BAND_MOTION_S = 0.5
+#: Least travel of the kinematic lines (motor revolutions): line resolution 0.1 order.
+MIN_REVOLUTIONS = 10.0
+#: Share of the peak speed above which the axis counts as moving.
+MOVING_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class Indicator:
+    """What an indicator is and what it needs.
+
+    Attributes
+    ----------
+    name : str
+    needs : str
+        What a capture must give (shown when it is unavailable).
+    sided : {"up", "both"}
+        Whether only an increase is abnormal (impacts, lines) or a change either way (friction:
+        more is wear, less is lost motion breaking the balance).
+    component : str or None
+        The part it watches, when it names one.
+    log : bool
+        Compared in decades (a positive ratio such as a kurtosis) rather than in its own unit
+        (a friction coefficient, which may be negative).
+    """
+
+    name: str
+    needs: str
+    sided: Literal["up", "both"] = "up"
+    component: str | None = None
+    log: bool = False
+
+
+#: The indicators read without kinematics, in order.
+INDICATORS: tuple[Indicator, ...] = (
+    Indicator("coulomb_friction", "motion in both directions", "both", "friction"),
+    Indicator(
+        "viscous_friction", "motion in both directions at more than one speed", "both", "friction"
+    ),
+    Indicator("load_forward", "steady motion in the positive direction", "both", "drive load"),
+    Indicator("load_backward", "steady motion in the negative direction", "both", "drive load"),
+    Indicator(
+        "impulsiveness",
+        f"a torque rate >= {MIN_BAND_RATE_HZ:g} Hz and {MIN_BAND_MOTION_S:g} s of motion",
+        log=True,
+    ),
+    Indicator(
+        "reversal_bursts",
+        f"a torque rate >= {MIN_BAND_RATE_HZ:g} Hz and torque reversals while moving",
+        component="gear backlash",
+        log=True,
+    ),
+)
+
+
+@dataclass(frozen=True)
+class Readings:
+    """The indicators of one capture.
+
+    Attributes
+    ----------
+    values : dict of str to float
+        NaN where unavailable.
+    reasons : dict of str to str
+        Why each unavailable indicator is unavailable.
+    source : str
+    """
+
+    values: dict[str, float]
+    reasons: dict[str, str] = field(default_factory=dict)
+    source: str = "<memory>"
+
+    def available(self) -> list[str]:
+        """Names of the indicators that were read."""
+        return [name for name, value in self.values.items() if math.isfinite(value)]
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A capture's signals on the torque's time base, in SI units (rad or m, per s)."""
+
+    time_s: NDArray[np.float64]
+    position: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    rate_hz: float
+
+
+def _on_times(
+    values: NDArray[np.float64], rate: float, start: float, times: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    own = start + np.arange(values.size) / rate
+    if values.size < 2:
+        return np.full(times.shape, float(values[0]))
+    return np.asarray(PchipInterpolator(own, values, extrapolate=True)(times), dtype=np.float64)
+
+
+def motion(capture: Capture) -> Motion:
+    """Position, speed, acceleration and torque of a capture on the torque's instants.
+
+    A missing speed is the derivative of the position; a missing position the integral of the
+    speed. Slower signals are interpolated (PCHIP) onto the torque's instants, within their span.
+    The acceleration is a Savitzky-Golay derivative of the speed over 50 ms (at least 5 samples).
+
+    Raises
+    ------
+    CaptureError
+        Without a ``torque`` signal, or with neither ``position`` nor ``speed``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(200) / 100.0
+    >>> m = motion(Capture({"position": np.sin(t), "torque": t}, {"position": 100.0,
+    ...                                                           "torque": 100.0}))
+    >>> round(float(m.speed[100]), 3)  # cos(1)
+    0.54
+    """
+    names = set(capture.names)
+    if "torque" not in names or not names & {"position", "speed"}:
+        raise CaptureError(
+            f"{capture.source}: the indicators need a 'torque' signal and a 'position' or "
+            f"'speed' signal; the capture has {list(capture.names)} (map other column names "
+            "with an AxisProfile)."
+        )
+    torque = np.asarray(capture.signals["torque"], dtype=np.float64)
+    rate = capture.rates_hz["torque"]
+    times = capture.start_s + np.arange(torque.size) / rate
+    if "position" in names:
+        position = _on_times(
+            capture.signals["position"], capture.rates_hz["position"], capture.start_s, times
+        )
+    if "speed" in names:
+        speed = _on_times(
+            capture.signals["speed"], capture.rates_hz["speed"], capture.start_s, times
+        )
+    else:
+        own_rate = capture.rates_hz["position"]
+        raw = capture.signals["position"]
+        derivative = np.gradient(raw, 1.0 / own_rate) if raw.size > 1 else np.zeros(1)
+        speed = _on_times(derivative, own_rate, capture.start_s, times)
+    if "position" not in names:
+        position = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) / rate)])
+    # Keep the instants every signal covers: interpolation beyond a slower signal's last sample
+    # would invent motion.
+    end = min(
+        capture.start_s
+        + capture.duration_s(n)
+        - (1.0 / capture.rates_hz[n] if n != "torque" else 0)
+        for n in names & {"position", "speed", "torque"}
+    )
+    keep = times <= end + 1e-12
+    window = max(5, round(0.05 * rate) | 1)
+    speed_kept = speed[keep]
+    if speed_kept.size > window:
+        acceleration = savgol_filter(speed_kept, window, 2, deriv=1, delta=1.0 / rate)
+    else:
+        acceleration = np.gradient(speed_kept, 1.0 / rate) if speed_kept.size > 1 else speed_kept
+    return Motion(times[keep], position[keep], speed_kept, acceleration, torque[keep], rate)
+
+
+def _friction(m: Motion, moving: NDArray[np.bool_]) -> tuple[float, float, str | None]:
+    """Coulomb and viscous coefficients, and why the viscous one is missing (or None)."""
+    v = m.speed[moving]
+    span = float(np.ptp(m.position[moving])) or 1.0
+    q = (m.position[moving] - float(np.mean(m.position[moving]))) / span
+    columns = [np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3]
+    speeds = np.abs(v)
+    separable = float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
+    if not separable:
+        del columns[1]
+    design = np.column_stack(columns)
+    coefficients, *_ = scipy.linalg.lstsq(design, m.torque[moving])
+    if not separable:
+        return float(coefficients[0]), math.nan, "moves at one speed only"
+    return float(coefficients[0]), float(coefficients[1]), None
+
+
+def _band(m: Motion) -> NDArray[np.float64]:
+    low, high = (f * m.rate_hz for f in BAND_FRACTION)
+    sos = butter(4, [low, high], btype="bandpass", fs=m.rate_hz, output="sos")
+    return np.asarray(sosfiltfilt(sos, m.torque), dtype=np.float64)
+
+
+def read_indicators(
+    capture: Capture,
+    *,
+    gear_ratio: float | None = None,
+    gear_stages: Mapping[str, float] | None = None,
+    bearing_orders: Mapping[str, float] | None = None,
+) -> Readings:
+    """Read every indicator a capture can give; NaN and the reason for the others.
+
+    Parameters
+    ----------
+    capture : Capture
+        With ``torque`` and ``position`` or ``speed`` (any rates; position in rad or m).
+    gear_ratio : float, optional
+        Motor revolutions per revolution of the position; enables the kinematic lines.
+    gear_stages : mapping of str to float, optional
+        Name -> motor revolutions per revolution of a gear whose teeth are watched.
+    bearing_orders : mapping of str to float, optional
+        Name -> bearing defect frequency in orders of the motor speed.
+
+    Returns
+    -------
+    Readings
+
+    Raises
+    ------
+    CaptureError
+        Only when the capture has no torque or no motion signal (:func:`motion`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(0, 4, 0.05)  # 20 Hz
+    >>> q = np.sin(np.pi * t / 2)
+    >>> v = np.gradient(q, 0.05)
+    >>> cap = Capture({"position": q, "speed": v, "torque": 3 * np.sign(v) + 2 * v},
+    ...               {"position": 20.0, "speed": 20.0, "torque": 20.0})
+    >>> r = read_indicators(cap)
+    >>> round(r.values["coulomb_friction"], 2), round(r.values["viscous_friction"], 2)
+    (3.0, 2.0)
+    >>> r.reasons["impulsiveness"]
+    'needs a torque rate >= 100 Hz (got 20 Hz)'
+    """
+    m = motion(capture)
+    values = {ind.name: math.nan for ind in INDICATORS}
+    reasons: dict[str, str] = {}
+    kinematic: dict[str, float] = {}
+    if gear_ratio is not None:
+        kinematic.update({f"tooth_lines:{n}": r for n, r in (gear_stages or {}).items()})
+        kinematic.update({f"bearing_lines:{n}": o for n, o in (bearing_orders or {}).items()})
+        values.update(dict.fromkeys(kinematic, math.nan))
+    peak = float(np.max(np.abs(m.speed))) if m.speed.size else 0.0
+    moving = np.abs(m.speed) > MOVING_FRACTION * peak
+    min_samples = max(5, round(0.2 * m.rate_hz))
+    if peak <= 0 or moving.sum() < min_samples:
+        for name in values:
+            reasons[name] = "needs motion (the axis did not move for 0.2 s)"
+        return Readings(values, reasons, capture.source)
+    direction = np.sign(m.speed)
+    both = [int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)]
+    if all(both):
+        coulomb, viscous, why = _friction(m, moving)
+        values["coulomb_friction"], values["viscous_friction"] = coulomb, viscous
+        if why is not None:
+            reasons["viscous_friction"] = f"needs moves at more than one speed ({why})"
+    else:
+        for name in ("coulomb_friction", "viscous_friction"):
+            reasons[name] = "needs motion in both directions (the capture moves one way)"
+    steady = np.abs(m.speed) > 0.5 * peak
+    for d, name, word in ((1.0, "load_forward", "positive"), (-1.0, "load_backward", "negative")):
+        mine = steady & (direction == d)
+        if mine.sum() >= min(min_samples, 3):
+            values[name] = float(np.mean(m.torque[mine] * d))
+        else:
+            reasons[name] = f"needs steady motion in the {word} direction"
+    if kinematic:
+        assert gear_ratio is not None
+        _kinematic_lines(m, gear_ratio, kinematic, peak, values, reasons)
+    seconds_moving = float(moving.sum()) / m.rate_hz
+    if m.rate_hz < MIN_BAND_RATE_HZ or seconds_moving < MIN_BAND_MOTION_S:
+        for name in ("impulsiveness", "reversal_bursts"):
+            reasons[name] = (
+                f"needs a torque rate >= {MIN_BAND_RATE_HZ:g} Hz (got {m.rate_hz:g} Hz)"
+                if m.rate_hz < MIN_BAND_RATE_HZ
+                else f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
+            )
+        return Readings(values, reasons, capture.source)
+    band = _band(m)
+    envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
+    normalised = band / np.where(envelope > 0, envelope, 1.0)
+    values["impulsiveness"] = float(kurtosis(normalised[moving], fisher=False))
+    bursts = reversal_bursts(
+        m.torque, band, m.rate_hz, moving, smoothing_hz=min(10.0, 0.05 * m.rate_hz)
+    )
+    values["reversal_bursts"] = bursts
+    if not math.isfinite(bursts):
+        reasons["reversal_bursts"] = "needs torque reversals while moving (none in this capture)"
+    return Readings(values, reasons, capture.source)
+
+
+def _kinematic_lines(
+    m: Motion,
+    gear_ratio: float,
+    kinematic: Mapping[str, float],
+    peak: float,
+    values: dict[str, float],
+    reasons: dict[str, str],
+) -> None:
+    """Line ratios at each component's orders, in a band that holds those orders at the speeds
+    of the capture (not the rate's band: a 4 kHz log of a slow axis has its lines far below it).
+    """
+    fast = np.abs(m.speed) > 0.2 * peak
+    motor_angle = gear_ratio * m.position
+    revs = gear_ratio * np.abs(m.speed[fast]) / (2 * math.pi)
+    slow_revs, fast_revs = (float(np.quantile(revs, q)) for q in (0.1, 0.9))
+    travel = np.abs(np.diff(motor_angle, prepend=motor_angle[0]))
+    revolutions = float(np.sum(travel[fast])) / (2 * math.pi)
+    nyquist_margin = 0.45 * m.rate_hz
+    for name, parameter in kinematic.items():
+        if name.startswith("tooth_lines:"):
+            # Lines of a once-per-gear-turn impact, but not the whole orders (mesh and ripple,
+            # whose presence is healthy).
+            orders = [
+                k / parameter
+                for k in range(1, int(8 * parameter) + 1)
+                if abs(k / parameter - round(k / parameter)) > 1e-9
+            ]
+        else:
+            orders = [parameter + k for k in (-2, -1, 0, 1, 2)] + [
+                2 * parameter + k for k in (-1, 0, 1)
+            ]
+        low = 0.5 * min(orders) * slow_revs
+        high = min(nyquist_margin, 1.5 * max(orders) * fast_revs)
+        if max(orders) * fast_revs >= nyquist_margin or revolutions < MIN_REVOLUTIONS or low <= 0:
+            reasons[name] = (
+                f"needs its order {max(orders):.3g} below {nyquist_margin:g} Hz at "
+                f"{fast_revs:.3g} motor rev/s, and {MIN_REVOLUTIONS:g} motor revolutions "
+                f"(got {revolutions:.3g})"
+            )
+            continue
+        sos = butter(4, [low, high], btype="bandpass", fs=m.rate_hz, output="sos")
+        x = np.asarray(sosfiltfilt(sos, m.torque), dtype=np.float64)[fast]
+        theta = motor_angle[fast]
+        if name.startswith("tooth_lines:"):
+            values[name] = line_ratio(x, theta, orders, [0.5 / parameter])
+        else:
+            values[name] = bearing_lines(x, theta, parameter)

@@ -1,0 +1,233 @@
+"""A family of simulated robot axes: each robot draws its own mechanics, controller and logger.
+
+Data for the transfer study (issue 13): a method must be chosen on some robots and judged on
+others it was never tuned on. :func:`draw_robot` turns a seed into a :class:`SimulatedRobot`:
+an :class:`~axiswatch.AxisSpec` (gear ratio and stages, bearing geometry, friction law with
+Coulomb, viscous, Stribeck and temperature terms, stiffness and so resonance, gravity load of an
+arm or a wrist axis, controller gains, logging rates from 20 Hz to 4 kHz with the position as fast
+as the torque or slower, quantisation and noise), six tasks (minimum-jerk and constant-speed
+moves, payloads, and one task logged as one-direction strokes, as a triggered logger records a
+valve or a shuttle) and how its faults develop (a friction fault that is Coulomb-only,
+viscous-only or both). The seeds are split once, here, into :data:`DEVELOPMENT_ROBOTS` (every
+choice of a method is made on them) and :data:`HELD_OUT_ROBOTS` (only reported).
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from axiswatch._capture import Capture
+from axiswatch.datasets._robot import (
+    INTEGRATION_RATE_HZ,
+    NOMINAL_AXIS,
+    AxisSpec,
+    Fault,
+    Task,
+    simulate_capture,
+)
+
+__all__ = [
+    "DEVELOPMENT_ROBOTS",
+    "HELD_OUT_ROBOTS",
+    "SimulatedRobot",
+    "draw_robot",
+]
+
+#: Seeds of the robots on which every parameter of a method is chosen.
+DEVELOPMENT_ROBOTS: tuple[int, ...] = tuple(range(8))
+
+#: Seeds of the robots that are only reported, never used for a choice.
+HELD_OUT_ROBOTS: tuple[int, ...] = tuple(range(1000, 1012))
+
+#: Logging rates a robot draws from (Hz); each divides the integration rate.
+FAST_RATES_HZ: tuple[float, ...] = (20.0, 50.0, 100.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0)
+
+#: Capture length of every task but the strokes (s): longer than the longest drawn cycle (3.6 s).
+CAPTURE_S = 4.0
+
+FrictionFault = Literal["coulomb", "viscous", "both"]
+_FRICTION_FAULTS: tuple[FrictionFault, ...] = ("coulomb", "viscous", "both")
+
+
+@dataclass(frozen=True)
+class SimulatedRobot:
+    """One drawn robot axis, its tasks and how its faults develop.
+
+    Attributes
+    ----------
+    seed : int
+    kind : {"arm", "wrist"}
+        An arm axis holds its link (and payload) against gravity; a wrist axis hardly does.
+    spec : AxisSpec
+    tasks : tuple of Task
+        Six tasks; the last is logged as one-direction strokes (:meth:`capture`).
+    friction_fault : {"coulomb", "viscous", "both"}
+        Which friction term the robot's friction fault grows.
+    """
+
+    seed: int
+    kind: Literal["arm", "wrist"]
+    spec: AxisSpec
+    tasks: tuple[Task, ...]
+    friction_fault: FrictionFault
+
+    @property
+    def name(self) -> str:
+        """``robot<seed>``."""
+        return f"robot{self.seed}"
+
+    @property
+    def stroke_task(self) -> str:
+        """Name of the task logged one stroke (one direction) at a time."""
+        return self.tasks[-1].name
+
+    def capture(
+        self,
+        task: int | str,
+        *,
+        fault: Fault | None = None,
+        seed: int | str = 0,
+        metadata: Mapping[str, str] | None = None,
+    ) -> Capture:
+        """One capture of ``task`` (index or name) at a random phase; the stroke task's capture
+        starts with a move, in a random direction, and ends before the next one.
+
+        ``seed`` (an int or any string) seeds the phase, temperature and noise, mixed with the
+        robot's seed.
+        """
+        chosen = self.tasks[task] if isinstance(task, int) else self._task(task)
+        mixed = zlib.crc32(f"{self.seed}/{chosen.name}/{seed}".encode())
+        rng = np.random.default_rng(mixed)
+        phase: float | None = None
+        duration = CAPTURE_S
+        if chosen.name == self.stroke_task:
+            back = bool(rng.integers(2))
+            phase = chosen.move_s + chosen.dwell_place_s if back else 0.0
+            duration = chosen.move_s + (chosen.dwell_pick_s if back else chosen.dwell_place_s)
+        labels = {"robot": self.name, "task": chosen.name, **(metadata or {})}
+        return simulate_capture(
+            chosen,
+            fault=fault,
+            duration_s=duration,
+            phase_s=phase,
+            seed=rng,
+            metadata=labels,
+            spec=self.spec,
+        )
+
+    def _task(self, name: str) -> Task:
+        for task in self.tasks:
+            if task.name == name:
+                return task
+        raise ValueError(
+            f"Unknown task {name!r} of {self.name}; expected one of {[t.name for t in self.tasks]}."
+        )
+
+
+def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
+    return float(math.exp(rng.uniform(math.log(low), math.log(high))))
+
+
+def _rates(rng: np.random.Generator) -> tuple[float, float]:
+    fast = float(rng.choice(FAST_RATES_HZ))
+    slower = [
+        fast / k
+        for k in (1, 2, 4, 8)
+        if fast / k >= 20.0 and (INTEGRATION_RATE_HZ / (fast / k)).is_integer()
+    ]
+    return float(rng.choice(slower)), fast
+
+
+def _tasks(rng: np.random.Generator, kind: str, size: float) -> tuple[Task, ...]:
+    tasks = []
+    for k in range(6):
+        amplitude = rng.uniform(0.3, 1.5) if kind == "arm" else rng.uniform(0.5, 3.0)
+        move = rng.uniform(0.35, 1.2)
+        cruise = float(rng.uniform(0.4, 0.8)) if k in (1, 3) or rng.uniform() < 0.2 else 0.0
+        payload = rng.uniform(0.0, 10.0) * size if kind == "arm" else rng.uniform(0.0, 5.0)
+        tasks.append(
+            Task(
+                f"task{k}",
+                float(amplitude),
+                float(move),
+                float(rng.uniform(0.1, 0.6)),
+                float(rng.uniform(0.1, 0.6)),
+                float(payload),
+                float(rng.uniform(-0.5, 1.2)),
+                cruise,
+            )
+        )
+    return tuple(tasks)
+
+
+def draw_robot(seed: int) -> SimulatedRobot:
+    """Draw one robot axis of the family (deterministic in ``seed``).
+
+    Ranges (about the project's original axis, :data:`~axiswatch.NOMINAL_AXIS`): size factor
+    0.3-3 (arm) or 0.05-0.5 (wrist) scaling inertias, friction, stiffness and gains together;
+    gear ratio 50-160 with a tooth stage of 3-7.5 motor turns and 17-40 teeth; bearing defect
+    order 3.5-7.5; Coulomb x 0.5-1.5, viscous x 0.3-2, Stribeck peak 0-50 % of Coulomb, friction
+    falling 0.5-2 % per kelvin; stiffness x 0.5-2; torque rate 20 Hz-4 kHz with the position at
+    that rate or 2, 4, 8 times slower (never below 20 Hz); encoder of 12-20 bits; torque
+    resolution 0, 0.1 or 1 % of Coulomb friction; noise x 0.3-3.
+
+    Examples
+    --------
+    >>> robot = draw_robot(3)
+    >>> robot.name, len(robot.tasks), robot.spec.fast_rate_hz >= 20
+    ('robot3', 6, True)
+    >>> draw_robot(3) == robot
+    True
+    """
+    rng = np.random.default_rng(zlib.crc32(f"axiswatch robot family/{seed}".encode()))
+    kind: Literal["arm", "wrist"] = "arm" if rng.uniform() < 0.6 else "wrist"
+    size = _log_uniform(rng, 0.3, 3.0) if kind == "arm" else _log_uniform(rng, 0.05, 0.5)
+    gear_ratio = float(rng.choice([50.0, 80.0, 100.0, 120.0, 160.0]))
+    coulomb = NOMINAL_AXIS.coulomb * size * rng.uniform(0.5, 1.5)
+    friction_fault = _FRICTION_FAULTS[int(rng.integers(len(_FRICTION_FAULTS)))]
+    growth = {"coulomb": (3.0, 0.0), "viscous": (0.0, 2.5), "both": (2.0, 1.5)}[friction_fault]
+    position_rate, fast_rate = _rates(rng)
+    bits = int(rng.choice([12, 14, 16, 20]))
+    spec = AxisSpec(
+        gear_ratio=gear_ratio,
+        mesh_order=float(rng.choice([1.0, 2.0])),
+        tooth_stage_ratio=float(rng.choice([3.0, 4.0, 5.0, 6.0, 7.5])),
+        tooth_count=int(rng.integers(17, 41)),
+        bearing_order=float(rng.uniform(3.5, 7.5)),
+        j_motor=NOMINAL_AXIS.j_motor * size * rng.uniform(0.7, 1.3),
+        j_link=NOMINAL_AXIS.j_link * size * rng.uniform(0.7, 1.3),
+        arm_m=float(rng.uniform(0.6, 1.4) if kind == "arm" else rng.uniform(0.05, 0.2)),
+        link_moment=NOMINAL_AXIS.link_moment
+        * size
+        * (rng.uniform(0.5, 1.5) if kind == "arm" else rng.uniform(0.0, 0.05)),
+        stiffness=NOMINAL_AXIS.stiffness * size * _log_uniform(rng, 0.5, 2.0),
+        damping=NOMINAL_AXIS.damping * size * rng.uniform(0.7, 1.3),
+        backlash=NOMINAL_AXIS.backlash * rng.uniform(0.5, 2.0),
+        coulomb=coulomb,
+        viscous=NOMINAL_AXIS.viscous * size * rng.uniform(0.3, 2.0),
+        stribeck_speed=float(rng.uniform(0.01, 0.05)),
+        stribeck_peak=coulomb * rng.uniform(0.0, 0.5),
+        temperature_coefficient=-float(rng.uniform(0.005, 0.02)),
+        ripple=NOMINAL_AXIS.ripple * size * rng.uniform(0.3, 1.5),
+        kp=NOMINAL_AXIS.kp * size * rng.uniform(0.6, 1.5),
+        kd=NOMINAL_AXIS.kd * size * rng.uniform(0.7, 1.3),
+        position_rate_hz=position_rate,
+        fast_rate_hz=fast_rate,
+        position_quantum=2 * math.pi / 2**bits / gear_ratio,
+        torque_quantum=coulomb * float(rng.choice([0.0, 0.001, 0.01])),
+        noise_position=NOMINAL_AXIS.noise_position * _log_uniform(rng, 0.3, 3.0),
+        noise_speed=NOMINAL_AXIS.noise_speed * _log_uniform(rng, 0.3, 3.0),
+        noise_torque=NOMINAL_AXIS.noise_torque * size * _log_uniform(rng, 0.3, 3.0),
+        tooth_impact=coulomb * rng.uniform(2.0, 4.0),
+        bearing_impact=coulomb * rng.uniform(0.8, 1.6),
+        coulomb_growth=growth[0] * rng.uniform(0.8, 1.2),
+        viscous_growth=growth[1] * rng.uniform(0.8, 1.2),
+        backlash_growth=float(rng.uniform(3e-3, 8e-3)),
+    )
+    return SimulatedRobot(seed, kind, spec, _tasks(rng, kind, size), friction_fault)

@@ -1,0 +1,254 @@
+"""Which axes need a service engineer now, and one line each on why: the report's first screen.
+
+Pipeline side-stage of the report; pure functions of what the store holds (no SQL, no files).
+For one method (the product default when the store has it) every axis gets a kind, ranked:
+
+0. ``alarm``: in alarm and nobody acknowledged it, the strongest (distance over threshold) first;
+1. ``bad data``: captures rejected and not replaced by a scored file of the same path, files
+   changed after they were scored, or no baseline at all;
+2. ``stale``: its last capture lies more than ``stale_factor`` of its usual capture interval
+   (the median gap between its captures) behind the newest capture of the fleet. Measured
+   against the fleet, not the wall clock, so that an archive read later is not all stale;
+3. ``acknowledged``: in alarm, seen by someone (``axiswatch ack``) and not raised again since;
+
+and ``ok`` or ``calibrating`` (nothing to do) otherwise. An axis with several problems is listed
+once under its most urgent kind, its line naming all of them.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from axiswatch._attribution import describe_top_indicator
+from axiswatch.monitor._store import AlarmState
+
+__all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
+
+#: Kinds in order of urgency; the first four need attention.
+KINDS: tuple[str, ...] = ("alarm", "bad data", "stale", "acknowledged", "calibrating", "ok")
+
+#: The method that leads the report when the store holds it: the product default first.
+METHOD_ORDER: tuple[str, ...] = ("mechanics", "lra", "pca")
+
+
+@dataclass(frozen=True)
+class AxisAttention:
+    """One axis's place on the first screen.
+
+    Attributes
+    ----------
+    robot, axis, method : str
+    kind : str
+        One of :data:`KINDS`.
+    line : str
+        What a service engineer needs to know, in one line.
+    severity : float
+        Distance over threshold of the last capture (NaN when unknown): orders axes of a kind.
+    last_capture_at : str or None
+        When the axis's last scored capture was taken.
+    problems : list of str
+        Every kind that applies (an alarmed axis can also have rejected captures).
+    """
+
+    robot: str
+    axis: str
+    method: str
+    kind: str
+    line: str
+    severity: float
+    last_capture_at: str | None
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def needs_attention(self) -> bool:
+        """Alarm, bad data, stale or acknowledged alarm."""
+        return self.kind in KINDS[:4]
+
+    @property
+    def anchor(self) -> str:
+        """The id of the axis's section in the report."""
+        return f"{self.robot}-{self.axis}"
+
+
+def lead_method(methods: Sequence[str]) -> str | None:
+    """The method the report leads with: the first of :data:`METHOD_ORDER` present.
+
+    Examples
+    --------
+    >>> lead_method(["pca", "mechanics", "lra"]), lead_method(["pca", "lra"]), lead_method([])
+    ('mechanics', 'lra', None)
+    """
+    present = set(methods)
+    return next((m for m in METHOD_ORDER if m in present), next(iter(sorted(present)), None))
+
+
+def _day(stamp: str | None) -> str:
+    return "" if stamp is None else str(stamp)[:10]
+
+
+def _alarm_line(
+    last: Any, state: AlarmState, captures_in_alarm: int, threshold_origin: str | None
+) -> str:
+    plural = "s" if captures_in_alarm != 1 else ""
+    line = f"ALARM since {_day(state.raised_at)} ({captures_in_alarm} capture{plural} in alarm): "
+    if last is None:
+        return line
+    top = describe_top_indicator(json.loads(last["details"]).get("indicators", {}))
+    if top:
+        line += f"{top}. "
+    origin = f" ({threshold_origin})" if threshold_origin else ""
+    if last["over"]:
+        return (
+            line + f"Distance {last['distance']:.4g} > threshold {last['threshold']:.4g}{origin}."
+        )
+    return line + (
+        f"Last distance {last['distance']:.4g} under threshold {last['threshold']:.4g}{origin}; "
+        "the alarm holds until enough clean captures in a row."
+    )
+
+
+def triage(
+    summary: pd.DataFrame,
+    results: pd.DataFrame,
+    rejections: pd.DataFrame,
+    changed: pd.DataFrame,
+    alarms: Sequence[AlarmState],
+    *,
+    method: str,
+    stale_factor: float = 3.0,
+) -> list[AxisAttention]:
+    """Every axis of ``method``, the ones needing attention first, ranked by :data:`KINDS`.
+
+    Parameters
+    ----------
+    summary : DataFrame
+        :func:`~axiswatch.monitor._results.fleet_summary`.
+    results : DataFrame
+        :func:`~axiswatch.monitor._results.fleet_results`.
+    rejections : DataFrame
+        :func:`~axiswatch.monitor._results.fleet_rejections`.
+    changed : DataFrame
+        ``StoreBackend.changed_file_table()``.
+    alarms : sequence of AlarmState
+        ``StoreBackend.alarms()``.
+    method : str
+    stale_factor : float, default=3.0
+        An axis is stale when its last capture is more than this many of its usual capture
+        intervals behind the fleet's newest capture (three missed captures in a row).
+
+    Returns
+    -------
+    list of AxisAttention
+        Ranked: kind, then severity (largest first), then robot and axis.
+    """
+    own = results[(results.method == method) & (results.role != "baseline")]
+    scored_paths = set(results.path[results.method == method])
+    rows = summary[summary.method == method]
+    rejected = rejections[rejections.method == method]
+    axes = sorted(
+        set(zip(rows.robot, rows.axis, strict=True))
+        | set(zip(rejected.robot, rejected.axis, strict=True))
+        | set(zip(changed.robot, changed.axis, strict=True))
+    )
+    newest = pd.to_datetime(own.captured_at).max() if not own.empty else None
+    alarm_of = {(a.robot, a.axis): a for a in alarms if a.method == method}
+    ranked = []
+    for robot, axis in axes:
+        row = rows[(rows.robot == robot) & (rows.axis == axis)]
+        info = row.iloc[0] if not row.empty else None
+        history = own[(own.robot == robot) & (own.axis == axis)]
+        if info is not None:
+            history = history[history.epoch == info["epoch"]]
+        last = history.iloc[-1] if not history.empty else None
+        problems: list[str] = []
+        lines: list[str] = []
+        severity = float("nan")
+        if last is not None and pd.notna(last["threshold"]) and last["threshold"] > 0:
+            severity = float(last["distance"] / last["threshold"])
+        state = alarm_of.get((robot, axis))
+        origin = None if info is None else info.get("threshold_origin")
+        if state is not None:
+            in_alarm = int((history.alarm & (history.captured_at >= state.raised_at)).sum())
+            line = _alarm_line(last, state, in_alarm, origin)
+            if state.acknowledged:
+                problems.append("acknowledged")
+                line += (
+                    f" Seen by {state.acknowledged_by} on {_day(state.acknowledged_at)}: "
+                    f"{state.note}"
+                )
+            else:
+                problems.append("alarm")
+            lines.append(line)
+        bad = rejected[(rejected.robot == robot) & (rejected.axis == axis)]
+        bad = bad[[p not in scored_paths for p in bad.path]]
+        if info is None:
+            problems.append("bad data")
+            lines.append(
+                f"No baseline: {len(bad)} capture file(s) rejected, latest "
+                f"{bad.path.iloc[-1]}: {bad.error.iloc[-1]}"
+                if not bad.empty
+                else "No baseline yet."
+            )
+        elif not bad.empty:
+            problems.append("bad data")
+            lines.append(f"{len(bad)} capture file(s) rejected, latest: {bad.error.iloc[-1]}")
+        moved = changed[(changed.robot == robot) & (changed.axis == axis)]
+        if not moved.empty:
+            problems.append("bad data")
+            lines.append(
+                f"{len(moved)} file(s) changed after they were scored (results kept): "
+                + ", ".join(moved.path)
+            )
+        last_at = None if last is None else str(last["captured_at"])
+        times = pd.to_datetime(history.captured_at)
+        if newest is not None and len(times) >= 2:
+            usual = times.diff().median()
+            behind = newest - times.max()
+            if usual > pd.Timedelta(0) and behind > stale_factor * usual:
+                problems.append("stale")
+                lines.append(
+                    f"Stale: no capture since {_day(last_at)}, {behind} behind the fleet's "
+                    f"newest ({behind / usual:.0f} x its usual interval of {usual})."
+                )
+        if problems:
+            kind = min(problems, key=KINDS.index)
+        else:
+            kind = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
+            lines.append(_healthy_line(info, last, history))
+        ranked.append(
+            AxisAttention(robot, axis, method, kind, " ".join(lines), severity, last_at, problems)
+        )
+    return sorted(
+        ranked,
+        key=lambda a: (
+            KINDS.index(a.kind),
+            -a.severity if a.severity == a.severity else 0.0,
+            a.robot,
+            a.axis,
+        ),
+    )
+
+
+def _healthy_line(info: Any, last: Any, history: pd.DataFrame) -> str:
+    if info is None or last is None:
+        return "Baseline set; no capture scored yet."
+    if pd.isna(info["threshold"]):
+        return (
+            f"Calibrating: {int(info['scored'])} of the captures that set the threshold "
+            f"scored, last {_day(last['captured_at'])}."
+        )
+    raised = history[history.alarm & ~history.alarm.shift(fill_value=False)]
+    cleared = (
+        f" {len(raised)} alarm(s) raised and cleared ({', '.join(map(_day, raised.captured_at))})."
+        if not raised.empty
+        else ""
+    )
+    return (
+        f"ok: last capture {_day(last['captured_at'])}, distance {last['distance']:.4g} "
+        f"under threshold {last['threshold']:.4g}.{cleared}"
+    )

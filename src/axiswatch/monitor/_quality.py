@@ -1,0 +1,129 @@
+"""Data quality of a capture: a verdict of its own, judged before any mechanical one.
+
+Pipeline stage of the monitor's jobs, between reading a capture and featurizing it. A capture
+whose data cannot tell anything about the axis's mechanics (the robot stood still, a sensor was
+stuck, a logger glitch wrote an absurd number) must be neither a maintenance alarm nor a quiet
+healthy score: the monitor stores it as rejected with kind ``bad data`` and the reason.
+
+Rules, in this order (the first that applies is the verdict):
+
+``out of range``
+    a sample with ``|value| > OUT_OF_RANGE`` (1e6): no position (rad, deg, mm), speed or torque
+    of a robot axis reaches it in any unit it is logged in; non-finite values are already
+    rejected by :func:`axiswatch.read_capture`.
+``flat/stuck signal``
+    a signal with one value throughout, or whose longest run of one repeated value covers at
+    least ``STUCK_SHARE`` (half) of its samples: a frozen sensor repeats its last reading.
+``no motion``
+    (only with the baseline's reference) position spanning less than ``MIN_MOTION_SHARE`` (5 %)
+    of the baseline's span: the robot was idle during the capture.
+
+The thresholds are stated, not fitted: a half-frozen signal or a twentyfold smaller motion are far
+outside what healthy captures of one task show (simulated captures: no repeated sample at all,
+spans within a few per cent). A real logger that quantizes a standing axis to one value for more
+than half a capture is called stuck; such an axis should be captured while it moves.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from axiswatch._capture import Capture
+
+__all__ = [
+    "MIN_MOTION_SHARE",
+    "OUT_OF_RANGE",
+    "STUCK_SHARE",
+    "QualityReference",
+    "data_quality_problem",
+    "longest_run",
+]
+
+OUT_OF_RANGE = 1e6
+STUCK_SHARE = 0.5
+MIN_MOTION_SHARE = 0.05
+
+
+@dataclass(frozen=True)
+class QualityReference:
+    """What the baseline capture showed: the peak-to-peak span of each signal."""
+
+    spans: dict[str, float]
+
+    @classmethod
+    def of(cls, capture: Capture) -> QualityReference:
+        """The reference of a (baseline) capture."""
+        return cls({name: float(np.ptp(v)) for name, v in capture.signals.items()})
+
+
+def longest_run(values: NDArray[np.float64]) -> tuple[int, int]:
+    """Length and start of the longest run of one repeated value (the first such run).
+
+    Examples
+    --------
+    >>> longest_run(np.array([1.0, 2.0, 2.0, 2.0, 3.0, 3.0]))
+    (3, 1)
+    """
+    changes = np.flatnonzero(values[1:] != values[:-1]) + 1
+    starts = np.concatenate([[0], changes])
+    lengths = np.diff(np.concatenate([starts, [values.size]]))
+    best = int(np.argmax(lengths))
+    return int(lengths[best]), int(starts[best])
+
+
+def data_quality_problem(capture: Capture, reference: QualityReference | None = None) -> str | None:
+    """The data-quality verdict of a capture and its reason, or None when the data are usable.
+
+    Parameters
+    ----------
+    capture : Capture
+    reference : QualityReference, optional
+        The baseline's; without it (a baseline candidate) ``no motion`` is not judged.
+
+    Returns
+    -------
+    str or None
+        ``"<verdict>: <reason>"`` with the verdict ``out of range``, ``flat/stuck signal`` or
+        ``no motion``.
+
+    Examples
+    --------
+    >>> import axiswatch as aw
+    >>> t = np.arange(2000) / 2000.0
+    >>> moving = aw.as_capture({"position": np.sin(6 * t), "torque": np.cos(6 * t)}, 2000.0)
+    >>> data_quality_problem(moving) is None
+    True
+    >>> idle = aw.as_capture({"position": 0.001 * np.sin(6 * t), "torque": np.cos(6 * t)}, 2000.0)
+    >>> data_quality_problem(idle, QualityReference.of(moving))[:9]
+    'no motion'
+    """
+    for name, values in capture.signals.items():
+        peak = int(np.argmax(np.abs(values)))
+        if abs(values[peak]) > OUT_OF_RANGE:
+            return (
+                f"out of range: signal '{name}' reads {values[peak]:.4g} at sample {peak} (no "
+                f"axis signal exceeds {OUT_OF_RANGE:g} in magnitude; a logger glitch?)"
+            )
+    for name, values in capture.signals.items():
+        run, start = longest_run(values)
+        if run == values.size:
+            return f"flat/stuck signal: '{name}' is {values[0]:.6g} throughout ({run} samples)"
+    if reference is not None and "position" in capture.signals:
+        span = float(np.ptp(capture.signals["position"]))
+        expected = reference.spans.get("position", 0.0)
+        if expected > 0 and span < MIN_MOTION_SHARE * expected:
+            return (
+                f"no motion: position spans {span:.4g}, {100 * span / expected:.2g} % of the "
+                f"baseline's {expected:.4g} (the robot was idle during the capture?)"
+            )
+    for name, values in capture.signals.items():
+        run, start = longest_run(values)
+        if run >= STUCK_SHARE * values.size:
+            return (
+                f"flat/stuck signal: '{name}' repeats {values[start]:.6g} for {run} of "
+                f"{values.size} samples from sample {start} (a frozen sensor?)"
+            )
+    return None

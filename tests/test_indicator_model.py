@@ -1,0 +1,142 @@
+"""IndicatorModel: where every number of the decision comes from, and how it behaves."""
+
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import axiswatch as aw
+from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
+from axiswatch._indicator_model import IndicatorModel, pool_fleet, robust_spread
+from tests import naive
+
+RATE = 200.0
+
+
+def _capture(
+    seed: int, *, coulomb: float = 3.0, payload: float = 0.0, rate: float = RATE
+) -> aw.Capture:
+    """A 200 Hz axis: friction, a task-dependent payload, noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0, 6, 1 / rate)
+    q = np.sin(np.pi * t / 2 + rng.uniform(0, 2 * np.pi)) + 0.3 * np.sin(np.pi * t)
+    v = np.gradient(q, 1 / rate)
+    tau = coulomb * np.sign(v) + 2.0 * v + payload * (v > 0) + rng.normal(scale=0.5, size=t.size)
+    return aw.Capture(
+        {"position": q, "speed": v, "torque": tau},
+        {"position": rate, "speed": rate, "torque": rate},
+    )
+
+
+def _fitted(seed: int, **kwargs: float) -> IndicatorModel:
+    return IndicatorModel().fit(
+        _capture(seed, **kwargs), [_capture(seed + k, **kwargs) for k in range(1, 6)]
+    )
+
+
+def test_robust_spread_matches_the_naive_twin() -> None:
+    values = [*np.random.default_rng(0).normal(size=11).tolist(), 50.0, math.nan]
+    assert robust_spread(values) == pytest.approx(naive.robust_spread(values), rel=1e-12)
+    assert math.isnan(robust_spread([1.0, 2.0]))
+
+
+def test_threshold_is_the_calibration_fit_without_a_fleet() -> None:
+    model = _fitted(10)
+    rows = model.calibration_rows_
+    loo = []
+    for k in range(1, len(rows)):
+        others = rows[:k] + rows[k + 1 :]
+        centre = {n: float(np.median([o[n] for o in others])) for n in model.scales_}
+        z = [
+            abs(rows[k][n] - centre[n]) / s
+            if n.endswith("friction") or n.startswith("load")
+            else max((rows[k][n] - centre[n]) / s, 0.0)
+            for n, s in model.scales_.items()
+        ]
+        loo.append(max(z))
+    assert model.threshold_ == pytest.approx(fit_half_laplace(loo).threshold(99.0))
+    assert any("no task-change allowance" in note for note in model.notes_)
+
+
+def test_fleet_allowance_comes_from_the_fleet_pairs() -> None:
+    fleet = [_fitted(100 * k, payload=float(k)) for k in range(5)]
+    prior = pool_fleet(fleet)
+    assert prior.n_axes == 5
+    assert prior.n_pairs == 10
+    assert prior.allowance(99.0) == pytest.approx(half_laplace_threshold(prior.allowance_scale, 99))
+    model = fleet[0].use_fleet(prior)
+    assert model.threshold_ >= prior.allowance(99.0)
+    # Task spread enters the scale: a fleet axis with another payload is not an alarm.
+    other_task = model.assess(_capture(999, payload=2.0))
+    assert not other_task.alarm
+
+
+def test_fleet_prior_resists_a_faulty_minority() -> None:
+    healthy = [_fitted(100 * k, payload=float(k)) for k in range(5)]
+    worn = _fitted(700, coulomb=9.0)
+    clean = pool_fleet(healthy).task_spreads["coulomb_friction"]
+    mixed = pool_fleet([*healthy, worn]).task_spreads["coulomb_friction"]
+    assert mixed < 1.5 * clean
+
+
+def test_fleet_needs_three_axes() -> None:
+    with pytest.raises(aw.CalibrationError, match="at least 3 axes of one profile; got 2"):
+        pool_fleet([_fitted(1), _fitted(50)])
+
+
+def test_a_faulty_baseline_is_reported_not_trusted() -> None:
+    worn_baseline = _capture(1, coulomb=9.0)
+    model = IndicatorModel().fit(worn_baseline, [_capture(k) for k in range(2, 8)])
+    assert model.baseline_check_ is not None
+    assert "the median of all is the reference" in model.baseline_check_
+    assert model.centre_["coulomb_friction"] == pytest.approx(3.0, abs=0.5)
+
+
+def test_a_friction_rise_alarms_and_names_friction() -> None:
+    model = _fitted(20)
+    verdict = model.assess(_capture(40, coulomb=6.0))
+    assert verdict.alarm
+    assert verdict.top == "coulomb_friction"
+    assert verdict.component == "friction"
+    assert "coulomb_friction (friction)" in verdict.reason()
+    assert sum(v["share"] for v in verdict.indicators.values()) == pytest.approx(1.0)
+
+
+def test_unavailable_indicators_are_reported_and_others_scored() -> None:
+    model = IndicatorModel().fit(
+        _capture(30, rate=50.0), [_capture(30 + k, rate=50.0) for k in range(1, 6)]
+    )
+    verdict = model.assess(_capture(37, rate=50.0))
+    assert verdict.scored
+    assert verdict.unavailable["impulsiveness"] == "needs a torque rate >= 100 Hz (got 50 Hz)"
+    assert "coulomb_friction" in verdict.indicators
+
+
+def test_too_few_calibration_captures() -> None:
+    with pytest.raises(aw.CalibrationError, match="at least 2 calibration captures"):
+        IndicatorModel().fit(_capture(1), [_capture(2)])
+
+
+def test_nothing_in_the_decision_path_comes_from_the_simulator() -> None:
+    """The product modules import no simulator, study or development constant."""
+    forbidden = {
+        "axiswatch._robot",
+        "axiswatch._family",
+        "axiswatch._paired",
+        "axiswatch._transfer",
+    }
+    src = Path(aw.__file__).parent
+    for module in ("_readings.py", "_indicator_model.py", "_profiles.py"):
+        tree = ast.parse((src / module).read_text())
+        imported = {
+            node.module
+            for node in ast.walk(tree)
+            if isinstance(node, ast.ImportFrom) and node.module
+        }
+        assert not {m for m in imported if m.startswith(tuple(forbidden))}, module
+        assert "MECHANICS_SCALES" not in (src / module).read_text()
+        assert "MECHANICS_TASK_CHANGE_SCALE" not in (src / module).read_text()

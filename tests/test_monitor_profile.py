@@ -1,0 +1,78 @@
+"""The monitor reads a controller's own files through an axis profile (issue 13, item 1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import axiswatch as aw
+from axiswatch._capture import capture_to_frame
+from axiswatch.cli import app
+
+runner = CliRunner()
+
+PROFILE = """
+name = "demo"
+[columns]
+"ts_us" = "time"
+"Pos_deg" = "position"
+"Vel_deg_s" = "speed"
+"Trq" = "torque"
+[units]
+time = "us"
+position = "deg"
+"""
+
+
+@pytest.fixture
+def controller_fleet(small_fleet: Path, tmp_path: Path) -> Path:
+    """The small fleet re-exported as a controller would: own column names, absolute Unix
+    microseconds, degrees."""
+    root = tmp_path / "fleet"
+    for path in sorted(small_fleet.rglob("*.parquet")):
+        frame = capture_to_frame(aw.read_capture(path))
+        day = np.datetime64(path.stem).astype("datetime64[us]").astype(np.int64)
+        export = frame.assign(
+            ts_us=day + np.round(frame["time"] * 1e6).astype(np.int64),
+            Pos_deg=np.degrees(frame["position"]),
+            Vel_deg_s=np.degrees(frame["speed"]),
+            Trq=frame["torque"],
+        )[["ts_us", "Pos_deg", "Vel_deg_s", "Trq"]]
+        target = root / path.relative_to(small_fleet).with_suffix(".csv")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        export.to_csv(target, index=False)
+    return root
+
+
+def _monitor(root: Path, store: Path, *extra: str) -> tuple[int, str]:
+    result = runner.invoke(
+        app,
+        ["monitor", str(root), "--store", str(store), "--method", "pca", "--no-progress", *extra],
+    )
+    return result.exit_code, result.output
+
+
+def test_without_a_profile_every_capture_is_rejected(
+    controller_fleet: Path, tmp_path: Path
+) -> None:
+    code, output = _monitor(controller_fleet, tmp_path / "s.sqlite")
+    assert code == 8
+    assert "missing column 'time'" in output
+
+
+def test_the_fleet_folder_profile_is_found(controller_fleet: Path, tmp_path: Path) -> None:
+    (controller_fleet / "axiswatch.toml").write_text(PROFILE)
+    code, output = _monitor(controller_fleet, tmp_path / "s.sqlite")
+    assert code == 0, output
+    assert "16 capture(s) scored in this run" in output
+
+
+def test_profile_option(controller_fleet: Path, tmp_path: Path) -> None:
+    profile = tmp_path / "axis.toml"
+    profile.write_text(PROFILE)
+    code, output = _monitor(controller_fleet, tmp_path / "s.sqlite", "--profile", str(profile))
+    assert code == 0, output
+    assert "16 capture(s) scored in this run" in output

@@ -1,0 +1,128 @@
+"""AxisProfile: TOML, column mapping, units, absolute and irregular time stamps, fleet lookup."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import axiswatch as aw
+from axiswatch._profiles import AxisProfile, find_profile
+
+
+def _controller_csv(path: Path, *, irregular: bool = False) -> Path:
+    rate = 250.0
+    steps = np.full(1000, 1000.0 / rate)  # ms
+    if irregular:
+        steps = steps * np.random.default_rng(0).uniform(0.8, 1.2, size=steps.size)
+    stamps = 1_700_000_000_000 + np.concatenate([[0], np.cumsum(steps[:-1])]).round()
+    t = (stamps - stamps[0]) / 1000.0
+    q_rad = np.sin(np.pi * t / 2)
+    frame = pd.DataFrame(
+        {
+            "Timestamp": stamps.astype(np.int64),
+            "J2_ActPos": np.degrees(q_rad),
+            "J2_Current": 3 * np.sign(np.cos(np.pi * t / 2)),
+        }
+    )
+    frame.to_csv(path, index=False)
+    return path
+
+
+PROFILE = AxisProfile.from_dict(
+    {
+        "name": "cobot-j2",
+        "columns": {"Timestamp": "time", "J2_ActPos": "position", "J2_Current": "torque"},
+        "units": {"time": "ms", "position": "deg"},
+    }
+)
+
+
+def test_controller_export_reads_through_its_profile(tmp_path: Path) -> None:
+    capture = aw.read_capture(_controller_csv(tmp_path / "c.csv"), profile=PROFILE)
+    assert capture.names == ("position", "torque")
+    assert capture.rates_hz["position"] == pytest.approx(250.0)
+    assert capture.start_s == 0.0
+    assert np.abs(capture.signals["position"]).max() == pytest.approx(1.0, abs=1e-3)  # rad
+
+
+def test_without_the_profile_the_file_is_not_understood(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    with pytest.raises(aw.CaptureError, match="missing column 'time'"):
+        aw.read_capture(path)
+
+
+def test_irregular_stamps_need_the_option(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv", irregular=True)
+    with pytest.raises(aw.CaptureError, match="not uniformly sampled"):
+        aw.read_capture(path, profile=PROFILE)
+    lenient = AxisProfile.from_dict(
+        {
+            "columns": dict(PROFILE.columns),
+            "units": {"time": "ms", "position": "deg"},
+            "resample_irregular": True,
+        }
+    )
+    capture = aw.read_capture(path, profile=lenient)
+    assert capture.rates_hz["torque"] == pytest.approx(250.0, rel=0.05)
+
+
+def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
+    path = tmp_path / "axis.toml"
+    path.write_text(
+        'name = "arm"\n[units]\nposition = "rev"\n[kinematics]\ngear_ratio = 101.0\n'
+        "[kinematics.gear_stages]\noutput = 5.0\n[kinematics.bearing_orders]\ninner = 5.43\n"
+    )
+    profile = AxisProfile.from_toml(path)
+    assert profile.kinematics() == {
+        "gear_ratio": 101.0,
+        "gear_stages": {"output": 5.0},
+        "bearing_orders": {"inner": 5.43},
+    }
+    assert profile.position_unit == "rev"
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"colums": {}}, r"Unknown key\(s\) \['colums'\]"),
+        ({"columns": {"x": "angle"}}, "maps to role 'angle'"),
+        ({"units": {"time": "min"}}, "time unit must be one of"),
+        ({"units": {"position": "grad"}}, "position unit must be one of"),
+        ({"kinematics": {"gear_ratio": -1}}, "gear_ratio must be > 0"),
+        ({"kinematics": {"bearing_orders": {"b": "x"}}}, r"bearing_orders\.b must be a number"),
+    ],
+)
+def test_bad_profiles_are_named(data: dict[str, object], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        AxisProfile.from_dict(data)
+
+
+def test_unreadable_toml_names_the_file(tmp_path: Path) -> None:
+    path = tmp_path / "robot.toml"
+    path.write_text("name = ")
+    with pytest.raises(aw.CaptureError, match="not a valid TOML axis profile"):
+        AxisProfile.from_toml(path)
+    with pytest.raises(aw.CaptureError, match="no such axis profile file"):
+        AxisProfile.from_toml(tmp_path / "none.toml")
+
+
+def test_two_columns_for_one_role_are_refused(tmp_path: Path) -> None:
+    path = tmp_path / "c.csv"
+    pd.DataFrame({"time": [0.0, 0.1, 0.2], "a": [1, 2, 3], "b": [1, 2, 3]}).to_csv(path)
+    profile = AxisProfile(columns={"a": "torque", "b": "torque"})
+    with pytest.raises(aw.CaptureError, match=r"maps two columns to \['torque'\]"):
+        aw.read_capture(path, profile=profile)
+
+
+def test_fleet_lookup_takes_the_most_specific_file(tmp_path: Path) -> None:
+    (tmp_path / "r1" / "a1").mkdir(parents=True)
+    (tmp_path / "r2" / "a1").mkdir(parents=True)
+    assert find_profile(tmp_path, "r1", "a1") is None
+    (tmp_path / "axiswatch.toml").write_text('name = "fleet"')
+    (tmp_path / "r1" / "robot.toml").write_text('name = "model-1"')
+    (tmp_path / "r1" / "a1" / "axis.toml").write_text('name = "model-1-wrist"')
+    assert find_profile(tmp_path, "r1", "a1").name == "model-1-wrist"  # type: ignore[union-attr]
+    assert find_profile(tmp_path, "r2", "a1").name == "fleet"  # type: ignore[union-attr]

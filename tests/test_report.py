@@ -1,0 +1,102 @@
+"""The report's first screen (which axes need attention, and why) and the page itself."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+import axiswatch as aw
+from axiswatch.monitor._attention import AxisAttention, triage
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._report import write_report
+from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor._store import Store
+from tests.test_monitor import faulty_copy
+
+PCA = MonitorConfig(method="pca")
+
+
+def _triage(store: Store, method: str = "pca") -> dict[str, AxisAttention]:
+    items = triage(
+        fleet_summary(store),
+        fleet_results(store),
+        fleet_rejections(store),
+        store.changed_file_table(),
+        store.alarms(),
+        method=method,
+    )
+    return {f"{i.robot}/{i.axis}": i for i in items}
+
+
+@pytest.fixture
+def fleet(small_fleet: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+
+
+def test_stale_and_bad_data_axes_need_attention_until_repaired(fleet: Path, tmp_path: Path) -> None:
+    axis1, axis2 = fleet / "robot01/axis1", fleet / "robot01/axis2"
+    held = tmp_path / "held"
+    held.mkdir()
+    for day in (6, 7, 8, 9):  # axis2's captures after 03-05 arrive late
+        shutil.move(axis2 / f"2026-03-0{day}.parquet", held)
+    (axis1 / "2026-03-09T12-00-00.csv").write_bytes(b"")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        first = _triage(store)
+        assert [i.kind for i in first.values()] == ["bad data", "stale"]  # ranked
+        assert "1 capture file(s) rejected, latest: robot01/axis1/2026-03-09T12-00-00.csv: " in (
+            first["robot01/axis1"].line
+        )
+        assert first["robot01/axis2"].line.startswith(
+            "Stale: no capture since 2026-03-05, 4 days 00:00:00 behind the fleet's newest "
+            "(4 x its usual interval of 1 days 00:00:00)."
+        )
+        # The file is repaired (a good capture under the same name) and axis2 sends again.
+        aw.write_capture(
+            aw.read_capture(axis1 / "2026-03-02.parquet"), axis1 / "2026-03-09T12-00-00.csv"
+        )
+        for day in (6, 7, 8, 9):
+            shutil.move(held / f"2026-03-0{day}.parquet", axis2)
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        second = _triage(store)
+    assert [i.kind for i in second.values()] == ["ok", "ok"]
+    assert not any(i.needs_attention for i in second.values())
+
+
+def test_alarms_rank_first_and_an_acknowledged_one_last(fleet: Path, tmp_path: Path) -> None:
+    for axis in ("axis1", "axis2"):
+        folder = fleet / "robot01" / axis
+        faulty_copy(folder / "2026-03-09.parquet", folder / "2026-03-10.parquet")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        store.acknowledge("robot01", "axis1", by="ana", note="seen")
+        ranked = list(_triage(store).values())
+    assert [(i.axis, i.kind) for i in ranked] == [("axis2", "alarm"), ("axis1", "acknowledged")]
+    assert ranked[0].line.startswith("ALARM since 2026-03-10 (1 capture in alarm): Distance ")
+    assert "(99th pct of half-Laplace fit of 5 healthy captures)." in ranked[0].line
+    assert re.search(r" Seen by ana on \d{4}-\d\d-\d\d: seen$", ranked[1].line), ranked[1].line
+
+
+def test_report_is_one_self_contained_page(fleet: Path, tmp_path: Path) -> None:
+    axis = fleet / "robot01/axis1"
+    faulty_copy(axis / "2026-03-09.parquet", axis / "2026-03-10.parquet")
+    with Store(tmp_path / "s.db") as store:
+        for method in ("lra", "pca"):
+            monitor_fleet(fleet, store, MonitorConfig(method=method))
+        store.acknowledge("robot01", "axis1", by="ana", note="checked the gearbox", method="pca")
+        page = write_report(store, tmp_path / "r")
+    assert sorted(p.name for p in page.parent.iterdir()) == ["index.html"]
+    text = page.read_text(encoding="utf-8")
+    assert not re.search(r"<(script|link|img)[^>]+(src|href)\s*=", text)  # nothing fetched
+    assert text.count("<script type='text/javascript'>/**\n* plotly.js") == 1  # inlined once
+    assert "Method leading this page: <b>lra</b>" in text  # no mechanics in this store
+    assert "<details id='paper-methods'><summary>The paper's methods (pca)" in text
+    for anchor in ("robot01-axis1", "robot01-axis2"):
+        assert f"<section class='axis' id='{anchor}'>" in text
+        assert f"href='#{anchor}'" in text
+        assert f'id="chart-{anchor}"' in text
+    assert "alarm acknowledged (pca)</td><td class='text'>by ana: checked the gearbox" in text

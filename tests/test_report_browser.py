@@ -1,0 +1,150 @@
+"""The demo's report in a real browser (headless Chromium): first screen, charts, console.
+
+Runs ``axiswatch demo`` as a user does, opens its ``index.html`` from the file system in
+Chromium with no network, and reads the page after its scripts ran (``--dump-dom``). Needs the
+Debian ``chromium`` package: ``.ci/run`` installs it; elsewhere the test is skipped with the
+reason when it is missing (in CI, ``CI=true``, a missing browser is a failure instead).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+
+ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
+
+#: Ground truth of the demo (README, "What the demo shows"): the simulator's faulty axes.
+FAULTY = {
+    "robot02/axis1": ("bearing_lines", "bearing"),
+    "robot03/axis2": ("viscous_friction", "friction"),
+}
+
+
+def _chromium() -> str:
+    for name in ("chromium", "chromium-browser"):
+        found = shutil.which(name)
+        if found:
+            return found
+    message = "no 'chromium' on PATH (Debian: apt-get install -y chromium; .ci/run installs it)"
+    if os.environ.get("CI"):
+        pytest.fail(f"CI must run the browser test: {message}")
+    pytest.skip(message)
+
+
+def _browse(*args: str) -> subprocess.CompletedProcess[str]:
+    with tempfile.TemporaryDirectory(prefix="axiswatch-chromium-") as profile:
+        return subprocess.run(
+            [
+                _chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                "--no-first-run", "--disable-background-networking", "--disable-component-update",
+                "--disable-sync", f"--user-data-dir={profile}", "--enable-logging=stderr", "--v=0",
+                *args,
+            ],
+            capture_output=True, text=True, timeout=180,
+        )  # fmt: skip
+
+
+def _console(run: subprocess.CompletedProcess[str]) -> list[str]:
+    """Console messages and uncaught errors of the page (Chromium logs them as ``CONSOLE``)."""
+    return [line for line in run.stderr.splitlines() if re.search(r":CONSOLE[:(]", line)]
+
+
+def test_console_errors_are_seen(tmp_path: Path) -> None:
+    # The control of the check below: a page that throws must show up.
+    page = tmp_path / "broken.html"
+    page.write_text("<html><body><script>undefinedFunction();</script></body></html>")
+    messages = _console(_browse("--virtual-time-budget=2000", "--dump-dom", page.as_uri()))
+    assert len(messages) == 1, messages
+    assert "Uncaught ReferenceError: undefinedFunction is not defined" in messages[0]
+
+
+class _FirstScreen(HTMLParser):
+    """The items of the attention list, and every chart ``<div>`` and whether Plotly drew it."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.items: dict[str, str] = {}
+        self.kinds: dict[str, str] = {}
+        self.charts: dict[str, bool] = {}
+        self._item: str | None = None
+        self._depth = 0
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        found = dict(attrs)
+        if tag == "li" and found.get("data-axis"):
+            self._item = str(found["data-axis"])
+            self.items[self._item] = ""
+            self.kinds[self._item] = str(found.get("data-kind"))
+            self._depth = 0
+        elif self._item is not None and tag == "li":
+            self._depth += 1
+        identifier = found.get("id") or ""
+        if tag == "div" and re.fullmatch(r"(chart|paper)-.+", identifier):
+            self.charts[identifier] = "js-plotly-plot" in (found.get("class") or "")
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag == "li" and self._item is not None:
+            if self._depth == 0:
+                self._item = None
+            else:
+                self._depth -= 1
+
+    def handle_data(self, data: str) -> None:
+        if self._item is not None:
+            self.items[self._item] += data
+
+
+@pytest.fixture(scope="module")
+def demo_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    _chromium()  # skip before the half-minute demo when there is no browser
+    out = tmp_path_factory.mktemp("demo")
+    done = subprocess.run(
+        [sys.executable, "-m", "axiswatch", "demo", "--out", str(out)],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return out / "report" / "index.html"
+
+
+@pytest.mark.slow
+def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: Path) -> None:
+    page = demo_report.read_text(encoding="utf-8")
+    # Nothing is fetched: no script, style or image from elsewhere.
+    assert not re.search(r"""<(script|link|img)[^>]+(src|href)\s*=""", page)
+
+    loaded = _browse("--virtual-time-budget=10000", "--dump-dom", demo_report.as_uri())
+    assert loaded.returncode == 0, loaded.stderr[-2000:]
+    assert _console(loaded) == []
+
+    screen = _FirstScreen()
+    screen.feed(loaded.stdout)
+    assert set(screen.items) == set(FAULTY), screen.items
+    for axis, (indicator, component) in FAULTY.items():
+        line = screen.items[axis]
+        assert screen.kinds[axis] == "alarm", (axis, screen.kinds[axis])
+        assert f"{indicator} +" in line, line  # the indicator that moved, upwards
+        assert f"likely {component}" in line or f"likely a {component}" in line, line
+        assert "healthy spreads" in line, line
+        assert "since 2026-03-" in line, line
+    # Every axis has its lead chart and the paper's methods chart, each drawn by Plotly.
+    assert len(screen.charts) == 12, sorted(screen.charts)
+    assert all(screen.charts.values()), screen.charts
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    shot = ARTIFACTS / "report_first_screen.png"
+    shot.unlink(missing_ok=True)
+    taken = _browse(
+        "--virtual-time-budget=10000", "--window-size=1280,1400", f"--screenshot={shot}",
+        demo_report.as_uri(),
+    )  # fmt: skip
+    assert taken.returncode == 0, taken.stderr[-2000:]
+    assert shot.stat().st_size > 10_000  # a rendered page, not a blank image
+    print(f"screenshot of the report's first screen: {shot}")

@@ -1,0 +1,37 @@
+"""The transfer study: its records on a tiny design, and the real data sets when present."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from threadpoolctl import threadpool_limits
+
+from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch_lab._transfer import TransferDesign, real_data_transfer, robot_transfer
+from tests.conftest import SHARED_DATA
+
+TINY = TransferDesign(n_per_cell=1, n_calibration=2, robot_a_days=8)
+
+
+@pytest.mark.slow
+def test_robot_record_has_every_measure() -> None:
+    with threadpool_limits(1):
+        record = robot_transfer(DEVELOPMENT_ROBOTS[1], TINY)
+    for fault in ("backlash", "friction", "tooth", "bearing"):
+        assert 0.0 <= float(record[f"auroc_{fault}"]) <= 1.0  # type: ignore[arg-type]
+        assert 0.0 <= float(record[f"oracle_{fault}"]) <= 1.0  # type: ignore[arg-type]
+    assert record["robot_a_test_days"] == 8 - 3
+    assert 0.0 < float(record["share_scored"]) <= 1.0  # type: ignore[arg-type]
+    assert not math.isnan(float(record["far99"]))  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    not (SHARED_DATA / "genesis_linear_axis" / "normal.npz").is_file(), reason="no shared data"
+)
+def test_real_data_rows() -> None:
+    table = real_data_transfer(SHARED_DATA, datasets=("genesis_linear_axis",))
+    assert set(table.dataset) == {"genesis_linear_axis"}
+    assert (table.share_scored > 0.9).all()
+    assert table.auroc.between(0, 1).all()
