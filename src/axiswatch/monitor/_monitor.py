@@ -37,6 +37,7 @@ from glob import escape
 from pathlib import Path
 from typing import Any
 
+from axiswatch._features import FeatureSpec
 from axiswatch._model import HealthModel
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import (
@@ -656,8 +657,15 @@ _AXES_CHECKED = 8
 
 def _check_signals(root: Path, config: MonitorConfig) -> None:
     """Raise when a requested signal is a column of no capture among the first of a few axes
-    (axes read through a profile, which maps their own column names, are not looked at)."""
+    (axes read through a profile, which maps their own column names, are not looked at).
+
+    Only signals the user chose are checked: with the default signals, a fleet whose files name
+    their columns otherwise is a data problem, rejected per capture with the missing column and
+    the hint of an axis profile, not a usage error.
+    """
     signals = config.features.signals
+    if tuple(signals) == tuple(FeatureSpec().signals):
+        return
     files, _ = discover_fleet(root)
     files = [f for f in files if profile_for(f, config.profile) is None]
     firsts = list({(f.robot, f.axis): f for f in reversed(files)}.values())[-_AXES_CHECKED:]
