@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 import axiswatch as aw
 from axiswatch._capture import capture_to_frame
 from axiswatch.cli import app
+from tests.conftest import settle
 
 runner = CliRunner()
 
@@ -44,6 +45,7 @@ def controller_fleet(small_fleet: Path, tmp_path: Path) -> Path:
         target = root / path.relative_to(small_fleet).with_suffix(".csv")
         target.parent.mkdir(parents=True, exist_ok=True)
         export.to_csv(target, index=False)
+    settle(root)
     return root
 
 

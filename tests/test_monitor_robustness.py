@@ -230,7 +230,7 @@ def test_silent_axis_becomes_stale(fleet: Path, tmp_path: Path) -> None:
     assert _monitor(fleet, store, "--stale-after", "5d").returncode == 0
     report = _run("report", "--store", store, "--out", tmp_path / "r")
     assert report.returncode == 0
-    assert '<tr class="stale">' in (tmp_path / "r" / "index.html").read_text()
+    assert "data-kind='stale'" in (tmp_path / "r" / "index.html").read_text()
 
 
 def test_capture_dated_before_the_baseline_is_reported(fleet: Path, tmp_path: Path) -> None:

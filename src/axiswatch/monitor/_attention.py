@@ -215,6 +215,11 @@ def triage(
                     f"Stale: no capture since {_day(last_at)}, {behind} behind the fleet's "
                     f"newest ({behind / usual:.0f} x its usual interval of {usual})."
                 )
+        if info is not None and info.get("state") == "stale" and "stale" not in problems:
+            # The monitor's own notion (issue 11): no new capture file for longer than its
+            # --stale-after, by the wall clock, whatever the dates of the captures say.
+            problems.append("stale")
+            lines.append(f"Stale: no new capture file since {_day(str(info['last_seen']))}.")
         if problems:
             kind = min(problems, key=KINDS.index)
         else:

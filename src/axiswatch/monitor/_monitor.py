@@ -39,6 +39,7 @@ from glob import escape
 from pathlib import Path
 from typing import Any
 
+from axiswatch._features import FeatureSpec
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import (
     FleetFile,
@@ -768,8 +769,15 @@ _AXES_CHECKED = 8
 
 def _check_signals(root: Path, config: MonitorConfig) -> None:
     """Raise when a requested signal is a column of no capture among the first of a few axes
-    (axes read through a profile, which maps their own column names, are not looked at)."""
+    (axes read through a profile, which maps their own column names, are not looked at).
+
+    Only signals the user chose are checked: with the default signals, a fleet whose files name
+    their columns otherwise is a data problem, rejected per capture with the missing column and
+    the hint of an axis profile, not a usage error.
+    """
     signals = config.features.signals
+    if tuple(signals) == tuple(FeatureSpec().signals):
+        return
     listed: set[tuple[str, str]] = set()
 
     def beyond_checked(robot: str, axis: str) -> bool:
