@@ -251,3 +251,65 @@ def test_running_rms_never_nan_after_a_burst() -> None:
     exact = naive.running_rms(x, 20)
     # Clipping error bounded by the running sum's round-off: width * eps * max(x**2), under the root.
     assert np.max(np.abs(rms**2 - exact**2)) <= 20 * np.finfo(float).eps * np.max(x**2)
+
+
+def test_pearson_kurtosis_matches_scipy() -> None:
+    from scipy.stats import kurtosis
+
+    rng = np.random.default_rng(11)
+    for x in (rng.normal(size=500), rng.standard_t(3, size=2000), rng.uniform(size=7)):
+        assert aw._mechanics.pearson_kurtosis(x) == pytest.approx(
+            kurtosis(x, fisher=False), rel=1e-12
+        )
+    assert np.isnan(aw._mechanics.pearson_kurtosis(np.ones(10)))
+
+
+def test_bearing_waves_by_class_recurrence_match_the_trigonometric_functions() -> None:
+    from axiswatch._mechanics import _harmonics, bearing_orders
+
+    theta = np.linspace(0, 3000, 4000)
+    orders = bearing_orders(5.43) + [o + 0.25 for o in bearing_orders(5.43)]  # not on one grid
+    phases = np.multiply.outer(theta, np.array(orders))
+    expected = np.concatenate([np.sin(phases), np.cos(phases)], axis=1)
+    np.testing.assert_allclose(_harmonics(theta, orders, None), expected, rtol=0, atol=1e-10)
+
+
+def test_line_ratio_matches_the_hat_matrix_twin(rng: np.random.Generator) -> None:
+    # The fast path (Gram matrix and Cholesky, shifted waves by one product) against nested
+    # regressions with pseudo-inverses, on band-limited noise with a bearing line.
+    theta = np.sort(rng.uniform(0, 400, 2500))
+    y = _ar1(rng, theta.size) + 0.2 * np.cos(5.43 * theta) + np.sin(3 * theta)
+    orders = aw._mechanics.bearing_orders(5.43)
+    whole = list(aw._mechanics.WHOLE_ORDERS)
+    expected = naive.angle_locked_f(y, theta, orders, whole) / np.mean(
+        [naive.angle_locked_f(y, theta, [o + d for o in orders], whole) for d in (-0.25, 0.25)]
+    )
+    assert aw._mechanics.bearing_lines(y, theta, 5.43) == pytest.approx(expected, rel=1e-8)
+
+
+def test_ill_conditioned_waves_take_the_qr_path(rng: np.random.Generator) -> None:
+    # Over 3 motor revolutions, orders 0.01 apart are nearly the same wave: the Gram matrix's
+    # reciprocal condition falls below GRAM_MIN_RCOND and the statistic is computed by QR; the
+    # result matches the exact path and the hat-matrix twin.
+    from axiswatch._mechanics import _harmonics, _NuisanceFree
+
+    theta = np.linspace(0, 6 * np.pi, 600)
+    y = rng.normal(size=theta.size)
+    orders = [10.0 + 0.01 * k for k in range(4)]
+    free = _NuisanceFree(y, theta, [1, 2, 3], None)
+    tests = _harmonics(theta, orders, None)
+    gram = tests.T @ tests
+    assert 1.0 / np.linalg.cond(gram) < aw._mechanics.GRAM_MIN_RCOND
+    fast = free.f_statistic(orders)
+    assert fast == pytest.approx(free.f_statistic(orders, exact=True), rel=1e-12)
+    assert fast == pytest.approx(naive.angle_locked_f(y, theta, orders, [1, 2, 3]), rel=1e-6)
+
+
+def test_gram_path_matches_the_qr_path_on_stage_sized_waves(rng: np.random.Generator) -> None:
+    from axiswatch._mechanics import _NuisanceFree
+
+    theta = np.sort(rng.uniform(0, 600, 900))
+    y = _ar1(rng, theta.size)
+    free = _NuisanceFree(y, theta, aw._mechanics.WHOLE_ORDERS, None)
+    tooth = [k / 5 for k in range(15, 41) if k % 5]
+    assert free.f_statistic(tooth) == pytest.approx(free.f_statistic(tooth, exact=True), rel=1e-9)

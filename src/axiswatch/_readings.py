@@ -48,10 +48,15 @@ import scipy.linalg
 from numpy.typing import NDArray
 from scipy.interpolate import PchipInterpolator
 from scipy.signal import butter, savgol_filter, sosfiltfilt
-from scipy.stats import kurtosis
 
 from axiswatch._capture import Capture
-from axiswatch._mechanics import bearing_lines, line_ratio, reversal_bursts, running_rms
+from axiswatch._mechanics import (
+    bearing_lines,
+    line_ratio,
+    pearson_kurtosis,
+    reversal_bursts,
+    running_rms,
+)
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
@@ -346,7 +351,7 @@ def read_indicators(
     band = _band(m)
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
-    values["impulsiveness"] = float(kurtosis(normalised[moving], fisher=False))
+    values["impulsiveness"] = pearson_kurtosis(normalised[moving])
     bursts = reversal_bursts(
         m.torque, band, m.rate_hz, moving, smoothing_hz=min(10.0, 0.05 * m.rate_hz)
     )
