@@ -149,8 +149,12 @@ def _decode(node: Any, arrays: Any) -> Any:
     return obj
 
 
+@cache
 def library_version() -> str:
-    """The installed axiswatch's version (a model made by another version is refitted)."""
+    """The installed axiswatch's version (a model made by another version is refitted).
+
+    Read once per process: ``importlib.metadata`` parses the package's metadata on every call
+    (2 ms, once per axis of a run before it was cached)."""
     try:
         return version("axiswatch")
     except PackageNotFoundError:  # pragma: no cover - running from a source tree
