@@ -305,3 +305,28 @@ def test_a_stored_model_keeps_the_baselines_data_quality_reference(
     assert len([r for r in summary.rejected if "bad data (no motion" in r]) == len(late) == 2, (
         summary
     )
+
+
+def test_packed_arrays_keep_dtype_shape_and_bytes() -> None:
+    detector = aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
+    detector.extra_ = {
+        "ints": np.arange(7, dtype=np.int32),
+        "flags": np.array([[True, False]]),
+        "scalar": np.array(2.5),
+        "empty": np.zeros((0, 3)),
+        "big_endian": np.arange(3, dtype=">f8"),
+    }
+    back = load_model(dump_model(detector))
+    for name, array in detector.extra_.items():
+        got = back.extra_[name]
+        assert got.dtype == array.dtype, name
+        assert got.shape == array.shape, name
+        assert got.tobytes() == array.tobytes(), name
+        assert got.flags.writeable, name
+
+
+def test_structured_arrays_are_refused() -> None:
+    detector = aw.IndicatorDetector().fit([[1.0, 2.0], [3.0, 4.0]])
+    detector.table_ = np.zeros(2, dtype=[("a", "<f8"), ("b", "<i8")])
+    with pytest.raises(TypeError, match="structured array cannot be stored"):
+        dump_model(detector)
