@@ -133,8 +133,9 @@ def test_monitor_scores_with_stored_models_and_refits_on_a_new_version(
         monitor_fleet(fleet, fresh, config)
         columns = ["robot", "axis", "capture", "role", "distance", "threshold", "alarm"]
         assert fleet_results(fresh)[columns].equals(with_stored[columns])
-    # A new library version invalidates the stored models: refitted once, then reused.
-    monkeypatch.setattr(axiswatch.monitor._monitor, "library_version", lambda: "99.0")
+    # A new library version or blob format (model_version) invalidates the stored models:
+    # refitted once, then reused.
+    monkeypatch.setattr(axiswatch.monitor._monitor, "model_version", lambda: "99.0, format 9")
     new_day = [p.with_name(p.name.replace("-09", "-10")) for p in late]
     for source, target in zip(late, new_day, strict=True):
         shutil.copy(source, target)

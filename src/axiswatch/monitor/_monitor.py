@@ -58,7 +58,7 @@ from axiswatch.monitor._index import (
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._parallel import WorkerPool
-from axiswatch.monitor._persist import library_version, load_model
+from axiswatch.monitor._persist import load_model, model_version
 from axiswatch.monitor._quality import QualityReference
 from axiswatch.monitor._scoring import (
     FitJob,
@@ -215,7 +215,7 @@ class _Run:
         saved = SavedModel(
             outcome.file_hash,
             self.params,
-            library_version(),
+            model_version(),
             outcome.model_key,
             outcome.rates_hz,
             reference,
@@ -341,7 +341,7 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         saved is not None
         and saved.reference is not None
         and (saved.file_hash, saved.params, saved.library_version)
-        == (baseline.file_hash, params, library_version())
+        == (baseline.file_hash, params, model_version())
     ):
         source = run.caches.model_source()
         assert source is not None  # a store that keeps models is one workers can read

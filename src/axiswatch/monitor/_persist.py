@@ -41,6 +41,7 @@ __all__ = [
     "library_version",
     "load_model",
     "model_digest",
+    "model_version",
 ]
 
 #: Version of the blob's layout (a store refits models written in another format). 2: every
@@ -165,6 +166,18 @@ def library_version() -> str:
         return version("axiswatch")
     except PackageNotFoundError:  # pragma: no cover - running from a source tree
         return "unknown"
+
+
+def model_version() -> str:
+    """What a stored model must have been written by to be used as it is: the library's version
+    and the blob's format (a store made by an earlier build of the same version still refits).
+
+    Examples
+    --------
+    >>> model_version().endswith(f"model format {PERSIST_FORMAT}")
+    True
+    """
+    return f"{library_version()}, model format {PERSIST_FORMAT}"
 
 
 def dump_model(model: Any, *, params: dict[str, Any] | None = None) -> bytes:
