@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import csv
+import datetime
 import hashlib
 import os
 import resource
@@ -165,8 +166,13 @@ def case_fleet_day(
 def _history_fleet(root: Path, days: int) -> None:
     """1 robot x 6 axes with ``days`` daily captures: 7 simulated days, hard-linked under the
     names of the other days (the file count is what a history costs; contents repeat)."""
-    simulate_fleet(root, n_robots=1, n_axes=AXES, n_days=7, task_change_days=(), faults=[])
-    start = np.datetime64("2026-03-01")
+    # Dated so that the last day is yesterday: the monitor holds back captures dated in the
+    # future (a logger clock), which a year from a fixed date would soon be.
+    start = np.datetime64(datetime.date.today()) - np.timedelta64(days + 1, "D")
+    simulate_fleet(
+        root, n_robots=1, n_axes=AXES, n_days=7, task_change_days=(), faults=[],
+        start_date=str(start),
+    )  # fmt: skip
     for folder in sorted(root.glob("*/*")):
         week = sorted(folder.glob("*.parquet"))
         for day in range(7, days):

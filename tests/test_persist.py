@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import shutil
 import sqlite3
 import zipfile
@@ -198,8 +199,19 @@ def test_run_with_nothing_new_lists_no_folder_and_hashes_nothing(
             return discover(root, skip=watching)
 
         monkeypatch.setattr(axiswatch.monitor._monitor, "discover_fleet", spying)
+        # The folders really read from the disk (os.walk lists a folder before yielding it).
+        scanned: list[Path] = []
+        scandir = os.scandir
+
+        def scanning(path: str | Path = ".") -> object:
+            scanned.append(Path(path))
+            return scandir(path)
+
+        monkeypatch.setattr(os, "scandir", scanning)
         summary = monitor_fleet(fleet, store, config)
         assert (summary.scored, summary.exit_code, hashed, listed) == (0, 0, [], [])
+        axis_folders_read = [p for p in scanned if len(p.relative_to(fleet).parts) == 2]
+        assert axis_folders_read == []
         assert fleet_results(store).equals(before)
         # A new capture changes its folder: that folder alone is listed, the file hashed.
         source = fleet / "robot01/axis1/2026-03-09.parquet"
@@ -331,3 +343,21 @@ def test_structured_arrays_are_refused() -> None:
     detector.table_ = np.zeros(2, dtype=[("a", "<f8"), ("b", "<i8")])
     with pytest.raises(TypeError, match="structured array cannot be stored"):
         dump_model(detector)
+
+
+def test_a_fleet_folder_emptied_after_runs_is_still_an_unmounted_share(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # A store that knows finished folders proves the fleet folder mounted with one stat of an
+    # unchanged axis folder; once the share is gone (its folders too) it looks again and fails.
+    from axiswatch.exceptions import DataNotFoundError
+
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, config)
+        assert monitor_fleet(fleet, store, config).scored == 0
+        shutil.rmtree(fleet)
+        (fleet / "robot01").mkdir(parents=True)  # the mount point's leftovers, no captures
+        with pytest.raises(DataNotFoundError, match="holds no capture file"):
+            monitor_fleet(fleet, store, config)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -249,11 +249,12 @@ def _candidates(
             subfolders[:] = []
             continue
         parts = here.relative_to(root).parts
-        if skip is not None and len(parts) == 2 and skip(*parts):
-            subfolders[:] = []
-            continue
         seen[(stat.st_dev, stat.st_ino)] = here.relative_to(root).as_posix().strip(".")
         subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
+        if skip is not None and len(parts) == 1:
+            # Pruned here, at the robot's folder: os.walk lists a folder before it yields it,
+            # so an axis folder skipped when yielded would already have cost a listing.
+            subfolders[:] = [name for name in subfolders if not skip(parts[0], name)]
         for name in sorted(names):
             path = here / name
             if name.startswith("."):
@@ -272,11 +273,17 @@ def _candidates(
                 yield path
 
 
-def check_fleet_root(root: str | Path) -> None:
+def check_fleet_root(
+    root: str | Path, *, known: Mapping[tuple[str, str], int] | None = None
+) -> None:
     """Raise unless ``root`` is a folder holding at least one capture file.
 
     An empty fleet folder is what an unmounted share looks like: monitoring it would show every
     axis as it was, so it is an error rather than a quiet run.
+
+    ``known``: axis folders and the modification time (ns) they had when they held capture
+    files (``monitor._index``); one whose time is unchanged still holds them, which one ``stat``
+    proves without listing a folder (a run with nothing new lists none).
 
     Raises
     ------
@@ -288,6 +295,12 @@ def check_fleet_root(root: str | Path) -> None:
     root = Path(root)
     if not root.is_dir():
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
+    for (robot, axis), mtime_ns in (known or {}).items():
+        try:
+            if os.stat(root / robot / axis).st_mtime_ns == mtime_ns:
+                return
+        except OSError:
+            continue
     if next(_candidates(root, []), None) is None:
         raise DataNotFoundError(
             f"fleet folder '{root}' holds no capture file (an unmounted share or a wrong path?); "

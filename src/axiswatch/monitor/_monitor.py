@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import time
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from glob import escape
@@ -601,7 +601,7 @@ def monitor_fleet(
     caches = run_caches(store)
     params = params_json(config)
     finished = caches.axis_folder_times(config.method, params)
-    check_request(root, config, signals_known=bool(finished))
+    check_request(root, config, finished=finished)
     index = FileIndex(caches, root, caches.start_run())
     changed, dirty = index.verify(
         verify_budget(len(finished)) if verify_per_run is None else verify_per_run
@@ -734,12 +734,18 @@ def parameter_differences(stored: str, asked: str) -> list[str]:
     ]
 
 
-def check_request(root: str | Path, config: MonitorConfig, *, signals_known: bool = False) -> None:
+def check_request(
+    root: str | Path,
+    config: MonitorConfig,
+    *,
+    finished: Mapping[tuple[str, str], int] | None = None,
+) -> None:
     """Check what a run asks for before anything is stored.
 
-    ``signals_known``: a run with these very parameters finished axis folders of this store
-    (``monitor._index``), so its signals were columns of the captures it scored; they are not
-    looked up again (that would list folders a run with nothing new never lists).
+    ``finished``: axis folders a run with these very parameters finished (``monitor._index``),
+    with their modification times then. With any, the signals were columns of the captures it
+    scored and are not looked up again, and one unchanged folder shows the fleet folder is not
+    an unmounted share (looking again would list folders a run with nothing new never lists).
 
     Raises
     ------
@@ -750,8 +756,8 @@ def check_request(root: str | Path, config: MonitorConfig, *, signals_known: boo
         of none of the first captures of the first axes (a typo such as ``torqe``).
     """
     root = Path(root)
-    check_fleet_root(root)
-    if not signals_known:
+    check_fleet_root(root, known=finished)
+    if not finished:
         _check_signals(root, config)
     if (
         config.baseline is not None

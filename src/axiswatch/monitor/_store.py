@@ -632,7 +632,8 @@ CREATE TABLE IF NOT EXISTS file_index (
     hash TEXT NOT NULL,
     verified_run INTEGER NOT NULL
 );
-CREATE INDEX IF NOT EXISTS file_index_verified ON file_index (verified_run);
+DROP INDEX IF EXISTS file_index_verified;
+CREATE INDEX IF NOT EXISTS file_index_verified_path ON file_index (verified_run, path);
 CREATE TABLE IF NOT EXISTS axis_folders (
     robot TEXT NOT NULL,
     axis TEXT NOT NULL,
