@@ -428,6 +428,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             state.reference = outcome.reference
         return None
     if outcome.error is not None:
+        digest = run.digest(file.path) or ""
         reject(
             run.store,
             run.method,
@@ -435,12 +436,15 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             file.axis,
             file.capture,
             outcome.job.relative,
-            run.digest(file.path) or "",
+            digest,
             str(outcome.error),
             kind=outcome.kind,
             params_hash=run.params_hash,
             transient=outcome.transient,
         )
+        if not outcome.transient:
+            # Rejected for good: not scored (nor re-rejected as out of order) in this run.
+            run.rejected.add((outcome.job.relative, digest))
         state.candidates = state.candidates[1:]
         if state.epoch == 1 and file.capture == run.config.baseline:
             state.candidates = []  # the chosen baseline is unusable: no other one
