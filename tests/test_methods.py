@@ -63,7 +63,7 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     wrong = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rmz"])
     assert wrong.exit_code == 2
     words = " ".join(wrong.output.replace("│", " ").split())
-    assert "expected one of mechanics, lra, pca, rms; got 'rmz'" in words
+    assert "expected one of mechanics, lra, pca, indicators, rms; got 'rmz'" in words
 
 
 def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:

@@ -296,3 +296,28 @@ def test_real_linear_axis_is_scored(tmp_path: Path) -> None:
     assert summary.new_baselines == 2
     assert summary.scored == _readable(root) > 0
     assert all("bad data" in line for line in summary.rejected)
+
+
+def test_the_report_names_the_indicators_alarms_top_indicator(
+    low_rate_fleet: Path, tmp_path: Path
+) -> None:
+    from axiswatch.monitor._attention import triage
+    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        monitor_fleet(low_rate_fleet, store, MonitorConfig(method="indicators"), settle_s=0)
+        items = triage(
+            fleet_summary(store),
+            fleet_results(store),
+            fleet_rejections(store),
+            store.changed_file_table(),
+            store.alarms(),
+            method="indicators",
+        )
+        alarmed = [i for i in items if i.kind == "alarm"]
+        assert [i.axis for i in alarmed] == ["a0"]
+        assert "friction (friction)" in alarmed[0].line
+        assert "spreads from its baseline" in alarmed[0].line
+        page = write_report(store, tmp_path / "report.html").read_text()
+    assert "friction (friction)" in page
