@@ -7,7 +7,8 @@ worker, an in-memory store); nothing of the methods is chosen here.
 
 * **Held-out robots** (``draw_robot``, seeds 1000-1011): per robot model a fleet of 4 axes named by
   one profile (``robot.toml``, so the indicators' fleet prior pools the robot's own axes), axis
-  ``a`` on task ``a``. *Healthy* run: baseline and 5 calibration captures, then 4 captures of the
+  ``a`` on task ``a`` (``indicators-own``: the same with a profile per axis, so no fleet prior:
+  each axis's own spreads only). *Healthy* run: baseline and 5 calibration captures, then 4 captures of the
   same task, 4 of task ``(a + 1) mod 5`` and 4 of task ``(a + 2) mod 5`` (two task changes): every
   capture over the threshold is a false alarm. *Fault* run: after calibration, 8 captures of the
   own task, axis 0's with a friction fault of severity 0.6 (the robot's own friction law):
@@ -22,15 +23,13 @@ from __future__ import annotations
 import json
 import shutil
 import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
 
 from axiswatch._capture import Capture, write_capture
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.monitor import MonitorConfig, monitor_fleet
-from axiswatch.monitor import SQLiteStore
+from axiswatch.monitor import MonitorConfig, SQLiteStore, monitor_fleet
 
 __all__ = ["HELD_OUT", "monitor_real_data", "monitor_robot"]
 
@@ -56,10 +55,11 @@ def _run(root: Path, method: str) -> tuple[pd.DataFrame, list[str], str]:
         return store.score_table(), summary.rejected, ""
 
 
-def _rates(scores: pd.DataFrame, selected: Callable[[pd.DataFrame], pd.Series]) -> tuple[int, int]:
+def _rates(scores: pd.DataFrame, selected: pd.Series) -> tuple[int, int]:
+    """Monitored captures among ``selected`` over the threshold, and how many there are."""
     if scores.empty:
         return 0, 0
-    monitored = scores[(scores["role"] == "monitor") & selected(scores)]
+    monitored = scores[(scores["role"] == "monitor") & selected]
     return int(monitored["over"].astype(bool).sum()), len(monitored)
 
 
@@ -81,14 +81,23 @@ def monitor_robot(seed: int, scratch: Path) -> list[dict[str, object]]:
                 capture = robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}")
                 _write(capture, root, robot.name, f"a{a}", day)
         n_files = sum(1 for _ in root.rglob("*.parquet"))
-        for method in ("indicators", "mechanics"):
+        for variant in ("indicators", "indicators-own", "mechanics"):
+            method = variant.split("-")[0]
+            # "own": a profile per axis, so that no fleet is pooled (the axis's own spreads).
+            for a in range(_AXES):
+                own = root / robot.name / f"a{a}" / "axis.toml"
+                if variant.endswith("own"):
+                    own.write_text(f'name = "{robot.name}-a{a}"\n')
+                else:
+                    own.unlink(missing_ok=True)
             scores, rejected, stopped = _run(root, method)
-            over, n = _rates(scores, lambda s: s["axis"] != ("a0" if scenario == "fault" else ""))
+            axes = scores["axis"] if not scores.empty else pd.Series(dtype=str)
+            over, n = _rates(scores, axes != ("a0" if scenario == "fault" else ""))
             row: dict[str, object] = {
                 "robot": robot.name,
                 "rate_hz": robot.spec.fast_rate_hz,
                 "scenario": scenario,
-                "method": method,
+                "method": variant,
                 "files": n_files,
                 "scored": 0 if scores.empty else int(scores["distance"].notna().sum()),
                 "baselines": 0 if scores.empty else int((scores["role"] == "baseline").sum()),
@@ -99,7 +108,7 @@ def monitor_robot(seed: int, scratch: Path) -> list[dict[str, object]]:
                 "stopped": stopped,
             }
             if scenario == "fault":
-                hit, m = _rates(scores, lambda s: s["axis"] == "a0")
+                hit, m = _rates(scores, axes == "a0")
                 row.update(detected=hit, faulty_monitored=m)
             rows.append(row)
         shutil.rmtree(root)
@@ -156,20 +165,13 @@ def monitor_real_data(data_root: Path, scratch: Path) -> list[dict[str, object]]
             if not scores.empty and name == "genesis_linear_axis":
                 order = scores.groupby("axis").cumcount()
                 impaired = (scores["axis"] == "normal") & (order >= impaired_from)
-                row["false_alarms"], row["healthy_monitored"] = _rates(
-                    scores.assign(impaired=impaired), lambda s: ~s["impaired"]
-                )
-                row["detected"], row["faulty_monitored"] = _rates(
-                    scores.assign(impaired=impaired), lambda s: s["impaired"]
-                )
+                row["false_alarms"], row["healthy_monitored"] = _rates(scores, ~impaired)
+                row["detected"], row["faulty_monitored"] = _rates(scores, impaired)
             elif not scores.empty:
-                row["false_alarms"], row["healthy_monitored"] = _rates(
-                    scores, lambda s: ~s["axis"].isin(faulty)
-                )
-                row["faulty_axis_over"], row["faulty_monitored"] = _rates(
-                    scores, lambda s: s["axis"].isin(faulty)
-                )
-                baselines = scores[(scores["role"] == "baseline") & scores["axis"].isin(faulty)]
+                unit_faulty = scores["axis"].isin(faulty)
+                row["false_alarms"], row["healthy_monitored"] = _rates(scores, ~unit_faulty)
+                row["faulty_axis_over"], row["faulty_monitored"] = _rates(scores, unit_faulty)
+                baselines = scores[(scores["role"] == "baseline") & unit_faulty]
                 row["faulty_axis_notes"] = " | ".join(
                     "; ".join(json.loads(d)["indicator_model"]["notes"])
                     for d in baselines["details"]
