@@ -321,3 +321,25 @@ def test_the_report_names_the_indicators_alarms_top_indicator(
         assert "spreads from its baseline" in alarmed[0].line
         page = write_report(store, tmp_path / "report.html").read_text()
     assert "friction (friction)" in page
+
+
+def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) -> None:
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(3):
+        for day in range(7):
+            _write(robot.capture(a, seed=day), root, "r1", f"a{a}", day)
+    settle(root)
+    config = MonitorConfig(method="indicators")
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        monitor_fleet(root, store, config, settle_s=0)
+        for day in range(7):
+            _write(robot.capture(3, seed=day), root, "r1", "a3", day)
+        settle(root)
+        summary = monitor_fleet(root, store, config, settle_s=0)
+        assert summary.new_baselines == 1
+        scores = store.score_table()
+    last = scores[(scores["axis"] == "a3") & scores["distance"].notna()].iloc[-1]
+    assert json.loads(last["details"])["fleet_axes"] == 4
+    first = scores[(scores["axis"] == "a0") & scores["distance"].notna()].iloc[-1]
+    assert json.loads(first["details"])["fleet_axes"] == 3  # kept until re-baselined

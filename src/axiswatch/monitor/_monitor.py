@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from axiswatch._features import FeatureSpec
+from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import (
     FleetFile,
@@ -496,17 +497,38 @@ def _own_model(outcome: FitOutcome) -> IndicatorBaseline:
     return model
 
 
+def _stored_indicator_models(
+    run: _Run, fitting: set[tuple[str, str]]
+) -> dict[str, list[IndicatorBaseline]]:
+    """The stored IndicatorModels of the active baselines of every axis the store knows (its
+    folder listed in this run or not), but ``fitting``, by fleet."""
+    source = run.caches.model_source()
+    groups: dict[str, list[IndicatorBaseline]] = defaultdict(list)
+    if source is None:  # a store that keeps no models: only this run's fits are pooled
+        return groups
+    for row in run.store.axis_activity().itertuples(index=False):
+        robot, axis = str(row.robot), str(row.axis)
+        baseline = run.store.latest_baseline(robot, axis, run.method)
+        if (robot, axis) in fitting or baseline is None or baseline.retired:
+            continue
+        saved = run.caches.saved_model(baseline.id)
+        if saved is None:
+            continue
+        stored = resolve_model(ModelRef(saved.model_hash, source))
+        if isinstance(stored, IndicatorBaseline):
+            profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
+            groups[fleet_key(profile)].append(stored)
+    return groups
+
+
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
     """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
     axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
-    stored for an axis listed in it; an axis keeps the prior it was fitted with until it is
+    stored with an active baseline; an axis keeps the prior it was fitted with until it is
     re-baselined (its threshold must not move under captures already decided)."""
-    groups: dict[str, list[IndicatorBaseline]] = defaultdict(list)
-    for state in run.stored_models:
-        if state.model is not None and state.files:
-            stored = resolve_model(state.model)
-            if isinstance(stored, IndicatorBaseline):
-                groups[fleet_key(profile_for(state.files[0], run.config.profile))].append(stored)
+    if not fitted:
+        return fitted
+    groups = _stored_indicator_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
     new: dict[str, list[tuple[int, IndicatorBaseline]]] = defaultdict(list)
     for position, outcome in enumerate(fitted):
         key = fleet_key(profile_for(outcome.job.file, run.config.profile))
