@@ -11,7 +11,9 @@ one detection method:
    distances (paper, end of "Proposed Method"). Five is the fewest that still gives the fit a
    sample (its scale is the mean distance, whose relative standard error is 1/sqrt(5) = 45 %)
    while keeping the first week of a new robot free of alarms; raise it where captures are
-   cheap. A capture alarmed under an earlier baseline is never used for calibration.
+   cheap. A capture alarmed under an earlier baseline is never used for calibration. The
+   method ``indicators`` fits its model on the baseline and these captures together, with the
+   prior of the axis's fleet (``_indicators``); their distances are leave-one-out ones.
 3. **Scoring**: every later capture gets its distance to the baseline, whether it is over the
    threshold, and the alarm state: raised when ``alarm_k`` of the last ``alarm_n`` captures are
    over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
