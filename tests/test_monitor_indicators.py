@@ -343,3 +343,20 @@ def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) 
     assert json.loads(last["details"])["fleet_axes"] == 4
     first = scores[(scores["axis"] == "a0") & scores["distance"].notna()].iloc[-1]
     assert json.loads(first["details"])["fleet_axes"] == 3  # kept until re-baselined
+
+
+def test_a_worn_axis_is_reported_against_its_fleet(tmp_path: Path) -> None:
+    # Six axes on one task, one worn from its first capture: its baseline agrees with its own
+    # calibration captures, but not with its fleet's (a pair median with 5 of 15 pairs worn).
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(6):
+        fault = Fault("friction", 1.0) if a == 0 else None
+        for day in range(7):
+            _write(robot.capture(0, seed=f"{a}/{day}", fault=fault), root, "r1", f"a{a}", day)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    assert len(summary.baseline_checks) == 1
+    assert summary.baseline_checks[0].startswith(
+        "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
+    )

@@ -277,6 +277,9 @@ class IndicatorModel:
         threshold is fitted on the calibration captures' (:func:`leave_one_out_distances`).
     baseline_check_ : str or None
         Why the baseline capture is not trusted as it is (None when it agrees).
+    fleet_check_ : str or None
+        With a fleet prior: how the axis's centre differs from its fleet's by more than the
+        task-change allowance (None when it does not, or without a prior).
     notes_ : list of str
         What the model could not estimate, in words.
 
@@ -394,14 +397,16 @@ class IndicatorModel:
                 f"the baseline capture is {own:.1f} spreads from the next captures "
                 f"(threshold {self.threshold_:.1f}): the median of all is the reference"
             )
+        self.fleet_check_: str | None = None
         if self.fleet is not None:
             d, shifts = _distance(self.centre_, self.fleet.centre, scales)
             if math.isfinite(d) and d > self.fleet.allowance(self.percentile):
                 top = max(shifts, key=shifts.__getitem__)
-                self.notes_.append(
+                self.fleet_check_ = (
                     f"this axis's baseline differs from its fleet's: {top} {shifts[top]:.1f} "
                     "spreads (already worn, or a task unlike the fleet's)"
                 )
+                self.notes_.append(self.fleet_check_)
 
     def assess(self, capture: Capture) -> IndicatorAssessment:
         """Distance, threshold, alarm and per-indicator details of one capture."""
@@ -472,5 +477,6 @@ class IndicatorModel:
             "scales": self.scales_,
             "threshold": self.threshold_,
             "baseline_check": self.baseline_check_,
+            "fleet_check": self.fleet_check_,
             "notes": self.notes_,
         }

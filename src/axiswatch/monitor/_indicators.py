@@ -191,6 +191,8 @@ def indicator_details(
     allowance = baseline.allowance()
     if allowance is not None and math.isfinite(allowance):
         details["task_change_allowance"] = allowance
-    if baseline.model.baseline_check_ is not None:
-        details["baseline_check"] = baseline.model.baseline_check_
+    for check in ("baseline_check", "fleet_check"):
+        text = getattr(baseline.model, f"{check}_", None)
+        if text is not None:
+            details[check] = text
     return details

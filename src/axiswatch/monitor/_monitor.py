@@ -461,9 +461,10 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
         )
         return None
     run.summary.new_baselines += 1
-    check = (outcome.summary or {}).get("baseline_check")
-    if check:
-        run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
+    fitted = outcome.summary or {}
+    for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
+        if check:
+            run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
     state.baseline = run.store.baseline(baseline_id)
     state.model = run.persist(outcome, baseline_id)
     state.rates_hz = outcome.rates_hz
