@@ -17,6 +17,7 @@ from axiswatch._readings import Readings, read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import Fault, draw_robot
 from axiswatch.monitor import MonitorConfig, SQLiteStore
+from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._indicators import IndicatorBaseline, fit_indicator_baseline
 from axiswatch.monitor._methods import MethodPreset
@@ -24,6 +25,8 @@ from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
+from axiswatch.monitor._report import write_report
+from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._scoring import ScoreJob, score_capture
 from tests.conftest import SHARED_DATA, settle
 from tests.memory_store import MemoryStore
@@ -301,20 +304,9 @@ def test_real_linear_axis_is_scored(tmp_path: Path) -> None:
 def test_the_report_names_the_indicators_alarms_top_indicator(
     low_rate_fleet: Path, tmp_path: Path
 ) -> None:
-    from axiswatch.monitor._attention import triage
-    from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-
     with SQLiteStore(tmp_path / "s.sqlite") as store:
         monitor_fleet(low_rate_fleet, store, MonitorConfig(method="indicators"), settle_s=0)
-        items = triage(
-            fleet_summary(store),
-            fleet_results(store),
-            fleet_rejections(store),
-            store.changed_file_table(),
-            store.alarms(),
-            method="indicators",
-        )
+        items = _triage(store)
         alarmed = [i for i in items if i.kind == "alarm"]
         assert [i.axis for i in alarmed] == ["a0"]
         assert "friction (friction)" in alarmed[0].line
@@ -355,8 +347,23 @@ def test_a_worn_axis_is_reported_against_its_fleet(tmp_path: Path) -> None:
         for day in range(7):
             _write(robot.capture(0, seed=f"{a}/{day}", fault=fault), root, "r1", f"a{a}", day)
     settle(root)
-    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
-    assert len(summary.baseline_checks) == 1
-    assert summary.baseline_checks[0].startswith(
-        "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        summary = monitor_fleet(root, store, MonitorConfig(method="indicators"), settle_s=0)
+        assert len(summary.baseline_checks) == 1
+        assert summary.baseline_checks[0].startswith(
+            "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
+        )
+        lines = {i.axis: i.line for i in _triage(store)}
+    assert "Baseline to check: this axis's baseline differs from its fleet's" in lines["a0"]
+    assert not any("Baseline to check" in lines[f"a{a}"] for a in range(1, 6))
+
+
+def _triage(store: SQLiteStore) -> list[AxisAttention]:
+    return triage(
+        fleet_summary(store),
+        fleet_results(store),
+        fleet_rejections(store),
+        store.changed_file_table(),
+        store.alarms(),
+        method="indicators",
     )

@@ -226,6 +226,14 @@ def triage(
         else:
             kind = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
             lines.append(_healthy_line(info, last, history))
+        if last is not None:
+            # Method ``indicators``: a baseline its calibration captures or its fleet disagree with.
+            details = json.loads(last["details"])
+            lines += [
+                f"Baseline to check: {details[key]}."
+                for key in ("baseline_check", "fleet_check")
+                if details.get(key)
+            ]
         ranked.append(
             AxisAttention(robot, axis, method, kind, " ".join(lines), severity, last_at, problems)
         )
