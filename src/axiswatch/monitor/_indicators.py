@@ -72,7 +72,15 @@ class IndicatorBaseline:
 
 
 def read_axis_indicators(capture: Capture, profile: AxisProfile | None) -> Readings:
-    """:func:`~axiswatch.read_indicators` with the kinematics of the axis's profile, if any."""
+    """:func:`~axiswatch.read_indicators` with the kinematics of the axis's profile, if any.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> read = read_axis_indicators(draw_robot(5).capture(0), None)  # a 20 Hz robot
+    >>> read.reasons["impulsiveness"]
+    'needs a torque rate >= 100 Hz (got 20 Hz)'
+    """
     return read_indicators(capture, **(profile.kinematics() if profile is not None else {}))
 
 
@@ -168,7 +176,20 @@ def assess_capture(
     baseline: IndicatorBaseline, capture: Capture, file_hash: str, profile: AxisProfile | None
 ) -> IndicatorAssessment:
     """A capture's assessment: leave-one-out for a capture the model was fitted on (matched by
-    its file's hash), else against the centre."""
+    its file's hash), else against the centre.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> captures = [draw_robot(0).capture(0, seed=k) for k in range(7)]
+    >>> read = [read_axis_indicators(c, None) for c in captures[:6]]
+    >>> fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6,
+    ...                                 percentile=99.0)
+    >>> assess_capture(fitted, captures[2], "2", None).distance == fitted.model.loo_distances_[2]
+    True
+    >>> assess_capture(fitted, captures[6], "new", None).scored
+    True
+    """
     if file_hash in baseline.file_hashes:
         return baseline.model.assess_fitting(baseline.file_hashes.index(file_hash))
     return baseline.model.assess_readings(read_axis_indicators(capture, profile))
@@ -179,7 +200,18 @@ def indicator_details(
 ) -> dict[str, Any]:
     """What a score's details keep of an assessment (the report reads ``indicators`` as it
     does the ``mechanics`` method's: value, baseline, spreads and share per indicator);
-    ``left_out``: the assessment is a fitted capture's leave-one-out one."""
+    ``left_out``: the assessment is a fitted capture's leave-one-out one.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> read = [read_axis_indicators(draw_robot(0).capture(0, seed=k), None) for k in range(7)]
+    >>> fitted = fit_indicator_baseline(read[:6], list("abcdef"), [""] * 6, percentile=99.0)
+    >>> details = indicator_details(fitted, fitted.model.assess_readings(read[6]),
+    ...                             left_out=False)
+    >>> sorted(details["indicators"]["coulomb_friction"])
+    ['baseline', 'share', 'spreads', 'value']
+    """
     details: dict[str, Any] = {
         "indicators": assessment.indicators,
         "top_indicator": assessment.reason() if assessment.top is not None else None,

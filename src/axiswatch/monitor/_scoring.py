@@ -184,7 +184,13 @@ class MonitorConfig:
 
     def indicator_model(self) -> IndicatorModel:
         """A fresh, unfitted :class:`~axiswatch.IndicatorModel` at the monitor's percentile (the
-        ``"indicators"`` method's model of each axis)."""
+        ``"indicators"`` method's model of each axis).
+
+        Examples
+        --------
+        >>> MonitorConfig(method="indicators", percentile=95.0).indicator_model().percentile
+        95.0
+        """
         return IndicatorModel(percentile=self.percentile)
 
     def threshold_floor(self) -> float:
