@@ -313,6 +313,7 @@ def test_the_report_names_the_indicators_alarms_top_indicator(
         assert "spreads from its baseline" in alarmed[0].line
         page = write_report(store, tmp_path / "report.html").read_text()
     assert "friction (friction)" in page
+    assert "indicators (indicators): shift from the baseline" in page  # the per-indicator panel
 
 
 def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) -> None:
