@@ -362,3 +362,27 @@ def robust_spread(values: list[float]) -> float:
 
     centre = median(finite)
     return 1.4826 * median([abs(v - centre) for v in finite])
+
+
+def leave_one_out_distances_naive(
+    rows: list[dict[str, float]], scales: dict[str, float], two_sided: set[str]
+) -> list[float]:
+    """Each row against the median of the others: sort, take the middle, the largest shift."""
+
+    def median(xs: list[float]) -> float:
+        xs = sorted(x for x in xs if x == x)
+        n = len(xs)
+        return xs[n // 2] if n % 2 else (xs[n // 2 - 1] + xs[n // 2]) / 2
+
+    out = []
+    for k, row in enumerate(rows):
+        shifts = []
+        for name, scale in scales.items():
+            others = [r.get(name, float("nan")) for j, r in enumerate(rows) if j != k]
+            value = row.get(name, float("nan"))
+            if value != value or all(o != o for o in others):
+                continue
+            z = (value - median(others)) / scale
+            shifts.append(abs(z) if name in two_sided else max(z, 0.0))
+        out.append(max(shifts) if shifts else float("nan"))
+    return out

@@ -11,7 +11,12 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
-from axiswatch._indicator_model import IndicatorModel, pool_fleet, robust_spread
+from axiswatch._indicator_model import (
+    IndicatorModel,
+    leave_one_out_distances,
+    pool_fleet,
+    robust_spread,
+)
 from tests import naive
 
 RATE = 200.0
@@ -140,3 +145,30 @@ def test_nothing_in_the_decision_path_comes_from_the_simulator() -> None:
         assert not {m for m in imported if m.startswith(tuple(forbidden))}, module
         assert "MECHANICS_SCALES" not in (src / module).read_text()
         assert "MECHANICS_TASK_CHANGE_SCALE" not in (src / module).read_text()
+
+
+def test_leave_one_out_distances_match_the_naive_twin() -> None:
+    gen = np.random.default_rng(3)
+    rows = [
+        {"coulomb_friction": float(gen.normal()), "impulsiveness": float(gen.normal())}
+        for _ in range(7)
+    ]
+    rows[2]["impulsiveness"] = math.nan  # a reading one capture does not give
+    scales = {"coulomb_friction": 0.7, "impulsiveness": 0.2}
+    got = leave_one_out_distances(rows, scales)
+    want = naive.leave_one_out_distances_naive(rows, scales, {"coulomb_friction"})
+    assert got == pytest.approx(want, rel=1e-12)
+
+
+def test_the_threshold_is_fitted_on_the_calibration_captures_leave_one_out_distances() -> None:
+    robot = aw.datasets.draw_robot(0)
+    model = IndicatorModel().fit(
+        robot.capture(0, seed=0), [robot.capture(0, seed=k) for k in range(1, 6)]
+    )
+    assert len(model.loo_distances_) == 6
+    want = fit_half_laplace(model.loo_distances_[1:]).threshold(99.0)
+    assert model.threshold_ == pytest.approx(want, rel=1e-12)
+    for k in range(6):
+        assert model.assess_fitting(k).distance == pytest.approx(model.loo_distances_[k])
+    with pytest.raises(IndexError, match="'index' parameter must be in"):
+        model.assess_fitting(6)

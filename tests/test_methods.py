@@ -49,7 +49,7 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     registry: None, fleet: Path, tmp_path: Path
 ) -> None:
     register_method("rms", MethodPreset(detector=lambda config: RmsDetector(), summary="RMS"))
-    assert list(methods()) == ["mechanics", "lra", "pca", "rms"]
+    assert list(methods()) == ["mechanics", "lra", "pca", "indicators", "rms"]
     store = tmp_path / "s.db"
     result = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rms"])
     assert result.exit_code == 0, result.output
@@ -63,7 +63,7 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     wrong = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rmz"])
     assert wrong.exit_code == 2
     words = " ".join(wrong.output.replace("│", " ").split())
-    assert "expected one of mechanics, lra, pca, rms; got 'rmz'" in words
+    assert "expected one of mechanics, lra, pca, indicators, rms; got 'rmz'" in words
 
 
 def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:

@@ -41,7 +41,13 @@ from axiswatch._profiles import AxisProfile
 from axiswatch._readings import INDICATORS, Indicator, Readings, read_indicators
 from axiswatch.exceptions import CalibrationError
 
-__all__ = ["FleetPrior", "IndicatorAssessment", "IndicatorModel", "pool_fleet"]
+__all__ = [
+    "FleetPrior",
+    "IndicatorAssessment",
+    "IndicatorModel",
+    "leave_one_out_distances",
+    "pool_fleet",
+]
 
 #: ``1 / Phi^-1(3/4)``: MAD -> standard deviation for Gaussian data.
 MAD_TO_SD = 1.4826
@@ -100,6 +106,46 @@ def _distance(
         if math.isfinite(values.get(name, math.nan)) and math.isfinite(centre.get(name, math.nan))
     }
     return (max(shifts.values()) if shifts else math.nan), shifts
+
+
+def _centre_without(
+    rows: Sequence[Mapping[str, float]], k: int, names: Sequence[str]
+) -> dict[str, float]:
+    others = [*rows[:k], *rows[k + 1 :]]
+    return {n: float(np.nanmedian([o.get(n, math.nan) for o in others])) for n in names}
+
+
+def leave_one_out_distances(
+    rows: Sequence[Mapping[str, float]], scales: Mapping[str, float]
+) -> list[float]:
+    """Distance of each row from the median of the other rows, in ``scales``.
+
+    The calibration distances of :class:`IndicatorModel`: a capture used to estimate the centre
+    would otherwise be scored against a centre it pulled towards itself.
+
+    Parameters
+    ----------
+    rows : sequence of mapping of str to float
+        Readings on the compared scale (one per capture; NaN where not read).
+    scales : mapping of str to float
+        Spread of each scored indicator; each needs a finite reading in at least one other row.
+
+    Returns
+    -------
+    list of float
+        One per row, in order: the largest shift over the indicators the row and the others
+        give (one-sided for indicators that only grow with a fault); NaN when there is none.
+
+    Examples
+    --------
+    >>> rows = [{"coulomb_friction": v} for v in (1.0, 1.2, 0.8, 1.1, 3.0)]
+    >>> [round(d, 2) for d in leave_one_out_distances(rows, {"coulomb_friction": 0.5})]
+    [0.3, 0.3, 0.7, 0.0, 3.9]
+    """
+    return [
+        _distance(row, _centre_without(rows, k, list(scales)), scales)[0]
+        for k, row in enumerate(rows)
+    ]
 
 
 @dataclass(frozen=True)
@@ -226,8 +272,14 @@ class IndicatorModel:
     ----------
     centre_, within_ : dict of str to float
     threshold_ : float
+    loo_distances_ : list of float
+        Leave-one-out distance of each capture fitted on (baseline first; NaN where none); the
+        threshold is fitted on the calibration captures' (:func:`leave_one_out_distances`).
     baseline_check_ : str or None
         Why the baseline capture is not trusted as it is (None when it agrees).
+    fleet_check_ : str or None
+        With a fleet prior: how the axis's centre differs from its fleet's by more than the
+        task-change allowance (None when it does not, or without a prior).
     notes_ : list of str
         What the model could not estimate, in words.
 
@@ -314,22 +366,17 @@ class IndicatorModel:
 
     def _threshold_from(self, rows: Sequence[Mapping[str, float]]) -> None:
         scales = self.scales_
-        loo = []
-        for k, row in enumerate(rows):
-            others = [*rows[:k], *rows[k + 1 :]]
-            centre = {n: float(np.nanmedian([o[n] for o in others])) for n in scales}
-            d, _ = _distance(row, centre, scales)
-            if math.isfinite(d):
-                loo.append(d)
+        self.loo_distances_ = leave_one_out_distances(rows, scales)
+        # The baseline's own leave-one-out distance is checked, not fitted: a faulty baseline
+        # would inflate the threshold it is checked against.
+        calibration = [d for d in self.loo_distances_[1:] if math.isfinite(d)]
         self.notes_: list[str] = []
-        if len(loo) < 2:
+        if len(calibration) < 2:
             raise CalibrationError(
                 "No indicator could be read on the baseline and calibration captures: "
                 + "; ".join(f"{k} {v}" for k, v in self.reasons_.items())
             )
-        # The baseline's own leave-one-out distance is checked, not fitted: a faulty baseline
-        # would inflate the threshold it is checked against.
-        fitted = fit_half_laplace(loo[1:]).threshold(self.percentile)
+        fitted = fit_half_laplace(calibration).threshold(self.percentile)
         self.threshold_ = fitted
         if self.fleet is None:
             self.notes_.append(
@@ -344,19 +391,22 @@ class IndicatorModel:
                 f"({self.fleet.n_pairs} pairs); calibration threshold {fitted:.2f}"
             )
         self.baseline_check_: str | None = None
-        if loo[0] > self.threshold_:
+        own = self.loo_distances_[0]
+        if math.isfinite(own) and own > self.threshold_:
             self.baseline_check_ = (
-                f"the baseline capture is {loo[0]:.1f} spreads from the next captures "
+                f"the baseline capture is {own:.1f} spreads from the next captures "
                 f"(threshold {self.threshold_:.1f}): the median of all is the reference"
             )
+        self.fleet_check_: str | None = None
         if self.fleet is not None:
             d, shifts = _distance(self.centre_, self.fleet.centre, scales)
             if math.isfinite(d) and d > self.fleet.allowance(self.percentile):
                 top = max(shifts, key=shifts.__getitem__)
-                self.notes_.append(
+                self.fleet_check_ = (
                     f"this axis's baseline differs from its fleet's: {top} {shifts[top]:.1f} "
                     "spreads (already worn, or a task unlike the fleet's)"
                 )
+                self.notes_.append(self.fleet_check_)
 
     def assess(self, capture: Capture) -> IndicatorAssessment:
         """Distance, threshold, alarm and per-indicator details of one capture."""
@@ -364,11 +414,37 @@ class IndicatorModel:
 
     def assess_readings(self, readings: Readings) -> IndicatorAssessment:
         """:meth:`assess` from readings already taken."""
-        values = _transformed(readings)
+        return self._assess(_transformed(readings), readings.reasons, self.centre_)
+
+    def assess_fitting(self, index: int) -> IndicatorAssessment:
+        """Leave-one-out assessment of the ``index``-th capture the model was fitted on (0: the
+        baseline): against the median of the others, so its distance is ``loo_distances_[index]``.
+
+        Examples
+        --------
+        >>> from axiswatch.datasets import draw_robot
+        >>> robot = draw_robot(0)
+        >>> model = IndicatorModel().fit(robot.capture(0, seed=0),
+        ...                              [robot.capture(0, seed=k) for k in range(1, 6)])
+        >>> model.assess_fitting(2).distance == model.loo_distances_[2]
+        True
+        """
+        rows = self.calibration_rows_
+        if not 0 <= index < len(rows):
+            raise IndexError(
+                f"The 'index' parameter must be in [0, {len(rows)}) (captures fitted on). "
+                f"Got {index!r} instead."
+            )
+        centre = _centre_without(rows, index, list(self.scales_))
+        return self._assess(rows[index], self.fit_readings_[index].reasons, centre)
+
+    def _assess(
+        self, values: Mapping[str, float], reasons: Mapping[str, str], centre: Mapping[str, float]
+    ) -> IndicatorAssessment:
         scales = self.scales_
-        distance, shifts = _distance(values, self.centre_, scales)
+        distance, shifts = _distance(values, centre, scales)
         unavailable = {
-            name: readings.reasons.get(name, self.reasons_.get(name, "not read"))
+            name: reasons.get(name, self.reasons_.get(name, "not read"))
             for name in values
             if name not in shifts
         }
@@ -376,7 +452,7 @@ class IndicatorModel:
         details: dict[str, dict[str, float]] = {
             name: {
                 "value": values[name],
-                "baseline": self.centre_[name],
+                "baseline": centre[name],
                 "spreads": z,
                 "share": z / total if total > 0 else 0.0,
             }
@@ -401,5 +477,6 @@ class IndicatorModel:
             "scales": self.scales_,
             "threshold": self.threshold_,
             "baseline_check": self.baseline_check_,
+            "fleet_check": self.fleet_check_,
             "notes": self.notes_,
         }

@@ -262,6 +262,8 @@ def monitor(
             ("Rejected captures", result.rejected),
             ("Changed files", result.changed),
             ("Axes not scored", result.axis_problems),
+            ("Baselines to check", result.baseline_checks),
+            ("Axes calibrating", result.calibrating),
             ("Stale axes", result.stale),
         ):
             if lines:

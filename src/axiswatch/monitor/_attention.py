@@ -33,7 +33,7 @@ __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 KINDS: tuple[str, ...] = ("alarm", "bad data", "stale", "acknowledged", "calibrating", "ok")
 
 #: The method that leads the report when the store holds it: the product default first.
-METHOD_ORDER: tuple[str, ...] = ("mechanics", "lra", "pca")
+METHOD_ORDER: tuple[str, ...] = ("mechanics", "indicators", "lra", "pca")
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,8 @@ def _alarm_line(
     line = f"ALARM since {_day(state.raised_at)} ({captures_in_alarm} capture{plural} in alarm): "
     if last is None:
         return line
-    top = describe_top_indicator(json.loads(last["details"]).get("indicators", {}))
+    details = json.loads(last["details"])
+    top = details.get("top_indicator") or describe_top_indicator(details.get("indicators", {}))
     if top:
         line += f"{top}. "
     origin = f" ({threshold_origin})" if threshold_origin else ""
@@ -225,6 +226,14 @@ def triage(
         else:
             kind = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
             lines.append(_healthy_line(info, last, history))
+        if last is not None:
+            # Method ``indicators``: a baseline its calibration captures or its fleet disagree with.
+            details = json.loads(last["details"])
+            lines += [
+                f"Baseline to check: {details[key]}."
+                for key in ("baseline_check", "fleet_check")
+                if details.get(key)
+            ]
         ranked.append(
             AxisAttention(robot, axis, method, kind, " ".join(lines), severity, last_at, problems)
         )

@@ -212,7 +212,11 @@ def distance_chart(
 def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> None:
     scored = lead[(lead.role != "baseline") & lead.distance.notna()]
     explained = [json.loads(d).get("indicators", {}) for d in scored.details]
-    for name in COLUMNS:
+    # Method ``indicators``: the distance is the largest shift (not the sum of squared shifts of
+    # ``mechanics``), over the indicators each capture gives.
+    largest = bool((lead.method == "indicators").any())
+    names = sorted({n for e in explained for n in e}) if largest else list(COLUMNS)
+    for name in names:
         entries = [e.get(name) for e in explained]
         keep = [e is not None for e in entries]
         if not any(keep):
@@ -241,7 +245,8 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
     )  # fmt: skip
     thresholds = scored.threshold.dropna()
     if not thresholds.empty:
-        alone = math.sqrt(float(thresholds.iloc[-1]))
+        last = float(thresholds.iloc[-1])
+        alone = last if largest else math.sqrt(last)
         figure.add_hline(
             y=alone, line_dash="dash", line_color="red", line_width=1, row=panel, col=1,
             annotation_text=f"one indicator alone reaches the threshold ({alone:.2g})",

@@ -9,7 +9,9 @@ moment; so a killed run resumes exactly, and two processes on one store never di
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from typing import Any
 
 from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
@@ -55,6 +57,9 @@ def insert_baseline(
     other process chose another capture)."""
     file = outcome.job.file
     stat = file.path.stat()
+    details: dict[str, Any] = {"rates_hz": outcome.rates_hz}
+    if outcome.summary is not None:  # an IndicatorModel: what it estimated, from what
+        details["indicator_model"] = outcome.summary
     return store.add_baseline(
         NewBaseline(
             robot=file.robot,
@@ -72,7 +77,7 @@ def insert_baseline(
             file_mtime_ns=stat.st_mtime_ns,
             reason=f"baseline of epoch {epoch}: the healthy reference every later capture is "
             "compared with",
-            details={"rates_hz": outcome.rates_hz},
+            details=details,
         )
     )
 
@@ -96,7 +101,13 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
     rule = config.decision_rule()
-    top = describe_top_indicator(outcome.details.get("indicators", {}))
+    allowance = outcome.details.get("task_change_allowance")
+    if allowance is not None:
+        # The axis's fleet prior (method ``indicators``): its task-change allowance is the floor.
+        rule = dataclasses.replace(rule, floor=float(allowance))
+    top = outcome.details.get("top_indicator") or describe_top_indicator(
+        outcome.details.get("indicators", {})
+    )
 
     def decision(history: AxisHistory) -> Decision:
         return decide(history, outcome.distance, rule, top_indicator=top)

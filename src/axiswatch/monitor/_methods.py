@@ -8,8 +8,9 @@ new detector or stage reaches both through :func:`register_method`, called in it
 in a package that declares the module under the entry-point group ``axiswatch.methods``: it is
 imported the first time the table is read).
 
-Built in: ``mechanics`` (the product default, docs/evaluation.md), and the paper's ``lra`` and
-``pca``.
+Built in: ``mechanics`` (the product default, docs/evaluation.md), the paper's ``lra`` and
+``pca``, and ``indicators`` (:class:`~axiswatch.IndicatorModel` per axis, fitted on the baseline
+and the calibration captures, with its fleet's prior: ``axiswatch.monitor._indicators``).
 """
 
 from __future__ import annotations
@@ -52,8 +53,8 @@ class MethodPreset:
 
     Parameters
     ----------
-    detector : callable (MonitorConfig) -> BaselineDetector
-        A fresh, unfitted detector for a configuration.
+    detector : callable (MonitorConfig) -> BaselineDetector, optional
+        A fresh, unfitted detector for a configuration (None only with ``indicator_model``).
     stage : callable (MonitorConfig) -> FeatureStage or None, optional
         A fresh feature stage, or None for the |STFT| features of ``MonitorConfig.features``
         (with phase alignment). Default: none.
@@ -62,6 +63,10 @@ class MethodPreset:
         the threshold floor is its ``percentile`` (None: no floor).
     summary : str, default=""
         One line for ``--help``.
+    indicator_model : bool, default=False
+        The method has no detector and no stage: each axis gets an
+        :class:`~axiswatch.IndicatorModel` fitted on its baseline and ``K`` calibration captures
+        together, with the fleet prior of its profile (``axiswatch.monitor._indicators``).
 
     Examples
     --------
@@ -71,10 +76,19 @@ class MethodPreset:
     True
     """
 
-    detector: Callable[[MonitorConfig], BaselineDetector]
+    detector: Callable[[MonitorConfig], BaselineDetector] | None = None
     stage: Callable[[MonitorConfig], FeatureStage | None] = _no_stage
     task_change_scale: float | None = None
     summary: str = ""
+    indicator_model: bool = False
+
+    def __post_init__(self) -> None:
+        if (self.detector is None) != self.indicator_model:
+            raise ValueError(
+                "A method preset needs a 'detector' factory, or indicator_model=True (and then "
+                f"no detector). Got detector={self.detector!r}, "
+                f"indicator_model={self.indicator_model!r} instead."
+            )
 
     def threshold_floor(self, percentile: float) -> float | None:
         """The ``percentile`` of the task-change fit, or None without one."""
@@ -96,6 +110,11 @@ _METHODS: dict[str, MethodPreset] = {
     ),
     "lra": MethodPreset(detector=_lra, summary="the paper's Low Rank Alignment"),
     "pca": MethodPreset(detector=lambda config: PCADetector(), summary="the paper's PCA"),
+    "indicators": MethodPreset(
+        indicator_model=True,
+        summary="physical indicators at any rate >= 20 Hz, in spreads of the axis's own "
+        "calibration captures and of its fleet (issue 13, docs/evaluation.md)",
+    ),
 }
 _plugins_loaded = False
 

@@ -16,10 +16,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from axiswatch._model import HealthModel
+from axiswatch.monitor._indicators import IndicatorBaseline
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
 from axiswatch.monitor._store import Store
 
-__all__ = ["MODELS_PER_WORKER", "ModelRef", "keep_model", "resolve_model"]
+__all__ = ["MODELS_PER_WORKER", "Fitted", "ModelRef", "keep_model", "resolve_model"]
+
+#: A fitted model of the monitor: a HealthModel, or an axis's IndicatorModel (``indicators``).
+Fitted = HealthModel | IndicatorBaseline
 
 #: Fitted models a worker keeps (least recently used dropped first). An LRA model of a 3 s
 #: capture at hop 8 is about 3 MB, a mechanics model a few kB.
@@ -36,23 +40,21 @@ class ModelRef:
         :func:`~axiswatch.monitor._persist.model_digest` of the model's blob.
     store_path : str
         The SQLite store (absolute path) whose ``fitted_models`` table holds the blob.
-    inline : HealthModel, optional
+    inline : HealthModel or IndicatorBaseline, optional
         The model itself, sent with every job: a model that cannot be stored (a class outside
         ``_persist.ALLOWED_CLASSES``, e.g. a detector registered by a user) travels as before.
     """
 
     key: str
     store_path: str
-    inline: HealthModel | None = None
+    inline: Fitted | None = None
 
 
-_cache: OrderedDict[str, HealthModel] = OrderedDict()
+_cache: OrderedDict[str, Fitted] = OrderedDict()
 _stores: dict[tuple[int, str], Store] = {}
 
 
-def keep_model(
-    model: HealthModel, *, params: dict[str, Any] | None = None
-) -> tuple[str, bytes | None]:
+def keep_model(model: Fitted, *, params: dict[str, Any] | None = None) -> tuple[str, bytes | None]:
     """Serialise a fitted model, keep it in this process's cache; return its hash and blob
     (``("", None)`` when the model holds a class that cannot be stored)."""
     try:
@@ -64,7 +66,7 @@ def keep_model(
     return key, blob
 
 
-def _remember(key: str, model: HealthModel) -> None:
+def _remember(key: str, model: Fitted) -> None:
     _cache[key] = model
     _cache.move_to_end(key)
     while len(_cache) > MODELS_PER_WORKER:
@@ -79,7 +81,7 @@ def _read_only(store_path: str) -> Store:
     return _stores[key]
 
 
-def resolve_model(ref: ModelRef) -> HealthModel:
+def resolve_model(ref: ModelRef) -> Fitted:
     """The model a job refers to: from this process's cache, else read once from the store.
 
     Raises

@@ -11,7 +11,9 @@ one detection method:
    distances (paper, end of "Proposed Method"). Five is the fewest that still gives the fit a
    sample (its scale is the mean distance, whose relative standard error is 1/sqrt(5) = 45 %)
    while keeping the first week of a new robot free of alarms; raise it where captures are
-   cheap. A capture alarmed under an earlier baseline is never used for calibration.
+   cheap. A capture alarmed under an earlier baseline is never used for calibration. The
+   method ``indicators`` fits its model on the baseline and these captures together, with the
+   prior of the axis's fleet (``_indicators``); their distances are leave-one-out ones.
 3. **Scoring**: every later capture gets its distance to the baseline, whether it is over the
    threshold, and the alarm state: raised when ``alarm_k`` of the last ``alarm_n`` captures are
    over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
@@ -29,6 +31,7 @@ process on the same store skips what the first has written.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from collections import defaultdict
@@ -40,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from axiswatch._features import FeatureSpec
+from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import (
     FleetFile,
@@ -55,8 +59,9 @@ from axiswatch.monitor._index import (
     unchanged_axes,
     verify_budget,
 )
+from axiswatch.monitor._indicators import IndicatorBaseline, fleet_key, with_fleet
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
-from axiswatch.monitor._models import ModelRef
+from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._parallel import WorkerPool
 from axiswatch.monitor._persist import load_model, model_version
 from axiswatch.monitor._quality import QualityReference
@@ -116,6 +121,9 @@ class MonitorSummary:
     12. ``alarms`` lists the axes in unacknowledged alarm, ``acknowledged_alarms`` the alarms
     someone saw (``Store.acknowledge``) that have not cleared and been raised again since.
     ``waiting``: capture files not settled yet (scored by a later run; no attention needed).
+    ``calibrating`` (method ``indicators``): axes whose baseline waits for its calibration
+    captures (no attention needed); ``baseline_checks``: new baselines whose capture disagrees
+    with the calibration captures after it (a faulty first capture?), which need attention.
 
     ``n_files`` counts the capture files of the axis folders this run listed;
     ``unchanged_folders`` the axis folders it did not list, unchanged since a run finished them
@@ -135,11 +143,16 @@ class MonitorSummary:
     waiting: int = 0
     acknowledged: int = 0
     acknowledged_alarms: list[AlarmState] = field(default_factory=list)
+    calibrating: list[str] = field(default_factory=list)
+    baseline_checks: list[str] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
-        """0, or 4 (alarm) + 8 (rejected, changed, axis problem or stale axis)."""
-        attention = bool(self.rejected or self.changed or self.axis_problems or self.stale)
+        """0, or 4 (alarm) + 8 (rejected, changed, axis problem, stale axis or baseline check)."""
+        attention = bool(
+            self.rejected or self.changed or self.axis_problems or self.stale
+            or self.baseline_checks
+        )  # fmt: skip
         return 4 * bool(self.alarms) + 8 * attention
 
 
@@ -244,8 +257,18 @@ class _Run:
             (file.robot, file.axis, file.capture) not in self.alarmed
         )
 
-    def fit_job(self, file: FleetFile) -> FitJob:
-        return FitJob(file, self.relative(file.path), self.config.model(), self.config.profile)
+    def fit_job(self, file: FleetFile, following: Sequence[FleetFile] = ()) -> FitJob:
+        """The fit job of a baseline candidate; ``following``: the usable captures after it (an
+        IndicatorModel is fitted on the first that give a reading, too)."""
+        relative = self.relative(file.path)
+        if not self.config.preset.indicator_model:
+            return FitJob(file, relative, self.config.model(), self.config.profile)
+        return FitJob(
+            file, relative, self.config.indicator_model(), self.config.profile,
+            calibration=tuple(following),
+            relatives=tuple(self.relative(f.path) for f in following),
+            calibration_size=self.config.calibration_size,
+        )  # fmt: skip
 
     def report(self, stage: str, done: int, total: int) -> None:
         if self.progress is not None:
@@ -349,7 +372,8 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         state.reference = QualityReference(dict(saved.reference))
         run.stored_models.append(state)
         return None
-    return run.fit_job(stored)
+    following = [f for f in state.files if _key(f) > _key(stored) and run.usable(f)]
+    return run.fit_job(stored, following)
 
 
 def _plan_new(run: _Run, state: _Axis, retired: Baseline | None) -> FitJob | None:
@@ -377,7 +401,7 @@ def _plan_new(run: _Run, state: _Axis, retired: Baseline | None) -> FitJob | Non
             seen = run.store.last_captured_at(state.robot, state.axis, run.method)
             ordered = [f for f in ordered if seen is None or f.captured_at > seen]
     state.candidates = [f for f in ordered if run.usable(f)]
-    return run.fit_job(state.candidates[0]) if state.candidates else None
+    return run.fit_job(state.candidates[0], state.candidates[1:]) if state.candidates else None
 
 
 def _plan_baseline(run: _Run, state: _Axis) -> FitJob | None:
@@ -391,6 +415,13 @@ def _plan_baseline(run: _Run, state: _Axis) -> FitJob | None:
 def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | None:
     """Record a fitted (or failed) baseline candidate; the next candidate's job on failure."""
     file = outcome.job.file
+    if outcome.waiting is not None:  # an IndicatorModel short of calibration captures
+        if state.baseline is not None:
+            run.problem(state, f"{outcome.waiting}; the stored baseline cannot be refitted")
+        else:
+            run.summary.calibrating.append(outcome.waiting)
+            run.problem_axes.add((state.robot, state.axis))  # listed again next run
+        return None
     if state.baseline is not None:  # an active baseline, refitted
         if outcome.error is not None:
             run.problem(state, f"{outcome.error}; the stored baseline cannot be refitted")
@@ -400,6 +431,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             state.reference = outcome.reference
         return None
     if outcome.error is not None:
+        digest = run.digest(file.path) or ""
         reject(
             run.store,
             run.method,
@@ -407,16 +439,19 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             file.axis,
             file.capture,
             outcome.job.relative,
-            run.digest(file.path) or "",
+            digest,
             str(outcome.error),
             kind=outcome.kind,
             params_hash=run.params_hash,
             transient=outcome.transient,
         )
+        if not outcome.transient:
+            # Rejected for good: not scored (nor re-rejected as out of order) in this run.
+            run.rejected.add((outcome.job.relative, digest))
         state.candidates = state.candidates[1:]
         if state.epoch == 1 and file.capture == run.config.baseline:
             state.candidates = []  # the chosen baseline is unusable: no other one
-        return run.fit_job(state.candidates[0]) if state.candidates else None
+        return run.fit_job(state.candidates[0], state.candidates[1:]) if state.candidates else None
     baseline_id = insert_baseline(run.store, outcome, state.epoch, run.config)
     if baseline_id is None:
         run.problem(
@@ -426,6 +461,10 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
         )
         return None
     run.summary.new_baselines += 1
+    fitted = outcome.summary or {}
+    for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
+        if check:
+            run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
     state.baseline = run.store.baseline(baseline_id)
     state.model = run.persist(outcome, baseline_id)
     state.rates_hz = outcome.rates_hz
@@ -436,16 +475,81 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
 def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str], _Axis]) -> None:
     """Fit the jobs' baselines; retry an axis's next candidate until one fits or none is left."""
     total = len(by_axis)
+    pooled = run.config.preset.indicator_model
+    fitted: list[FitOutcome] = []
     while jobs:
         retry: list[FitJob] = []
         for _, outcome in run.pool.map(fit_baseline, jobs):
             file = outcome.job.file
             run.done["baselines"] += 1
             run.report("baselines", run.done["baselines"], total)
+            if pooled and outcome.error is None and outcome.waiting is None:
+                fitted.append(outcome)  # accepted once its fleet's prior is known
+                continue
             next_job = _accept_baseline(run, by_axis[(file.robot, file.axis)], outcome)
             if next_job is not None:
                 retry.append(next_job)
         jobs = retry
+    for outcome in _with_fleet_priors(run, fitted):
+        _accept_baseline(run, by_axis[(outcome.job.file.robot, outcome.job.file.axis)], outcome)
+
+
+def _own_model(outcome: FitOutcome) -> IndicatorBaseline:
+    model = outcome.inline if outcome.blob is None else load_model(outcome.blob)
+    assert isinstance(model, IndicatorBaseline)
+    return model
+
+
+def _stored_indicator_models(
+    run: _Run, fitting: set[tuple[str, str]]
+) -> dict[str, list[IndicatorBaseline]]:
+    """The stored IndicatorModels of the active baselines of every axis the store knows (its
+    folder listed in this run or not), but ``fitting``, by fleet."""
+    source = run.caches.model_source()
+    groups: dict[str, list[IndicatorBaseline]] = defaultdict(list)
+    if source is None:  # a store that keeps no models: only this run's fits are pooled
+        return groups
+    for row in run.store.axis_activity().itertuples(index=False):
+        robot, axis = str(row.robot), str(row.axis)
+        baseline = run.store.latest_baseline(robot, axis, run.method)
+        if (robot, axis) in fitting or baseline is None or baseline.retired:
+            continue
+        saved = run.caches.saved_model(baseline.id)
+        if saved is None:
+            continue
+        stored = resolve_model(ModelRef(saved.model_hash, source))
+        if isinstance(stored, IndicatorBaseline):
+            profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
+            groups[fleet_key(profile)].append(stored)
+    return groups
+
+
+def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
+    """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
+    axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
+    stored with an active baseline; an axis keeps the prior it was fitted with until it is
+    re-baselined (its threshold must not move under captures already decided)."""
+    if not fitted:
+        return fitted
+    groups = _stored_indicator_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
+    new: dict[str, list[tuple[int, IndicatorBaseline]]] = defaultdict(list)
+    for position, outcome in enumerate(fitted):
+        key = fleet_key(profile_for(outcome.job.file, run.config.profile))
+        new[key].append((position, _own_model(outcome)))
+    out = list(fitted)
+    for key, members in new.items():
+        own = [b for _, b in members]
+        fleet = [b.model for b in [*groups[key], *own]]
+        for (position, _), baseline in zip(members, with_fleet(own, fleet), strict=True):
+            if baseline.model.fleet is None:
+                continue
+            model_key, blob = keep_model(baseline)
+            out[position] = dataclasses.replace(
+                fitted[position], model_key=model_key, blob=blob,
+                inline=baseline if blob is None else None,
+                summary={**baseline.model.params(), "fitted_on": list(baseline.paths)},
+            )  # fmt: skip
+    return out
 
 
 def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:

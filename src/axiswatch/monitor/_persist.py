@@ -57,12 +57,16 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.HalfLaplaceFit",
     "axiswatch.HealthModel",
     "axiswatch.IndicatorDetector",
+    "axiswatch.IndicatorModel",
     "axiswatch.LRADetector",
     "axiswatch.MechanicsStage",
     "axiswatch.PCADetector",
     "axiswatch.StftStage",
     "axiswatch.Threshold",
     "axiswatch._alignment.LowRankBasis",
+    "axiswatch._indicator_model.FleetPrior",
+    "axiswatch._readings.Readings",
+    "axiswatch.monitor._indicators.IndicatorBaseline",
 )
 
 _META = "__meta__"

@@ -77,7 +77,8 @@ _LEGEND = (
     "Indicators: each one's shift of the capture from the baseline in healthy spreads (the RMS "
     "shift healthy task changes give, from the development protocol); green band = one spread; "
     "the distance is the sum of the squared upward shifts, so one indicator alone reaches the "
-    "threshold at the dashed line. Drag to zoom, double-click to reset, hover for the capture, "
+    "threshold at the dashed line (method indicators: shifts in the axis's own and its fleet's "
+    "spreads, and the distance is the largest shift). Drag to zoom, double-click to reset, hover for the capture, "
     "its value and the reason."
 )
 
@@ -302,7 +303,7 @@ def write_report(
         if not lead_rows.empty:
             parts.append(
                 distance_chart(
-                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=lead == "mechanics",
+                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=lead in ("mechanics", "indicators"),
                     events=events, fault_dates=fault_dates,
                 )
             )  # fmt: skip

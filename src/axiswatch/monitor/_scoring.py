@@ -20,13 +20,21 @@ from axiswatch._attribution import explain_indicators
 from axiswatch._capture import read_capture
 from axiswatch._detectors import BaselineDetector, IndicatorDetector
 from axiswatch._features import FeatureSpec
+from axiswatch._indicator_model import MIN_AXES, MIN_READINGS, IndicatorModel
 from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
-from axiswatch.exceptions import CaptureError
+from axiswatch.exceptions import CalibrationError, CaptureError
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
+from axiswatch.monitor._indicators import (
+    IndicatorBaseline,
+    assess_capture,
+    fit_indicator_baseline,
+    indicator_details,
+    read_axis_indicators,
+)
 from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
@@ -62,8 +70,10 @@ class MonitorConfig:
         ``"mechanics"``, the physical indicators of :class:`MechanicsStage` with
         :class:`IndicatorDetector`, the product default chosen by the development protocol of
         docs/evaluation.md; the paper's Low Rank Alignment ``"lra"`` and ``"pca"``, library
-        defaults of :class:`LRADetector` and :class:`PCADetector` on ``features``). The method's
-        preset makes the detector, the stage and the threshold floor.
+        defaults of :class:`LRADetector` and :class:`PCADetector` on ``features``; and
+        ``"indicators"``, an :class:`~axiswatch.IndicatorModel` per axis fitted on the baseline
+        and the calibration captures, with its fleet's prior). The method's preset makes the
+        detector, the stage and the threshold floor.
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
         ``K``: captures after the baseline that calibrate the threshold.
@@ -134,6 +144,12 @@ class MonitorConfig:
         if self.clear_m < 1:
             raise ValueError(f"The 'clear_m' parameter must be >= 1. Got {self.clear_m!r} instead.")
         _check_features(self.features)
+        if self.preset.indicator_model and (self.detector is not None or self.stage is not None):
+            raise ValueError(
+                f"The 'detector' and 'stage' parameters do not apply to the method "
+                f"{self.method!r} (an IndicatorModel per axis); leave them None or choose a "
+                "detector method such as 'pca'."
+            )
 
     @property
     def preset(self) -> MethodPreset:
@@ -141,16 +157,41 @@ class MonitorConfig:
         return method_preset(self.method)
 
     def model(self) -> HealthModel:
-        """A fresh, unfitted health model of the configured method (detector, stage, floor)."""
+        """A fresh, unfitted health model of the configured method (detector, stage, floor).
+
+        Raises
+        ------
+        ValueError
+            For a method without a detector (``"indicators"``: :meth:`indicator_model`).
+        """
         stage = self.preset.stage(self) if self.stage is None else self.stage
+        detector = self.detector
+        if detector is None:
+            if self.preset.detector is None:
+                raise ValueError(
+                    f"The method {self.method!r} has no HealthModel (no detector); its model is "
+                    "MonitorConfig.indicator_model()."
+                )
+            detector = self.preset.detector(self)
         return HealthModel(
             self.features,
-            self.preset.detector(self) if self.detector is None else self.detector,
+            detector,
             percentile=self.percentile,
             align_phase=self.align_phase,
             min_threshold=self.threshold_floor(),
             stage=stage,
         )
+
+    def indicator_model(self) -> IndicatorModel:
+        """A fresh, unfitted :class:`~axiswatch.IndicatorModel` at the monitor's percentile (the
+        ``"indicators"`` method's model of each axis).
+
+        Examples
+        --------
+        >>> MonitorConfig(method="indicators", percentile=95.0).indicator_model().percentile
+        95.0
+        """
+        return IndicatorModel(percentile=self.percentile)
 
     def threshold_floor(self) -> float:
         """Least threshold: the ``percentile`` of the half-Laplace fit of healthy task changes
@@ -173,6 +214,21 @@ class MonitorConfig:
     def params(self) -> dict[str, Any]:
         """JSON-ready parameters: features, detector, calibration and alarm rule (and the stage,
         for a stage method: the key is absent otherwise, so stores made before it still match)."""
+        if self.preset.indicator_model:
+            params: dict[str, Any] = {
+                "method": self.method,
+                "model": {
+                    "name": "IndicatorModel",
+                    "min_readings": MIN_READINGS,
+                    "fleet_min_axes": MIN_AXES,
+                },
+                "percentile": self.percentile,
+                "calibration_size": self.calibration_size,
+                "alarm": {"k": self.alarm_k, "n": self.alarm_n, "clear_m": self.clear_m},
+            }
+            if self.profile is not None:
+                params["profile"] = self.profile.source
+            return params
         model = self.model()
         params = {
             "method": self.method,
@@ -262,12 +318,20 @@ _DATA_ERRORS = (CaptureError, OSError)
 
 @dataclass(frozen=True)
 class FitJob:
-    """Fit a baseline from one capture file (``model``: unfitted, :meth:`MonitorConfig.model`)."""
+    """Fit a baseline from one capture file (``model``: unfitted, :meth:`MonitorConfig.model`).
+
+    An :class:`~axiswatch.IndicatorModel` (:meth:`MonitorConfig.indicator_model`) is fitted on
+    the baseline and the first ``calibration_size`` of the ``calibration`` files that give a
+    reading (``relatives``: their paths below the fleet folder).
+    """
 
     file: FleetFile
     relative: str
-    model: HealthModel
+    model: HealthModel | IndicatorModel
     profile: AxisProfile | None = None
+    calibration: tuple[FleetFile, ...] = ()
+    relatives: tuple[str, ...] = ()
+    calibration_size: int = 0
 
 
 @dataclass(frozen=True)
@@ -279,7 +343,7 @@ class FitOutcome:
     job: FitJob
     model_key: str
     blob: bytes | None
-    inline: HealthModel | None
+    inline: HealthModel | IndicatorBaseline | None
     rates_hz: dict[str, float]
     file_hash: str
     features_hash: str
@@ -287,10 +351,14 @@ class FitOutcome:
     kind: str = "invalid"
     transient: bool = False
     reference: QualityReference | None = None
+    waiting: str | None = None
+    summary: dict[str, Any] | None = None
 
 
 def fit_baseline(job: FitJob) -> FitOutcome:
     """Read the baseline capture and fit the health model on it (a ``parallel_map`` job)."""
+    if isinstance(job.model, IndicatorModel):
+        return _fit_indicators(job, job.model)
     path = job.file.path
     try:
         digest = file_hash(path)
@@ -312,6 +380,67 @@ def fit_baseline(job: FitJob) -> FitOutcome:
     return FitOutcome(
         job, key, blob, inline, dict(capture.rates_hz), digest, features_hash, None,
         reference=QualityReference.of(capture),
+    )  # fmt: skip
+
+
+def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
+    """The baseline and the next readable captures, read and fitted as one IndicatorModel; an
+    outcome ``waiting`` while fewer than ``calibration_size`` captures give a reading."""
+    path = job.file.path
+    profile = profile_for(job.file, job.profile)
+    try:
+        digest = file_hash(path)
+        capture = read_capture(path, profile=profile)
+        problem = data_quality_problem(capture)
+        if problem is not None:
+            error = _bad_data(job.relative, problem)
+            return FitOutcome(job, "", None, None, {}, digest, "", error, "bad data")
+        baseline = read_axis_indicators(capture, profile)
+    except _DATA_ERRORS as exc:
+        kind, transient = _failure_kind(exc)
+        error = _one_line(exc, path, job.relative)
+        return FitOutcome(job, "", None, None, {}, "", "", error, kind, transient)
+    if not baseline.available():
+        reasons = "; ".join(f"{k} {v}" for k, v in baseline.reasons.items())
+        error = f"{job.relative}: not a baseline, no indicator can be read ({reasons})"
+        return FitOutcome(job, "", None, None, {}, digest, "", error, "not scored")
+    reference = QualityReference.of(capture)
+    readings, hashes, paths = [baseline], [digest], [job.relative]
+    for file, relative in zip(job.calibration, job.relatives, strict=True):
+        if len(readings) > job.calibration_size:
+            break
+        # Skipped as the score job will skip it: bad data, or no reading at all.
+        try:
+            calibration = read_capture(
+                file.path, expected_rates_hz=capture.rates_hz, profile=profile
+            )
+            if data_quality_problem(calibration, reference) is not None:
+                continue
+            read = read_axis_indicators(calibration, profile)
+            if read.available():
+                readings.append(read)
+                hashes.append(file_hash(file.path))
+                paths.append(relative)
+        except _DATA_ERRORS:
+            continue
+    if len(readings) <= job.calibration_size:
+        waiting = (
+            f"{job.file.robot}/{job.file.axis}: calibrating, {len(readings) - 1} of "
+            f"{job.calibration_size} captures after the baseline {job.relative} give a reading; "
+            "the indicators baseline is set once all have arrived"
+        )
+        return FitOutcome(job, "", None, None, {}, digest, "", None, waiting=waiting)
+    try:
+        fitted = fit_indicator_baseline(readings, hashes, paths, percentile=template.percentile)
+    except CalibrationError as exc:
+        error = f"{job.relative}: not a baseline: {exc}"
+        return FitOutcome(job, "", None, None, {}, digest, "", error, "not scored")
+    rows = json.dumps([r.values for r in readings], sort_keys=True, default=str)
+    key, blob = keep_model(fitted)
+    return FitOutcome(
+        job, key, blob, fitted if blob is None else None, dict(capture.rates_hz), digest,
+        hashlib.sha256(rows.encode()).hexdigest(), None, reference=reference,
+        summary={**fitted.model.params(), "fitted_on": paths},
     )  # fmt: skip
 
 
@@ -352,6 +481,8 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
         model = resolve_model(job.model)
+        if isinstance(model, IndicatorBaseline):
+            return _score_indicators(job, model, digest, size, mtime)
         capture = read_capture(
             path,
             model.features.signals,
@@ -378,3 +509,23 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         error = _one_line(exc, path, job.relative)
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, kind, transient)
     return ScoreOutcome(job, digest, size, mtime, distance, details, None)
+
+
+def _score_indicators(
+    job: ScoreJob, model: IndicatorBaseline, digest: str, size: int, mtime: int
+) -> ScoreOutcome:
+    """Score one capture with the axis's IndicatorModel (errors raised as in score_capture)."""
+    profile = profile_for(job.file, job.profile)
+    capture = read_capture(job.file.path, expected_rates_hz=job.rates_hz, profile=profile)
+    problem = data_quality_problem(capture, job.reference)
+    if problem is not None:
+        error = _bad_data(job.relative, problem)
+        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "bad data")
+    assessment = assess_capture(model, capture, digest, profile)
+    if not assessment.scored:
+        # Not an alarm and not a healthy score: no indicator of the model could be read.
+        error = f"{job.relative}: {assessment.reason()}"
+        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "not scored")
+    left_out = digest in model.file_hashes
+    details = indicator_details(model, assessment, left_out=left_out)
+    return ScoreOutcome(job, digest, size, mtime, float(assessment.distance), details, None)

@@ -1,0 +1,230 @@
+"""The monitor's ``indicators`` method: an :class:`~axiswatch.IndicatorModel` per axis baseline.
+
+Pipeline stage of the monitor's jobs for the method ``indicators`` (issue 13). The HealthModel
+methods fit a model on the baseline capture alone and calibrate the threshold on the next ``K``
+captures' distances; an IndicatorModel needs those captures' *readings* for its within-task
+spreads. So, with the decision rule and the store unchanged:
+
+1. the fit job reads the baseline and the next ``K`` captures after it that give a reading (the
+   captures the monitor then decides as its calibration captures) and fits the model on all
+   ``K + 1`` (:func:`fit_indicator_baseline`); an axis with fewer such captures waits;
+2. the driver pools the fitted models of the axes of one profile into a fleet prior
+   (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`);
+3. a score job gives a capture the model was fitted on its *leave-one-out* distance
+   (:meth:`~axiswatch.IndicatorModel.assess_fitting`), so the half-Laplace fit of the ``K``
+   calibration distances that :func:`~axiswatch.monitor._decision.decide` makes is the model's
+   own, and the fleet's task-change allowance (stored in the capture's details) is the
+   decision's floor; any other capture is assessed against the centre
+   (:func:`assess_capture`).
+
+A reading that is unavailable is never an alarm: a capture gives the indicators it can, and one
+that gives none of the model's is recorded as not scored, with the reasons.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from axiswatch._capture import Capture
+from axiswatch._indicator_model import FleetPrior, IndicatorAssessment, IndicatorModel, pool_fleet
+from axiswatch._profiles import AxisProfile
+from axiswatch._readings import Readings, read_indicators
+from axiswatch.exceptions import CalibrationError
+
+__all__ = [
+    "IndicatorBaseline",
+    "assess_capture",
+    "fit_indicator_baseline",
+    "fleet_key",
+    "indicator_details",
+    "read_axis_indicators",
+    "with_fleet",
+]
+
+
+@dataclass(frozen=True)
+class IndicatorBaseline:
+    """An axis's fitted :class:`~axiswatch.IndicatorModel` and the captures it was fitted on.
+
+    Attributes
+    ----------
+    model : IndicatorModel
+        Fitted on the baseline and the calibration captures (with the fleet prior, when set).
+    file_hashes : tuple of str
+        SHA-256 of those captures' files, baseline first: a capture with one of them is given
+        its leave-one-out assessment.
+    paths : tuple of str
+        Their paths below the fleet folder, in the same order.
+    """
+
+    model: IndicatorModel
+    file_hashes: tuple[str, ...]
+    paths: tuple[str, ...]
+
+    def allowance(self) -> float | None:
+        """The fleet's task-change allowance at the model's percentile (None without a prior)."""
+        fleet = self.model.fleet
+        return None if fleet is None else fleet.allowance(self.model.percentile)
+
+
+def read_axis_indicators(capture: Capture, profile: AxisProfile | None) -> Readings:
+    """:func:`~axiswatch.read_indicators` with the kinematics of the axis's profile, if any.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> read = read_axis_indicators(draw_robot(5).capture(0), None)  # a 20 Hz robot
+    >>> read.reasons["impulsiveness"]
+    'needs a torque rate >= 100 Hz (got 20 Hz)'
+    """
+    return read_indicators(capture, **(profile.kinematics() if profile is not None else {}))
+
+
+def fit_indicator_baseline(
+    readings: Sequence[Readings],
+    file_hashes: Sequence[str],
+    paths: Sequence[str],
+    *,
+    percentile: float,
+) -> IndicatorBaseline:
+    """Fit the axis's model on the readings of its baseline (first) and calibration captures.
+
+    Parameters
+    ----------
+    readings : sequence of Readings
+        Baseline first, then the ``K`` calibration captures, in capture order.
+    file_hashes, paths : sequence of str
+        Of the same captures.
+    percentile : float in (0, 100)
+
+    Returns
+    -------
+    IndicatorBaseline
+
+    Raises
+    ------
+    CalibrationError
+        When no indicator is read on enough of the captures to give a spread.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> robot = draw_robot(0)
+    >>> read = [read_axis_indicators(robot.capture(0, seed=k), None) for k in range(6)]
+    >>> fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6,
+    ...                                 percentile=99.0)
+    >>> fitted.allowance() is None, len(fitted.model.loo_distances_)
+    (True, 6)
+    """
+    if not (len(readings) == len(file_hashes) == len(paths)):
+        raise ValueError(
+            "The 'readings', 'file_hashes' and 'paths' parameters must have one entry per "
+            f"capture. Got {len(readings)}, {len(file_hashes)} and {len(paths)} instead."
+        )
+    model = IndicatorModel(percentile=percentile).fit_readings(list(readings))
+    return IndicatorBaseline(model, tuple(file_hashes), tuple(paths))
+
+
+def fleet_key(profile: AxisProfile | None) -> str:
+    """The fleet an axis is pooled with: its profile's name, else the profile file, else the
+    axes read without a profile.
+
+    Examples
+    --------
+    >>> fleet_key(None), fleet_key(AxisProfile(name="KR16 A1", source="a/axis.toml"))
+    ('(no profile)', 'name: KR16 A1')
+    """
+    if profile is None:
+        return "(no profile)"
+    return f"name: {profile.name}" if profile.name else f"file: {profile.source}"
+
+
+def with_fleet(
+    baselines: Sequence[IndicatorBaseline], fleet: Sequence[IndicatorModel]
+) -> list[IndicatorBaseline]:
+    """The baselines with the fleet prior of ``fleet`` (the own models of one profile's axes,
+    these included), or unchanged when it has fewer than 3 axes or nothing to pool.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> def fitted(task):
+    ...     read = [read_axis_indicators(draw_robot(0).capture(task, seed=k), None)
+    ...             for k in range(6)]
+    ...     return fit_indicator_baseline(read, ["h"] * 6, ["p"] * 6, percentile=99.0)
+    >>> own = [fitted(task) for task in range(3)]
+    >>> pooled = with_fleet(own, [b.model for b in own])
+    >>> pooled[0].allowance() is not None, own[0].allowance() is None
+    (True, True)
+    """
+    try:
+        prior: FleetPrior = pool_fleet(list(fleet))
+    except CalibrationError:
+        return list(baselines)
+    out = []
+    for baseline in baselines:
+        model = copy.deepcopy(baseline.model).use_fleet(prior)
+        out.append(IndicatorBaseline(model, baseline.file_hashes, baseline.paths))
+    return out
+
+
+def assess_capture(
+    baseline: IndicatorBaseline, capture: Capture, file_hash: str, profile: AxisProfile | None
+) -> IndicatorAssessment:
+    """A capture's assessment: leave-one-out for a capture the model was fitted on (matched by
+    its file's hash), else against the centre.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> captures = [draw_robot(0).capture(0, seed=k) for k in range(7)]
+    >>> read = [read_axis_indicators(c, None) for c in captures[:6]]
+    >>> fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6,
+    ...                                 percentile=99.0)
+    >>> assess_capture(fitted, captures[2], "2", None).distance == fitted.model.loo_distances_[2]
+    True
+    >>> assess_capture(fitted, captures[6], "new", None).scored
+    True
+    """
+    if file_hash in baseline.file_hashes:
+        return baseline.model.assess_fitting(baseline.file_hashes.index(file_hash))
+    return baseline.model.assess_readings(read_axis_indicators(capture, profile))
+
+
+def indicator_details(
+    baseline: IndicatorBaseline, assessment: IndicatorAssessment, *, left_out: bool
+) -> dict[str, Any]:
+    """What a score's details keep of an assessment (the report reads ``indicators`` as it
+    does the ``mechanics`` method's: value, baseline, spreads and share per indicator);
+    ``left_out``: the assessment is a fitted capture's leave-one-out one.
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> read = [read_axis_indicators(draw_robot(0).capture(0, seed=k), None) for k in range(7)]
+    >>> fitted = fit_indicator_baseline(read[:6], list("abcdef"), [""] * 6, percentile=99.0)
+    >>> details = indicator_details(fitted, fitted.model.assess_readings(read[6]),
+    ...                             left_out=False)
+    >>> sorted(details["indicators"]["coulomb_friction"])
+    ['baseline', 'share', 'spreads', 'value']
+    """
+    details: dict[str, Any] = {
+        "indicators": assessment.indicators,
+        "top_indicator": assessment.reason() if assessment.top is not None else None,
+        "component": assessment.component,
+        "unavailable": assessment.unavailable,
+        "leave_one_out": left_out,
+        "fleet_axes": 0 if baseline.model.fleet is None else baseline.model.fleet.n_axes,
+    }
+    allowance = baseline.allowance()
+    if allowance is not None and math.isfinite(allowance):
+        details["task_change_allowance"] = allowance
+    for check in ("baseline_check", "fleet_check"):
+        text = getattr(baseline.model, f"{check}_", None)
+        if text is not None:
+            details[check] = text
+    return details

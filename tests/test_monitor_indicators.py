@@ -1,0 +1,370 @@
+"""The monitor's ``indicators`` method: low-rate axes scored, friction faults named (issue 13)."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+import axiswatch as aw
+from axiswatch._readings import Readings, read_indicators
+from axiswatch.cli import app
+from axiswatch.datasets import Fault, draw_robot
+from axiswatch.monitor import MonitorConfig, SQLiteStore
+from axiswatch.monitor._attention import AxisAttention, triage
+from axiswatch.monitor._fleet import FleetFile
+from axiswatch.monitor._indicators import IndicatorBaseline, fit_indicator_baseline
+from axiswatch.monitor._methods import MethodPreset
+from axiswatch.monitor._models import ModelRef
+from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._persist import dump_model, load_model
+from axiswatch.monitor._quality import QualityReference, data_quality_problem
+from axiswatch.monitor._report import write_report
+from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor._scoring import ScoreJob, score_capture
+from tests.conftest import SHARED_DATA, settle
+from tests.memory_store import MemoryStore
+
+runner = CliRunner()
+
+#: A development robot of the family (docs/evaluation.md, "Transfer"): a 50 Hz wrist axis.
+ROBOT_SEED = 4
+AXES = 4
+DAYS = 9
+FAULTY_FROM = 7  # axis a0's captures from this day on have a developed friction fault
+
+
+def _write(capture: aw.Capture, root: Path, robot: str, axis: str, day: int) -> Path:
+    folder = root / robot / axis
+    folder.mkdir(parents=True, exist_ok=True)
+    return aw.write_capture(capture, folder / f"2026-03-{day + 1:02d}.parquet")
+
+
+@pytest.fixture(scope="module")
+def low_rate_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One robot model, four axes at four tasks, 50 Hz: healthy but for a0's last two days
+    (friction fault), with a standing-still capture on a1's last day."""
+    root = tmp_path_factory.mktemp("fleet") / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(AXES):
+        for day in range(DAYS):
+            fault = Fault("friction", 1.0) if a == 0 and day >= FAULTY_FROM else None
+            capture = robot.capture(a, seed=day, fault=fault)
+            if a == 1 and day == DAYS - 1:
+                still = {name: np.zeros_like(v) for name, v in capture.signals.items()}
+                still["position"] = np.full_like(capture.signals["position"], 0.3)
+                still["torque"] = capture.signals["torque"].mean() + 0.01 * np.random.default_rng(
+                    0
+                ).normal(size=capture.signals["torque"].size)
+                capture = aw.Capture(still, capture.rates_hz)
+            _write(capture, root, "r1", f"a{a}", day)
+    settle(root)
+    return root
+
+
+def _monitor(root: Path, store: Path, method: str) -> tuple[int, str]:
+    result = runner.invoke(
+        app, ["monitor", str(root), "--store", str(store), "--method", method, "--no-progress"]
+    )
+    return result.exit_code, result.output
+
+
+def test_low_rate_axes_are_scored_by_indicators_and_rejected_by_mechanics(
+    low_rate_fleet: Path, tmp_path: Path
+) -> None:
+    assert draw_robot(ROBOT_SEED).spec.fast_rate_hz < 100
+    code, output = _monitor(low_rate_fleet, tmp_path / "m.sqlite", "mechanics")
+    # The product default stops at the first capture: its fixed band needs more than 600 Hz.
+    assert code != 0
+    assert "'band_hz' parameter of MechanicsStage must satisfy" in output
+    code, output = _monitor(low_rate_fleet, tmp_path / "i.sqlite", "indicators")
+    assert f"{AXES} new baseline(s)" in output
+    assert f"{AXES * DAYS - AXES - 1} capture(s) scored" in output  # all but the standing one
+    with SQLiteStore(tmp_path / "i.sqlite") as store:
+        rejected = store.problem_table()
+    assert rejected["path"].tolist() == [f"r1/a1/2026-03-{DAYS:02d}.parquet"]
+    assert rejected["kind"].tolist() == ["bad data"]  # recorded, with its reason, not an alarm
+    assert "flat/stuck signal" in rejected["error"].iloc[0]
+    assert code == 4 + 8  # the friction alarm, and the standing capture to look at
+
+
+def _scores(root: Path, config: MonitorConfig) -> pd.DataFrame:
+    store = MemoryStore()
+    monitor_fleet(root, store, config, settle_s=0)
+    return store.score_table()
+
+
+def test_a_friction_fault_alarms_with_the_friction_indicator_named(low_rate_fleet: Path) -> None:
+    scores = _scores(low_rate_fleet, MonitorConfig(method="indicators"))
+    alarms = scores[scores["alarm"].fillna(False).astype(bool)]
+    assert set(alarms["axis"]) == {"a0"}
+    assert set(alarms["capture"]) == {f"2026-03-{d + 1:02d}.parquet" for d in (7, 8)}
+    for reason in alarms["reason"]:
+        assert "friction (friction)" in reason
+        assert "spreads from its baseline" in reason
+    details = json.loads(alarms["details"].iloc[0])
+    top = max(details["indicators"], key=lambda n: details["indicators"][n]["spreads"])
+    assert top.endswith("friction")
+    assert set(details["indicators"][top]) == {"value", "baseline", "spreads", "share"}
+    assert details["fleet_axes"] == AXES  # the prior pooled over the four axes
+
+
+def test_calibration_distances_are_leave_one_out_and_set_the_models_threshold(
+    low_rate_fleet: Path,
+) -> None:
+    scores = _scores(low_rate_fleet, MonitorConfig(method="indicators"))
+    axis = scores[(scores["axis"] == "a2") & scores["distance"].notna()]
+    calibration = axis.iloc[:5]
+    assert all(json.loads(d)["leave_one_out"] for d in calibration["details"])
+    assert not any(json.loads(d)["leave_one_out"] for d in axis.iloc[5:]["details"])
+    store = MemoryStore()
+    monitor_fleet(low_rate_fleet, store, MonitorConfig(method="indicators"), settle_s=0)
+    baseline = store.latest_baseline("r1", "a2", "indicators")
+    assert baseline is not None
+    fitted = json.loads(scores[scores["axis"] == "a2"]["details"].iloc[0])["indicator_model"]
+    assert axis["threshold"].iloc[-1] == pytest.approx(fitted["threshold"], rel=1e-9)
+    assert fitted["fitted_on"] == [f"r1/a2/2026-03-{d:02d}.parquet" for d in range(1, 7)]
+
+
+def test_a_negative_friction_reading_is_scored(tmp_path: Path) -> None:
+    root = tmp_path / "fleet"
+    gen = np.random.default_rng(7)
+    t = np.arange(0, 8, 1 / 50)  # 50 Hz
+    for day in range(8):
+        q = np.sin(np.pi * t / 2 + 0.3 * day)
+        v = np.gradient(q, t)
+        torque = -2.0 * np.sign(v) + 0.3 * v + 0.05 * gen.normal(size=t.size)
+        capture = aw.Capture(
+            {"position": q, "speed": v, "torque": torque},
+            dict.fromkeys(("position", "speed", "torque"), 50.0),
+        )
+        _write(capture, root, "r1", "neg", day)
+    settle(root)
+    scores = _scores(root, MonitorConfig(method="indicators"))
+    scored = scores[scores["distance"].notna()]
+    assert len(scored) == 7
+    readings = json.loads(scored["details"].iloc[-1])["indicators"]
+    assert readings["coulomb_friction"]["value"] < 0
+    assert not scored["alarm"].astype(bool).any()
+
+
+def test_a_capture_without_any_of_the_models_indicators_is_not_scored(tmp_path: Path) -> None:
+    # A model that scores only the impulsiveness, and a 50 Hz capture that cannot give it.
+    read = [Readings({"impulsiveness": 3.0 + 0.1 * k}) for k in range(6)]
+    fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6, percentile=99.0)
+    path = _write(draw_robot(ROBOT_SEED).capture(0, seed=0), tmp_path, "r1", "a1", 0)
+    file = FleetFile("r1", "a1", path.name, path, pd.Timestamp("2026-03-01").to_pydatetime())
+    job = ScoreJob(file, "r1/a1/" + path.name, 1, ModelRef("k", "", inline=fitted), {})
+    outcome = score_capture(job)
+    assert outcome.kind == "not scored"
+    assert outcome.error is not None
+    assert "impulsiveness needs a torque rate" in outcome.error
+    assert math.isnan(outcome.distance)
+
+
+def test_the_stored_model_round_trips_without_pickle(low_rate_fleet: Path) -> None:
+    robot = draw_robot(ROBOT_SEED)
+    read = [read_indicators(robot.capture(0, seed=k)) for k in range(6)]
+    fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], ["p"] * 6, percentile=99.0)
+    blob = dump_model(fitted)
+    with np.load(io.BytesIO(blob), allow_pickle=False) as archive:
+        assert all(archive[name].dtype != object for name in archive.files)
+    back = load_model(blob)
+    assert isinstance(back, IndicatorBaseline)
+    test = read_indicators(robot.capture(0, seed=9, fault=Fault("friction", 0.5)))
+    assert back.model.assess_readings(test) == fitted.model.assess_readings(test)
+    assert back.model.loo_distances_ == fitted.model.loo_distances_
+
+
+def test_a_stored_indicators_run_resumes_with_its_stored_models(
+    low_rate_fleet: Path, tmp_path: Path
+) -> None:
+    store_path = tmp_path / "s.sqlite"
+    _monitor(low_rate_fleet, store_path, "indicators")
+    code, output = _monitor(low_rate_fleet, store_path, "indicators")
+    assert "0 new baseline(s), 0 capture(s) scored" in output
+    assert code == 4 + 8
+
+
+def test_an_axis_short_of_calibration_captures_waits(tmp_path: Path) -> None:
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for day in range(4):
+        _write(robot.capture(0, seed=day), root, "r1", "a1", day)
+    settle(root)
+    store = MemoryStore()
+    summary = monitor_fleet(root, store, MonitorConfig(method="indicators"), settle_s=0)
+    assert summary.calibrating == [
+        "r1/a1: calibrating, 3 of 5 captures after the baseline r1/a1/2026-03-01.parquet give "
+        "a reading; the indicators baseline is set once all have arrived"
+    ]
+    assert summary.exit_code == 0
+    assert summary.scored == 0
+    for day in range(4, 7):
+        _write(robot.capture(0, seed=day), root, "r1", "a1", day)
+    summary = monitor_fleet(root, store, MonitorConfig(method="indicators"), settle_s=0)
+    assert summary.calibrating == []
+    assert summary.new_baselines == 1
+    assert summary.scored == 6
+
+
+def test_a_faulty_first_capture_is_reported(tmp_path: Path) -> None:
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for day in range(8):
+        fault = Fault("friction", 1.0) if day == 0 else None
+        _write(robot.capture(0, seed=day, fault=fault), root, "r1", "a1", day)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    assert len(summary.baseline_checks) == 1
+    assert summary.baseline_checks[0].startswith("r1/a1/2026-03-01.parquet: the baseline capture")
+    assert summary.exit_code & 8
+
+
+def test_indicators_has_no_detector_or_stage() -> None:
+    with pytest.raises(ValueError, match="do not apply to the method 'indicators'"):
+        MonitorConfig(method="indicators", detector=aw.PCADetector())
+    with pytest.raises(ValueError, match="has no HealthModel"):
+        MonitorConfig(method="indicators").model()
+    with pytest.raises(ValueError, match="needs a 'detector' factory, or indicator_model=True"):
+        MethodPreset()
+    with pytest.raises(ValueError, match="one entry per capture"):
+        fit_indicator_baseline([Readings({})], [], [], percentile=99.0)
+
+
+# --- real data (skipped when ../shared/data is absent) ------------------------------------------
+
+
+def _real(name: str) -> Path:
+    folder = SHARED_DATA / name
+    if not folder.is_dir():
+        pytest.skip(f"{folder} is absent")
+    return folder
+
+
+def _readable(root: Path) -> int:
+    """Captures after each axis's baseline (its first capture with usable data) that pass the
+    monitor's data-quality rules: a window in which the axis stood still for half its samples
+    is *stuck* there (monitor._quality), not readable."""
+    count = 0
+    for axis in {p.parent for p in root.rglob("*.parquet")}:
+        captures = [aw.read_capture(f) for f in sorted(axis.glob("*.parquet"))]
+        first = next(k for k, c in enumerate(captures) if data_quality_problem(c) is None)
+        reference = QualityReference.of(captures[first])
+        count += sum(data_quality_problem(c, reference) is None for c in captures[first + 1 :])
+    return count
+
+
+def test_real_hydraulic_actuators_are_scored(tmp_path: Path) -> None:
+    from axiswatch_lab._transfer import hydraulic_captures
+
+    index = pd.read_csv(_real("hydraulic_actuator") / "index.csv")
+    starts = dict(zip(index["recording_id"], index["record_start"], strict=True))
+    root = tmp_path / "fleet"
+    kept: dict[str, int] = {}
+    for actuator, _, capture in hydraulic_captures(SHARED_DATA / "hydraulic_actuator"):
+        if kept.get(actuator, 0) >= 8:
+            continue
+        kept[actuator] = kept.get(actuator, 0) + 1
+        folder = root / "hydraulic" / actuator
+        folder.mkdir(parents=True, exist_ok=True)
+        stamp = str(starts[capture.source]).replace(":", "-")
+        aw.write_capture(capture, folder / f"{stamp}.parquet")
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    assert summary.new_baselines == len(kept)
+    assert summary.scored == _readable(root) > 0
+    assert all("bad data" in line for line in summary.rejected)
+    mechanics = monitor_fleet(root, MemoryStore(), MonitorConfig(), settle_s=0)
+    assert mechanics.scored == 0
+    assert len(mechanics.rejected) == sum(kept.values())
+
+
+def test_real_linear_axis_is_scored(tmp_path: Path) -> None:
+    from axiswatch_lab._transfer import linear_axis_captures
+
+    windows = linear_axis_captures(_real("genesis_linear_axis"))
+    root = tmp_path / "fleet"
+    for session in ("normal", "session2016_jam_labels"):
+        for day, capture in enumerate(windows[session][:10]):
+            _write(capture, root, "linear", session.split("_")[0], day)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    assert summary.new_baselines == 2
+    assert summary.scored == _readable(root) > 0
+    assert all("bad data" in line for line in summary.rejected)
+
+
+def test_the_report_names_the_indicators_alarms_top_indicator(
+    low_rate_fleet: Path, tmp_path: Path
+) -> None:
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        monitor_fleet(low_rate_fleet, store, MonitorConfig(method="indicators"), settle_s=0)
+        items = _triage(store)
+        alarmed = [i for i in items if i.kind == "alarm"]
+        assert [i.axis for i in alarmed] == ["a0"]
+        assert "friction (friction)" in alarmed[0].line
+        assert "spreads from its baseline" in alarmed[0].line
+        page = write_report(store, tmp_path / "report.html").read_text()
+    assert "friction (friction)" in page
+    assert "indicators (indicators): shift from the baseline" in page  # the per-indicator panel
+
+
+def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) -> None:
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(3):
+        for day in range(7):
+            _write(robot.capture(a, seed=day), root, "r1", f"a{a}", day)
+    settle(root)
+    config = MonitorConfig(method="indicators")
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        monitor_fleet(root, store, config, settle_s=0)
+        for day in range(7):
+            _write(robot.capture(3, seed=day), root, "r1", "a3", day)
+        settle(root)
+        summary = monitor_fleet(root, store, config, settle_s=0)
+        assert summary.new_baselines == 1
+        scores = store.score_table()
+    last = scores[(scores["axis"] == "a3") & scores["distance"].notna()].iloc[-1]
+    assert json.loads(last["details"])["fleet_axes"] == 4
+    first = scores[(scores["axis"] == "a0") & scores["distance"].notna()].iloc[-1]
+    assert json.loads(first["details"])["fleet_axes"] == 3  # kept until re-baselined
+
+
+def test_a_worn_axis_is_reported_against_its_fleet(tmp_path: Path) -> None:
+    # Six axes on one task, one worn from its first capture: its baseline agrees with its own
+    # calibration captures, but not with its fleet's (a pair median with 5 of 15 pairs worn).
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(6):
+        fault = Fault("friction", 1.0) if a == 0 else None
+        for day in range(7):
+            _write(robot.capture(0, seed=f"{a}/{day}", fault=fault), root, "r1", f"a{a}", day)
+    settle(root)
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        summary = monitor_fleet(root, store, MonitorConfig(method="indicators"), settle_s=0)
+        assert len(summary.baseline_checks) == 1
+        assert summary.baseline_checks[0].startswith(
+            "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
+        )
+        lines = {i.axis: i.line for i in _triage(store)}
+    assert "Baseline to check: this axis's baseline differs from its fleet's" in lines["a0"]
+    assert not any("Baseline to check" in lines[f"a{a}"] for a in range(1, 6))
+
+
+def _triage(store: SQLiteStore) -> list[AxisAttention]:
+    return triage(
+        fleet_summary(store),
+        fleet_results(store),
+        fleet_rejections(store),
+        store.changed_file_table(),
+        store.alarms(),
+        method="indicators",
+    )
