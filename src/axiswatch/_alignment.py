@@ -247,7 +247,8 @@ def low_rank_basis(
         )
     if method not in ("auto", "gram", "qr", "svd"):
         raise ValueError(
-            f"The 'method' parameter must be 'auto', 'gram', 'qr' or 'svd'. Got {method!r} instead."
+            "The 'method' parameter must be 'auto', 'gram', 'qr' or 'svd'. "
+            f"Got {method!r} instead."
         )
     noise_level = float(noise_level)
     if method == "gram" or (method == "auto" and X.shape[0] > X.shape[1]):
