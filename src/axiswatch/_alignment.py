@@ -186,7 +186,7 @@ def low_rank_basis(
     X: NDArray[np.float64],
     noise_level: float = 1.0,
     *,
-    method: Literal["auto", "gram", "qr", "svd"] = "auto",
+    method: Literal["auto", "gram", "svd"] = "auto",
 ) -> LowRankBasis:
     """Singular vectors and values of ``X`` that enter ``R`` (those above ``sqrt(noise_level)``).
 
@@ -195,17 +195,13 @@ def low_rank_basis(
     X : ndarray of shape (n_rows, n_features)
     noise_level : float, default=1.0
         ``lambda`` of the objective ``1/2 ||X - R X||_F^2 + lambda ||R||_*``.
-    method : {"auto", "gram", "qr", "svd"}, default="auto"
+    method : {"auto", "gram", "svd"}, default="auto"
         ``"svd"``: the thin SVD of ``X``, ``O(N K^2)`` with a large constant. ``"gram"``: the
         eigenvectors of the ``K x K`` Gram matrix ``X^T X`` locate the subspace, and a thin SVD
         of ``X`` restricted to it (``N x r'``, a Rayleigh-Ritz step) gives orthonormal vectors
-        and accurate singular values; it falls back to ``"qr"`` when ``X`` is too ill
-        conditioned for it (``lambda < GRAM_RCOND * s_max^2``). ``"qr"``: the triangular factor
-        ``R`` of a Householder QR of ``X`` (``Q`` is not formed) and the SVD of the ``K x K``
-        ``R``: singular values and right vectors as accurate as the direct SVD (both are
-        backward stable), the kept left vectors ``X v / s``; half the time and memory of the
-        direct SVD of a tall ``X`` (a 60 s capture: 120,000 x 390). ``"auto"``: ``"gram"`` for
-        tall ``X`` (``N > K``), else ``"svd"``. See Notes for the accuracy.
+        and accurate singular values; it falls back to ``"svd"`` when ``X`` is too ill
+        conditioned for it (``lambda < GRAM_RCOND * s_max^2``). ``"auto"``: ``"gram"`` for tall
+        ``X`` (``N > K``), else ``"svd"``. See Notes for the accuracy.
 
     Returns
     -------
@@ -224,10 +220,8 @@ def low_rank_basis(
     times a 300-row one's), so ``GRAM_RCOND = 1e-10`` is set from measurements rather than from
     this loose bound: with the lab features and ``lambda / s_max^2`` from ``8.5e-5`` down to
     ``8.5e-11``, forced Gram and direct SVD gave LRA distances within ``1.4e-3`` of the target
-    tolerance ``1e-9 + 1e-6 delta``. Below ``GRAM_RCOND`` the QR route is used: a left vector
-    ``X v / s`` carries the error of ``v`` times ``s_max / s`` (about ``eps s_max / sqrt(lambda)``
-    for the kept ``s > sqrt(lambda)``: ``2e-10`` at ``s_max = 10^6``, ``lambda = 1``). Tests
-    compare the routes on random, rank-deficient, clustered, ill-conditioned and real features.
+    tolerance ``1e-9 + 1e-6 delta``. Below ``GRAM_RCOND`` the direct SVD is used. Tests compare
+    both routes on random, rank-deficient, clustered and real features.
 
     Examples
     --------
@@ -245,17 +239,15 @@ def low_rank_basis(
         raise ValueError(
             f"The 'noise_level' parameter must be a float > 0. Got {noise_level!r} instead."
         )
-    if method not in ("auto", "gram", "qr", "svd"):
+    if method not in ("auto", "gram", "svd"):
         raise ValueError(
-            "The 'method' parameter must be 'auto', 'gram', 'qr' or 'svd'. "
-            f"Got {method!r} instead."
+            f"The 'method' parameter must be 'auto', 'gram' or 'svd'. Got {method!r} instead."
         )
     noise_level = float(noise_level)
     if method == "gram" or (method == "auto" and X.shape[0] > X.shape[1]):
         basis = _gram_basis(X, noise_level)
-        return _qr_basis(X, noise_level) if basis is None else basis
-    if method == "qr":
-        return _qr_basis(X, noise_level)
+        if basis is not None:
+            return basis
     left, singular, _ = scipy.linalg.svd(X, full_matrices=False, check_finite=False)
     keep = singular > np.sqrt(noise_level)
     return LowRankBasis(left[:, keep], singular[keep], noise_level)
@@ -274,15 +266,6 @@ def _gram_basis(X: NDArray[np.float64], noise_level: float) -> LowRankBasis | No
     left, singular, _ = scipy.linalg.svd(R, check_finite=False)
     keep = singular > np.sqrt(noise_level)
     return LowRankBasis(Q @ left[:, keep], singular[keep], noise_level)
-
-
-def _qr_basis(X: NDArray[np.float64], noise_level: float) -> LowRankBasis:
-    """:func:`low_rank_basis` through the ``R`` of a Householder QR of ``X`` and its SVD."""
-    R = scipy.linalg.qr(X, mode="r", check_finite=False)[0]
-    _, singular, right_t = scipy.linalg.svd(R, full_matrices=False, check_finite=False)
-    keep = singular > np.sqrt(noise_level)
-    vectors = (X @ right_t[keep].T) / singular[keep]
-    return LowRankBasis(np.ascontiguousarray(vectors), singular[keep], noise_level)
 
 
 def _cholesky_qr2(Y: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
