@@ -50,3 +50,22 @@ def test_each_verdict_and_a_usable_capture(moving: aw.Capture) -> None:
     idle = _with(moving, "position", 0.01 * moving.signals["position"])
     assert str(data_quality_problem(idle, reference)).startswith("no motion: position spans")
     assert data_quality_problem(idle) is None  # no reference: a baseline candidate
+
+
+def test_a_standstill_for_part_of_a_capture_is_not_a_stuck_sensor() -> None:
+    # The axis moves for 40 % of the capture and stands (speed exactly 0, position held) for the
+    # rest: a capture of a moving axis, scored. The same speed frozen at 0 while the position
+    # moves is a stuck sensor; so is a standing speed that is not exactly 0.
+    t = np.arange(2000) / 1000.0
+    moving = np.where(t < 0.8, np.sin(np.pi * t / 0.8), 0.0)
+    position = np.concatenate([[0.0], np.cumsum(moving[:-1]) / 1000.0])
+    torque = np.cos(7 * t) + 0.1 * t
+    standing = aw.as_capture({"position": position, "speed": moving, "torque": torque}, 1000.0)
+    assert data_quality_problem(standing) is None
+    speed_only = aw.as_capture({"speed": moving, "torque": torque}, 1000.0)
+    assert data_quality_problem(speed_only) is None
+    frozen = np.where(t < 0.8, moving, 0.0)
+    sliding = aw.as_capture({"position": t, "speed": frozen, "torque": torque}, 1000.0)
+    assert data_quality_problem(sliding).startswith("flat/stuck signal: 'speed' repeats")
+    held = aw.as_capture({"speed": np.where(t < 0.8, moving, 0.3), "torque": torque}, 1000.0)
+    assert data_quality_problem(held).startswith("flat/stuck signal: 'speed' repeats")

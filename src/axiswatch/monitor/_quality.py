@@ -13,15 +13,21 @@ Rules, in this order (the first that applies is the verdict):
     rejected by :func:`axiswatch.read_capture`.
 ``flat/stuck signal``
     a signal with one value throughout, or whose longest run of one repeated value covers at
-    least ``STUCK_SHARE`` (half) of its samples: a frozen sensor repeats its last reading.
+    least ``STUCK_SHARE`` (half) of its samples: a frozen sensor repeats its last reading. A
+    run of the position or the speed is a *standstill*, not a frozen sensor, when the other
+    motion signal agrees over the same time span (a speed of exactly 0 while the position holds
+    one value), or when there is no other motion signal to contradict it and the run is a
+    speed of exactly 0: the axis stood still for part of the capture and moved in the rest,
+    which the methods read (issue 13: a capture of a moving axis is scored).
 ``no motion``
     (only with the baseline's reference) position spanning less than ``MIN_MOTION_SHARE`` (5 %)
     of the baseline's span: the robot was idle during the capture.
 
 The thresholds are stated, not fitted: a half-frozen signal or a twentyfold smaller motion are far
 outside what healthy captures of one task show (simulated captures: no repeated sample at all,
-spans within a few per cent). A real logger that quantizes a standing axis to one value for more
-than half a capture is called stuck; such an axis should be captured while it moves.
+spans within a few per cent). A torque that repeats one value for more than half a capture is
+called stuck whatever the motion (a drive's current is never exactly constant while it holds or
+moves an axis).
 """
 
 from __future__ import annotations
@@ -74,6 +80,27 @@ def longest_run(values: NDArray[np.float64]) -> tuple[int, int]:
     return int(lengths[best]), int(starts[best])
 
 
+def _standstill(capture: Capture, name: str, start: int, run: int) -> bool:
+    """Whether a run of one value in ``name`` is the axis standing still (see the rules)."""
+    motion = {"position", "speed"}
+    if name not in motion:
+        return False
+    values = capture.signals[name]
+    others = [other for other in motion - {name} if other in capture.signals]
+    if not others:
+        return name == "speed" and values[start] == 0.0
+    other = others[0]
+    rate, other_rate = capture.rates_hz[name], capture.rates_hz[other]
+    first = round(start / rate * other_rate)
+    last = round((start + run - 1) / rate * other_rate)
+    span = capture.signals[other][first : last + 1]
+    if span.size == 0:
+        return False
+    speed_span = span if other == "speed" else values[start : start + run]
+    position_span = span if other == "position" else values[start : start + run]
+    return bool(np.all(speed_span == 0.0) and np.ptp(position_span) == 0.0)
+
+
 def data_quality_problem(capture: Capture, reference: QualityReference | None = None) -> str | None:
     """The data-quality verdict of a capture and its reason, or None when the data are usable.
 
@@ -121,7 +148,7 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
             )
     for name, values in capture.signals.items():
         run, start = longest_run(values)
-        if run >= STUCK_SHARE * values.size:
+        if run >= STUCK_SHARE * values.size and not _standstill(capture, name, start, run):
             return (
                 f"flat/stuck signal: '{name}' repeats {values[start]:.6g} for {run} of "
                 f"{values.size} samples from sample {start} (a frozen sensor?)"
