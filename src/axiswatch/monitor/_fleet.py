@@ -178,8 +178,7 @@ def discover_fleet(
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
-    for path in _candidates(root, problems, skip):
-        relative = path.relative_to(root).parts
+    for path, relative in _candidates(root, problems, skip):
         if len(relative) != 3:
             problems.append(
                 _problem(
@@ -220,57 +219,70 @@ def _candidates(
     root: Path,
     problems: list[LayoutProblem],
     skip: Callable[[str, str], bool] | None = None,
-) -> Iterator[Path]:
-    """Capture-like files below ``root`` (not directly in it), following links to folders once,
-    leaving out the axis folders ``skip(robot, axis)`` names; folder problems are appended to
-    ``problems``."""
+) -> Iterator[tuple[Path, tuple[str, ...]]]:
+    """Capture-like files below ``root`` (not directly in it) and their path's parts relative to
+    it, following links to folders once, leaving out the axis folders ``skip(robot, axis)`` names;
+    folder problems are appended to ``problems``.
 
-    def unreadable(error: OSError) -> None:
-        path = Path(error.filename)
+    One ``os.scandir`` per folder: a regular file's type comes with its directory entry, so a
+    kept file costs no ``stat`` (a day's run lists the folders that received a file, with all
+    the names they keep).
+    """
+    suffixes = capture_suffixes()
+    seen: dict[tuple[int, int], str] = {}
+
+    def unreadable(path: Path, error: OSError) -> None:
         problems.append(
             _folder_problem(root, path, f"folder cannot be read ({error.strerror}); not scored")
         )
 
-    suffixes = capture_suffixes()
-    seen: dict[tuple[int, int], str] = {}
-    for folder, subfolders, names in os.walk(root, followlinks=True, onerror=unreadable):
-        here = Path(folder)
-        stat = here.stat()
+    def visit(here: Path, parts: tuple[str, ...]) -> Iterator[tuple[Path, tuple[str, ...]]]:
+        try:
+            stat = here.stat()
+            with os.scandir(here) as listing:
+                entries = sorted(listing, key=lambda entry: entry.name)
+        except OSError as error:
+            unreadable(here, error)
+            return
         if (stat.st_dev, stat.st_ino) in seen:
-            first = seen[(stat.st_dev, stat.st_ino)]
             problems.append(
                 _folder_problem(
                     root,
                     here,
-                    f"link to the folder already read as '{first or '.'}' (a symlink loop or a "
-                    "second name); not read twice",
+                    f"link to the folder already read as '{seen[(stat.st_dev, stat.st_ino)] or '.'}' "
+                    "(a symlink loop or a second name); not read twice",
                 )
             )
-            subfolders[:] = []
-            continue
-        parts = here.relative_to(root).parts
-        seen[(stat.st_dev, stat.st_ino)] = here.relative_to(root).as_posix().strip(".")
-        subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
-        if skip is not None and len(parts) == 1:
-            # Pruned here, at the robot's folder: os.walk lists a folder before it yields it,
-            # so an axis folder skipped when yielded would already have cost a listing.
-            subfolders[:] = [name for name in subfolders if not skip(parts[0], name)]
-        for name in sorted(names):
-            path = here / name
-            if name.startswith("."):
+            return
+        seen[(stat.st_dev, stat.st_ino)] = "/".join(parts)
+        folders = []
+        for entry in entries:
+            if entry.name.startswith("."):
                 continue
-            if path.is_symlink() and not path.exists():
+            try:
+                is_folder = entry.is_dir()  # follows links; a dangling link is not a folder
+            except OSError:
+                is_folder = False
+            if is_folder:
+                folders.append(entry)
+            elif entry.is_symlink() and not os.path.exists(entry.path):
                 problems.append(
                     _folder_problem(
                         root,
-                        path,
-                        f"link to '{os.readlink(path)}', which does not exist (an unmounted "
+                        Path(entry.path),
+                        f"link to '{os.readlink(entry.path)}', which does not exist (an unmounted "
                         "share?); not scored",
                     )
                 )
+            elif parts and os.path.splitext(entry.name)[1].lower() in suffixes and entry.is_file():
+                yield Path(entry.path), (*parts, entry.name)
+        for entry in folders:
+            if skip is not None and len(parts) == 1 and skip(parts[0], entry.name):
+                # Pruned before it is listed: an unchanged axis folder costs nothing.
                 continue
-            if here != root and path.suffix.lower() in suffixes and path.is_file():
-                yield path
+            yield from visit(Path(entry.path), (*parts, entry.name))
+
+    yield from visit(root, ())
 
 
 def check_fleet_root(
