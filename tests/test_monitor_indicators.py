@@ -128,7 +128,22 @@ def test_calibration_distances_are_leave_one_out_and_set_the_models_threshold(
     baseline = store.latest_baseline("r1", "a2", "indicators")
     assert baseline is not None
     fitted = json.loads(scores[scores["axis"] == "a2"]["details"].iloc[0])["indicator_model"]
-    assert axis["threshold"].iloc[-1] == pytest.approx(fitted["threshold"], rel=1e-9)
+    # Scores are in units of the threshold that applied: the monitor's own calibration rule on
+    # the K leave-one-out scores (own spreads over the own threshold) gives exactly 1.
+    assert axis["threshold"].iloc[-1] == pytest.approx(1.0, rel=1e-12)
+    for _, row in axis.iterrows():
+        details = json.loads(row["details"])
+        assert row["distance"] == pytest.approx(
+            details["spreads_distance"] / details["threshold_spreads"], rel=1e-12
+        )
+        own = details["case"] == "same task as the baseline: own spreads"
+        assert details["threshold_spreads"] == pytest.approx(
+            fitted["own_threshold"] if own else fitted["threshold"], rel=1e-12
+        )
+    assert all(
+        json.loads(d)["case"] == "same task as the baseline: own spreads"
+        for d in calibration["details"]
+    )
     assert fitted["fitted_on"] == [f"r1/a2/2026-03-{d:02d}.parquet" for d in range(1, 7)]
 
 

@@ -34,6 +34,7 @@ from axiswatch.monitor._indicators import (
     fit_indicator_baseline,
     indicator_details,
     read_axis_indicators,
+    threshold_units,
 )
 from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
@@ -528,4 +529,5 @@ def _score_indicators(
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "not scored")
     left_out = digest in model.file_hashes
     details = indicator_details(model, assessment, left_out=left_out)
-    return ScoreOutcome(job, digest, size, mtime, float(assessment.distance), details, None)
+    distance = threshold_units(assessment)
+    return ScoreOutcome(job, digest, size, mtime, distance, details, None)
