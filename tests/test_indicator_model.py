@@ -174,6 +174,6 @@ def test_the_threshold_is_fitted_on_the_calibration_captures_leave_one_out_dista
     want = fit_half_laplace(model.loo_distances_[1:]).threshold(99.0)
     assert model.threshold_ == pytest.approx(want, rel=1e-12)
     for k in range(6):
-        assert model.assess_fitting(k).distance == pytest.approx(model.loo_distances_[k])
+        assert model.assess_fitting(k).distance == pytest.approx(model.own_loo_distances_[k])
     with pytest.raises(IndexError, match="'index' parameter must be in"):
         model.assess_fitting(6)

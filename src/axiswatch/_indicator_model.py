@@ -190,7 +190,7 @@ def task_envelope(
 
     Returns
     -------
-    (ndarray of shape (8,), float, list of float) or None
+    (ndarray of shape (6,), float, list of float) or None
         The median signature; ``factor`` x the largest leave-one-out distance; and each
         capture's leave-one-out distance: its signature's from the median of the others'
         (:func:`~axiswatch._readings.signature_distance`; NaN where not read). None with fewer
@@ -198,9 +198,9 @@ def task_envelope(
 
     Examples
     --------
-    >>> same = [[1.0, 2.0, 3.0, 4.0 + 0.1 * k, -1.0, 0.0, 1.0, 0.5] for k in range(4)]
+    >>> same = [[4.0 + 0.1 * k, 2.0, 3.0, -1.0, 1.0, 0.5] for k in range(4)]
     >>> reference, envelope, distances = task_envelope(same, factor=2.0)
-    >>> float(reference[3]), [round(d, 4) for d in distances], round(envelope, 4)
+    >>> float(reference[0]), [round(d, 4) for d in distances], round(envelope, 4)
     (4.15, [0.0476, 0.0238, 0.0244, 0.0488], 0.0976)
     """
     arrays = [np.asarray(s, dtype=np.float64) for s in signatures]
@@ -371,7 +371,7 @@ class IndicatorModel:
         Leave-one-out distance of each capture fitted on (baseline first; NaN where none) in the
         task-change and in the own spreads; each threshold is fitted on the calibration
         captures' (:func:`leave_one_out_distances`).
-    task_reference_ : ndarray of shape (8,) or None
+    task_reference_ : ndarray of shape (6,) or None
         The median task signature of the fitting captures (None when fewer than 3 are read).
     task_envelope_ : float
         How far a capture's signature may be from it and still be the baseline's task (NaN

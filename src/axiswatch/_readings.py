@@ -81,11 +81,15 @@ MIN_BAND_MOTION_S = 0.5
 MIN_REVOLUTIONS = 10.0
 #: Share of the peak speed above which the axis counts as moving.
 MOVING_FRACTION = 0.1
-#: Quantiles of ``|speed|`` and of the position in a task signature (:func:`task_signature`):
-#: the typical and near-peak speeds, and the two ends and the middle of the stroke, each read
-#: away from the extremes that one noisy sample sets.
-SIGNATURE_SPEED_QUANTILES: tuple[float, ...] = (0.5, 0.75, 0.9, 0.98)
-SIGNATURE_POSITION_QUANTILES: tuple[float, ...] = (0.02, 0.5, 0.98)
+#: A task signature (:func:`task_signature`) holds the top speed (this quantile of ``|speed|``,
+#: away from the extreme one noisy sample sets), these quantiles of ``|speed|`` while moving,
+#: these of the position (the two ends of the stroke) and the share of time moving. Quantiles
+#: that fall where the axis passes from moving to dwelling (the median ``|speed|``, the median
+#: position) were left out: on the development robots they jumped by up to a third of the top
+#: speed or of the stroke with the capture's phase.
+SIGNATURE_TOP_QUANTILE = 0.98
+SIGNATURE_MOVING_QUANTILES: tuple[float, ...] = (0.5, 0.9)
+SIGNATURE_POSITION_QUANTILES: tuple[float, ...] = (0.02, 0.98)
 
 
 @dataclass(frozen=True)
@@ -251,11 +255,12 @@ def task_signature(m: Motion) -> NDArray[np.float64]:
     """A phase-invariant signature of the commanded motion of a capture: what task it runs.
 
     A capture starts at a random phase of the task cycle, so the signature holds only what does
-    not depend on where the capture starts: quantiles of ``|speed|``
-    (:data:`SIGNATURE_SPEED_QUANTILES`), quantiles of the position
-    (:data:`SIGNATURE_POSITION_QUANTILES`) and the share of time moving (``|speed|`` above
-    :data:`MOVING_FRACTION` of the top speed quantile). It reads the motion only, never the
-    torque: a fault changes the torque, hardly the commanded motion; a task change changes both.
+    not depend much on where the capture starts: the top speed (:data:`SIGNATURE_TOP_QUANTILE`
+    of ``|speed|``), quantiles of ``|speed|`` while moving (above :data:`MOVING_FRACTION` of the
+    top speed; :data:`SIGNATURE_MOVING_QUANTILES`), the ends of the stroke
+    (:data:`SIGNATURE_POSITION_QUANTILES` of the position) and the share of time moving. It
+    reads the motion only, never the torque: a fault changes the torque, hardly the commanded
+    motion; a task change changes the motion.
 
     Parameters
     ----------
@@ -264,9 +269,9 @@ def task_signature(m: Motion) -> NDArray[np.float64]:
 
     Returns
     -------
-    ndarray of shape (8,)
-        Speed quantiles (rad/s or m/s), position quantiles (rad or m), share moving; all NaN
-        when the axis does not move.
+    ndarray of shape (6,)
+        Top speed and the moving speed quantiles (rad/s or m/s), the position quantiles (rad or
+        m), the share moving; all NaN when the axis does not move.
 
     Examples
     --------
@@ -277,32 +282,31 @@ def task_signature(m: Motion) -> NDArray[np.float64]:
     ...     q = np.sin(2 * np.pi * (t + phase))
     ...     return Capture({"position": q, "torque": q}, {"position": 100.0, "torque": 100.0})
     >>> a, b = task_signature(motion(cap(0.0))), task_signature(motion(cap(0.37)))
-    >>> round(float(a[3]), 1), bool(signature_distance(b, a) < 0.02)  # top speed 2 pi
+    >>> round(float(a[0]), 1), bool(signature_distance(b, a) < 0.02)  # top speed 2 pi
     (6.3, True)
     """
     speed = np.abs(m.speed)
-    n = len(SIGNATURE_SPEED_QUANTILES) + len(SIGNATURE_POSITION_QUANTILES) + 1
-    if speed.size < 2:
+    n = 1 + len(SIGNATURE_MOVING_QUANTILES) + len(SIGNATURE_POSITION_QUANTILES) + 1
+    top = float(np.quantile(speed, SIGNATURE_TOP_QUANTILE)) if speed.size >= 2 else 0.0
+    if not top > 0:
         return np.full(n, np.nan)
-    speeds = np.quantile(speed, SIGNATURE_SPEED_QUANTILES)
-    if not speeds[-1] > 0:
-        return np.full(n, np.nan)
+    moving = speed > MOVING_FRACTION * top
+    speeds = np.quantile(speed[moving], SIGNATURE_MOVING_QUANTILES)
     positions = np.quantile(m.position, SIGNATURE_POSITION_QUANTILES)
-    share = float(np.mean(speed > MOVING_FRACTION * speeds[-1]))
-    return np.asarray([*speeds, *positions, share], dtype=np.float64)
+    share = float(np.mean(moving))
+    return np.asarray([top, *speeds, *positions, share], dtype=np.float64)
 
 
 def signature_distance(signature: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
     """How far a :func:`task_signature` is from a reference one, as a share of the reference.
 
-    Speed quantiles are compared in units of the reference's top speed quantile, position
-    quantiles in units of its stroke (top minus bottom position quantile), the share moving as
-    it is; the distance is the largest difference (0.1: a tenth of the top speed, of the stroke,
-    or of the time). Free of the axis's units and scale.
+    Speeds are compared in units of the reference's top speed, the ends of the stroke in units
+    of its stroke, the share moving as it is; the distance is the largest difference (0.1: a
+    tenth of the top speed, of the stroke, or of the time). Free of the axis's units and scale.
 
     Parameters
     ----------
-    signature, reference : ndarray of shape (8,)
+    signature, reference : ndarray of shape (6,)
 
     Returns
     -------
@@ -312,13 +316,13 @@ def signature_distance(signature: NDArray[np.float64], reference: NDArray[np.flo
     Examples
     --------
     >>> import numpy as np
-    >>> reference = np.array([0.5, 1.0, 1.5, 2.0, -1.0, 0.0, 1.0, 0.5])
-    >>> round(signature_distance(reference * [1, 1, 1, 1.1, 1, 1, 1, 1], reference), 3)  # +10 %
+    >>> reference = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5])
+    >>> round(signature_distance(reference * [1.1, 1, 1, 1, 1, 1], reference), 3)  # top +10 %
     0.1
     """
-    n_speed = len(SIGNATURE_SPEED_QUANTILES)
+    n_speed = 1 + len(SIGNATURE_MOVING_QUANTILES)
     n_position = len(SIGNATURE_POSITION_QUANTILES)
-    top_speed = float(reference[n_speed - 1])
+    top_speed = float(reference[0])
     stroke = float(reference[n_speed + n_position - 1] - reference[n_speed])
     if not (np.isfinite(signature).all() and np.isfinite(reference).all()):
         return math.nan
