@@ -195,6 +195,9 @@ def test_the_stored_model_round_trips_without_pickle(low_rate_fleet: Path) -> No
     test = read_indicators(robot.capture(0, seed=9, fault=Fault("friction", 0.5)))
     assert back.model.assess_readings(test) == fitted.model.assess_readings(test)
     assert back.model.loo_distances_ == fitted.model.loo_distances_
+    # The task envelope comes back too: the capture is still recognised as the baseline's task.
+    assert back.model.assess_readings(test).case == "same task as the baseline: own spreads"
+    assert back.model.own_threshold_ == fitted.model.own_threshold_
 
 
 def test_a_stored_indicators_run_resumes_with_its_stored_models(
