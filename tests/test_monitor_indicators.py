@@ -115,6 +115,22 @@ def test_a_friction_fault_alarms_with_the_friction_indicator_named(low_rate_flee
     assert details["fleet_axes"] == AXES  # the prior pooled over the four axes
 
 
+def test_with_the_task_envelope_a_same_task_fault_alarms_on_own_spreads(
+    low_rate_fleet: Path,
+) -> None:
+    config = MonitorConfig(method="indicators", task_envelope=2.0)
+    scores = _scores(low_rate_fleet, config)
+    alarms = scores[scores["alarm"].fillna(False).astype(bool)]
+    assert set(alarms["axis"]) == {"a0"}
+    for reason in alarms["reason"]:
+        assert "same task as the baseline: own spreads; " in reason
+        assert "friction (friction)" in reason
+    monitored = scores[(scores["role"] == "monitor") & scores["distance"].notna()]
+    cases = {json.loads(d)["case"] for d in monitored["details"]}
+    assert cases == {"same task as the baseline: own spreads"}  # every axis stays on its task
+    assert set(scores["threshold"].dropna().round(12)) == {1.0}
+
+
 def test_calibration_distances_are_leave_one_out_and_set_the_models_threshold(
     low_rate_fleet: Path,
 ) -> None:
@@ -186,7 +202,9 @@ def test_a_capture_without_any_of_the_models_indicators_is_not_scored(tmp_path: 
 def test_the_stored_model_round_trips_without_pickle(low_rate_fleet: Path) -> None:
     robot = draw_robot(ROBOT_SEED)
     read = [read_indicators(robot.capture(0, seed=k)) for k in range(6)]
-    fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], ["p"] * 6, percentile=99.0)
+    fitted = fit_indicator_baseline(
+        read, [str(k) for k in range(6)], ["p"] * 6, percentile=99.0, task_envelope_factor=2.0
+    )
     blob = dump_model(fitted)
     with np.load(io.BytesIO(blob), allow_pickle=False) as archive:
         assert all(archive[name].dtype != object for name in archive.files)

@@ -11,9 +11,15 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._calibration import alarm_threshold
-from axiswatch._indicator_model import IndicatorModel, pool_fleet, task_envelope
+from axiswatch._indicator_model import (
+    TASK_ENVELOPE_FACTOR,
+    IndicatorModel,
+    pool_fleet,
+    task_envelope,
+)
 from axiswatch._readings import motion, read_indicators, signature_distance, task_signature
 from axiswatch.datasets import Fault, draw_robot
+from axiswatch.monitor import MonitorConfig
 from axiswatch.monitor._indicators import (
     assess_capture,
     fit_indicator_baseline,
@@ -33,7 +39,9 @@ def fleet() -> list[IndicatorModel]:
     """Four axes of one robot model, axis ``a`` on task ``a``, with their fleet prior."""
     robot = draw_robot(ROBOT_SEED)
     models = [
-        IndicatorModel().fit_readings([read_indicators(robot.capture(a, seed=k)) for k in range(6)])
+        IndicatorModel(task_envelope_factor=TASK_ENVELOPE_FACTOR).fit_readings(
+            [read_indicators(robot.capture(a, seed=k)) for k in range(6)]
+        )
         for a in range(4)
     ]
     prior = pool_fleet(models)
@@ -145,7 +153,7 @@ def test_fitting_captures_without_motion_give_no_envelope() -> None:
         dataclasses.replace(read_indicators(robot.capture(0, seed=k)), signature=())
         for k in range(6)
     ]
-    model = IndicatorModel().fit_readings(read)
+    model = IndicatorModel(task_envelope_factor=TASK_ENVELOPE_FACTOR).fit_readings(read)
     assert model.task_reference_ is None
     assert any("every capture is scored as a task change" in note for note in model.notes_)
     assert model.assess_readings(read_indicators(robot.capture(0, seed=9))).case.startswith(
@@ -161,6 +169,7 @@ def test_the_monitor_scores_in_thresholds_and_calibration_gives_exactly_one() ->
             [f"{a}/{k}" for k in range(6)],
             [""] * 6,
             percentile=99.0,
+            task_envelope_factor=TASK_ENVELOPE_FACTOR,
         )
         for a in range(4)
     ]
@@ -173,3 +182,26 @@ def test_the_monitor_scores_in_thresholds_and_calibration_gives_exactly_one() ->
     assert alarm_threshold(calibration, percentile=99.0).value == pytest.approx(1.0, rel=1e-12)
     changed = assess_capture(pooled, robot.capture(3, seed=20), "new", None)
     assert threshold_units(changed) == changed.distance / pooled.model.threshold_
+
+
+def test_the_envelope_is_off_by_default(fleet: list[IndicatorModel]) -> None:
+    robot = draw_robot(ROBOT_SEED)
+    model = IndicatorModel().fit_readings(
+        [read_indicators(robot.capture(0, seed=k)) for k in range(6)]
+    )
+    model.use_fleet(fleet[0].fleet)
+    verdict = model.assess(robot.capture(0, seed=11, fault=Fault("friction", 0.6)))
+    assert verdict.case == "no task envelope: fleet allowance"
+    assert verdict.threshold == model.threshold_
+
+
+def test_the_monitor_takes_the_envelope_for_the_indicators_method_only() -> None:
+    assert MonitorConfig(method="indicators").indicator_model().task_envelope_factor is None
+    config = MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
+    assert config.indicator_model().task_envelope_factor == TASK_ENVELOPE_FACTOR
+    assert config.params()["task_envelope"] == TASK_ENVELOPE_FACTOR
+    assert "task_envelope" not in MonitorConfig(method="indicators").params()
+    with pytest.raises(ValueError, match="'task_envelope' parameter must be None or a float > 0"):
+        MonitorConfig(method="indicators", task_envelope=0.0)
+    with pytest.raises(ValueError, match="for the method 'lra' instead"):
+        MonitorConfig(method="lra", task_envelope=2.0)

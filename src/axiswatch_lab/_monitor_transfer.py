@@ -29,14 +29,16 @@ from pathlib import Path
 import pandas as pd
 
 from axiswatch._capture import Capture, write_capture
+from axiswatch._indicator_model import TASK_ENVELOPE_FACTOR
 from axiswatch.datasets import Fault, draw_robot
 from axiswatch.monitor import MonitorConfig, SQLiteStore, monitor_fleet
 
 __all__ = ["HELD_OUT", "monitor_real_data", "monitor_robot"]
 
 HELD_OUT: tuple[int, ...] = tuple(range(1000, 1012))
-#: The runs of each fleet: the method, the method without a fleet prior, the product default.
-VARIANTS: tuple[str, ...] = ("indicators", "indicators-own", "mechanics")
+#: The runs of each fleet: the method, the method with its task envelope, the method without a
+#: fleet prior, the product default.
+VARIANTS: tuple[str, ...] = ("indicators", "indicators-envelope", "indicators-own", "mechanics")
 _AXES = 4
 _CALIBRATION = 6  # the baseline and K = 5
 
@@ -48,11 +50,19 @@ def _write(capture: Capture, root: Path, robot: str, axis: str, index: int) -> N
     write_capture(capture, folder / f"{day:%Y-%m-%d}.parquet")
 
 
-def _run(root: Path, method: str) -> tuple[pd.DataFrame, list[str], str]:
+def _config(variant: str) -> MonitorConfig:
+    """``indicators-envelope``: the method with the task envelope chosen on the development
+    robots; ``indicators-own`` is the method itself (the profiles make the difference)."""
+    if variant == "indicators-envelope":
+        return MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
+    return MonitorConfig(method=variant.split("-")[0])
+
+
+def _run(root: Path, variant: str) -> tuple[pd.DataFrame, list[str], str]:
     """Scores of a fresh store, the rejections, and why the run stopped."""
     with tempfile.TemporaryDirectory() as folder, SQLiteStore(Path(folder) / "s.db") as store:
         try:
-            summary = monitor_fleet(root, store, MonitorConfig(method=method), settle_s=0)
+            summary = monitor_fleet(root, store, _config(variant), settle_s=0)
         except ValueError as exc:  # a configuration the method cannot take: the run stops
             return pd.DataFrame(), [], str(exc).splitlines()[0]
         return store.score_table(), summary.rejected, ""
@@ -87,7 +97,6 @@ def monitor_robot(
                 _write(capture, root, robot.name, f"a{a}", day)
         n_files = sum(1 for _ in root.rglob("*.parquet"))
         for variant in variants:
-            method = variant.split("-")[0]
             # "own": a profile per axis, so that no fleet is pooled (the axis's own spreads).
             for a in range(_AXES):
                 own = root / robot.name / f"a{a}" / "axis.toml"
@@ -95,7 +104,7 @@ def monitor_robot(
                     own.write_text(f'name = "{robot.name}-a{a}"\n')
                 else:
                     own.unlink(missing_ok=True)
-            scores, rejected, stopped = _run(root, method)
+            scores, rejected, stopped = _run(root, variant)
             axes = scores["axis"] if not scores.empty else pd.Series(dtype=str)
             over, n = _rates(scores, axes != ("a0" if scenario == "fault" else ""))
             row: dict[str, object] = {
@@ -158,7 +167,7 @@ def monitor_real_data(
         impaired_from = len(windows["normal"])
     for name, (root, faulty) in folders.items():
         n_files = sum(1 for _ in root.rglob("*.parquet"))
-        for method in [v for v in variants if v in ("indicators", "mechanics")]:
+        for method in [v for v in variants if v != "indicators-own"]:
             scores, rejected, stopped = _run(root, method)
             row: dict[str, object] = {
                 "dataset": name,

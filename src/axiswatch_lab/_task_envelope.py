@@ -136,9 +136,10 @@ def envelope_study(seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> pd.DataFrame:
 def summarise(table: pd.DataFrame) -> pd.DataFrame:
     """Per variant and kind: captures, over the threshold, scored as the baseline's task."""
     grouped = table.groupby(["variant", "kind"], sort=False)
-    return grouped.agg(
+    counts = grouped.agg(
         captures=("over", "size"), over=("over", "sum"), as_same_task=("as_same_task", "sum")
-    ).unstack("kind")
+    )
+    return pd.DataFrame(counts.unstack("kind"))
 
 
 def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:

@@ -96,6 +96,7 @@ def fit_indicator_baseline(
     paths: Sequence[str],
     *,
     percentile: float,
+    task_envelope_factor: float | None = None,
 ) -> IndicatorBaseline:
     """Fit the axis's model on the readings of its baseline (first) and calibration captures.
 
@@ -106,6 +107,9 @@ def fit_indicator_baseline(
     file_hashes, paths : sequence of str
         Of the same captures.
     percentile : float in (0, 100)
+    task_envelope_factor : float > 0 or None, default=None
+        :class:`~axiswatch.IndicatorModel`'s: None scores every capture with the fleet's
+        allowance.
 
     Returns
     -------
@@ -131,7 +135,9 @@ def fit_indicator_baseline(
             "The 'readings', 'file_hashes' and 'paths' parameters must have one entry per "
             f"capture. Got {len(readings)}, {len(file_hashes)} and {len(paths)} instead."
         )
-    model = IndicatorModel(percentile=percentile).fit_readings(list(readings))
+    model = IndicatorModel(
+        percentile=percentile, task_envelope_factor=task_envelope_factor
+    ).fit_readings(list(readings))
     return IndicatorBaseline(model, tuple(file_hashes), tuple(paths))
 
 
