@@ -498,12 +498,10 @@ class IndicatorModel:
         self.own_loo_distances_ = leave_one_out_distances(rows, self.within_)
         own_calibration = [d for d in self.own_loo_distances_[1:] if math.isfinite(d)]
         self.own_threshold_ = fit_half_laplace(own_calibration).threshold(self.percentile)
-        if self.task_reference_ is None:
+        if self.task_reference_ is None and self.task_envelope_factor is not None:
             self.notes_.append(
                 "the task could not be read from the motion of the fitting captures: every "
                 "capture is scored as a task change"
-                if self.task_envelope_factor is not None
-                else "every capture is scored as a task change (no task envelope asked for)"
             )
         if self.fleet is None:
             self.notes_.append(
