@@ -386,3 +386,27 @@ def leave_one_out_distances_naive(
             shifts.append(abs(z) if name in two_sided else max(z, 0.0))
         out.append(max(shifts) if shifts else float("nan"))
     return out
+
+
+def task_signature_naive(position: list[float], speed: list[float]) -> list[float]:
+    """Sort and interpolate between neighbours for each quantile (NumPy's default rule)."""
+
+    def quantile(values: list[float], p: float) -> float:
+        xs = sorted(values)
+        h = (len(xs) - 1) * p
+        low = int(h)
+        if low + 1 >= len(xs):
+            return xs[low]
+        return xs[low] + (h - low) * (xs[low + 1] - xs[low])
+
+    magnitudes = [abs(v) for v in speed]
+    top = quantile(magnitudes, 0.98)
+    moving = [v for v in magnitudes if v > 0.1 * top]
+    return [
+        top,
+        quantile(moving, 0.5),
+        quantile(moving, 0.9),
+        quantile(position, 0.02),
+        quantile(position, 0.98),
+        len(moving) / len(magnitudes),
+    ]

@@ -37,8 +37,10 @@ def _capture(
     )
 
 
-def _fitted(seed: int, **kwargs: float) -> IndicatorModel:
-    return IndicatorModel().fit(
+def _fitted(
+    seed: int, *, task_envelope_factor: float | None = 2.0, **kwargs: float
+) -> IndicatorModel:
+    return IndicatorModel(task_envelope_factor=task_envelope_factor).fit(
         _capture(seed, **kwargs), [_capture(seed + k, **kwargs) for k in range(1, 6)]
     )
 
@@ -68,7 +70,9 @@ def test_threshold_is_the_calibration_fit_without_a_fleet() -> None:
 
 
 def test_fleet_allowance_comes_from_the_fleet_pairs() -> None:
-    fleet = [_fitted(100 * k, payload=float(k)) for k in range(5)]
+    # Without the task envelope: these "tasks" differ in payload only, on one motion, which the
+    # envelope (by design, from the motion alone) would take for the baseline's task.
+    fleet = [_fitted(100 * k, payload=float(k), task_envelope_factor=None) for k in range(5)]
     prior = pool_fleet(fleet)
     assert prior.n_axes == 5
     assert prior.n_pairs == 10
@@ -78,6 +82,7 @@ def test_fleet_allowance_comes_from_the_fleet_pairs() -> None:
     # Task spread enters the scale: a fleet axis with another payload is not an alarm.
     other_task = model.assess(_capture(999, payload=2.0))
     assert not other_task.alarm
+    assert other_task.case == "no task envelope: fleet allowance"
 
 
 def test_fleet_prior_resists_a_faulty_minority() -> None:
@@ -169,6 +174,6 @@ def test_the_threshold_is_fitted_on_the_calibration_captures_leave_one_out_dista
     want = fit_half_laplace(model.loo_distances_[1:]).threshold(99.0)
     assert model.threshold_ == pytest.approx(want, rel=1e-12)
     for k in range(6):
-        assert model.assess_fitting(k).distance == pytest.approx(model.loo_distances_[k])
+        assert model.assess_fitting(k).distance == pytest.approx(model.own_loo_distances_[k])
     with pytest.raises(IndexError, match="'index' parameter must be in"):
         model.assess_fitting(6)

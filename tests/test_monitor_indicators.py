@@ -115,6 +115,22 @@ def test_a_friction_fault_alarms_with_the_friction_indicator_named(low_rate_flee
     assert details["fleet_axes"] == AXES  # the prior pooled over the four axes
 
 
+def test_with_the_task_envelope_a_same_task_fault_alarms_on_own_spreads(
+    low_rate_fleet: Path,
+) -> None:
+    config = MonitorConfig(method="indicators", task_envelope=2.0)
+    scores = _scores(low_rate_fleet, config)
+    alarms = scores[scores["alarm"].fillna(False).astype(bool)]
+    assert set(alarms["axis"]) == {"a0"}
+    for reason in alarms["reason"]:
+        assert "same task as the baseline: own spreads; " in reason
+        assert "friction (friction)" in reason
+    monitored = scores[(scores["role"] == "monitor") & scores["distance"].notna()]
+    cases = {json.loads(d)["case"] for d in monitored["details"]}
+    assert cases == {"same task as the baseline: own spreads"}  # every axis stays on its task
+    assert set(scores["threshold"].dropna().round(12)) == {1.0}
+
+
 def test_calibration_distances_are_leave_one_out_and_set_the_models_threshold(
     low_rate_fleet: Path,
 ) -> None:
@@ -128,7 +144,22 @@ def test_calibration_distances_are_leave_one_out_and_set_the_models_threshold(
     baseline = store.latest_baseline("r1", "a2", "indicators")
     assert baseline is not None
     fitted = json.loads(scores[scores["axis"] == "a2"]["details"].iloc[0])["indicator_model"]
-    assert axis["threshold"].iloc[-1] == pytest.approx(fitted["threshold"], rel=1e-9)
+    # Scores are in units of the threshold that applied: the monitor's own calibration rule on
+    # the K leave-one-out scores (own spreads over the own threshold) gives exactly 1.
+    assert axis["threshold"].iloc[-1] == pytest.approx(1.0, rel=1e-12)
+    for _, row in axis.iterrows():
+        details = json.loads(row["details"])
+        assert row["distance"] == pytest.approx(
+            details["spreads_distance"] / details["threshold_spreads"], rel=1e-12
+        )
+        own = details["case"] == "same task as the baseline: own spreads"
+        assert details["threshold_spreads"] == pytest.approx(
+            fitted["own_threshold"] if own else fitted["threshold"], rel=1e-12
+        )
+    assert all(
+        json.loads(d)["case"] == "same task as the baseline: own spreads"
+        for d in calibration["details"]
+    )
     assert fitted["fitted_on"] == [f"r1/a2/2026-03-{d:02d}.parquet" for d in range(1, 7)]
 
 
@@ -171,7 +202,9 @@ def test_a_capture_without_any_of_the_models_indicators_is_not_scored(tmp_path: 
 def test_the_stored_model_round_trips_without_pickle(low_rate_fleet: Path) -> None:
     robot = draw_robot(ROBOT_SEED)
     read = [read_indicators(robot.capture(0, seed=k)) for k in range(6)]
-    fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], ["p"] * 6, percentile=99.0)
+    fitted = fit_indicator_baseline(
+        read, [str(k) for k in range(6)], ["p"] * 6, percentile=99.0, task_envelope_factor=2.0
+    )
     blob = dump_model(fitted)
     with np.load(io.BytesIO(blob), allow_pickle=False) as archive:
         assert all(archive[name].dtype != object for name in archive.files)
@@ -180,6 +213,9 @@ def test_the_stored_model_round_trips_without_pickle(low_rate_fleet: Path) -> No
     test = read_indicators(robot.capture(0, seed=9, fault=Fault("friction", 0.5)))
     assert back.model.assess_readings(test) == fitted.model.assess_readings(test)
     assert back.model.loo_distances_ == fitted.model.loo_distances_
+    # The task envelope comes back too: the capture is still recognised as the baseline's task.
+    assert back.model.assess_readings(test).case == "same task as the baseline: own spreads"
+    assert back.model.own_threshold_ == fitted.model.own_threshold_
 
 
 def test_a_stored_indicators_run_resumes_with_its_stored_models(

@@ -43,11 +43,12 @@ def test_monitor_study_rows_of_a_low_rate_robot(tmp_path: Path) -> None:
     from axiswatch_lab._monitor_transfer import monitor_robot
 
     rows = {(r["scenario"], r["method"]): r for r in monitor_robot(DEVELOPMENT_ROBOTS[5], tmp_path)}
-    assert len(rows) == 6
+    assert len(rows) == 8  # indicators, indicators-envelope, indicators-own, mechanics
     for scenario, files in (("healthy", 72), ("fault", 56)):
-        indicators = rows[(scenario, "indicators")]
-        assert indicators["files"] == files
-        assert indicators["scored"] == files - 4  # every capture but the 4 baselines
+        for variant in ("indicators", "indicators-envelope"):
+            indicators = rows[(scenario, variant)]
+            assert indicators["files"] == files
+            assert indicators["scored"] == files - 4  # every capture but the 4 baselines
         assert rows[(scenario, "mechanics")]["stopped"]  # a 20 Hz robot: the band needs 600 Hz
     assert rows[("fault", "indicators")]["faulty_monitored"] == 8
     assert list(tmp_path.iterdir()) == []  # the scratch folders are removed

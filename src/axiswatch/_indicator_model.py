@@ -23,10 +23,22 @@ estimated from what the user has:
   the fleet's axes (each pair of axes is a healthy task change; the median keeps a faulty
   minority from inflating it). With 3 axes there are 3 pairs: the allowance is then a rough
   guess, and the report says how many pairs it rests on.
+* **the allowance only when the task changed** (``task_envelope_factor``, off by default: see
+  :class:`IndicatorModel`): the fleet's spreads and allowance hide a fault as
+  well as a task change, so a capture whose *motion* is the baseline's task is scored with the
+  axis's own within-task spreads ``s_w`` and its own calibration threshold (the same half-Laplace
+  rule on the leave-one-out distances in ``s_w``). Whether it is the baseline's task is read from
+  the position and speed only (:func:`~axiswatch._readings.task_signature`; a fault changes the
+  torque, hardly the commanded motion): a capture whose signature is within the **task
+  envelope** of the baseline's (``TASK_ENVELOPE_FACTOR`` x the largest leave-one-out signature
+  distance among the ``K + 1`` fitting captures, :func:`task_envelope`) is the same task; any
+  other, and one whose motion cannot be read, is scored as a task change (fleet spreads, the
+  threshold with the allowance), so missing data never tightens the test.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -34,11 +46,18 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
 from axiswatch._profiles import AxisProfile
-from axiswatch._readings import INDICATORS, Indicator, Readings, read_indicators
+from axiswatch._readings import (
+    INDICATORS,
+    Indicator,
+    Readings,
+    read_indicators,
+    signature_distance,
+)
 from axiswatch.exceptions import CalibrationError
 
 __all__ = [
@@ -47,6 +66,7 @@ __all__ = [
     "IndicatorModel",
     "leave_one_out_distances",
     "pool_fleet",
+    "task_envelope",
 ]
 
 #: ``1 / Phi^-1(3/4)``: MAD -> standard deviation for Gaussian data.
@@ -54,6 +74,10 @@ MAD_TO_SD = 1.4826
 #: Least readings for a spread; least axes for a fleet prior.
 MIN_READINGS = 3
 MIN_AXES = 3
+#: The task envelope in units of the largest leave-one-out signature distance of the fitting
+#: captures (:func:`task_envelope`); chosen on the development robots (docs/evaluation.md,
+#: "Through the monitor").
+TASK_ENVELOPE_FACTOR = 2.0
 
 
 def _declared(name: str) -> Indicator:
@@ -148,6 +172,52 @@ def leave_one_out_distances(
     ]
 
 
+def _signature_median(signatures: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
+    return np.asarray(np.median(np.stack(signatures), axis=0), dtype=np.float64)
+
+
+def task_envelope(
+    signatures: Sequence[Sequence[float]], factor: float = TASK_ENVELOPE_FACTOR
+) -> tuple[NDArray[np.float64], float, list[float]] | None:
+    """The baseline task's reference signature and envelope, from captures of that task.
+
+    Parameters
+    ----------
+    signatures : sequence of sequence of float
+        :func:`~axiswatch._readings.task_signature` of the baseline and calibration captures
+        (empty or NaN where the motion could not be read).
+    factor : float > 0, default=TASK_ENVELOPE_FACTOR
+        Envelope in units of the largest leave-one-out distance.
+
+    Returns
+    -------
+    (ndarray of shape (6,), float, list of float) or None
+        The median signature; ``factor`` x the largest leave-one-out distance; and each
+        capture's leave-one-out distance: its signature's from the median of the others'
+        (:func:`~axiswatch._readings.signature_distance`; NaN where not read). None with fewer
+        than 3 readable signatures.
+
+    Examples
+    --------
+    >>> same = [[4.0 + 0.1 * k, 2.0, 3.0, -1.0, 1.0, 0.5] for k in range(4)]
+    >>> reference, envelope, distances = task_envelope(same, factor=2.0)
+    >>> float(reference[0]), [round(d, 4) for d in distances], round(envelope, 4)
+    (4.15, [0.0476, 0.0238, 0.0244, 0.0488], 0.0976)
+    """
+    arrays = [np.asarray(s, dtype=np.float64) for s in signatures]
+    readable = [k for k, a in enumerate(arrays) if a.size and bool(np.isfinite(a).all())]
+    if len(readable) < MIN_READINGS:
+        return None
+    distances = [math.nan] * len(arrays)
+    for k in readable:
+        others = _signature_median([arrays[j] for j in readable if j != k])
+        distances[k] = signature_distance(arrays[k], others)
+    largest = max(distances[k] for k in readable)
+    if not math.isfinite(largest):
+        return None
+    return _signature_median([arrays[k] for k in readable]), factor * largest, distances
+
+
 @dataclass(frozen=True)
 class FleetPrior:
     """What a healthy task change does to each indicator, pooled over axes of one profile.
@@ -229,6 +299,16 @@ class IndicatorAssessment:
         ``share`` (its shift over the sum of shifts).
     unavailable : dict of str to str
         Indicators not scored, and why.
+    case : str
+        Which spreads and threshold applied, in words: ``"same task as the baseline: own
+        spreads"``, ``"task changed: fleet allowance"``, ``"task not read from the motion:
+        fleet allowance"`` or, with the envelope off, ``"no task envelope: fleet allowance"``
+        (``"...: no fleet prior"`` without one).
+    task_distance : float
+        Signature distance from the baseline's task (NaN when not read), against
+        ``task_envelope``.
+    task_envelope : float
+        The baseline task's envelope (NaN when its signature could not be read).
     """
 
     distance: float
@@ -238,6 +318,14 @@ class IndicatorAssessment:
     component: str | None
     indicators: dict[str, dict[str, float]]
     unavailable: dict[str, str] = field(default_factory=dict)
+    case: str = "task changed: fleet allowance"
+    task_distance: float = math.nan
+    task_envelope: float = math.nan
+
+    @property
+    def same_task(self) -> bool:
+        """Whether the capture was scored as the baseline's task (own spreads)."""
+        return self.case.startswith("same task")
 
     @property
     def scored(self) -> bool:
@@ -251,8 +339,8 @@ class IndicatorAssessment:
         assert self.top is not None
         entry = self.indicators[self.top]
         return (
-            f"{self.top} ({self.component}) {entry['spreads']:.1f} spreads from its baseline "
-            f"(threshold {self.threshold:.1f})"
+            f"{self.case}; {self.top} ({self.component}) {entry['spreads']:.1f} spreads from its "
+            f"baseline (threshold {self.threshold:.1f})"
         )
 
 
@@ -267,14 +355,34 @@ class IndicatorModel:
     fleet : FleetPrior, optional
         Task-change spreads and allowance of the axis's profile (:func:`pool_fleet`); can be
         set later with :meth:`use_fleet`.
+    task_envelope_factor : float > 0 or None, default=None
+        The task envelope in units of the largest leave-one-out signature distance of the
+        fitting captures (:func:`task_envelope`; ``TASK_ENVELOPE_FACTOR`` = 2 was chosen on the
+        development robots); None: every capture is scored as a task change (the fleet's spreads
+        and allowance always). Off by default: on the development and held-out robots it
+        detects far more same-task friction faults for a few more false alarms, but on the real
+        hydraulic actuators it raised 55 false alarms in 297 healthy captures
+        (docs/evaluation.md, "Through the monitor").
 
     Attributes
     ----------
     centre_, within_ : dict of str to float
     threshold_ : float
-    loo_distances_ : list of float
-        Leave-one-out distance of each capture fitted on (baseline first; NaN where none); the
-        threshold is fitted on the calibration captures' (:func:`leave_one_out_distances`).
+        For a task change: the calibration fit in ``sqrt(s_w^2 + s_t^2)``, at least the fleet's
+        allowance.
+    own_threshold_ : float
+        For the baseline's task: the calibration fit in ``s_w`` (no allowance).
+    loo_distances_, own_loo_distances_ : list of float
+        Leave-one-out distance of each capture fitted on (baseline first; NaN where none) in the
+        task-change and in the own spreads; each threshold is fitted on the calibration
+        captures' (:func:`leave_one_out_distances`).
+    task_reference_ : ndarray of shape (6,) or None
+        The median task signature of the fitting captures (None when fewer than 3 are read).
+    task_envelope_ : float
+        How far a capture's signature may be from it and still be the baseline's task (NaN
+        without a reference).
+    task_loo_distances_ : list of float
+        Each fitting capture's signature distance from the median of the others'.
     baseline_check_ : str or None
         Why the baseline capture is not trusted as it is (None when it agrees).
     fleet_check_ : str or None
@@ -299,10 +407,12 @@ class IndicatorModel:
         *,
         percentile: float = 99.0,
         fleet: FleetPrior | None = None,
+        task_envelope_factor: float | None = None,
     ) -> None:
         self.profile = profile
         self.percentile = percentile
         self.fleet = fleet
+        self.task_envelope_factor = task_envelope_factor
 
     @staticmethod
     def pool(models: Sequence[IndicatorModel]) -> FleetPrior:
@@ -345,6 +455,13 @@ class IndicatorModel:
                     "captures, or identical on all)"
                 )
         self.calibration_rows_ = rows
+        self.task_reference_: NDArray[np.float64] | None = None
+        self.task_envelope_ = math.nan
+        self.task_loo_distances_ = [math.nan] * len(read)
+        if self.task_envelope_factor is not None:
+            envelope = task_envelope([r.signature for r in read], self.task_envelope_factor)
+            if envelope is not None:
+                self.task_reference_, self.task_envelope_, self.task_loo_distances_ = envelope
         self._threshold_from(rows)
         return self
 
@@ -378,6 +495,14 @@ class IndicatorModel:
             )
         fitted = fit_half_laplace(calibration).threshold(self.percentile)
         self.threshold_ = fitted
+        self.own_loo_distances_ = leave_one_out_distances(rows, self.within_)
+        own_calibration = [d for d in self.own_loo_distances_[1:] if math.isfinite(d)]
+        self.own_threshold_ = fit_half_laplace(own_calibration).threshold(self.percentile)
+        if self.task_reference_ is None and self.task_envelope_factor is not None:
+            self.notes_.append(
+                "the task could not be read from the motion of the fitting captures: every "
+                "capture is scored as a task change"
+            )
         if self.fleet is None:
             self.notes_.append(
                 "no task-change allowance: fewer than 3 axes of this profile to pool; "
@@ -413,12 +538,34 @@ class IndicatorModel:
         return self.assess_readings(self.readings(capture))
 
     def assess_readings(self, readings: Readings) -> IndicatorAssessment:
-        """:meth:`assess` from readings already taken."""
-        return self._assess(_transformed(readings), readings.reasons, self.centre_)
+        """:meth:`assess` from readings already taken: with the own spreads and threshold when
+        the capture's motion is the baseline's task, else with the fleet's."""
+        distance = math.nan
+        if self.task_reference_ is not None and len(readings.signature):
+            signature = np.asarray(readings.signature, dtype=np.float64)
+            distance = signature_distance(signature, self.task_reference_)
+        if math.isfinite(distance) and distance <= self.task_envelope_:
+            case = "same task as the baseline: own spreads"
+        else:
+            known = (
+                "task changed"
+                if math.isfinite(distance)
+                else "task not read from the motion"
+                if self.task_envelope_factor is not None
+                else "no task envelope"
+            )
+            case = f"{known}: {'fleet allowance' if self.fleet is not None else 'no fleet prior'}"
+        assessment = self._assess(
+            _transformed(readings), readings.reasons, self.centre_, own=case.startswith("same")
+        )
+        return dataclasses.replace(
+            assessment, case=case, task_distance=distance, task_envelope=self.task_envelope_
+        )
 
     def assess_fitting(self, index: int) -> IndicatorAssessment:
         """Leave-one-out assessment of the ``index``-th capture the model was fitted on (0: the
-        baseline): against the median of the others, so its distance is ``loo_distances_[index]``.
+        baseline): against the median of the others, in the own spreads (a fitting capture is
+        the baseline's task by definition), so its distance is ``own_loo_distances_[index]``.
 
         Examples
         --------
@@ -426,7 +573,7 @@ class IndicatorModel:
         >>> robot = draw_robot(0)
         >>> model = IndicatorModel().fit(robot.capture(0, seed=0),
         ...                              [robot.capture(0, seed=k) for k in range(1, 6)])
-        >>> model.assess_fitting(2).distance == model.loo_distances_[2]
+        >>> model.assess_fitting(2).distance == model.own_loo_distances_[2]
         True
         """
         rows = self.calibration_rows_
@@ -435,13 +582,25 @@ class IndicatorModel:
                 f"The 'index' parameter must be in [0, {len(rows)}) (captures fitted on). "
                 f"Got {index!r} instead."
             )
-        centre = _centre_without(rows, index, list(self.scales_))
-        return self._assess(rows[index], self.fit_readings_[index].reasons, centre)
+        centre = _centre_without(rows, index, list(self.within_))
+        assessment = self._assess(rows[index], self.fit_readings_[index].reasons, centre, own=True)
+        return dataclasses.replace(
+            assessment,
+            case="same task as the baseline: own spreads",
+            task_distance=self.task_loo_distances_[index],
+            task_envelope=self.task_envelope_,
+        )
 
     def _assess(
-        self, values: Mapping[str, float], reasons: Mapping[str, str], centre: Mapping[str, float]
+        self,
+        values: Mapping[str, float],
+        reasons: Mapping[str, str],
+        centre: Mapping[str, float],
+        *,
+        own: bool,
     ) -> IndicatorAssessment:
-        scales = self.scales_
+        scales = self.within_ if own else self.scales_
+        threshold = self.own_threshold_ if own else self.threshold_
         distance, shifts = _distance(values, centre, scales)
         unavailable = {
             name: reasons.get(name, self.reasons_.get(name, "not read"))
@@ -461,8 +620,8 @@ class IndicatorModel:
         top = max(shifts, key=shifts.__getitem__) if shifts else None
         return IndicatorAssessment(
             distance=distance,
-            threshold=self.threshold_,
-            alarm=bool(math.isfinite(distance) and distance > self.threshold_),
+            threshold=threshold,
+            alarm=bool(math.isfinite(distance) and distance > threshold),
             top=top,
             component=_declared(top).component if top is not None else None,
             indicators=details,
@@ -476,6 +635,8 @@ class IndicatorModel:
             "within_spread": self.within_,
             "scales": self.scales_,
             "threshold": self.threshold_,
+            "own_threshold": self.own_threshold_,
+            "task_envelope": self.task_envelope_,
             "baseline_check": self.baseline_check_,
             "fleet_check": self.fleet_check_,
             "notes": self.notes_,

@@ -66,6 +66,8 @@ __all__ = [
     "Readings",
     "motion",
     "read_indicators",
+    "signature_distance",
+    "task_signature",
 ]
 
 #: Relative band of the impulsive indicators, in units of the torque's rate (a decade below a
@@ -79,6 +81,15 @@ MIN_BAND_MOTION_S = 0.5
 MIN_REVOLUTIONS = 10.0
 #: Share of the peak speed above which the axis counts as moving.
 MOVING_FRACTION = 0.1
+#: A task signature (:func:`task_signature`) holds the top speed (this quantile of ``|speed|``,
+#: away from the extreme one noisy sample sets), these quantiles of ``|speed|`` while moving,
+#: these of the position (the two ends of the stroke) and the share of time moving. Quantiles
+#: that fall where the axis passes from moving to dwelling (the median ``|speed|``, the median
+#: position) were left out: on the development robots they jumped by up to a third of the top
+#: speed or of the stroke with the capture's phase.
+SIGNATURE_TOP_QUANTILE = 0.98
+SIGNATURE_MOVING_QUANTILES: tuple[float, ...] = (0.5, 0.9)
+SIGNATURE_POSITION_QUANTILES: tuple[float, ...] = (0.02, 0.98)
 
 
 @dataclass(frozen=True)
@@ -140,11 +151,14 @@ class Readings:
     reasons : dict of str to str
         Why each unavailable indicator is unavailable.
     source : str
+    signature : tuple of float
+        The capture's :func:`task_signature` (empty when no motion could be read).
     """
 
     values: dict[str, float]
     reasons: dict[str, str] = field(default_factory=dict)
     source: str = "<memory>"
+    signature: tuple[float, ...] = ()
 
     def available(self) -> list[str]:
         """Names of the indicators that were read."""
@@ -237,6 +251,94 @@ def motion(capture: Capture) -> Motion:
     return Motion(times[keep], position[keep], speed_kept, acceleration, torque[keep], rate)
 
 
+def task_signature(m: Motion) -> NDArray[np.float64]:
+    """A phase-invariant signature of the commanded motion of a capture: what task it runs.
+
+    A capture starts at a random phase of the task cycle, so the signature holds only what does
+    not depend much on where the capture starts: the top speed (:data:`SIGNATURE_TOP_QUANTILE`
+    of ``|speed|``), quantiles of ``|speed|`` while moving (above :data:`MOVING_FRACTION` of the
+    top speed; :data:`SIGNATURE_MOVING_QUANTILES`), the ends of the stroke
+    (:data:`SIGNATURE_POSITION_QUANTILES` of the position) and the share of time moving. It
+    reads the motion only, never the torque: a fault changes the torque, hardly the commanded
+    motion; a task change changes the motion.
+
+    Parameters
+    ----------
+    m : Motion
+        From :func:`motion` (SI units, any rate).
+
+    Returns
+    -------
+    ndarray of shape (6,)
+        Top speed and the moving speed quantiles (rad/s or m/s), the position quantiles (rad or
+        m), the share moving; all NaN when the axis does not move.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(0, 4, 0.01)
+    >>> def cap(phase):
+    ...     q = np.sin(2 * np.pi * (t + phase))
+    ...     return Capture({"position": q, "torque": q}, {"position": 100.0, "torque": 100.0})
+    >>> a, b = task_signature(motion(cap(0.0))), task_signature(motion(cap(0.37)))
+    >>> round(float(a[0]), 1), bool(signature_distance(b, a) < 0.02)  # top speed 2 pi
+    (6.3, True)
+    """
+    speed = np.abs(m.speed)
+    n = 1 + len(SIGNATURE_MOVING_QUANTILES) + len(SIGNATURE_POSITION_QUANTILES) + 1
+    top = float(np.quantile(speed, SIGNATURE_TOP_QUANTILE)) if speed.size >= 2 else 0.0
+    if not top > 0:
+        return np.full(n, np.nan)
+    moving = speed > MOVING_FRACTION * top
+    speeds = np.quantile(speed[moving], SIGNATURE_MOVING_QUANTILES)
+    positions = np.quantile(m.position, SIGNATURE_POSITION_QUANTILES)
+    share = float(np.mean(moving))
+    return np.asarray([top, *speeds, *positions, share], dtype=np.float64)
+
+
+def signature_distance(signature: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
+    """How far a :func:`task_signature` is from a reference one, as a share of the reference.
+
+    Speeds are compared in units of the reference's top speed, the ends of the stroke in units
+    of its stroke, the share moving as it is; the distance is the largest difference (0.1: a
+    tenth of the top speed, of the stroke, or of the time). Free of the axis's units and scale.
+
+    Parameters
+    ----------
+    signature, reference : ndarray of shape (6,)
+
+    Returns
+    -------
+    float
+        NaN when either is not finite or the reference has no speed or no stroke.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> reference = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5])
+    >>> round(signature_distance(reference * [1.1, 1, 1, 1, 1, 1], reference), 3)  # top +10 %
+    0.1
+    """
+    n_speed = 1 + len(SIGNATURE_MOVING_QUANTILES)
+    n_position = len(SIGNATURE_POSITION_QUANTILES)
+    top_speed = float(reference[0])
+    stroke = float(reference[n_speed + n_position - 1] - reference[n_speed])
+    if not (np.isfinite(signature).all() and np.isfinite(reference).all()):
+        return math.nan
+    if not (top_speed > 0 and stroke > 0):
+        return math.nan
+    difference = np.abs(np.asarray(signature, dtype=np.float64) - reference)
+    scaled = np.concatenate(
+        [
+            difference[:n_speed] / top_speed,
+            difference[n_speed : n_speed + n_position] / stroke,
+            difference[n_speed + n_position :],
+        ]
+    )
+    return float(np.max(scaled))
+
+
 def _friction(m: Motion, moving: NDArray[np.bool_]) -> tuple[float, float, str | None]:
     """Coulomb and viscous coefficients, and why the viscous one is missing (or None)."""
     v = m.speed[moving]
@@ -305,6 +407,7 @@ def read_indicators(
     'needs a torque rate >= 100 Hz (got 20 Hz)'
     """
     m = motion(capture)
+    signature = tuple(float(v) for v in task_signature(m))
     values = {ind.name: math.nan for ind in INDICATORS}
     reasons: dict[str, str] = {}
     kinematic: dict[str, float] = {}
@@ -318,7 +421,7 @@ def read_indicators(
     if peak <= 0 or moving.sum() < min_samples:
         for name in values:
             reasons[name] = "needs motion (the axis did not move for 0.2 s)"
-        return Readings(values, reasons, capture.source)
+        return Readings(values, reasons, capture.source, signature)
     direction = np.sign(m.speed)
     both = [int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)]
     if all(both):
@@ -347,7 +450,7 @@ def read_indicators(
                 if m.rate_hz < MIN_BAND_RATE_HZ
                 else f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
             )
-        return Readings(values, reasons, capture.source)
+        return Readings(values, reasons, capture.source, signature)
     band = _band(m)
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
@@ -358,7 +461,7 @@ def read_indicators(
     values["reversal_bursts"] = bursts
     if not math.isfinite(bursts):
         reasons["reversal_bursts"] = "needs torque reversals while moving (none in this capture)"
-    return Readings(values, reasons, capture.source)
+    return Readings(values, reasons, capture.source, signature)
 
 
 def _kinematic_lines(

@@ -5,7 +5,8 @@ written in the project's capture format into a scratch folder and scored by
 :func:`axiswatch.monitor.monitor_fleet` exactly as ``axiswatch monitor --method M`` would (one
 worker, an in-memory store); nothing of the methods is chosen here.
 
-* **Held-out robots** (``draw_robot``, seeds 1000-1011): per robot model a fleet of 4 axes named by
+* **Held-out robots** (``draw_robot``, seeds 1000-1011; the development robots 0-7 when given,
+  to check a choice through the monitor): per robot model a fleet of 4 axes named by
   one profile (``robot.toml``, so the indicators' fleet prior pools the robot's own axes), axis
   ``a`` on task ``a`` (``indicators-own``: the same with a profile per axis, so no fleet prior:
   each axis's own spreads only). *Healthy* run: baseline and 5 calibration captures, then 4 captures of the
@@ -28,12 +29,16 @@ from pathlib import Path
 import pandas as pd
 
 from axiswatch._capture import Capture, write_capture
+from axiswatch._indicator_model import TASK_ENVELOPE_FACTOR
 from axiswatch.datasets import Fault, draw_robot
 from axiswatch.monitor import MonitorConfig, SQLiteStore, monitor_fleet
 
 __all__ = ["HELD_OUT", "monitor_real_data", "monitor_robot"]
 
 HELD_OUT: tuple[int, ...] = tuple(range(1000, 1012))
+#: The runs of each fleet: the method, the method with its task envelope, the method without a
+#: fleet prior, the product default.
+VARIANTS: tuple[str, ...] = ("indicators", "indicators-envelope", "indicators-own", "mechanics")
 _AXES = 4
 _CALIBRATION = 6  # the baseline and K = 5
 
@@ -45,11 +50,19 @@ def _write(capture: Capture, root: Path, robot: str, axis: str, index: int) -> N
     write_capture(capture, folder / f"{day:%Y-%m-%d}.parquet")
 
 
-def _run(root: Path, method: str) -> tuple[pd.DataFrame, list[str], str]:
+def _config(variant: str) -> MonitorConfig:
+    """``indicators-envelope``: the method with the task envelope chosen on the development
+    robots; ``indicators-own`` is the method itself (the profiles make the difference)."""
+    if variant == "indicators-envelope":
+        return MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
+    return MonitorConfig(method=variant.split("-")[0])
+
+
+def _run(root: Path, variant: str) -> tuple[pd.DataFrame, list[str], str]:
     """Scores of a fresh store, the rejections, and why the run stopped."""
     with tempfile.TemporaryDirectory() as folder, SQLiteStore(Path(folder) / "s.db") as store:
         try:
-            summary = monitor_fleet(root, store, MonitorConfig(method=method), settle_s=0)
+            summary = monitor_fleet(root, store, _config(variant), settle_s=0)
         except ValueError as exc:  # a configuration the method cannot take: the run stops
             return pd.DataFrame(), [], str(exc).splitlines()[0]
         return store.score_table(), summary.rejected, ""
@@ -63,8 +76,10 @@ def _rates(scores: pd.DataFrame, selected: pd.Series) -> tuple[int, int]:
     return int(monitored["over"].astype(bool).sum()), len(monitored)
 
 
-def monitor_robot(seed: int, scratch: Path) -> list[dict[str, object]]:
-    """Healthy and fault runs of one held-out robot model, for both methods."""
+def monitor_robot(
+    seed: int, scratch: Path, variants: tuple[str, ...] = VARIANTS
+) -> list[dict[str, object]]:
+    """Healthy and fault runs of one robot model, for each of ``variants``."""
     robot = draw_robot(seed)
     rows: list[dict[str, object]] = []
     for scenario in ("healthy", "fault"):
@@ -81,8 +96,7 @@ def monitor_robot(seed: int, scratch: Path) -> list[dict[str, object]]:
                 capture = robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}")
                 _write(capture, root, robot.name, f"a{a}", day)
         n_files = sum(1 for _ in root.rglob("*.parquet"))
-        for variant in ("indicators", "indicators-own", "mechanics"):
-            method = variant.split("-")[0]
+        for variant in variants:
             # "own": a profile per axis, so that no fleet is pooled (the axis's own spreads).
             for a in range(_AXES):
                 own = root / robot.name / f"a{a}" / "axis.toml"
@@ -90,7 +104,7 @@ def monitor_robot(seed: int, scratch: Path) -> list[dict[str, object]]:
                     own.write_text(f'name = "{robot.name}-a{a}"\n')
                 else:
                     own.unlink(missing_ok=True)
-            scores, rejected, stopped = _run(root, method)
+            scores, rejected, stopped = _run(root, variant)
             axes = scores["axis"] if not scores.empty else pd.Series(dtype=str)
             over, n = _rates(scores, axes != ("a0" if scenario == "fault" else ""))
             row: dict[str, object] = {
@@ -115,8 +129,11 @@ def monitor_robot(seed: int, scratch: Path) -> list[dict[str, object]]:
     return rows
 
 
-def monitor_real_data(data_root: Path, scratch: Path) -> list[dict[str, object]]:
-    """The hydraulic actuators and the linear axis, for both methods (absent sets skipped)."""
+def monitor_real_data(
+    data_root: Path, scratch: Path, variants: tuple[str, ...] = VARIANTS
+) -> list[dict[str, object]]:
+    """The hydraulic actuators and the linear axis, for each method of ``variants`` (absent sets
+    skipped; ``indicators-own`` is not run on them)."""
     from axiswatch_lab._transfer import hydraulic_captures, linear_axis_captures
 
     rows: list[dict[str, object]] = []
@@ -150,7 +167,7 @@ def monitor_real_data(data_root: Path, scratch: Path) -> list[dict[str, object]]
         impaired_from = len(windows["normal"])
     for name, (root, faulty) in folders.items():
         n_files = sum(1 for _ in root.rglob("*.parquet"))
-        for method in ("indicators", "mechanics"):
+        for method in [v for v in variants if v != "indicators-own"]:
             scores, rejected, stopped = _run(root, method)
             row: dict[str, object] = {
                 "dataset": name,
@@ -181,19 +198,35 @@ def monitor_real_data(data_root: Path, scratch: Path) -> list[dict[str, object]]
     return rows
 
 
-def main(out: Path, data_root: Path, seeds: tuple[int, ...] = HELD_OUT) -> None:
-    """Write ``robots.csv`` and ``real.csv`` under ``out``."""
+def main(
+    out: Path,
+    data_root: Path,
+    seeds: tuple[int, ...] = HELD_OUT,
+    variants: tuple[str, ...] = VARIANTS,
+) -> None:
+    """Write ``robots.csv`` and ``real.csv`` under ``out`` (no real data for a ``data_root``
+    that does not exist)."""
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as scratch:
-        robots = [row for seed in seeds for row in monitor_robot(seed, Path(scratch))]
+        robots = [row for seed in seeds for row in monitor_robot(seed, Path(scratch), variants)]
         pd.DataFrame(robots).to_csv(out / "robots.csv", index=False)
-        real = monitor_real_data(data_root, Path(scratch))
+        real = monitor_real_data(data_root, Path(scratch), variants)
         pd.DataFrame(real).to_csv(out / "real.csv", index=False)
     print(pd.DataFrame(robots).to_string())
     print(pd.DataFrame(real).to_string())
 
 
-if __name__ == "__main__":  # python -m axiswatch_lab._monitor_transfer OUT DATA_ROOT [SEED ...]
+if __name__ == "__main__":
+    # python -m axiswatch_lab._monitor_transfer OUT DATA_ROOT [--variants=A,B] [SEED ...]
     import sys
 
-    main(Path(sys.argv[1]), Path(sys.argv[2]), tuple(int(s) for s in sys.argv[3:]) or HELD_OUT)
+    arguments = sys.argv[3:]
+    chosen = VARIANTS
+    if arguments and arguments[0].startswith("--variants="):
+        chosen = tuple(arguments.pop(0).split("=", 1)[1].split(","))
+    main(
+        Path(sys.argv[1]),
+        Path(sys.argv[2]),
+        tuple(int(s) for s in arguments) or HELD_OUT,
+        chosen,
+    )

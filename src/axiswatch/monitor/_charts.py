@@ -115,7 +115,11 @@ def distance_chart(
     methods = list(dict.fromkeys(rows.method))
     titles = [f"distance ({m})" for m in methods]
     if indicators:
-        titles.append(f"indicators ({methods[0]}): shift from the baseline in healthy spreads")
+        # Method ``indicators`` scores a capture in the spreads of the case that applied (own
+        # spreads for the baseline's task, the fleet's for a task change): its shifts are drawn
+        # in units of that case's threshold, as its distance is.
+        unit = "thresholds" if methods[0] == "indicators" else "healthy spreads"
+        titles.append(f"indicators ({methods[0]}): shift from the baseline in {unit}")
     n_panels = len(titles)
     figure = make_subplots(
         rows=n_panels, cols=1, shared_xaxes=True, vertical_spacing=0.08, subplot_titles=titles
@@ -211,10 +215,20 @@ def distance_chart(
 
 def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> None:
     scored = lead[(lead.role != "baseline") & lead.distance.notna()]
-    explained = [json.loads(d).get("indicators", {}) for d in scored.details]
+    parsed = [json.loads(d) for d in scored.details]
     # Method ``indicators``: the distance is the largest shift (not the sum of squared shifts of
-    # ``mechanics``), over the indicators each capture gives.
+    # ``mechanics``), over the indicators each capture gives, in units of the threshold of the
+    # case that applied (``threshold_spreads``): a shift of 1 alone reaches the threshold.
     largest = bool((lead.method == "indicators").any())
+    explained = [
+        {
+            n: {**e, "spreads": e["spreads"] / float(p.get("threshold_spreads", 1.0))}
+            for n, e in p.get("indicators", {}).items()
+        }
+        if largest
+        else p.get("indicators", {})
+        for p in parsed
+    ]
     names = sorted({n for e in explained for n in e}) if largest else list(COLUMNS)
     for name in names:
         entries = [e.get(name) for e in explained]
@@ -233,20 +247,22 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
                     for c, e in zip(scored.capture[keep], values, strict=True)
                 ],
                 hovertemplate="<b>%{customdata[0]}</b><br>" + name
-                + ": %{y:+.2f} healthy spreads<br>value %{customdata[1]:.4g} "
+                + f": %{{y:+.2f}} {'thresholds' if largest else 'healthy spreads'}"
+                "<br>value %{customdata[1]:.4g} "
                 "(baseline %{customdata[2]:.4g})<br>%{customdata[3]:.0%} of the distance"
                 "<extra></extra>",
             ),
             row=panel, col=1,
         )  # fmt: skip
-    figure.add_hrect(
-        y0=-1, y1=1, fillcolor="green", opacity=0.1, line_width=0, row=panel, col=1,
-        annotation_text="healthy spread", annotation_position="top left",
-    )  # fmt: skip
+    if not largest:  # in thresholds, one healthy spread differs from capture to capture
+        figure.add_hrect(
+            y0=-1, y1=1, fillcolor="green", opacity=0.1, line_width=0, row=panel, col=1,
+            annotation_text="healthy spread", annotation_position="top left",
+        )  # fmt: skip
     thresholds = scored.threshold.dropna()
     if not thresholds.empty:
         last = float(thresholds.iloc[-1])
-        alone = last if largest else math.sqrt(last)
+        alone = 1.0 if largest else math.sqrt(last)
         figure.add_hline(
             y=alone, line_dash="dash", line_color="red", line_width=1, row=panel, col=1,
             annotation_text=f"one indicator alone reaches the threshold ({alone:.2g})",

@@ -10,12 +10,17 @@ spreads. So, with the decision rule and the store unchanged:
    ``K + 1`` (:func:`fit_indicator_baseline`); an axis with fewer such captures waits;
 2. the driver pools the fitted models of the axes of one profile into a fleet prior
    (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`);
-3. a score job gives a capture the model was fitted on its *leave-one-out* distance
-   (:meth:`~axiswatch.IndicatorModel.assess_fitting`), so the half-Laplace fit of the ``K``
-   calibration distances that :func:`~axiswatch.monitor._decision.decide` makes is the model's
-   own, and the fleet's task-change allowance (stored in the capture's details) is the
-   decision's floor; any other capture is assessed against the centre
-   (:func:`assess_capture`).
+3. a score job gives a capture the model was fitted on its *leave-one-out* assessment
+   (:meth:`~axiswatch.IndicatorModel.assess_fitting`, in the axis's own spreads); any other
+   capture is assessed against the centre (:func:`assess_capture`), in the own spreads when its
+   motion is the baseline's task and in the fleet's, with the allowance, when the task changed;
+4. the score stored is the distance **in units of the threshold that applied**
+   (:func:`threshold_units`): the calibration captures' are their own-spread distances over the
+   own threshold, so the half-Laplace fit of the ``K`` that
+   :func:`~axiswatch.monitor._decision.decide` makes is exactly 1 (the fit is proportional to
+   the distances) and a monitored capture is over the threshold exactly when the model says so,
+   whichever case applied. The details keep the distance in spreads, the threshold in spreads
+   and which case applied.
 
 A reading that is unavailable is never an alarm: a capture gives the indicators it can, and one
 that gives none of the model's is recorded as not scored, with the reasons.
@@ -42,6 +47,7 @@ __all__ = [
     "fleet_key",
     "indicator_details",
     "read_axis_indicators",
+    "threshold_units",
     "with_fleet",
 ]
 
@@ -90,6 +96,7 @@ def fit_indicator_baseline(
     paths: Sequence[str],
     *,
     percentile: float,
+    task_envelope_factor: float | None = None,
 ) -> IndicatorBaseline:
     """Fit the axis's model on the readings of its baseline (first) and calibration captures.
 
@@ -100,6 +107,9 @@ def fit_indicator_baseline(
     file_hashes, paths : sequence of str
         Of the same captures.
     percentile : float in (0, 100)
+    task_envelope_factor : float > 0 or None, default=None
+        :class:`~axiswatch.IndicatorModel`'s: None scores every capture with the fleet's
+        allowance.
 
     Returns
     -------
@@ -117,7 +127,7 @@ def fit_indicator_baseline(
     >>> read = [read_axis_indicators(robot.capture(0, seed=k), None) for k in range(6)]
     >>> fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6,
     ...                                 percentile=99.0)
-    >>> fitted.allowance() is None, len(fitted.model.loo_distances_)
+    >>> fitted.allowance() is None, len(fitted.model.own_loo_distances_)
     (True, 6)
     """
     if not (len(readings) == len(file_hashes) == len(paths)):
@@ -125,7 +135,9 @@ def fit_indicator_baseline(
             "The 'readings', 'file_hashes' and 'paths' parameters must have one entry per "
             f"capture. Got {len(readings)}, {len(file_hashes)} and {len(paths)} instead."
         )
-    model = IndicatorModel(percentile=percentile).fit_readings(list(readings))
+    model = IndicatorModel(
+        percentile=percentile, task_envelope_factor=task_envelope_factor
+    ).fit_readings(list(readings))
     return IndicatorBaseline(model, tuple(file_hashes), tuple(paths))
 
 
@@ -185,7 +197,8 @@ def assess_capture(
     >>> read = [read_axis_indicators(c, None) for c in captures[:6]]
     >>> fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6,
     ...                                 percentile=99.0)
-    >>> assess_capture(fitted, captures[2], "2", None).distance == fitted.model.loo_distances_[2]
+    >>> left_out = assess_capture(fitted, captures[2], "2", None)
+    >>> left_out.distance == fitted.model.own_loo_distances_[2]
     True
     >>> assess_capture(fitted, captures[6], "new", None).scored
     True
@@ -193,6 +206,24 @@ def assess_capture(
     if file_hash in baseline.file_hashes:
         return baseline.model.assess_fitting(baseline.file_hashes.index(file_hash))
     return baseline.model.assess_readings(read_axis_indicators(capture, profile))
+
+
+def threshold_units(assessment: IndicatorAssessment) -> float:
+    """The score the monitor stores: the distance over the threshold that applied to it (1 is
+    the threshold, for the baseline's task and for a task change alike).
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> captures = [draw_robot(0).capture(0, seed=k) for k in range(6)]
+    >>> read = [read_axis_indicators(c, None) for c in captures]
+    >>> fitted = fit_indicator_baseline(read, [str(k) for k in range(6)], [""] * 6,
+    ...                                 percentile=99.0)
+    >>> left_out = fitted.model.assess_fitting(1)
+    >>> threshold_units(left_out) == left_out.distance / fitted.model.own_threshold_
+    True
+    """
+    return assessment.distance / assessment.threshold
 
 
 def indicator_details(
@@ -219,6 +250,11 @@ def indicator_details(
         "unavailable": assessment.unavailable,
         "leave_one_out": left_out,
         "fleet_axes": 0 if baseline.model.fleet is None else baseline.model.fleet.n_axes,
+        "case": assessment.case,
+        "spreads_distance": assessment.distance,
+        "threshold_spreads": assessment.threshold,
+        "task_distance": assessment.task_distance,
+        "task_envelope": assessment.task_envelope,
     }
     allowance = baseline.allowance()
     if allowance is not None and math.isfinite(allowance):

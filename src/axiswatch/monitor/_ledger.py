@@ -9,7 +9,6 @@ moment; so a killed run resumes exactly, and two processes on one store never di
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from typing import Any
 
@@ -101,10 +100,6 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
     rule = config.decision_rule()
-    allowance = outcome.details.get("task_change_allowance")
-    if allowance is not None:
-        # The axis's fleet prior (method ``indicators``): its task-change allowance is the floor.
-        rule = dataclasses.replace(rule, floor=float(allowance))
     top = outcome.details.get("top_indicator") or describe_top_indicator(
         outcome.details.get("indicators", {})
     )
