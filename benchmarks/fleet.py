@@ -180,7 +180,7 @@ def _history_fleet(root: Path, days: int) -> None:
             os.link(week[day % 7], folder / name)
 
 
-def case_history(folder: Path, days: int, method: str, repeats: int = 5) -> dict[str, Any]:
+def case_history(folder: Path, days: int, method: str, repeats: int = 21) -> dict[str, Any]:
     """A day's run and a run with nothing new, after ``days`` days of kept files."""
     root = folder / "fleet"
     _history_fleet(root, days + 1)
