@@ -112,8 +112,11 @@ def test_a_friction_rise_alarms_and_names_friction() -> None:
     assert verdict.alarm
     assert verdict.top == "coulomb_friction"
     assert verdict.component == "friction"
-    assert "coulomb_friction (friction)" in verdict.reason()
     assert sum(v["share"] for v in verdict.indicators.values()) == pytest.approx(1.0)
+    # Without a task envelope (the default) the reason names the indicator, not the case.
+    plain = _fitted(20, task_envelope_factor=None).assess(_capture(40, coulomb=6.0))
+    assert plain.case.startswith("no task envelope")
+    assert plain.reason().startswith("coulomb_friction (friction)")
 
 
 def test_unavailable_indicators_are_reported_and_others_scored() -> None:

@@ -338,8 +338,11 @@ class IndicatorAssessment:
             return "not scored: " + "; ".join(f"{k} {v}" for k, v in self.unavailable.items())
         assert self.top is not None
         entry = self.indicators[self.top]
+        # Without an envelope every capture is scored one way: the case says nothing (details
+        # keep it).
+        case = "" if self.case.startswith("no task envelope") else f"{self.case}; "
         return (
-            f"{self.case}; {self.top} ({self.component}) {entry['spreads']:.1f} spreads from its "
+            f"{case}{self.top} ({self.component}) {entry['spreads']:.1f} spreads from its "
             f"baseline (threshold {self.threshold:.1f})"
         )
 
