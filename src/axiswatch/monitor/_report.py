@@ -64,6 +64,21 @@ document.querySelectorAll('details').forEach(function (d) {
 });
 """
 
+#: The paper's methods, shown apart from the method leading the page.
+_PAPER_METHODS = {"lra", "pca"}
+
+
+def _others_title(methods: list[str]) -> str:
+    """Title of the folded section of the methods that do not lead the page.
+
+    Examples
+    --------
+    >>> _others_title(["lra", "pca"]), _others_title(["indicators", "pca"])
+    ("The paper's methods", 'Other methods')
+    """
+    return "The paper's methods" if set(methods) <= _PAPER_METHODS else "Other methods"
+
+
 _PAPER_NOTE = (
     "The paper's subspace distances (PCA, LRA) of |STFT| features, kept for comparison: they "
     "measure the task as much as the health of the axis (docs/evaluation.md), so their alarms "
@@ -268,10 +283,10 @@ def write_report(
     parts += _first_screen(items, lead)
     others = [m for m in methods if m != lead]
     if others:
+        note = f"<p class='note'>{_esc(_PAPER_NOTE)}</p>" if set(others) & _PAPER_METHODS else ""
         parts.append(
-            f"<details id='paper-methods'><summary>The paper's methods ({', '.join(others)}): "
-            "shown on request</summary>"
-            f"<p class='note'>{_esc(_PAPER_NOTE)}</p>"
+            f"<details id='paper-methods'><summary>{_others_title(others)} "
+            f"({', '.join(others)}): shown on request</summary>{note}"
         )
         for method in others:
             listed = triage(summary, results, rejections, changed, alarms, method=method,
@@ -320,8 +335,9 @@ def write_report(
         paper_rows = own[own.method.isin(others)]
         if not paper_rows.empty:
             parts.append(
-                f"<details class='paper'><summary>The paper's methods on {_esc(robot)}/"
-                f"{_esc(axis)} ({', '.join(dict.fromkeys(paper_rows.method))})</summary>"
+                f"<details class='paper'><summary>{_others_title(list(paper_rows.method))} on "
+                f"{_esc(robot)}/{_esc(axis)} ({', '.join(dict.fromkeys(paper_rows.method))})"
+                "</summary>"
                 + distance_chart(
                     paper_rows, div_id=f"paper-{robot}-{axis}", indicators=False, events=events
                 )
