@@ -52,6 +52,7 @@ from scipy.signal import butter, savgol_filter, sosfiltfilt
 from axiswatch._capture import Capture
 from axiswatch._mechanics import (
     bearing_lines,
+    bearing_orders,
     line_ratio,
     pearson_kurtosis,
     reversal_bursts,
@@ -492,9 +493,7 @@ def _kinematic_lines(
                 if abs(k / parameter - round(k / parameter)) > 1e-9
             ]
         else:
-            orders = [parameter + k for k in (-2, -1, 0, 1, 2)] + [
-                2 * parameter + k for k in (-1, 0, 1)
-            ]
+            orders = bearing_orders(parameter)
         low = 0.5 * min(orders) * slow_revs
         high = min(nyquist_margin, 1.5 * max(orders) * fast_revs)
         if max(orders) * fast_revs >= nyquist_margin or revolutions < MIN_REVOLUTIONS or low <= 0:
