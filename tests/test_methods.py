@@ -49,7 +49,7 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     registry: None, fleet: Path, tmp_path: Path
 ) -> None:
     register_method("rms", MethodPreset(detector=lambda config: RmsDetector(), summary="RMS"))
-    assert list(methods()) == ["mechanics", "lra", "pca", "indicators", "rms"]
+    assert list(methods()) == ["indicators", "lra", "pca", "mechanics", "rms"]
     store = tmp_path / "s.db"
     result = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rms"])
     assert result.exit_code == 0, result.output
@@ -63,7 +63,7 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     wrong = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rmz"])
     assert wrong.exit_code == 2
     words = " ".join(wrong.output.replace("│", " ").split())
-    assert "expected one of mechanics, lra, pca, indicators, rms; got 'rmz'" in words
+    assert "expected one of indicators, lra, pca, mechanics, rms; got 'rmz'" in words
 
 
 def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:
@@ -80,7 +80,7 @@ def test_a_configuration_error_stops_the_run_and_rejects_nothing(
     fleet: Path, tmp_path: Path
 ) -> None:
     # Before, jobs caught any ValueError: this error was stored as a rejection of every file.
-    config = MonitorConfig(stage=aw.MechanicsStage(band_hz=(300.0, 40.0)))
+    config = MonitorConfig(method="mechanics", stage=aw.MechanicsStage(band_hz=(300.0, 40.0)))
     with aw.Store(tmp_path / "s.db") as store:
         with pytest.raises(ValueError, match=r"'band_hz' parameter of MechanicsStage must"):
             monitor_fleet(fleet, store, config)
@@ -89,7 +89,11 @@ def test_a_configuration_error_stops_the_run_and_rejects_nothing(
 
 def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
     defaults = MonitorConfig()
-    assert defaults.method == "mechanics"
+    # The product default since issue 13: every spread and allowance estimated from the axis and
+    # its fleet (tests/test_indicator_model.py: nothing in its decision path from a simulator).
+    assert defaults.method == "indicators"
+    assert defaults.preset.indicator_model
+    assert defaults.threshold_floor() == 0.0
     command = typer.main.get_command(app).commands["monitor"]  # type: ignore[attr-defined]
     options = {p.name: p.default for p in command.params}
     assert options["method"] == defaults.method
@@ -104,14 +108,16 @@ def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
     assert options["hop"] == defaults.features.hop
     assert options["segment_length"] == defaults.features.segment_length
     assert options["align"] is defaults.align_phase
-    # The same run by both: the fixture's short captures give the default's rejections.
+    # The same run by both.
     with aw.Store(tmp_path / "library.db") as store:
-        monitor_fleet(fleet, store)
-        by_library = fleet_rejections(store)
-    runner.invoke(app, ["monitor", str(fleet), "--store", str(tmp_path / "cli.db")])
+        monitor_fleet(fleet, store, settle_s=0)
+        by_library = fleet_results(store)
+    runner.invoke(
+        app, ["monitor", str(fleet), "--store", str(tmp_path / "cli.db"), "--settle", "0"]
+    )
     with aw.Store(tmp_path / "cli.db") as store:
-        by_cli = fleet_rejections(store)
-    assert set(by_cli.method) == {"mechanics"}
-    assert len(by_cli) == 18
-    columns = ["robot", "axis", "capture", "method", "path", "error"]
+        by_cli = fleet_results(store)
+    assert set(by_cli.method) == {"indicators"}
+    assert len(by_cli) > 0
+    columns = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]
     pd.testing.assert_frame_equal(by_library[columns], by_cli[columns])

@@ -334,12 +334,12 @@ def test_lra_noise_level_option(fleet: Path, tmp_path: Path) -> None:
     assert params["detector"]["noise_level"] == "auto"
 
 
-def test_default_method_rejects_captures_too_short_for_a_baseline(
-    fleet: Path, tmp_path: Path
-) -> None:
+def test_mechanics_rejects_captures_too_short_for_a_baseline(fleet: Path, tmp_path: Path) -> None:
     # The fixture's captures last 0.5 s, less than a task cycle: the mechanics indicators cannot
     # read a move in both directions, so every baseline candidate is rejected with the reason.
-    result = runner.invoke(app, ["monitor", str(fleet), "--store", str(tmp_path / "s.db")])
+    result = runner.invoke(
+        app, ["monitor", str(fleet), "--store", str(tmp_path / "s.db"), "--method", "mechanics"]
+    )
     assert result.exit_code == 8, result.output
     assert "No axis has a baseline yet." in result.output
     assert "2026-03-01.parquet: the baseline must show a usable move in both directions" in (

@@ -131,6 +131,34 @@ def test_with_the_task_envelope_a_same_task_fault_alarms_on_own_spreads(
     assert set(scores["threshold"].dropna().round(12)) == {1.0}
 
 
+def test_the_task_envelope_option_of_the_command_is_the_librarys(
+    low_rate_fleet: Path, tmp_path: Path
+) -> None:
+    store = tmp_path / "e.sqlite"
+    result = runner.invoke(
+        app, ["monitor", str(low_rate_fleet), "--store", str(store), "--task-envelope", "2",
+              "--no-progress", "--settle", "0"],
+    )  # fmt: skip
+    assert result.exit_code in (4, 12), result.output
+    with SQLiteStore(store) as opened:
+        by_command = opened.score_table()
+    by_library = _scores(low_rate_fleet, MonitorConfig(task_envelope=2.0))
+    columns = ["robot", "axis", "capture", "role", "distance", "alarm", "reason"]
+    key = ["robot", "axis", "capture"]
+    pd.testing.assert_frame_equal(
+        by_command[columns].sort_values(key).reset_index(drop=True),
+        by_library[columns].sort_values(key).reset_index(drop=True),
+    )
+    assert by_command["reason"].str.contains("same task as the baseline").any()
+    refused = runner.invoke(
+        app, ["monitor", str(low_rate_fleet), "--store", str(tmp_path / "x.sqlite"),
+              "--method", "pca", "--task-envelope", "2"],
+    )  # fmt: skip
+    assert refused.exit_code == 2
+    assert "for the method 'indicators' only" in refused.output
+    assert not (tmp_path / "x.sqlite").exists()
+
+
 def test_calibration_distances_are_leave_one_out_and_set_the_models_threshold(
     low_rate_fleet: Path,
 ) -> None:
@@ -317,7 +345,7 @@ def test_real_hydraulic_actuators_are_scored(tmp_path: Path) -> None:
     assert summary.new_baselines == len(kept)
     assert summary.scored == _readable(root) > 0
     assert all("bad data" in line for line in summary.rejected)
-    mechanics = monitor_fleet(root, MemoryStore(), MonitorConfig(), settle_s=0)
+    mechanics = monitor_fleet(root, MemoryStore(), MonitorConfig(method="mechanics"), settle_s=0)
     assert mechanics.scored == 0
     assert len(mechanics.rejected) == sum(kept.values())
 

@@ -183,3 +183,22 @@ def test_fleet_validation(tmp_path: Path) -> None:
         awd.simulate_fleet(tmp_path, start_date="March 1st")
     with pytest.raises(ValueError, match="'n_days' parameter must be an int >= 1"):
         awd.simulate_fleet(tmp_path, n_days=0)
+
+
+def test_a_simulated_fleet_carries_its_kinematics_as_an_axis_profile(tmp_path: Path) -> None:
+    awd.simulate_fleet(tmp_path, n_robots=1, n_axes=1, n_days=1, duration_s=0.2)
+    profile = aw.AxisProfile.find(tmp_path, "robot01", "axis1")
+    assert profile is not None
+    assert profile.name == "simulated-axis"
+    assert profile.gear_ratio == awd.NOMINAL_AXIS.gear_ratio
+    assert dict(profile.gear_stages) == {"intermediate": awd.NOMINAL_AXIS.tooth_stage_ratio}
+    assert dict(profile.bearing_orders) == {"motor_inner_race": awd.NOMINAL_AXIS.bearing_order}
+    spec = awd.AxisSpec(gear_ratio=121.0, tooth_stage_ratio=6.5, bearing_order=4.75)
+    (tmp_path / "robot01" / "robot.toml").write_text(awd.fleet_profile_toml(spec, "arm"))
+    other = aw.AxisProfile.find(tmp_path, "robot01", "axis1")
+    assert other is not None
+    assert (other.name, other.gear_ratio) == ("arm", 121.0)
+    assert dict(other.bearing_orders) == {"motor_inner_race": 4.75}
+    awd.simulate_fleet(tmp_path / "bare", n_robots=1, n_axes=1, n_days=1, duration_s=0.2,
+                       profile=False)  # fmt: skip
+    assert aw.AxisProfile.find(tmp_path / "bare", "robot01", "axis1") is None

@@ -197,9 +197,15 @@ class AxisProfile:
                 f"{path}: the axis profile {self.source} maps two columns to {duplicated}."
             )
         if "time" not in renamed.columns:
+            found = list(map(str, frame.columns))
+            if not self.columns:  # the file's own names: the same words as without a profile
+                raise CaptureError(
+                    f"{path}: missing column 'time' (strictly increasing, in "
+                    f"{self.time_unit}); found columns {found}."
+                )
             raise CaptureError(
                 f"{path}: no time column; the axis profile {self.source} maps "
-                f"{dict(self.columns)} and the file has {list(map(str, frame.columns))}."
+                f"{dict(self.columns)} and the file has {found}."
             )
         stamps = renamed["time"]
         if not pd.api.types.is_numeric_dtype(stamps):

@@ -19,7 +19,7 @@ from typing import Annotated, Any, Literal
 
 import typer
 
-from axiswatch.monitor._methods import methods
+from axiswatch.monitor._methods import DEFAULT_METHOD, methods
 from axiswatch.monitor._scoring import MonitorConfig
 
 #: The monitor's defaults: every option of ``monitor`` defaults from these fields.
@@ -180,6 +180,12 @@ def monitor(
             "each axis's axis.toml, its robot's robot.toml or the fleet's axiswatch.toml."
         ),
     ] = None,
+    task_envelope: float | None = typer.Option(
+        DEFAULTS.task_envelope,
+        help="Method indicators: allow for a task change only when the motion is not the "
+        "baseline's task, with this envelope factor (2 was chosen on development robots; "
+        "default: off, every capture gets the fleet's allowance; docs/evaluation.md).",
+    ),
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(
         None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
@@ -228,6 +234,7 @@ def monitor(
                 lra_noise_level=_noise_level(lra_noise_level),
                 align_phase=align,
                 profile=None if profile is None else AxisProfile.from_toml(profile),
+                task_envelope=task_envelope,
             )
             silence = _duration(stale_after, "--stale-after")
             check_request(root, config)
@@ -301,7 +308,7 @@ def results(
 ) -> None:
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
 
-    Then captured_at, epoch, role, over, reason, details (JSON: for the default method each
+    Then captured_at, epoch, role, over, reason, details (JSON: for the indicator methods each
     indicator's value, baseline, shift in healthy spreads and share of the distance) and
     top_indicator. The table shows the first seven, role and top_indicator.
     """
@@ -559,7 +566,8 @@ def demo(
     seed: int = typer.Option(0, help="Seed of the simulation."),
     debug: bool = DEBUG,
 ) -> None:
-    """Simulate a fleet, monitor it with LRA and PCA, write the report; print the summary."""
+    """Simulate a fleet, monitor it with the default method, LRA and PCA, write the report; print
+    the summary."""
     import tempfile
 
     from axiswatch.datasets._robot import simulate_fleet
@@ -574,7 +582,7 @@ def demo(
         typer.echo(f"Simulating a fleet into {root} ...")
         labels = simulate_fleet(root, n_days=days, seed=seed)
         with Store(folder / "fleet.db") as opened, _progress(True) as update:
-            for method in ("mechanics", "lra", "pca"):
+            for method in (DEFAULT_METHOD, "lra", "pca"):
                 # The simulator has just written every file completely: nothing to wait for.
                 config = MonitorConfig(method=method)
                 monitor_fleet(root, opened, config, progress=update, settle_s=0)

@@ -29,6 +29,7 @@ from axiswatch.datasets._robot import (
     Fault,
     FleetFault,
     Task,
+    fleet_profile_toml,
     simulate_capture,
     simulate_fleet,
 )
@@ -50,6 +51,7 @@ __all__ = [
     "Task",
     "default_data_dir",
     "draw_robot",
+    "fleet_profile_toml",
     "lab_dataset",
     "read_dataset",
     "read_recording",

@@ -46,6 +46,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture, write_capture
+from axiswatch._profiles import FLEET_PROFILE
 
 __all__ = [
     "DEFAULT_FLEET_FAULTS",
@@ -55,6 +56,7 @@ __all__ = [
     "Fault",
     "FleetFault",
     "Task",
+    "fleet_profile_toml",
     "simulate_capture",
     "simulate_fleet",
 ]
@@ -602,12 +604,15 @@ def simulate_fleet(
     seed: int = 0,
     file_format: Literal["parquet", "csv"] = "parquet",
     duration_s: float = 3.0,
+    profile: bool = True,
 ) -> pd.DataFrame:
     """Simulate a fleet of robot axes, one capture a day, and write it in the fleet layout.
 
     Files: ``ROOT/<robot>/<axis>/<YYYY-MM-DD>.<file_format>`` (the project's capture format, via
-    :func:`~axiswatch.write_capture`; robots ``robot01``, ..., axes ``axis1``, ...) and the labels
-    in ``ROOT/labels.csv``. Axis ``j`` (counting over the fleet) starts on task ``j`` of
+    :func:`~axiswatch.write_capture`; robots ``robot01``, ..., axes ``axis1``, ...), the labels
+    in ``ROOT/labels.csv`` and, with ``profile``, the fleet's axis profile
+    ``ROOT/axiswatch.toml`` (:func:`fleet_profile_toml`: the simulated axis's kinematics, as a
+    service engineer would copy them from the datasheet). Axis ``j`` (counting over the fleet) starts on task ``j`` of
     :data:`TASKS` (cyclically) and moves on to the next task on each of ``task_change_days``.
     Every capture starts at a random phase of the task cycle.
 
@@ -626,6 +631,8 @@ def simulate_fleet(
     file_format : {"parquet", "csv"}, default="parquet"
     duration_s : float, default=3.0
         Length of each capture.
+    profile : bool, default=True
+        Write ``ROOT/axiswatch.toml``.
 
     Returns
     -------
@@ -708,4 +715,31 @@ def simulate_fleet(
             )
     labels = pd.DataFrame(rows)
     labels.to_csv(root / "labels.csv", index=False)
+    if profile:
+        (root / FLEET_PROFILE).write_text(fleet_profile_toml(), encoding="utf-8")
     return labels
+
+
+def fleet_profile_toml(spec: AxisSpec = NOMINAL_AXIS, name: str = "simulated-axis") -> str:
+    """The axis profile (TOML) of a simulated axis: its name and kinematics.
+
+    The gear ratio, the stage of the gear that may lose a tooth and the bearing's inner-race
+    order of ``spec``; read back by :meth:`~axiswatch.AxisProfile.from_toml`.
+
+    Examples
+    --------
+    >>> print(fleet_profile_toml())
+    name = "simulated-axis"
+    [kinematics]
+    gear_ratio = 100.0
+    [kinematics.gear_stages]
+    intermediate = 5.0
+    [kinematics.bearing_orders]
+    motor_inner_race = 5.43
+    <BLANKLINE>
+    """
+    return (
+        f'name = "{name}"\n[kinematics]\ngear_ratio = {float(spec.gear_ratio)!r}\n'
+        f"[kinematics.gear_stages]\nintermediate = {float(spec.tooth_stage_ratio)!r}\n"
+        f"[kinematics.bearing_orders]\nmotor_inner_race = {float(spec.bearing_order)!r}\n"
+    )

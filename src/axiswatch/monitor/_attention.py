@@ -33,7 +33,7 @@ __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 KINDS: tuple[str, ...] = ("alarm", "bad data", "stale", "acknowledged", "calibrating", "ok")
 
 #: The method that leads the report when the store holds it: the product default first.
-METHOD_ORDER: tuple[str, ...] = ("mechanics", "indicators", "lra", "pca")
+METHOD_ORDER: tuple[str, ...] = ("indicators", "mechanics", "lra", "pca")
 
 
 @dataclass(frozen=True)
@@ -80,8 +80,8 @@ def lead_method(methods: Sequence[str]) -> str | None:
 
     Examples
     --------
-    >>> lead_method(["pca", "mechanics", "lra"]), lead_method(["pca", "lra"]), lead_method([])
-    ('mechanics', 'lra', None)
+    >>> lead_method(["pca", "indicators", "lra"]), lead_method(["pca", "lra"]), lead_method([])
+    ('indicators', 'lra', None)
     """
     present = set(methods)
     return next((m for m in METHOD_ORDER if m in present), next(iter(sorted(present)), None))

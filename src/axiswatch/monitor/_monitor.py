@@ -879,7 +879,7 @@ _AXES_CHECKED = 8
 
 def _check_signals(root: Path, config: MonitorConfig) -> None:
     """Raise when a requested signal is a column of no capture among the first of a few axes
-    (axes read through a profile, which maps their own column names, are not looked at).
+    (axes read through a profile that maps their own column names are not looked at).
 
     Only signals the user chose are checked: with the default signals, a fleet whose files name
     their columns otherwise is a data problem, rejected per capture with the missing column and
@@ -898,7 +898,7 @@ def _check_signals(root: Path, config: MonitorConfig) -> None:
         return False
 
     files, _ = discover_fleet(root, skip=beyond_checked)
-    files = [f for f in files if profile_for(f, config.profile) is None]
+    files = [f for f in files if not _maps_columns(profile_for(f, config.profile))]
     firsts = list({(f.robot, f.axis): f for f in reversed(files)}.values())[-_AXES_CHECKED:]
     seen: dict[str, list[str]] = {}
     for file in firsts:
@@ -915,6 +915,10 @@ def _check_signals(root: Path, config: MonitorConfig) -> None:
             f"The 'signals' parameter names {missing}, a column of none of {len(seen)} capture "
             f"file(s) looked at; {example} has columns {columns}."
         )
+
+
+def _maps_columns(profile: AxisProfile | None) -> bool:
+    return profile is not None and bool(profile.columns)
 
 
 def _columns(path: Path) -> list[str]:

@@ -28,6 +28,7 @@ import pandas as pd
 
 from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_method, triage
 from axiswatch.monitor._charts import distance_chart, plotly_library
+from axiswatch.monitor._methods import DEFAULT_METHOD
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._store import StoreBackend
 
@@ -270,7 +271,7 @@ def write_report(
         f"<p class='meta'>Generated {_esc(generated)} from store {_esc(store.location)}. Newest "
         f"capture in the fleet: {_esc(_when(newest) or 'none')}. Method leading this page: "
         f"<b>{_esc(lead or 'none')}</b>"
-        + (" (the product default)" if lead == "mechanics" else "")
+        + (" (the product default)" if lead == DEFAULT_METHOD else "")
         + ".</p>",
     ]
     if lead is None:

@@ -66,15 +66,15 @@ class MonitorConfig:
 
     Parameters
     ----------
-    method : str, default="mechanics"
+    method : str, default="indicators"
         A registered method (:func:`~axiswatch.monitor.register_method`; built in:
-        ``"mechanics"``, the physical indicators of :class:`MechanicsStage` with
-        :class:`IndicatorDetector`, the product default chosen by the development protocol of
-        docs/evaluation.md; the paper's Low Rank Alignment ``"lra"`` and ``"pca"``, library
-        defaults of :class:`LRADetector` and :class:`PCADetector` on ``features``; and
-        ``"indicators"``, an :class:`~axiswatch.IndicatorModel` per axis fitted on the baseline
-        and the calibration captures, with its fleet's prior). The method's preset makes the
-        detector, the stage and the threshold floor.
+        ``"indicators"``, the product default, an :class:`~axiswatch.IndicatorModel` per axis
+        fitted on the baseline and the calibration captures, with its fleet's prior; the paper's
+        Low Rank Alignment ``"lra"`` and ``"pca"``, library defaults of :class:`LRADetector` and
+        :class:`PCADetector` on ``features``; and ``"mechanics"``, the former default, the
+        physical indicators of :class:`MechanicsStage` with :class:`IndicatorDetector` in scales
+        measured on the project's simulator). The method's preset makes the detector, the stage
+        and the threshold floor.
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
         ``K``: captures after the baseline that calibrate the threshold.
@@ -114,7 +114,9 @@ class MonitorConfig:
     --------
     >>> MonitorConfig(alarm_k=2, alarm_n=3).params()["alarm"]
     {'k': 2, 'n': 3, 'clear_m': 1}
-    >>> type(MonitorConfig().model().stage).__name__  # the product default
+    >>> MonitorConfig().method  # the product default
+    'indicators'
+    >>> type(MonitorConfig(method="mechanics").model().stage).__name__
     'MechanicsStage'
     """
 
