@@ -113,10 +113,16 @@ def test_one_feature_path_the_default_stage_is_the_aligned_stft(rng: np.random.G
     np.testing.assert_array_equal(features.X, aw.extract_features(shifted, spec).X)
 
 
-def test_one_call_constructors_build_the_product_default_and_the_papers_method(
+def test_one_call_constructors_build_the_former_default_and_the_papers_method(
     robot_capture: aw.Capture,
 ) -> None:
-    default = aw.HealthModel.product_default(percentile=95.0)
+    default = aw.HealthModel.mechanics(percentile=95.0)
+    with pytest.warns(FutureWarning, match=r"product_default\(\) is deprecated"):
+        old_name = aw.HealthModel.product_default(percentile=95.0)
+    assert (type(old_name.stage), old_name.min_threshold) == (
+        type(default.stage),
+        default.min_threshold,
+    )
     assert isinstance(default.stage, aw.MechanicsStage)
     assert isinstance(default.detector, aw.IndicatorDetector)
     # The floor: the same percentile of the fit of healthy task changes in development.
