@@ -44,6 +44,7 @@ from threadpoolctl import threadpool_limits
 import axiswatch as aw
 import axiswatch._alignment
 import axiswatch.datasets as awd
+from axiswatch.monitor._methods import DEFAULT_METHOD
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fleet
@@ -164,7 +165,20 @@ def case_job(method: str, quick: bool) -> dict[str, Any]:
 
     config = MonitorConfig(method=method)  # type: ignore[arg-type]
     baseline = awd.simulate_capture("heavy", seed=1)
-    model = config.model().fit(baseline)
+    model: Any
+    if config.preset.indicator_model:
+        # Fitted on the baseline and K = 5 calibration captures, as the monitor's fit job does.
+        from axiswatch.monitor._indicators import fit_indicator_baseline, read_axis_indicators
+
+        fitting = [baseline] + [awd.simulate_capture("heavy", seed=s) for s in range(3, 8)]
+        model = fit_indicator_baseline(
+            [read_axis_indicators(c, None) for c in fitting],
+            [f"fit{k}" for k in range(6)],
+            [""] * 6,
+            percentile=config.percentile,
+        )
+    else:
+        model = config.model().fit(baseline)
     key, _ = keep_model(model)
     repeats = 5 if quick else 30
     with tempfile.TemporaryDirectory() as folder, threadpool_limits(1):
@@ -251,6 +265,7 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "lra-4000": lambda q: case_lra(4000, q),
     "capture-3s": lambda q: case_capture(3.0, q),
     "capture-60s": lambda q: case_capture(60.0, q),
+    "job-3s-indicators": lambda q: case_job("indicators", q),
     "job-3s-mechanics": lambda q: case_job("mechanics", q),
     "job-3s-lra": lambda q: case_job("lra", q),
     "job-3s-pca": lambda q: case_job("pca", q),
@@ -360,8 +375,8 @@ def main() -> None:
     )
     parser.add_argument(
         "--fleet-method",
-        default="mechanics",
-        choices=["mechanics", "lra", "pca"],
+        default=DEFAULT_METHOD,
+        choices=["indicators", "mechanics", "lra", "pca"],
         help="monitor method of the fleet cases (default: the product default)",
     )
     parser.add_argument(
@@ -406,7 +421,7 @@ def main() -> None:
         return
     robots = int(args.fleet_robots or (2 if args.quick else 30))
     names = (
-        ["lra-300", "capture-3s", "mechanics-3s", "job-3s-mechanics", "fleet"]
+        ["lra-300", "capture-3s", "mechanics-3s", "job-3s-indicators", "job-3s-mechanics", "fleet"]
         if args.quick
         else [*CASES, "fleet"]
     )

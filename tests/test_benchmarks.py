@@ -15,5 +15,7 @@ def test_quick_benchmark_runs() -> None:
     )
     lines = done.stdout.splitlines()
     assert lines[1].startswith("case")
-    assert [line.split()[0] for line in lines[2:]] == ["LRA", "3", "3", "3", "fleet"]
+    assert [line.split()[0] for line in lines[2:]] == ["LRA", "3", "3", "3", "3", "fleet"]
     assert "mechanics indicators" in lines[4]
+    assert "scoring job (indicators)" in lines[5]
+    assert "(indicators)" in lines[7]  # the fleet case runs the product default
