@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import ast
+import inspect
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -134,25 +136,68 @@ def test_too_few_calibration_captures() -> None:
         IndicatorModel().fit(_capture(1), [_capture(2)])
 
 
+#: Where the simulators, the studies and the numbers measured on them live.
+SIMULATOR_MODULES = ("axiswatch.datasets", "axiswatch_lab")
+SIMULATOR_CONSTANTS = ("MECHANICS_SCALES", "MECHANICS_TASK_CHANGE_SCALE")
+#: The product default's decision path: readings, the model, its spreads and threshold, the
+#: monitor's method and its decision rule.
+DECISION_PATH = (
+    "_readings.py",
+    "_indicator_model.py",
+    "_profiles.py",
+    "_calibration.py",
+    "monitor/_indicators.py",
+    "monitor/_decision.py",
+)
+
+
+def _simulator_imports(source: str) -> set[str]:
+    """What a module's source imports from the simulators and studies, or names of their
+    constants (relative imports included)."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            names = [node.module or ""]
+        elif isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        else:
+            continue
+        found |= {n for n in names if n.startswith(SIMULATOR_MODULES)}
+        if isinstance(node, ast.ImportFrom) and node.level > 0:
+            found.add(f"relative import {node.module}")
+    return found | {name for name in SIMULATOR_CONSTANTS if name in source}
+
+
+def test_the_simulator_check_sees_an_import_and_a_constant() -> None:
+    assert _simulator_imports("from axiswatch.datasets._robot import GEAR_RATIO\n")
+    assert _simulator_imports("import axiswatch_lab._transfer\n")
+    assert _simulator_imports("x = MECHANICS_SCALES[0]\n")
+    assert not _simulator_imports("from axiswatch._capture import Capture\n")
+
+
 def test_nothing_in_the_decision_path_comes_from_the_simulator() -> None:
-    """The product modules import no simulator, study or development constant."""
-    forbidden = {
-        "axiswatch._robot",
-        "axiswatch._family",
-        "axiswatch._paired",
-        "axiswatch._transfer",
-    }
+    """The default method's modules import no simulator, study or constant measured on one,
+    and neither do the functions they take from ``_mechanics`` (which also holds the former
+    default's scales)."""
     src = Path(aw.__file__).parent
-    for module in ("_readings.py", "_indicator_model.py", "_profiles.py"):
-        tree = ast.parse((src / module).read_text())
-        imported = {
-            node.module
-            for node in ast.walk(tree)
-            if isinstance(node, ast.ImportFrom) and node.module
-        }
-        assert not {m for m in imported if m.startswith(tuple(forbidden))}, module
-        assert "MECHANICS_SCALES" not in (src / module).read_text()
-        assert "MECHANICS_TASK_CHANGE_SCALE" not in (src / module).read_text()
+    for module in DECISION_PATH:
+        assert _simulator_imports((src / module).read_text()) == set(), module
+    import axiswatch._mechanics as mechanics
+    import axiswatch._readings as readings
+
+    taken = [
+        getattr(readings, name)
+        for name in dir(readings)
+        if getattr(getattr(readings, name), "__module__", "") == mechanics.__name__
+    ]
+    assert len(taken) >= 5  # line_ratio, bearing_lines, ...: the check below looks at them
+    for function in taken:
+        assert _simulator_imports(textwrap.dedent(inspect.getsource(function))) == set()
+    # The monitor's default is this method, with no threshold floor measured in development.
+    default = aw.MonitorConfig()
+    assert default.method == "indicators"
+    assert default.preset.task_change_scale is None
+    assert default.decision_rule().floor is None
 
 
 def test_leave_one_out_distances_match_the_naive_twin() -> None:
