@@ -37,6 +37,7 @@ choose; nothing here is used by the product.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -165,7 +166,10 @@ def pairwise_prior(models: Sequence[IndicatorModel]) -> FleetPrior:
         if math.isfinite(d):
             distances.append(d)
     scale = max(float(np.median(distances)) / math.log(2.0), 1e-12)
-    return FleetPrior(spreads, scale, pooled.centre, pooled.n_axes, len(distances))
+    # The Scorer takes its allowances from indicator_allowances(), not the prior's own.
+    return dataclasses.replace(
+        pooled, task_spreads=spreads, allowance_scale=scale, n_pairs=len(distances)
+    )
 
 
 def _models(
