@@ -6,6 +6,8 @@ calling axiswatch or the SciPy routine it wraps.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -410,3 +412,38 @@ def task_signature_naive(position: list[float], speed: list[float]) -> list[floa
         quantile(position, 0.98),
         len(moving) / len(magnitudes),
     ]
+
+
+def indicator_allowances_naive(
+    centres: list[dict[str, float]],
+    withins: list[dict[str, float]],
+    task_spreads: dict[str, float],
+    percentile: float,
+    fallback: float,
+) -> dict[str, float]:
+    """Per indicator: every pair of axes by two loops, |z| by hand, the middle of the sorted
+    list, the exponential quantile ``-b ln(1 - q)`` at Bonferroni's level (fewer than 3 pairs,
+    or a median of 0: ``fallback``)."""
+    nan = float("nan")
+    shifts: dict[str, list[float]] = {}
+    for name, spread in task_spreads.items():
+        if not (spread == spread and spread > 0):
+            continue
+        shifts[name] = []
+        for i in range(len(centres)):
+            for j in range(i + 1, len(centres)):
+                scale = (spread**2 + withins[i].get(name, nan) ** 2) ** 0.5
+                z = (centres[i].get(name, nan) - centres[j].get(name, nan)) / scale
+                if z == z and abs(z) != float("inf"):
+                    shifts[name].append(abs(z))
+    scales = {}
+    for name, zs in shifts.items():
+        zs = sorted(zs)
+        n = len(zs)
+        middle = (zs[n // 2] if n % 2 else (zs[n // 2 - 1] + zs[n // 2]) / 2) if n else 0.0
+        if n >= 3 and middle > 0:
+            scales[name] = middle / math.log(2.0)
+    level = 1 - (1 - percentile / 100) / max(len(scales), 1)
+    return {
+        name: -scales[name] * math.log(1 - level) if name in scales else fallback for name in shifts
+    }

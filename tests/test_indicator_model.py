@@ -15,6 +15,7 @@ import axiswatch as aw
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._indicator_model import (
     IndicatorModel,
+    indicator_allowances,
     leave_one_out_distances,
     pool_fleet,
     robust_spread,
@@ -79,12 +80,74 @@ def test_fleet_allowance_comes_from_the_fleet_pairs() -> None:
     assert prior.n_axes == 5
     assert prior.n_pairs == 10
     assert prior.allowance(99.0) == pytest.approx(half_laplace_threshold(prior.allowance_scale, 99))
+    assert all(n == 10 for n in prior.indicator_pairs.values())
     model = fleet[0].use_fleet(prior)
-    assert model.threshold_ >= prior.allowance(99.0)
+    assert model.allowances_ == {n: prior.allowances(99.0)[n] for n in model.within_}
+    # A task change is scored in allowance units: 1 is an allowance, the threshold at least 1.
+    assert model.threshold_ >= 1.0
+    want = fit_half_laplace(
+        leave_one_out_distances(
+            model.calibration_rows_,
+            {n: s * model.allowances_[n] for n, s in model.scales_.items()},
+        )[1:]
+    ).threshold(99.0)
+    assert model.threshold_ == pytest.approx(max(want, 1.0), rel=1e-12)
     # Task spread enters the scale: a fleet axis with another payload is not an alarm.
     other_task = model.assess(_capture(999, payload=2.0))
     assert not other_task.alarm
     assert other_task.case == "no task envelope: fleet allowance"
+    for entry in other_task.indicators.values():
+        assert entry["spreads"] / entry["allowance"] <= other_task.distance + 1e-12
+
+
+def test_indicator_allowances_match_the_naive_twin() -> None:
+    fleet = [_fitted(100 * k, payload=float(k % 3), task_envelope_factor=None) for k in range(6)]
+    prior = pool_fleet(fleet)
+    got = prior.allowances(99.0)
+    want = naive.indicator_allowances_naive(
+        [m.centre_ for m in fleet],
+        [m.within_ for m in fleet],
+        prior.task_spreads,
+        99.0,
+        prior.allowance(99.0),
+    )
+    assert got == pytest.approx(want, rel=1e-12)
+    # Bonferroni over the indicators with their own allowance: the family-wise rate is 1 %.
+    m = sum(math.isfinite(s) for s in prior.indicator_scales.values())
+    for name, scale in prior.indicator_scales.items():
+        assert got[name] == pytest.approx(half_laplace_threshold(scale, 100 - 1 / m), rel=1e-12)
+
+
+def test_a_fault_on_an_indicator_a_task_change_hardly_moves_is_not_hidden() -> None:
+    # The payload (the fleet's "tasks", two of them in six axes) moves the forward drive load
+    # and the Coulomb estimate a lot, the backward drive load not at all.
+    fleet = [
+        _fitted(100 * k, payload=p, task_envelope_factor=None)
+        for k, p in enumerate([0.0, 0.0, 0.0, 0.0, 4.0, 4.0])
+    ]
+    prior = pool_fleet(fleet)
+    model = fleet[0].use_fleet(prior)
+    allowed = model.allowances_
+    assert allowed["load_backward"] < 0.1 * allowed["coulomb_friction"]
+    worn = model.assess(_capture(999, coulomb=8.0))
+    assert worn.alarm
+    assert worn.top == "load_backward"
+    assert "x its task-change allowance" in worn.reason()
+    # The one allowance of the pairs' largest shift (the rule before) would have hidden it.
+    assert worn.indicators["load_backward"]["spreads"] < prior.allowance(99.0)
+    assert not model.assess(_capture(998, payload=4.0)).alarm  # the other task is not
+
+
+def test_an_indicator_without_its_own_allowance_takes_the_fleets_one() -> None:
+    # Two of four axes log at 50 Hz and give no impulsiveness: it has no task spread.
+    fleet = [_fitted(100 * k, payload=float(k), rate=200.0 if k < 2 else 50.0) for k in range(4)]
+    prior = pool_fleet(fleet)
+    assert "impulsiveness" not in prior.indicator_scales
+    model = fleet[0].use_fleet(prior)
+    assert model.allowances_["impulsiveness"] == prior.allowance(99.0)
+    assert model.allowances_["coulomb_friction"] == prior.allowances(99.0)["coulomb_friction"]
+    allowed = indicator_allowances({"a": 1.0, "b": math.nan, "c": 0.0}, 99.0, 7.0)
+    assert allowed == {"a": pytest.approx(half_laplace_threshold(1.0, 99.0)), "b": 7.0, "c": 7.0}
 
 
 def test_fleet_prior_resists_a_faulty_minority() -> None:
@@ -93,6 +156,10 @@ def test_fleet_prior_resists_a_faulty_minority() -> None:
     clean = pool_fleet(healthy).task_spreads["coulomb_friction"]
     mixed = pool_fleet([*healthy, worn]).task_spreads["coulomb_friction"]
     assert mixed < 1.5 * clean
+    # The allowances rest on the median over the pairs: 5 of the 15 involve the worn axis.
+    clean_allowed = pool_fleet(healthy).allowances(99.0)["coulomb_friction"]
+    mixed_allowed = pool_fleet([*healthy, worn]).allowances(99.0)["coulomb_friction"]
+    assert mixed_allowed < 1.5 * clean_allowed
 
 
 def test_fleet_needs_three_axes() -> None:

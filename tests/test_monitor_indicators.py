@@ -108,10 +108,16 @@ def test_a_friction_fault_alarms_with_the_friction_indicator_named(low_rate_flee
     for reason in alarms["reason"]:
         assert "friction (friction)" in reason
         assert "spreads from its baseline" in reason
+        assert "x its task-change allowance" in reason
     details = json.loads(alarms["details"].iloc[0])
-    top = max(details["indicators"], key=lambda n: details["indicators"][n]["spreads"])
+    entries = details["indicators"]
+    # A task change's distance is the largest shift in units of each indicator's allowance.
+    top = max(entries, key=lambda n: entries[n]["spreads"] / entries[n]["allowance"])
     assert top.endswith("friction")
-    assert set(details["indicators"][top]) == {"value", "baseline", "spreads", "share"}
+    assert set(entries[top]) == {"value", "baseline", "spreads", "share", "allowance"}
+    assert details["spreads_distance"] == pytest.approx(
+        entries[top]["spreads"] / entries[top]["allowance"], rel=1e-12
+    )
     assert details["fleet_axes"] == AXES  # the prior pooled over the four axes
 
 

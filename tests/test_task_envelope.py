@@ -114,14 +114,17 @@ def test_a_task_change_is_scored_with_the_fleet_allowance(fleet: list[IndicatorM
     assert model.fleet is not None
     verdict = model.assess(draw_robot(ROBOT_SEED).capture(2, seed=11))
     assert verdict.case == "task changed: fleet allowance"
-    assert verdict.threshold == model.threshold_ >= model.fleet.allowance(99.0)
+    assert verdict.threshold == model.threshold_ >= 1.0  # in allowance units
     assert verdict.task_distance > verdict.task_envelope
     assert not verdict.alarm
     top = verdict.top
     assert top is not None
-    assert verdict.indicators[top]["spreads"] == pytest.approx(
-        abs(verdict.indicators[top]["value"] - model.centre_[top]) / model.scales_[top]
+    entry = verdict.indicators[top]
+    assert entry["spreads"] == pytest.approx(
+        abs(entry["value"] - model.centre_[top]) / model.scales_[top]
     )
+    assert entry["allowance"] == model.allowances_[top]
+    assert verdict.distance == pytest.approx(entry["spreads"] / entry["allowance"])
 
 
 def test_a_capture_whose_motion_cannot_be_read_is_scored_as_a_task_change(

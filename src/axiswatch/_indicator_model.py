@@ -17,12 +17,23 @@ estimated from what the user has:
 * a reading's shift is ``z = (x - centre) / sqrt(s_w^2 + s_t^2)`` (one-sided for indicators
   that only grow with a fault); the **distance** of a capture is the largest ``z`` over the
   indicators it gives.
-* the **threshold** is the larger of the ``percentile`` of the half-Laplace fit of the
-  calibration captures' leave-one-out distances and the fleet's **task-change allowance**: the
-  same percentile of a half-Laplace whose scale is ``median / ln 2`` of the distances between
-  the fleet's axes (each pair of axes is a healthy task change; the median keeps a faulty
-  minority from inflating it). With 3 axes there are 3 pairs: the allowance is then a rough
-  guess, and the report says how many pairs it rests on.
+* with a fleet prior, each indicator has its own **task-change allowance** ``A_i``: each pair of
+  the fleet's axes is a healthy task change, and ``A_i`` is a percentile of the half-Laplace
+  whose scale is ``median / ln 2`` of that indicator's ``|z_i|`` over the pairs that read it (the
+  median keeps a faulty minority, under half of the pairs, from inflating it). The percentile is
+  Bonferroni's ``100 - (100 - p) / m`` over the ``m`` indicators with an allowance, so that a
+  healthy task change exceeds *some* allowance at most ``100 - p`` % of the time, as the one
+  allowance of the largest shift did before. One allowance for all (the same percentile ``p``
+  of the half-Laplace of the pairs' largest shift) was set by the indicators a task change moves
+  most and hid a fault on the others (docs/evaluation.md, "Transfer"). An indicator read on
+  fewer than 3 pairs, or without a task spread, takes that one allowance. For an indicator that
+  only grows with a fault the two-sided ``|z_i|`` makes its allowance conservative.
+* a capture that changed task is scored in **allowance units**: its distance is the largest
+  ``u_i = z_i / A_i``; the calibration captures' leave-one-out distances are in the same units
+  and the **threshold** is the larger of 1 (an allowance) and the ``percentile`` of their
+  half-Laplace fit. Without a fleet prior the distance is in spreads and the threshold is the
+  calibration fit alone. With 3 axes there are 3 pairs: the allowances are then a rough guess,
+  and the report says how many pairs they rest on.
 * **the allowance only when the task changed** (``task_envelope_factor``, off by default: see
   :class:`IndicatorModel`): the fleet's spreads and allowance hide a fault as
   well as a task change, so a capture whose *motion* is the baseline's task is scored with the
@@ -64,6 +75,7 @@ __all__ = [
     "FleetPrior",
     "IndicatorAssessment",
     "IndicatorModel",
+    "indicator_allowances",
     "leave_one_out_distances",
     "pool_fleet",
     "task_envelope",
@@ -74,6 +86,8 @@ MAD_TO_SD = 1.4826
 #: Least readings for a spread; least axes for a fleet prior.
 MIN_READINGS = 3
 MIN_AXES = 3
+#: Least pairs of fleet axes reading an indicator for its own allowance (3 axes give 3 pairs).
+MIN_PAIRS = 3
 #: The task envelope in units of the largest leave-one-out signature distance of the fitting
 #: captures (:func:`task_envelope`); chosen on the development robots (docs/evaluation.md,
 #: "Through the monitor").
@@ -227,10 +241,17 @@ class FleetPrior:
     task_spreads : dict of str to float
         ``s_t`` per indicator (NaN where fewer than 3 axes give it).
     allowance_scale : float
-        Half-Laplace scale of the distance between two healthy axes (``median / ln 2``).
+        Half-Laplace scale of the distance (largest shift) between two healthy axes
+        (``median / ln 2``): the one allowance, for indicators without their own.
     centre : dict of str to float
         The fleet's median reading per indicator.
     n_axes, n_pairs : int
+    indicator_scales : dict of str to float
+        Per indicator with a task spread: the half-Laplace scale of its ``|z_i|`` between two
+        healthy axes (``median / ln 2`` over the pairs that read it); NaN when fewer than
+        ``MIN_PAIRS`` pairs read it or their median is 0.
+    indicator_pairs : dict of str to int
+        How many pairs each of those rests on.
     """
 
     task_spreads: dict[str, float]
@@ -238,10 +259,52 @@ class FleetPrior:
     centre: dict[str, float]
     n_axes: int
     n_pairs: int
+    indicator_scales: dict[str, float]
+    indicator_pairs: dict[str, int]
 
     def allowance(self, percentile: float) -> float:
-        """The task-change allowance at ``percentile``."""
+        """The one task-change allowance at ``percentile`` (of the pairs' largest shift)."""
         return half_laplace_threshold(self.allowance_scale, percentile)
+
+    def allowances(self, percentile: float) -> dict[str, float]:
+        """Each indicator's task-change allowance, family-wise at ``percentile``
+        (:func:`indicator_allowances`)."""
+        return indicator_allowances(self.indicator_scales, percentile, self.allowance(percentile))
+
+
+def indicator_allowances(
+    scales: Mapping[str, float], percentile: float, fallback: float
+) -> dict[str, float]:
+    """Per-indicator allowances whose family-wise rate is ``100 - percentile`` %.
+
+    Parameters
+    ----------
+    scales : mapping of str to float
+        Half-Laplace scale of each indicator's shift between two healthy axes; NaN (or not
+        positive) where it could not be estimated.
+    percentile : float in (0, 100)
+    fallback : float
+        The allowance of an indicator without a scale (the fleet's one allowance).
+
+    Returns
+    -------
+    dict of str to float
+        Per indicator of ``scales``: the ``100 - (100 - percentile) / m`` percentile of its
+        half-Laplace, ``m`` the number of indicators with a scale (Bonferroni: the chance that a
+        healthy task change exceeds any of the ``m`` is at most ``100 - percentile`` %), or
+        ``fallback``.
+
+    Examples
+    --------
+    >>> allowed = indicator_allowances({"a": 1.0, "b": 2.0, "c": math.nan}, 99.0, 7.0)
+    >>> {k: round(v, 3) for k, v in allowed.items()}  # ln(200) and 2 ln(200): 99.5th pct
+    {'a': 5.298, 'b': 10.597, 'c': 7.0}
+    """
+    fitted = {n: s for n, s in scales.items() if math.isfinite(s) and s > 0}
+    level = 100.0 - (100.0 - percentile) / max(len(fitted), 1)
+    return {
+        n: half_laplace_threshold(fitted[n], level) if n in fitted else fallback for n in scales
+    }
 
 
 def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
@@ -263,21 +326,35 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         name: float(np.nanmedian(v)) if np.isfinite(v).any() else math.nan
         for name, v in centres.items()
     }
+    spread = [n for n in names if math.isfinite(task_spreads[n]) and task_spreads[n] > 0]
     distances = []
+    pair_shifts: dict[str, list[float]] = {n: [] for n in spread}
     for a, b in itertools.combinations(models, 2):
-        scales = {
-            n: math.hypot(task_spreads[n], a.within_.get(n, math.nan))
-            for n in names
-            if math.isfinite(task_spreads[n]) and task_spreads[n] > 0
-        }
+        scales = {n: math.hypot(task_spreads[n], a.within_.get(n, math.nan)) for n in spread}
         scales = {n: s for n, s in scales.items() if math.isfinite(s)}
         d, _ = _distance(a.centre_, b.centre_, scales)
         if math.isfinite(d):
             distances.append(d)
+        for n, s in scales.items():
+            z = (a.centre_.get(n, math.nan) - b.centre_.get(n, math.nan)) / s
+            if math.isfinite(z):
+                pair_shifts[n].append(abs(z))  # a pair is a task change either way
     if not distances:
         raise CalibrationError("No indicator is read on enough axes of the fleet to pool.")
     scale = max(float(np.median(distances)) / math.log(2.0), 1e-12)
-    return FleetPrior(task_spreads, scale, fleet_centre, len(models), len(distances))
+    indicator_scales = {
+        n: float(np.median(z)) / math.log(2.0) if len(z) >= MIN_PAIRS else math.nan
+        for n, z in pair_shifts.items()
+    }
+    return FleetPrior(
+        task_spreads,
+        scale,
+        fleet_centre,
+        len(models),
+        len(distances),
+        indicator_scales,
+        {n: len(z) for n, z in pair_shifts.items()},
+    )
 
 
 @dataclass(frozen=True)
@@ -287,16 +364,19 @@ class IndicatorAssessment:
     Attributes
     ----------
     distance : float
-        Largest shift, in spreads; NaN when no indicator could be scored.
+        Largest shift, in spreads; with the fleet's allowances (a task change), the largest
+        shift in units of its indicator's allowance; NaN when no indicator could be scored.
     threshold : float
+        In the distance's units.
     alarm : bool
     top : str or None
         The indicator with the largest shift.
     component : str or None
         What ``top`` watches.
     indicators : dict
-        Per indicator read: ``value``, ``baseline`` (the centre), ``spreads`` (the shift) and
-        ``share`` (its shift over the sum of shifts).
+        Per indicator read: ``value``, ``baseline`` (the centre), ``spreads`` (the shift, in
+        spreads), ``share`` (its part of the sum of the shifts in the distance's units) and,
+        with the fleet's allowances, ``allowance`` (its task-change allowance, in spreads).
     unavailable : dict of str to str
         Indicators not scored, and why.
     case : str
@@ -341,10 +421,15 @@ class IndicatorAssessment:
         # Without an envelope every capture is scored one way: the case says nothing (details
         # keep it).
         case = "" if self.case.startswith("no task envelope") else f"{self.case}; "
-        return (
-            f"{case}{self.top} ({self.component}) {entry['spreads']:.1f} spreads from its "
-            f"baseline (threshold {self.threshold:.1f})"
+        moved = (
+            f"{case}{self.top} ({self.component}) {entry['spreads']:.1f} spreads from its baseline"
         )
+        if "allowance" in entry:
+            return (
+                f"{moved}, {entry['spreads'] / entry['allowance']:.2f} x its task-change "
+                f"allowance of {entry['allowance']:.1f} (threshold {self.threshold:.2f})"
+            )
+        return f"{moved} (threshold {self.threshold:.1f})"
 
 
 class IndicatorModel:
@@ -371,14 +456,14 @@ class IndicatorModel:
     ----------
     centre_, within_ : dict of str to float
     threshold_ : float
-        For a task change: the calibration fit in ``sqrt(s_w^2 + s_t^2)``, at least the fleet's
-        allowance.
+        For a task change: with a fleet prior, the calibration fit in allowance units, at least
+        1; without, the calibration fit in ``s_w``.
     own_threshold_ : float
         For the baseline's task: the calibration fit in ``s_w`` (no allowance).
     loo_distances_, own_loo_distances_ : list of float
         Leave-one-out distance of each capture fitted on (baseline first; NaN where none) in the
-        task-change and in the own spreads; each threshold is fitted on the calibration
-        captures' (:func:`leave_one_out_distances`).
+        task-change units (:attr:`task_change_scales_`) and in the own spreads; each threshold
+        is fitted on the calibration captures' (:func:`leave_one_out_distances`).
     task_reference_ : ndarray of shape (6,) or None
         The median task signature of the fitting captures (None when fewer than 3 are read).
     task_envelope_ : float
@@ -484,8 +569,25 @@ class IndicatorModel:
             out[name] = math.hypot(within, task) if math.isfinite(task) else within
         return out
 
+    @property
+    def allowances_(self) -> dict[str, float]:
+        """Task-change allowance per scored indicator, in spreads (:meth:`FleetPrior.allowances`;
+        the fleet's one allowance for an indicator without its own); empty without a prior."""
+        if self.fleet is None:
+            return {}
+        own = self.fleet.allowances(self.percentile)
+        fallback = self.fleet.allowance(self.percentile)
+        return {name: own.get(name, fallback) for name in self.within_}
+
+    @property
+    def task_change_scales_(self) -> dict[str, float]:
+        """What a task change's shift is divided by: ``sqrt(s_w^2 + s_t^2) x A_i`` (so the
+        distance is in allowance units), or :attr:`scales_` without a fleet prior."""
+        allowances = self.allowances_
+        return {n: s * allowances.get(n, 1.0) for n, s in self.scales_.items()}
+
     def _threshold_from(self, rows: Sequence[Mapping[str, float]]) -> None:
-        scales = self.scales_
+        scales = self.task_change_scales_
         self.loo_distances_ = leave_one_out_distances(rows, scales)
         # The baseline's own leave-one-out distance is checked, not fitted: a faulty baseline
         # would inflate the threshold it is checked against.
@@ -512,27 +614,32 @@ class IndicatorModel:
                 "a task change may alarm"
             )
         else:
-            allowance = self.fleet.allowance(self.percentile)
-            self.threshold_ = max(fitted, allowance)
+            # In allowance units: 1 is a shift as large as a healthy task change's allowance.
+            self.threshold_ = max(fitted, 1.0)
+            own = sum(math.isfinite(v) for v in self.fleet.indicator_scales.values())
             self.notes_.append(
-                f"task-change allowance {allowance:.2f} from {self.fleet.n_axes} axes "
-                f"({self.fleet.n_pairs} pairs); calibration threshold {fitted:.2f}"
+                f"task-change allowances from {self.fleet.n_axes} axes ({self.fleet.n_pairs} "
+                f"pairs): {own} indicators their own, the others the fleet's one allowance "
+                f"{self.fleet.allowance(self.percentile):.2f} spreads; calibration threshold "
+                f"{fitted:.2f} allowances"
             )
+        unit = "spreads" if self.fleet is None else "allowances"
         self.baseline_check_: str | None = None
-        own = self.loo_distances_[0]
-        if math.isfinite(own) and own > self.threshold_:
+        own_distance = self.loo_distances_[0]
+        if math.isfinite(own_distance) and own_distance > self.threshold_:
             self.baseline_check_ = (
-                f"the baseline capture is {own:.1f} spreads from the next captures "
+                f"the baseline capture is {own_distance:.1f} {unit} from the next captures "
                 f"(threshold {self.threshold_:.1f}): the median of all is the reference"
             )
         self.fleet_check_: str | None = None
         if self.fleet is not None:
             d, shifts = _distance(self.centre_, self.fleet.centre, scales)
-            if math.isfinite(d) and d > self.fleet.allowance(self.percentile):
+            if math.isfinite(d) and d > 1.0:
                 top = max(shifts, key=shifts.__getitem__)
                 self.fleet_check_ = (
-                    f"this axis's baseline differs from its fleet's: {top} {shifts[top]:.1f} "
-                    "spreads (already worn, or a task unlike the fleet's)"
+                    f"this axis's baseline differs from its fleet's: {top} "
+                    f"{shifts[top]:.1f} x its task-change allowance (already worn, or a task "
+                    "unlike the fleet's)"
                 )
                 self.notes_.append(self.fleet_check_)
 
@@ -602,8 +709,9 @@ class IndicatorModel:
         *,
         own: bool,
     ) -> IndicatorAssessment:
-        scales = self.within_ if own else self.scales_
+        scales = self.within_ if own else self.task_change_scales_
         threshold = self.own_threshold_ if own else self.threshold_
+        allowances = {} if own else self.allowances_
         distance, shifts = _distance(values, centre, scales)
         unavailable = {
             name: reasons.get(name, self.reasons_.get(name, "not read"))
@@ -615,11 +723,14 @@ class IndicatorModel:
             name: {
                 "value": values[name],
                 "baseline": centre[name],
-                "spreads": z,
+                "spreads": z * allowances.get(name, 1.0),
                 "share": z / total if total > 0 else 0.0,
             }
             for name, z in shifts.items()
         }
+        for name, entry in details.items():
+            if name in allowances:
+                entry["allowance"] = allowances[name]
         top = max(shifts, key=shifts.__getitem__) if shifts else None
         return IndicatorAssessment(
             distance=distance,
@@ -637,6 +748,7 @@ class IndicatorModel:
             "centre": self.centre_,
             "within_spread": self.within_,
             "scales": self.scales_,
+            "allowances": self.allowances_,
             "threshold": self.threshold_,
             "own_threshold": self.own_threshold_,
             "task_envelope": self.task_envelope_,

@@ -218,11 +218,17 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
     parsed = [json.loads(d) for d in scored.details]
     # Method ``indicators``: the distance is the largest shift (not the sum of squared shifts of
     # ``mechanics``), over the indicators each capture gives, in units of the threshold of the
-    # case that applied (``threshold_spreads``): a shift of 1 alone reaches the threshold.
+    # case that applied (``threshold_spreads``; a task change's shifts in units of each
+    # indicator's ``allowance``): a shift of 1 alone reaches the threshold.
     largest = bool((lead.method == "indicators").any())
     explained = [
         {
-            n: {**e, "spreads": e["spreads"] / float(p.get("threshold_spreads", 1.0))}
+            n: {
+                **e,
+                "spreads": e["spreads"]
+                / float(e.get("allowance", 1.0))
+                / float(p.get("threshold_spreads", 1.0)),
+            }
             for n, e in p.get("indicators", {}).items()
         }
         if largest

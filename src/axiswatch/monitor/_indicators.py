@@ -13,7 +13,8 @@ spreads. So, with the decision rule and the store unchanged:
 3. a score job gives a capture the model was fitted on its *leave-one-out* assessment
    (:meth:`~axiswatch.IndicatorModel.assess_fitting`, in the axis's own spreads); any other
    capture is assessed against the centre (:func:`assess_capture`), in the own spreads when its
-   motion is the baseline's task and in the fleet's, with the allowance, when the task changed;
+   motion is the baseline's task and, when the task changed, in units of each indicator's
+   task-change allowance from the fleet;
 4. the score stored is the distance **in units of the threshold that applied**
    (:func:`threshold_units`): the calibration captures' are their own-spread distances over the
    own threshold, so the half-Laplace fit of the ``K`` that
@@ -72,7 +73,8 @@ class IndicatorBaseline:
     paths: tuple[str, ...]
 
     def allowance(self) -> float | None:
-        """The fleet's task-change allowance at the model's percentile (None without a prior)."""
+        """The fleet's one task-change allowance at the model's percentile, in spreads: that of
+        the indicators without their own (None without a prior)."""
         fleet = self.model.fleet
         return None if fleet is None else fleet.allowance(self.model.percentile)
 

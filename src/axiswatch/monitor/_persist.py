@@ -47,7 +47,9 @@ __all__ = [
 #: Version of the blob's layout (a store refits models written in another format). 2: every
 #: array in one packed member (format 1 had one ``.npy`` member per array: reading the zip
 #: members was 90 % of loading a model, 2 ms a capture in a fleet day).
-PERSIST_FORMAT = 2
+#: 3: a fleet prior keeps a task-change allowance per indicator (a model stored before has
+#: none, and is refitted).
+PERSIST_FORMAT = 3
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).

@@ -1,0 +1,331 @@
+"""Per-indicator task-change allowance against the fleet's one scalar (issue 13, i13d).
+
+Research study ("Transfer" and "Through the monitor", docs/evaluation.md). The fleet's
+task-change allowance of :class:`~axiswatch.IndicatorModel` is one number: the percentile of a
+half-Laplace fitted (``median / ln 2``) to the *largest* shift over the indicators between two
+of the fleet's axes. It is set by the indicators a task change moves most (drive loads,
+friction), so a fault that moves a task-invariant indicator (a kinematic line) stays under it.
+The alternatives scored here, each from the same readings:
+
+* ``scalar``: the model as it is (distance ``max_i z_i``; threshold ``max(calibration fit,
+  allowance)``);
+* ``per-indicator``: per indicator ``i`` a half-Laplace fitted to the pairwise ``|z_i|`` of the
+  fleet's axes (``median / ln 2`` over the pairs that read it), its allowance ``A_i`` at the
+  Bonferroni percentile ``100 - (100 - p) / m`` (``m`` the indicators with an allowance, so that
+  the family-wise rate of a healthy task change stays ``100 - p`` %); the capture is scored in
+  allowance units ``u_i = z_i / A_i`` (distance ``max_i u_i``), the calibration captures'
+  leave-one-out distances in the same units, threshold ``max(1, calibration fit)``. An indicator
+  with a task spread read on fewer than 3 pairs, or without one, takes the scalar allowance;
+* ``per-indicator, no Bonferroni``: the same at the percentile ``p`` itself (to show what the
+  correction buys);
+* ``per-indicator, threshold only``: the distance stays ``max_i z_i`` in spreads and the
+  calibration fit stays in spreads; a capture alarms when some ``z_i > max(fit, A_i)``
+  (AUROC on ``max_i z_i / max(fit, A_i)``);
+* ``pairwise spreads`` (changes the spreads, not the rule): the task spread ``s_t`` of an
+  indicator is ``1.4826 x`` the median over the fleet's pairs of ``|centre_a - centre_b|``
+  instead of ``sqrt(2) x 1.4826 x MAD`` of the centres (the two agree for Gaussian centres; the
+  MAD is far too small when the tasks' centres form clusters); the scalar allowance is refitted
+  in those spreads; ``pairwise spreads, per-indicator``: both changes.
+
+Scenarios: the lab's transfer study (:mod:`axiswatch_lab._transfer`: paired AUROC and ``dr99``
+per fault against healthy captures of other tasks, ``far99``, Robot A) and the monitor study's
+fleets (:mod:`axiswatch_lab._task_envelope`'s scenarios: 4 axes, two task changes; a friction
+fault on axis 0's own task), scored by the model directly. Run on the development robots to
+choose; nothing here is used by the product.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import itertools
+import math
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
+from axiswatch._indicator_model import (
+    FleetPrior,
+    IndicatorModel,
+    _distance,
+    _transformed,
+    leave_one_out_distances,
+    pool_fleet,
+)
+from axiswatch._readings import Readings
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.datasets._robot import FAULT_KINDS
+from axiswatch.exceptions import CalibrationError
+from axiswatch_lab._task_envelope import _scenario
+from axiswatch_lab._transfer import TransferDesign, _auroc, _profile
+
+__all__ = ["VARIANTS", "allowance_study", "indicator_allowances"]
+
+VARIANTS: tuple[str, ...] = (
+    "scalar",
+    "per-indicator",
+    "per-indicator, no Bonferroni",
+    "per-indicator, threshold only",
+    "pairwise spreads",
+    "pairwise spreads, per-indicator",
+)
+_MIN_PAIRS = 3
+
+
+def indicator_allowances(
+    models: Sequence[IndicatorModel], prior: FleetPrior, percentile: float, *, bonferroni: bool
+) -> dict[str, float]:
+    """``A_i`` per indicator with a task spread (the scalar allowance where too few pairs)."""
+    scalar = prior.allowance(percentile)
+    names = [n for n, s in prior.task_spreads.items() if math.isfinite(s) and s > 0]
+    shifts: dict[str, list[float]] = {n: [] for n in names}
+    for a, b in itertools.combinations(models, 2):
+        for n in names:
+            scale = math.hypot(prior.task_spreads[n], a.within_.get(n, math.nan))
+            z = (a.centre_.get(n, math.nan) - b.centre_.get(n, math.nan)) / scale
+            if math.isfinite(z):
+                shifts[n].append(abs(z))
+    fitted = [n for n in names if len(shifts[n]) >= _MIN_PAIRS and np.median(shifts[n]) > 0]
+    m = max(len(fitted), 1)
+    level = 100.0 - (100.0 - percentile) / m if bonferroni else percentile
+    out = {n: scalar for n in names}
+    for n in fitted:
+        out[n] = half_laplace_threshold(float(np.median(shifts[n])) / math.log(2.0), level)
+    return out
+
+
+class Scorer:
+    """One variant's distance and threshold for a fitted model with a fleet prior."""
+
+    def __init__(
+        self,
+        model: IndicatorModel,
+        allowances: Mapping[str, float],
+        variant: str,
+    ) -> None:
+        self.model = model
+        assert model.fleet is not None
+        scalar = model.fleet.allowance(model.percentile)
+        scales = model.scales_
+        self.variant = variant
+        loo = leave_one_out_distances(model.calibration_rows_, scales)
+        fit = fit_half_laplace([d for d in loo[1:] if math.isfinite(d)]).threshold(model.percentile)
+        if variant == "scalar":
+            # The rule before this study, written out (the product's may differ since).
+            self.scales = scales
+            self.threshold = max(fit, scalar)
+            self.per: dict[str, float] = {}
+        elif variant == "per-indicator, threshold only":
+            self.scales = scales
+            self.per = {n: max(fit, allowances.get(n, scalar)) for n in scales}
+            self.threshold = 1.0
+        else:
+            self.scales = {n: s * allowances.get(n, scalar) for n, s in scales.items()}
+            units = leave_one_out_distances(model.calibration_rows_, self.scales)
+            self.threshold = max(
+                1.0,
+                fit_half_laplace([d for d in units[1:] if math.isfinite(d)]).threshold(
+                    model.percentile
+                ),
+            )
+            self.per = {}
+
+    def distance(self, readings: Readings) -> float:
+        """In the threshold's units (1 = the threshold)."""
+        values = _transformed(readings)
+        d, shifts = _distance(values, self.model.centre_, self.scales)
+        if self.per:
+            return max((z / self.per[n] for n, z in shifts.items()), default=math.nan)
+        return d / self.threshold
+
+
+def pairwise_prior(models: Sequence[IndicatorModel]) -> FleetPrior:
+    """:func:`pool_fleet` with ``s_t = 1.4826 x median |centre_a - centre_b|`` over the pairs."""
+    pooled = pool_fleet(models)
+    spreads = {}
+    for n in pooled.task_spreads:
+        diffs = [
+            abs(a.centre_.get(n, math.nan) - b.centre_.get(n, math.nan))
+            for a, b in itertools.combinations(models, 2)
+        ]
+        finite = [d for d in diffs if math.isfinite(d)]
+        spreads[n] = 1.4826 * float(np.median(finite)) if len(finite) >= _MIN_PAIRS else math.nan
+    distances = []
+    for a, b in itertools.combinations(models, 2):
+        scales = {
+            n: math.hypot(spreads[n], a.within_.get(n, math.nan))
+            for n in spreads
+            if math.isfinite(spreads[n]) and spreads[n] > 0
+        }
+        d, _ = _distance(
+            a.centre_, b.centre_, {n: s for n, s in scales.items() if math.isfinite(s)}
+        )
+        if math.isfinite(d):
+            distances.append(d)
+    scale = max(float(np.median(distances)) / math.log(2.0), 1e-12)
+    # The Scorer takes its allowances from indicator_allowances(), not the prior's own.
+    return dataclasses.replace(
+        pooled, task_spreads=spreads, allowance_scale=scale, n_pairs=len(distances)
+    )
+
+
+def _models(
+    fits: Mapping[int, list[Readings]], profile: object, percentile: float
+) -> tuple[dict[int, IndicatorModel], FleetPrior]:
+    models = {}
+    for k, read in fits.items():
+        try:
+            models[k] = IndicatorModel(profile, percentile=percentile).fit_readings(read)  # type: ignore[arg-type]
+        except CalibrationError:
+            continue
+    prior = pool_fleet(list(models.values()))
+    for model in models.values():
+        model.use_fleet(prior)
+    return models, prior
+
+
+def _scorers(
+    models: Mapping[int, IndicatorModel],
+    prior: FleetPrior,
+    percentile: float,
+    extra: IndicatorModel | None = None,
+) -> dict[str, dict[int, Scorer]]:
+    """Per variant a scorer per axis of the fleet (and of ``extra``, key -1: an axis fitted
+    apart that takes the fleet's prior without being pooled)."""
+    pool = list(models.values())
+    pairwise = pairwise_prior(pool)
+    fits = {True: prior, False: pairwise}
+    allowances = {
+        (p, b): indicator_allowances(pool, fits[p], percentile, bonferroni=b)
+        for p in (True, False)
+        for b in (True, False)
+    }
+    every = dict(models) if extra is None else {**models, -1: extra}
+    out = {}
+    for v in VARIANTS:
+        plain = not v.startswith("pairwise")
+        rule = v if plain else ("scalar" if v == "pairwise spreads" else "per-indicator")
+        chosen = allowances[(plain, "no Bonferroni" not in v)]
+        out[v] = {
+            k: Scorer(copy.deepcopy(m).use_fleet(fits[plain]), chosen, rule)
+            for k, m in every.items()
+        }
+    return out
+
+
+def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]:
+    robot = draw_robot(seed)
+    profile = _profile(robot, design.kinematics)
+    reader = IndicatorModel(profile)
+    n_tasks = len(robot.tasks)
+    fits = {
+        t: [
+            reader.readings(robot.capture(t, seed=f"fleet{k}"))
+            for k in range(design.n_calibration + 1)
+        ]
+        for t in range(n_tasks)
+    }
+    models, prior = _models(fits, profile, 99.0)
+    tests = {
+        (t, h): [
+            reader.readings(
+                robot.capture(
+                    t,
+                    fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
+                    seed=f"{h}{i}",
+                )
+            )
+            for i in range(design.n_per_cell)
+        ]
+        for t in range(n_tasks)
+        for h in ("healthy", *FAULT_KINDS)
+    }
+    days = design.robot_a_days
+    changes = [round(days * k / 4) for k in (1, 2, 3)]
+    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
+    robot_a = [reader.readings(robot.capture(t, seed=f"robotA{d}")) for d, t in enumerate(tasks)]
+    model_a = IndicatorModel(profile).fit_readings(robot_a[: design.n_calibration + 1])
+    rows = []
+    bases = sorted(models)
+    for variant, scorers in _scorers(models, prior, 99.0, model_a).items():
+        dist = {
+            (b, key): [scorers[b].distance(r) for r in read]
+            for b in bases
+            for key, read in tests.items()
+        }
+        healthy = {
+            b: [d for t in range(n_tasks) if t != b for d in dist[(b, (t, "healthy"))]]
+            for b in bases
+        }
+        row: dict[str, object] = {"robot": robot.name, "variant": variant}
+        row["far99"] = float(np.mean([d > 1 for b in bases for d in healthy[b]]))
+        for fault in FAULT_KINDS:
+            faulty = {b: [d for t in range(n_tasks) for d in dist[(b, (t, fault))]] for b in bases}
+            row[f"auroc_{fault}"] = float(
+                np.nanmean([_auroc(healthy[b], faulty[b]) for b in bases])
+            )
+            row[f"dr99_{fault}"] = float(np.mean([d > 1 for b in bases for d in faulty[b]]))
+        a = [scorers[-1].distance(r) for r in robot_a[design.n_calibration + 1 :]]
+        row["robot_a_false_alarms"] = int(sum(d > 1 for d in a))
+        row["robot_a_test_days"] = len(a)
+        rows.append(row)
+    return rows
+
+
+def _monitor_rows(seed: int) -> list[dict[str, object]]:
+    rows: list[dict[str, object]] = []
+    for scenario in ("healthy", "fault"):
+        axes = _scenario(seed, scenario)
+        models, prior = _models({a: fitting for a, fitting, _ in axes}, None, 99.0)
+        for variant, scorers in _scorers(models, prior, 99.0).items():
+            counts = {"false_alarms": 0, "healthy": 0, "detected": 0, "faulty": 0}
+            for a, _, monitored in axes:
+                for entry in monitored:
+                    readings = entry["readings"]
+                    assert isinstance(readings, Readings)
+                    over = scorers[a].distance(readings) > 1
+                    key = "faulty" if entry["faulty"] else "healthy"
+                    counts[key] += 1
+                    counts["detected" if entry["faulty"] else "false_alarms"] += int(over)
+            rows.append(
+                {"robot": f"robot{seed}", "scenario": scenario, "variant": variant, **counts}
+            )
+    return rows
+
+
+def allowance_study(
+    seeds: Sequence[int] = DEVELOPMENT_ROBOTS,
+    design: TransferDesign | None = None,
+    *,
+    progress: Callable[[str], None] = print,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(transfer rows, monitor-scenario rows): one per robot and variant (and scenario)."""
+    transfer, monitor = [], []
+    for seed in seeds:
+        transfer += _transfer_rows(seed, design or TransferDesign())
+        monitor += _monitor_rows(seed)
+        progress(f"robot {seed} done")
+    return pd.DataFrame(transfer), pd.DataFrame(monitor)
+
+
+def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
+    """Write ``transfer.csv`` and ``monitor.csv`` under ``out`` and print the summaries."""
+    out.mkdir(parents=True, exist_ok=True)
+    transfer, monitor = allowance_study(seeds)
+    transfer.to_csv(out / "transfer.csv", index=False)
+    monitor.to_csv(out / "monitor.csv", index=False)
+    numeric = transfer.drop(columns=["robot"]).groupby("variant", sort=False)
+    summary = numeric.mean()
+    summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
+    summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
+    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
+    print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
+
+
+if __name__ == "__main__":  # python -m axiswatch_lab._indicator_allowance OUT [SEED ...]
+    import sys
+
+    main(Path(sys.argv[1]), tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS)
