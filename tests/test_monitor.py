@@ -61,7 +61,7 @@ def test_alarm_step_matches_naive_state_machine(k: int, n: int, m: int) -> None:
     [
         (
             {"method": "svm"},
-            r"'method' parameter must be one of 'mechanics', 'lra', 'pca'.* Got 'svm'",
+            r"'method' parameter must be one of 'indicators', 'lra', 'pca', 'mechanics'.* Got 'svm'",
         ),
         ({"percentile": 100.0}, r"'percentile' parameter must be a float in \(0, 100\). Got 100"),
         ({"calibration_size": 1}, r"'calibration_size' parameter must be an int >= 2 .* Got 1"),

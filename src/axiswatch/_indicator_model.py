@@ -427,7 +427,7 @@ class IndicatorAssessment:
         if "allowance" in entry:
             return (
                 f"{moved}, {entry['spreads'] / entry['allowance']:.2f} x its task-change "
-                f"allowance of {entry['allowance']:.1f} (threshold {self.threshold:.2f})"
+                f"allowance of {entry['allowance']:.1f} (threshold {self.threshold:.2f} x)"
             )
         return f"{moved} (threshold {self.threshold:.1f})"
 
