@@ -56,11 +56,11 @@ from axiswatch._indicator_model import (
     pool_fleet,
 )
 from axiswatch._readings import Readings
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
 from axiswatch.exceptions import CalibrationError
 from axiswatch_lab._task_envelope import _scenario
-from axiswatch_lab._transfer import TransferDesign, _auroc, _profile
+from axiswatch_lab._transfer import TransferDesign, _auroc, _profile, paired_readings
 
 __all__ = ["VARIANTS", "allowance_study", "indicator_allowances"]
 
@@ -229,20 +229,7 @@ def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]
         for t in range(n_tasks)
     }
     models, prior = _models(fits, profile, 99.0)
-    tests = {
-        (t, h): [
-            reader.readings(
-                robot.capture(
-                    t,
-                    fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
-                    seed=f"{h}{i}",
-                )
-            )
-            for i in range(design.n_per_cell)
-        ]
-        for t in range(n_tasks)
-        for h in ("healthy", *FAULT_KINDS)
-    }
+    tests = paired_readings(robot, reader, design)
     days = design.robot_a_days
     changes = [round(days * k / 4) for k in (1, 2, 3)]
     tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]

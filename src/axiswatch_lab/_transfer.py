@@ -93,6 +93,27 @@ def _auroc(healthy: Sequence[float], faulty: Sequence[float]) -> float:
     return float(roc_auc_score(labels, np.concatenate([h, f])))
 
 
+def paired_readings(
+    robot: SimulatedRobot, reader: IndicatorModel, design: TransferDesign
+) -> dict[tuple[int, str], list[Readings]]:
+    """The paired test cells: ``design.n_per_cell`` readings per (task, health), health being
+    ``"healthy"`` or a fault kind at ``design.severity``."""
+    return {
+        (t, h): [
+            reader.readings(
+                robot.capture(
+                    t,
+                    fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
+                    seed=f"{h}{i}",
+                )
+            )
+            for i in range(design.n_per_cell)
+        ]
+        for t in range(len(robot.tasks))
+        for h in ("healthy", *FAULT_KINDS)
+    }
+
+
 def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict[str, object]:
     """The study on one robot; one JSON-ready record (see the module docstring)."""
     robot = draw_robot(seed)
@@ -113,21 +134,7 @@ def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict
     prior = pool_fleet(list(fleet.values()))
     for model in fleet.values():
         model.use_fleet(prior)
-    health = ("healthy", *FAULT_KINDS)
-    tests: dict[tuple[int, str], list[Readings]] = {
-        (t, h): [
-            reader.readings(
-                robot.capture(
-                    t,
-                    fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
-                    seed=f"{h}{i}",
-                )
-            )
-            for i in range(design.n_per_cell)
-        ]
-        for t in range(n_tasks)
-        for h in health
-    }
+    tests = paired_readings(robot, reader, design)
     bases = sorted(fleet)
     distances = {
         (b, key): [fleet[b].assess_readings(r).distance for r in read]
