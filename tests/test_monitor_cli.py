@@ -189,6 +189,19 @@ def test_results_formats_and_filters(fleet: Path, tmp_path: Path) -> None:
     assert {r["role"] for r in records} == {"baseline", "calibration", "monitor"}
     none = runner.invoke(app, ["results", "--store", str(store), "--robot", "robot09"])
     assert "No scored captures." in none.output
+    # A second method in the same store: --method keeps one.
+    runner.invoke(app, ["monitor", str(fleet), "--method", "pca", "--store", str(store)])
+    both = runner.invoke(app, ["results", "--store", str(store), "--format", "csv"])
+    assert set(pd.read_csv(pd.io.common.StringIO(both.output)).method) == {"lra", "pca"}
+    for method in ("lra", "pca"):
+        one = runner.invoke(
+            app, ["results", "--store", str(store), "--method", method, "--format", "csv"]
+        )
+        kept = pd.read_csv(pd.io.common.StringIO(one.output))
+        assert set(kept.method) == {method}
+        assert len(kept) == 18
+    unknown = runner.invoke(app, ["results", "--store", str(store), "--method", "svm"])
+    assert unknown.exit_code == 2
 
 
 def test_rebaseline_command(fleet: Path, tmp_path: Path) -> None:

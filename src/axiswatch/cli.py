@@ -300,6 +300,9 @@ def results(
     store: StorePath,
     robot: str | None = typer.Option(None, help="Only this robot."),
     axis: str | None = typer.Option(None, help="Only this axis."),
+    method: str | None = typer.Option(
+        None, help="Only this method (default: all).", callback=_registered_method
+    ),
     output: Annotated[Format, typer.Option("--format", help="table, csv or json.")] = Format.table,
     indicators: bool = typer.Option(
         False, help="Table: one column per indicator, its shift in healthy spreads."
@@ -321,6 +324,8 @@ def results(
         _require_store(store)
         with Store(store) as opened:
             frame = fleet_results(opened, robot=robot, axis=axis)
+        if method is not None:
+            frame = frame[frame["method"] == method].reset_index(drop=True)
         columns = ["robot", "axis", "capture", "method", "distance", "threshold", "alarm"]
         if output is Format.csv:
             typer.echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
@@ -566,8 +571,7 @@ def demo(
     seed: int = typer.Option(0, help="Seed of the simulation."),
     debug: bool = DEBUG,
 ) -> None:
-    """Simulate a fleet, monitor it with the default method, LRA and PCA, write the report; print
-    the summary."""
+    """Simulate a fleet, monitor it (default method, LRA, PCA), write the report and summary."""
     import tempfile
 
     from axiswatch.datasets._robot import simulate_fleet
