@@ -90,12 +90,13 @@ _LEGEND = (
     "Distance of every capture to the axis's baseline: green band = baseline capture, blue band "
     "= calibration captures (assumed healthy; they set the threshold), dashed red = threshold, "
     "orange = over the threshold, red cross = alarm, dotted purple = known task change. "
-    "Indicators: each one's shift of the capture from the baseline in healthy spreads (the RMS "
-    "shift healthy task changes give, from the development protocol); green band = one spread; "
-    "the distance is the sum of the squared upward shifts, so one indicator alone reaches the "
-    "threshold at the dashed line (method indicators: shifts in the axis's own and its fleet's "
-    "spreads, and the distance is the largest shift). Drag to zoom, double-click to reset, hover for the capture, "
-    "its value and the reason."
+    "Indicators (method indicators, the default): each one's shift of the capture from the "
+    "baseline in units of the threshold (spreads of the axis's calibration captures and of its "
+    "fleet's task changes, over that indicator's task-change allowance); the distance is the "
+    "largest shift, so an indicator at the dashed line reaches the threshold alone. (Method "
+    "mechanics: shifts in healthy spreads measured on the development simulator, green band = "
+    "one spread, the distance the sum of the squared upward shifts.) Drag to zoom, double-click "
+    "to reset, hover for the capture, its value and the reason."
 )
 
 
