@@ -11,6 +11,7 @@ from axiswatch import Capture
 from axiswatch._readings import motion
 from axiswatch_lab._order_lines import (
     LINE_PROMINENCE,
+    STATISTICS,
     OrderSpectrum,
     order_spectrum,
     order_statistics,
@@ -75,3 +76,11 @@ def test_reader_adds_the_candidate_or_its_reason() -> None:
     assert math.isnan(low.values["third_line@wide"])
     assert low.reasons["third_line@wide"].startswith("needs a torque rate")
     assert "third_line@wide" not in reader(None)(_strokes(1000.0)).values
+
+
+def test_a_spectrum_without_a_floor_reads_nan() -> None:
+    zeros = np.zeros(40)
+    flat = OrderSpectrum(np.arange(40.0), zeros, zeros, 40.0, 1.0)
+    values = order_statistics(flat)
+    assert set(values) == set(STATISTICS)
+    assert all(math.isnan(v) for v in values.values())

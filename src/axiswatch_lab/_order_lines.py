@@ -97,11 +97,17 @@ LINE_PROMINENCE = 10.0
 #: comb of lines (a tooth once per gear turn, a bearing's defect order and sidebands) does.
 THIRD = 3
 
+#: What :func:`order_statistics` reads of a spectrum.
+STATISTICS: tuple[str, ...] = (
+    "line_share",
+    "peakiness",
+    "top_prominence",
+    "third_line",
+    "lines_3_to_10",
+)
 #: Statistic ``@`` band, as :func:`reader` takes them.
 CANDIDATES: tuple[str, ...] = tuple(
-    f"{statistic}@{band}"
-    for band in ("rate", "wide")
-    for statistic in ("line_share", "peakiness", "top_prominence", "third_line", "lines_3_to_10")
+    f"{statistic}@{band}" for band in ("rate", "wide") for statistic in STATISTICS
 )
 
 
@@ -134,6 +140,24 @@ def order_spectrum(m: Motion, band: str = "rate") -> OrderSpectrum | str:
     steady speed; ``band="wide"``: the torque unfiltered, each run's straight line (in the angle)
     removed, orders from :data:`LOW_CELLS` resolution cells of the median run up to ``0.4 x``
     the rate at the fast steady speed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(0, 6, 1e-3)  # strokes of 3 rad at 2 rad/s, a line at order 300
+    >>> q = 3 * (1 - np.abs(2 * ((t / 3) % 1) - 1))
+    >>> noise = np.random.default_rng(0).normal(0, 0.05, t.size)
+    >>> torque = np.sign(np.gradient(q)) + 0.3 * np.sin(300 * q) + noise
+    >>> capture = Capture({"position": q, "torque": torque}, {"position": 1e3, "torque": 1e3})
+    >>> spectrum = order_spectrum(motion(capture), "wide")
+    >>> top = float(spectrum.orders[np.argmax(spectrum.power / spectrum.floor)])
+    >>> abs(top - 300) < 2  # within a resolution cell: a run of 3 rad resolves 2 pi / 3 orders
+    True
+    >>> slow = Capture({"position": q[::20], "torque": torque[::20]}, {"position": 50.0,
+    ...                                                               "torque": 50.0})
+    >>> order_spectrum(motion(slow))
+    'needs a torque rate >= 100 Hz (got 50 Hz)'
     """
     if m.rate_hz < MIN_BAND_RATE_HZ:
         return f"needs a torque rate >= {MIN_BAND_RATE_HZ:g} Hz (got {m.rate_hz:g} Hz)"
@@ -190,7 +214,7 @@ def order_statistics(spectrum: OrderSpectrum) -> dict[str, float]:
     """The candidates' values of one spectrum (``NaN`` where the floor is 0)."""
     good = spectrum.floor > 0
     if not good.any():
-        return dict.fromkeys(CANDIDATES, math.nan)
+        return dict.fromkeys(STATISTICS, math.nan)
     power, floor = spectrum.power[good], spectrum.floor[good]
     prominence = power / floor
     lines = prominence >= LINE_PROMINENCE
