@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -25,6 +26,27 @@ def test_robot_record_has_every_measure() -> None:
     assert record["robot_a_test_days"] == 8 - 3
     assert 0.0 < float(record["share_scored"]) <= 1.0  # type: ignore[arg-type]
     assert not math.isnan(float(record["far99"]))  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_every_capture_goes_through_the_given_read() -> None:
+    from axiswatch import IndicatorModel
+    from axiswatch._capture import Capture
+    from axiswatch._readings import Readings
+
+    model = IndicatorModel()
+    sources: list[str] = []
+
+    def read(capture: Capture) -> Readings:
+        sources.append(str(capture.metadata["task"]))
+        return model.readings(capture)
+
+    design = dataclasses.replace(TINY, kinematics=False)
+    with threadpool_limits(1):
+        robot_transfer(DEVELOPMENT_ROBOTS[1], design, read=read)
+    # Six tasks: the fleet's (baseline + 2) and one per health (5) each, and Robot A's 8 days.
+    assert len(sources) == 6 * 3 + 6 * 5 + 8
+    assert len(set(sources)) == 6
 
 
 @pytest.mark.slow

@@ -27,8 +27,9 @@ Indicators (the signal called torque may be a motor current or a pressure differ
   ``tooth_lines:<stage>`` for every gear stage and ``bearing_lines:<name>`` for every bearing,
   :func:`~axiswatch._mechanics.line_ratio` at the component's orders. Need the component's
   highest order to fall inside the band at the median moving speed and 20 motor revolutions.
-  Without kinematics the angle-domain indicator is ``order_lines``
-  (:mod:`axiswatch._orders`), read against a reference by :class:`~axiswatch.IndicatorModel`.
+  Without kinematics no line indicator is read: the kinematics-free order-line summaries tried
+  on the development robots either raised Robot A's false alarms or were not scored where a
+  baseline has no lines (docs/evaluation.md, "Order lines without kinematics").
 
 The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
 reading the drive loads on every capture, the kinematic band set by the speed and the tooth

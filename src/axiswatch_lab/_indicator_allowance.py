@@ -229,7 +229,7 @@ def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]
         for t in range(n_tasks)
     }
     models, prior = _models(fits, profile, 99.0)
-    tests = paired_readings(robot, reader, design)
+    tests = paired_readings(robot, reader.readings, design)
     days = design.robot_a_days
     changes = [round(days * k / 4) for k in (1, 2, 3)]
     tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]

@@ -24,7 +24,7 @@ Real data (:func:`real_data_transfer`): the hydraulic actuators and the linear a
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -94,13 +94,13 @@ def _auroc(healthy: Sequence[float], faulty: Sequence[float]) -> float:
 
 
 def paired_readings(
-    robot: SimulatedRobot, reader: IndicatorModel, design: TransferDesign
+    robot: SimulatedRobot, read: Callable[[Capture], Readings], design: TransferDesign
 ) -> dict[tuple[int, str], list[Readings]]:
-    """The paired test cells: ``design.n_per_cell`` readings per (task, health), health being
-    ``"healthy"`` or a fault kind at ``design.severity``."""
+    """The paired test cells: ``design.n_per_cell`` readings (by ``read``) per (task, health),
+    health being ``"healthy"`` or a fault kind at ``design.severity``."""
     return {
         (t, h): [
-            reader.readings(
+            read(
                 robot.capture(
                     t,
                     fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
@@ -114,32 +114,40 @@ def paired_readings(
     }
 
 
-def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict[str, object]:
-    """The study on one robot; one JSON-ready record (see the module docstring)."""
+def robot_transfer(
+    seed: int,
+    design: TransferDesign = TransferDesign(),
+    *,
+    read: Callable[[Capture], Readings] | None = None,
+) -> dict[str, object]:
+    """The study on one robot; one JSON-ready record (see the module docstring).
+
+    ``read`` takes a capture's readings (default: the model's, with the design's profile); a
+    study of another indicator passes its own.
+    """
     robot = draw_robot(seed)
     profile = _profile(robot, design.kinematics)
-    reader = IndicatorModel(profile)
+    read = read or IndicatorModel(profile).readings
     n_tasks = len(robot.tasks)
     fleet: dict[int, IndicatorModel] = {}
     unfitted = []
     for t in range(n_tasks):
-        read = [
-            reader.readings(robot.capture(t, seed=f"fleet{k}"))
-            for k in range(design.n_calibration + 1)
+        fitting = [
+            read(robot.capture(t, seed=f"fleet{k}")) for k in range(design.n_calibration + 1)
         ]
         try:
-            fleet[t] = IndicatorModel(profile).fit_readings(read)
+            fleet[t] = IndicatorModel(profile).fit_readings(fitting)
         except CalibrationError:
             unfitted.append(robot.tasks[t].name)  # reported: the axis cannot be monitored
     prior = pool_fleet(list(fleet.values()))
     for model in fleet.values():
         model.use_fleet(prior)
-    tests = paired_readings(robot, reader, design)
+    tests = paired_readings(robot, read, design)
     bases = sorted(fleet)
     distances = {
-        (b, key): [fleet[b].assess_readings(r).distance for r in read]
+        (b, key): [fleet[b].assess_readings(r).distance for r in taken]
         for b in bases
-        for key, read in tests.items()
+        for key, taken in tests.items()
     }
     record: dict[str, object] = {
         "robot": robot.name,
@@ -189,21 +197,24 @@ def robot_transfer(seed: int, design: TransferDesign = TransferDesign()) -> dict
                 ]
             )
         )
-    record.update(_robot_a(robot, profile, prior, design))
+    record.update(_robot_a(robot, profile, prior, design, read))
     return record
 
 
 def _robot_a(
-    robot: SimulatedRobot, profile: AxisProfile, prior: object, design: TransferDesign
+    robot: SimulatedRobot,
+    profile: AxisProfile,
+    prior: object,
+    design: TransferDesign,
+    read: Callable[[Capture], Readings],
 ) -> dict[str, object]:
     days = design.robot_a_days
     changes = [round(days * k / 4) for k in (1, 2, 3)]
     tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
-    reader = IndicatorModel(profile)
-    read = [reader.readings(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
-    model = IndicatorModel(profile).fit_readings(read[: design.n_calibration + 1])
+    taken = [read(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
+    model = IndicatorModel(profile).fit_readings(taken[: design.n_calibration + 1])
     model.use_fleet(prior)  # type: ignore[arg-type]
-    verdicts = [model.assess_readings(r) for r in read[design.n_calibration + 1 :]]
+    verdicts = [model.assess_readings(r) for r in taken[design.n_calibration + 1 :]]
     return {
         "robot_a_false_alarms": int(sum(v.alarm for v in verdicts)),
         "robot_a_days_scored": int(sum(v.scored for v in verdicts)),

@@ -5,6 +5,7 @@ Maps options to the experiments of :mod:`axiswatch_lab`; no science here.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Annotated, Any
@@ -225,6 +226,10 @@ def experiment_transfer(
         Path | None, typer.Option("--data", help="Folder of the real data sets (../shared/data).")
     ] = None,
     workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
+    kinematics: Annotated[
+        bool,
+        typer.Option(help="Give the model each robot's true kinematics (an AxisProfile)."),
+    ] = True,
 ) -> None:
     """Transfer study (issue 13): held-out simulated robots and the real data sets."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
@@ -249,7 +254,8 @@ def experiment_transfer(
                 err=True,
             )
             raise typer.Exit(2) from None
-    table = transfer_study(seeds, FAST_DESIGN if fast else TransferDesign(), workers=workers)
+    design = dataclasses.replace(FAST_DESIGN if fast else TransferDesign(), kinematics=kinematics)
+    table = transfer_study(seeds, design, workers=workers)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "robots.csv", index=False)
     typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
