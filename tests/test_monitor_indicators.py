@@ -382,8 +382,16 @@ def test_the_report_names_the_indicators_alarms_top_indicator(
         assert "friction (friction)" in alarmed[0].line
         assert "spreads from its baseline" in alarmed[0].line
         page = write_report(store, tmp_path / "report.html").read_text()
+        results = fleet_results(store)
     assert "friction (friction)" in page
     assert "indicators (indicators): shift from the baseline" in page  # the per-indicator panel
+    # The results' and the history's top indicator is the one that set the distance, in the
+    # method's own words (not the largest share of the shifts in spreads).
+    flagged = results[results["over"].astype(bool)]
+    assert len(flagged) > 0
+    for top, details in zip(flagged["top_indicator"], flagged["details"], strict=True):
+        assert top == json.loads(details)["top_indicator"]
+        assert "spreads from its baseline" in top
 
 
 def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from datetime import UTC, datetime, timedelta
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -24,19 +25,27 @@ def fleet_results(
     """One row per scored capture: robot, axis, capture, method, distance, threshold, alarm.
 
     Further columns: ``captured_at``, ``epoch``, ``role``, ``over``, ``reason``, ``details``
-    (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the default method,
-    over the threshold or in alarm: the indicator with the largest share of the distance, its
-    shift and likely meaning; None otherwise). Baseline rows are included
+    (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the indicator
+    methods, over the threshold or in alarm: ``indicators``, the indicator that set the distance,
+    the part it watches and its shift; ``mechanics``, the one with the largest share of the
+    distance and its likely meaning; None otherwise). Baseline rows are included
     (role ``baseline``, no distance).
     """
     frame = store.score_table(robot=robot, axis=axis)
     # Named only where it explains an alarm: "likely a damaged gear tooth" on a capture under
     # the threshold would read as a finding.
     frame["top_indicator"] = [
-        describe_top_indicator(json.loads(details).get("indicators", {})) if flagged else None
+        _top_indicator(json.loads(details)) if flagged else None
         for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
     ]
     return frame
+
+
+def _top_indicator(details: dict[str, Any]) -> str | None:
+    """The method's own words where it stores them (``indicators``: the indicator that set the
+    distance, in its allowance), else the indicator with the largest share (``mechanics``); the
+    same rule as the alarm's reason and the report's first screen."""
+    return details.get("top_indicator") or describe_top_indicator(details.get("indicators", {}))
 
 
 def indicator_spreads(results: pd.DataFrame) -> pd.DataFrame:
