@@ -61,7 +61,14 @@ from numpy.typing import NDArray
 
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
-from axiswatch._order_lines import MIN_COMMON_CELLS, OrderProfile, grown_lines, order_reference
+from axiswatch._order_lines import (
+    MIN_COMMON_CELLS,
+    OrderProfile,
+    component_at,
+    grown_lines,
+    most_grown_order,
+    order_reference,
+)
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import (
     INDICATORS,
@@ -758,9 +765,35 @@ class IndicatorModel:
             if why is not None:
                 reasons[ORDER_LINES.name] = why
         assessment = self._assess(values, reasons, self.centre_, own=case.startswith("same"))
+        component = assessment.component
+        if assessment.top == ORDER_LINES.name:
+            component = self._where_grown(readings)
         return dataclasses.replace(
-            assessment, case=case, task_distance=distance, task_envelope=self.task_envelope_
+            assessment,
+            case=case,
+            task_distance=distance,
+            task_envelope=self.task_envelope_,
+            component=component,
         )
+
+    def _where_grown(self, readings: Readings) -> str:
+        """Where the order lines grew most and, with the profile's kinematics, the component
+        with a line there."""
+        # order_lines is read only when both are there.
+        assert readings.order_profile is not None
+        assert self.order_reference_ is not None
+        order = most_grown_order(readings.order_profile, self.order_reference_)
+        where = f"new or grown order lines, most at order {order:.4g}"
+        kinematics = self.profile.kinematics() if self.profile is not None else {}
+        if kinematics.get("gear_ratio") is None:
+            return where
+        name = component_at(
+            order,
+            kinematics["gear_ratio"],
+            kinematics["gear_stages"],
+            kinematics["bearing_orders"],
+        )
+        return f"{where}: {name}" if name is not None else f"{where} (no component's line there)"
 
     def _order_lines(self, readings: Readings) -> tuple[float, str | None]:
         """The capture's ``order_lines`` against the baseline's reference, or why none."""

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,10 +47,14 @@ from scipy.fft import next_fast_len, rfft
 from scipy.ndimage import median_filter
 from scipy.signal import detrend, get_window
 
+from axiswatch._mechanics import bearing_orders
+
 __all__ = [
     "OrderProfile",
     "OrderSpectrum",
+    "component_at",
     "grown_lines",
+    "most_grown_order",
     "order_profile",
     "order_reference",
     "order_spectrum",
@@ -312,6 +316,23 @@ def order_reference(profiles: Sequence[OrderProfile]) -> OrderProfile | None:
     return OrderProfile(first, widened)
 
 
+def _growth(profile: OrderProfile, reference: OrderProfile) -> OrderProfile | None:
+    """``profile - reference`` on the cells both span; None when fewer than
+    :data:`MIN_COMMON_CELLS` of them are read by both."""
+    first = max(profile.first_cell, reference.first_cell)
+    last = min(
+        profile.first_cell + profile.values.size, reference.first_cell + reference.values.size
+    )
+    if last - first < MIN_COMMON_CELLS:
+        return None
+    mine = profile.values[first - profile.first_cell : last - profile.first_cell]
+    theirs = reference.values[first - reference.first_cell : last - reference.first_cell]
+    growth = mine - theirs
+    if int(np.isfinite(growth).sum()) < MIN_COMMON_CELLS:
+        return None
+    return OrderProfile(first, growth)
+
+
 def grown_lines(profile: OrderProfile, reference: OrderProfile) -> float:
     """How much the cells that grew most grew against the reference (decades).
 
@@ -338,16 +359,87 @@ def grown_lines(profile: OrderProfile, reference: OrderProfile) -> float:
     >>> grown_lines(OrderProfile(200, np.zeros(40)), reference)
     nan
     """
-    first = max(profile.first_cell, reference.first_cell)
-    last = min(
-        profile.first_cell + profile.values.size, reference.first_cell + reference.values.size
-    )
-    if last - first < MIN_COMMON_CELLS:
+    growth = _growth(profile, reference)
+    if growth is None:
         return math.nan
-    mine = profile.values[first - profile.first_cell : last - profile.first_cell]
-    theirs = reference.values[first - reference.first_cell : last - reference.first_cell]
-    growth = mine - theirs
-    growth = growth[np.isfinite(growth)]
-    if growth.size < MIN_COMMON_CELLS:
+    finite = growth.values[np.isfinite(growth.values)]
+    return float(np.mean(np.sort(finite)[-TOP_LINES:]))
+
+
+def most_grown_order(profile: OrderProfile, reference: OrderProfile) -> float:
+    """The order (geometric centre of the cell) that grew most against the reference.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> reference = OrderProfile(100, np.zeros(40))
+    >>> capture = OrderProfile(100, np.r_[np.zeros(20), 2.0, np.zeros(19)])
+    >>> round(most_grown_order(capture, reference), 1)  # cell 120: orders 316.2-331.9
+    323.9
+    """
+    growth = _growth(profile, reference)
+    if growth is None:
         return math.nan
-    return float(np.mean(np.sort(growth)[-TOP_LINES:]))
+    cell = growth.first_cell + int(np.nanargmax(growth.values))
+    return float(10 ** ((cell + 0.5) / CELLS_PER_DECADE))
+
+
+def _cell(order: float) -> int:
+    return math.floor(CELLS_PER_DECADE * math.log10(order))
+
+
+def component_at(
+    order: float,
+    gear_ratio: float,
+    gear_stages: Mapping[str, float],
+    bearings: Mapping[str, float],
+) -> str | None:
+    """The component of an axis's kinematics with a line within a cell of ``order``.
+
+    Parameters
+    ----------
+    order : float
+        In orders of the position (cycles per ``2 pi``), as :func:`most_grown_order`'s.
+    gear_ratio : float
+        Motor revolutions per revolution of the position.
+    gear_stages : mapping of str to float
+        Name -> motor revolutions per revolution of a gear whose teeth are watched: a damaged
+        tooth's lines are the harmonics of that gear's turn but the whole motor orders (a mesh
+        or a ripple, healthy).
+    bearings : mapping of str to float
+        Name -> defect order of the motor speed; its lines are
+        :func:`~axiswatch._mechanics.bearing_orders`.
+
+    Returns
+    -------
+    str or None
+        ``"gear stage <name>"`` or ``"bearing <name>"`` (the nearest, when several have a line
+        that close), or None.
+
+    Examples
+    --------
+    >>> component_at(100 * 5.43, 100.0, {"intermediate": 5.0}, {"motor": 5.43})
+    'bearing motor'
+    >>> component_at(100 * 1.2, 100.0, {"intermediate": 5.0}, {"motor": 5.43})
+    'gear stage intermediate'
+    >>> component_at(100.0, 100.0, {"intermediate": 5.0}, {}) is None  # a whole motor order
+    True
+    """
+    if not (math.isfinite(order) and order > 0):
+        return None
+    lines: list[tuple[str, float]] = []
+    for name, stage in gear_stages.items():
+        harmonics = range(1, int(8 * stage) + 1)
+        lines += [
+            (f"gear stage {name}", gear_ratio * k / stage)
+            for k in harmonics
+            if abs(k / stage - round(k / stage)) > 1e-9
+        ]
+    for name, defect in bearings.items():
+        lines += [(f"bearing {name}", gear_ratio * o) for o in bearing_orders(defect) if o > 0]
+    near = [
+        (abs(math.log(line / order)), name)
+        for name, line in lines
+        if abs(_cell(line) - _cell(order)) <= 1
+    ]
+    return min(near)[1] if near else None
