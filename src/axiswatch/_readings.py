@@ -27,9 +27,10 @@ Indicators (the signal called torque may be a motor current or a pressure differ
   ``tooth_lines:<stage>`` for every gear stage and ``bearing_lines:<name>`` for every bearing,
   :func:`~axiswatch._mechanics.line_ratio` at the component's orders. Need the component's
   highest order to fall inside the band at the median moving speed and 20 motor revolutions.
-  Without kinematics no line indicator is read: the kinematics-free order-line summaries tried
-  on the development robots either raised Robot A's false alarms or were not scored where a
-  baseline has no lines (docs/evaluation.md, "Order lines without kinematics").
+  Without kinematics the kinematic lines are not read; the order spectrum is
+  (``order_lines=True``: :mod:`axiswatch._order_lines`), and a model compares it with its
+  baseline's own (``order_lines``: new or grown lines, docs/evaluation.md, "Order lines against
+  the baseline's own order spectrum").
 
 The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
 reading the drive loads on every capture, the kinematic band set by the speed and the tooth

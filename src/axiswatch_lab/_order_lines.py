@@ -34,8 +34,9 @@ is lines, whatever orders they are at (kinematics-free):
 Compared on the development robots with the transfer design *without kinematics*
 (:func:`order_lines_study`): each candidate added to the readings against the readings alone.
 None passed (docs/evaluation.md, "Order lines without kinematics"): the summaries that find the
-faults add Robot-A false alarms, ``line_share`` is 0 in health and so not scored by the model;
-the product reads no line without kinematics.
+faults add Robot-A false alarms, ``line_share`` is 0 in health and so not scored by the model.
+:func:`baseline_relative_study` compares the product's ``order_lines`` instead (each capture's
+lines against its baseline's own order spectrum, :mod:`axiswatch._order_lines`).
 """
 
 from __future__ import annotations
