@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import copy
 import inspect
 import math
 import textwrap
@@ -15,11 +16,14 @@ import axiswatch as aw
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._indicator_model import (
     IndicatorModel,
+    fleet_difference,
     indicator_allowances,
     leave_one_out_distances,
     pool_fleet,
+    pool_fleet_without,
     robust_spread,
 )
+from axiswatch._readings import INDICATORS
 from tests import naive
 
 RATE = 200.0
@@ -160,6 +164,74 @@ def test_fleet_prior_resists_a_faulty_minority() -> None:
     clean_allowed = pool_fleet(healthy).allowances(99.0)["coulomb_friction"]
     mixed_allowed = pool_fleet([*healthy, worn]).allowances(99.0)["coulomb_friction"]
     assert mixed_allowed < 1.5 * clean_allowed
+
+
+def test_a_worn_axis_of_four_is_flagged_against_the_other_three() -> None:
+    # Three healthy axes at three tasks and one worn from its first capture. Pooled with the
+    # others, the worn axis is in 3 of the 6 pairs: the median pair is a worn one, and the
+    # allowances it is checked against hide it.
+    healthy = [_fitted(100 * k, payload=float(k)) for k in range(3)]
+    worn = _fitted(700, coulomb=9.0)
+    fleet = [worn, *healthy]
+    prior = pool_fleet(fleet)
+    # The rule before: checked against the fleet with itself included, the worn axis passes.
+    before = [copy.deepcopy(m).use_fleet(prior) for m in fleet]
+    assert [m.fleet_check_ for m in before] == [None, None, None, None]
+    assert fleet_difference(worn.centre_, worn.within_, prior, 99.0)[0] < 1.0
+    models = [
+        m.use_fleet(prior, check_against=pool_fleet_without(fleet, k)) for k, m in enumerate(fleet)
+    ]
+    assert models[0].fleet_check_ is not None
+    assert models[0].fleet_check_.startswith("this axis's baseline differs from its fleet's: ")
+    assert "x its task-change allowance (already worn, or a task unlike the fleet's)" in (
+        models[0].fleet_check_
+    )
+    assert models[0].fleet_check_.endswith("checked against the 3 other axes of its profile")
+    assert [m.fleet_check_ for m in models[1:]] == [None, None, None]
+    # Captures are still scored with the prior of all four: no decision on a capture changes.
+    for old, new in zip(before, models, strict=True):
+        assert new.fleet is prior
+        assert new.threshold_ == old.threshold_
+        assert new.task_change_scales_ == old.task_change_scales_
+
+
+def test_a_fleet_of_three_checks_each_axis_with_itself_included() -> None:
+    fleet = [_fitted(100 * k, payload=float(k)) for k in range(2)] + [_fitted(700, coulomb=9.0)]
+    assert [pool_fleet_without(fleet, k) for k in range(3)] == [None, None, None]
+    prior = pool_fleet(fleet)
+    worn = fleet[2].use_fleet(prior, check_against=pool_fleet_without(fleet, 2))
+    assert any("checked against its fleet of 3 axes, itself included" in n for n in worn.notes_)
+    # The rule before, unchanged, and its limit: in 2 of the 3 pairs, the worn axis is not seen.
+    assert fleet_difference(worn.centre_, worn.within_, prior, 99.0)[0] < 1.0
+    assert worn.fleet_check_ is None
+
+
+def test_fleet_difference_matches_the_naive_twin() -> None:
+    fleet = [_fitted(100 * k, payload=float(k % 3)) for k in range(5)] + [_fitted(7, coulomb=6.0)]
+    prior = pool_fleet_without(fleet, 5)
+    assert prior is not None
+    worn = fleet[5]
+    up = {i.name for i in INDICATORS if i.sided == "up"}
+    got = fleet_difference(worn.centre_, worn.within_, prior, 99.0)[0]
+    fallback = prior.allowance(99.0)
+    allowances = {n: prior.allowances(99.0).get(n, fallback) for n in worn.within_}
+    want = naive.fleet_difference_naive(
+        worn.centre_, worn.within_, prior.centre, prior.task_spreads, allowances, up
+    )
+    assert got == pytest.approx(want, rel=1e-12)
+    assert got > 1.0
+
+
+def test_the_checked_axis_must_be_in_the_fleet() -> None:
+    fleet = [_fitted(100 * k) for k in range(4)]
+    with pytest.raises(IndexError, match=r"'index' parameter must be in \[0, 4\).*Got 4"):
+        pool_fleet_without(fleet, 4)
+
+
+def test_a_fleet_check_needs_a_prior_to_score_with() -> None:
+    fleet = [_fitted(100 * k) for k in range(4)]
+    with pytest.raises(ValueError, match="'check_against' parameter of use_fleet needs a fleet"):
+        fleet[0].use_fleet(None, check_against=pool_fleet_without(fleet, 0))
 
 
 def test_fleet_needs_three_axes() -> None:
