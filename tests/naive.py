@@ -457,18 +457,17 @@ def fleet_difference_naive(
     allowances: dict[str, float],
     one_sided: set[str],
 ) -> float:
-    """The axis's centre against the fleet's, indicator by indicator: the difference over
-    ``sqrt(s_w^2 + s_t^2)`` (``s_w`` alone without a finite ``s_t``) and over its allowance,
-    only upwards for ``one_sided``; the largest (NaN when no indicator is read by both)."""
+    """The axis's centre against the fleet's, indicator by indicator with a task spread ``s_t``:
+    the difference over ``sqrt(s_w^2 + s_t^2)`` and over its allowance, only upwards for
+    ``one_sided``; the largest (NaN when no such indicator is read by both)."""
     nan = float("nan")
     largest = nan
     for name, own in within.items():
         mine, theirs = centre.get(name, nan), fleet_centre.get(name, nan)
-        if mine != mine or theirs != theirs:
-            continue
         task = task_spreads.get(name, nan)
-        spread = (own**2 + task**2) ** 0.5 if task == task else own
-        z = (mine - theirs) / (spread * allowances[name])
+        if mine != mine or theirs != theirs or task != task:
+            continue
+        z = (mine - theirs) / ((own**2 + task**2) ** 0.5 * allowances[name])
         z = max(z, 0.0) if name in one_sided else abs(z)
         largest = z if largest != largest else max(largest, z)
     return largest

@@ -222,6 +222,31 @@ def test_fleet_difference_matches_the_naive_twin() -> None:
     assert got > 1.0
 
 
+def test_an_indicator_without_a_task_spread_is_not_checked() -> None:
+    # The 50 Hz axis gives no impulsiveness: the other three of a 200 Hz axis read it twice,
+    # too few for a task spread, so a task change's effect on it is unknown.
+    fleet = [_fitted(100 * k, payload=float(k), rate=200.0 if k < 3 else 50.0) for k in range(4)]
+    axis = fleet[0]
+    assert "impulsiveness" in axis.within_
+    with_itself = fleet_difference(axis.centre_, axis.within_, pool_fleet(fleet), 99.0)[1]
+    assert "impulsiveness" in with_itself
+    others = pool_fleet_without(fleet, 0)
+    assert others is not None
+    assert math.isnan(others.task_spreads["impulsiveness"])
+    distance, shifts = fleet_difference(axis.centre_, axis.within_, others, 99.0)
+    assert "impulsiveness" not in shifts
+    assert "coulomb_friction" in shifts
+    fallback = others.allowance(99.0)
+    allowances = {n: others.allowances(99.0).get(n, fallback) for n in axis.within_}
+    up = {i.name for i in INDICATORS if i.sided == "up"}
+    assert distance == pytest.approx(
+        naive.fleet_difference_naive(
+            axis.centre_, axis.within_, others.centre, others.task_spreads, allowances, up
+        ),
+        rel=1e-12,
+    )
+
+
 def test_the_checked_axis_must_be_in_the_fleet() -> None:
     fleet = [_fitted(100 * k) for k in range(4)]
     with pytest.raises(IndexError, match=r"'index' parameter must be in \[0, 4\).*Got 4"):

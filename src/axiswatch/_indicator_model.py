@@ -471,7 +471,9 @@ def fleet_difference(
     (float, dict of str to float)
         The largest shift and each indicator's: ``(centre - prior.centre) / (sqrt(s_w^2 + s_t^2)
         x A_i)`` (one-sided for an indicator that only grows with a fault), over the indicators
-        of ``within`` both give; NaN and empty when there is none.
+        of ``within`` that both give and that have a task spread ``s_t`` in ``prior`` (an
+        indicator read on fewer than 3 of its axes is not checked: what a task change does to
+        it is unknown); NaN and empty when there is none.
 
     Examples
     --------
@@ -482,7 +484,12 @@ def fleet_difference(
     >>> round(distance, 3)  # 6 / 0.5 spreads over an allowance of ln(100) = 4.6 spreads
     2.606
     """
-    return _distance(centre, prior.centre, _task_change_scales(within, prior, percentile))
+    # An indicator without a task spread (fewer than 3 of the fleet's axes read it) has no
+    # task-change allowance: its s_w alone would call any other task a difference.
+    checked = {
+        n: s for n, s in within.items() if math.isfinite(prior.task_spreads.get(n, math.nan))
+    }
+    return _distance(centre, prior.centre, _task_change_scales(checked, prior, percentile))
 
 
 @dataclass(frozen=True)
