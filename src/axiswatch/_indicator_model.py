@@ -644,6 +644,12 @@ class IndicatorModel:
         """:func:`pool_fleet`: the fleet prior of fitted models of one profile's axes."""
         return pool_fleet(models)
 
+    @staticmethod
+    def pool_without(models: Sequence[IndicatorModel], index: int) -> FleetPrior | None:
+        """:func:`pool_fleet_without`: the prior the ``index``-th model's baseline is checked
+        against (``check_against`` of :meth:`use_fleet`)."""
+        return pool_fleet_without(models, index)
+
     def readings(self, capture: Capture) -> Readings:
         """The capture's indicators (:func:`~axiswatch.read_indicators` with the profile's
         kinematics)."""
