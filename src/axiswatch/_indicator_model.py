@@ -577,7 +577,9 @@ class IndicatorModel:
     percentile : float in (0, 100), default=99.0
     fleet : FleetPrior, optional
         Task-change spreads and allowance of the axis's profile (:func:`pool_fleet`); can be
-        set later with :meth:`use_fleet`.
+        set later with :meth:`use_fleet`, which also takes the prior of the other axes to
+        check the baseline against (given here, the baseline is checked against ``fleet``,
+        itself included).
     task_envelope_factor : float > 0 or None, default=None
         The task envelope in units of the largest leave-one-out signature distance of the
         fitting captures (:func:`task_envelope`; ``TASK_ENVELOPE_FACTOR`` = 2 was chosen on the

@@ -188,6 +188,11 @@ def with_fleet(
         (:func:`~axiswatch._indicator_model.pool_fleet_without`), or, with fewer than 3 other
         axes, against the whole fleet's (its notes say so).
 
+    Notes
+    -----
+    One pool of the fleet per baseline, each over the pairs of the other axes: cubic in the
+    fleet's axes when all are new (a first run).
+
     Examples
     --------
     >>> from axiswatch.datasets import draw_robot
