@@ -188,6 +188,11 @@ def with_fleet(
         (:func:`~axiswatch._indicator_model.pool_fleet_without`), or, with fewer than 3 other
         axes, against the whole fleet's (its notes say so).
 
+    Raises
+    ------
+    ValueError
+        When ``others`` holds one of the baselines' own models (it would be pooled twice).
+
     Notes
     -----
     One pool of the fleet per baseline, each over the pairs of the other axes: cubic in the
@@ -205,6 +210,13 @@ def with_fleet(
     >>> pooled[0].model.fleet.n_axes, own[0].allowance() is None
     (4, True)
     """
+    own = {id(b.model) for b in baselines}
+    if any(id(model) in own for model in others):
+        # The call before others existed passed the fleet, these included: each would count twice.
+        raise ValueError(
+            "The 'others' parameter of with_fleet must hold the models of the profile's other "
+            "axes; got one of these baselines' own (they are added to the fleet)."
+        )
     fleet = [*others, *(b.model for b in baselines)]
     try:
         prior: FleetPrior = pool_fleet(fleet)
