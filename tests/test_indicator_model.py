@@ -389,3 +389,28 @@ def test_the_threshold_is_fitted_on_the_calibration_captures_leave_one_out_dista
         assert model.assess_fitting(k).distance == pytest.approx(model.own_loo_distances_[k])
     with pytest.raises(IndexError, match="'index' parameter must be in"):
         model.assess_fitting(6)
+
+
+def test_a_large_fleet_checks_a_baseline_with_itself_included(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Above LEAVE_SELF_OUT_MAX_AXES the leave-self-out pools (cubic in a first run) are not made:
+    # the check is against the whole fleet, and the notes say so. A cut at 3 axes shows it on 4.
+    from axiswatch.monitor import _indicators
+
+    monkeypatch.setattr(_indicators, "LEAVE_SELF_OUT_MAX_AXES", 3)
+    baselines = [
+        _indicators.IndicatorBaseline(_fitted(100 * k, payload=float(k)), ("h",) * 6, ("p",) * 6)
+        for k in range(4)
+    ]
+    pooled = _indicators.with_fleet(baselines)
+    for baseline in pooled:
+        assert baseline.model.fleet is not None
+        assert baseline.model.fleet.n_axes == 4
+        assert any(
+            "checked against its fleet of 4 axes, itself included" in n
+            for n in baseline.model.notes_
+        )
+    monkeypatch.setattr(_indicators, "LEAVE_SELF_OUT_MAX_AXES", 20)
+    small = _indicators.with_fleet(baselines)
+    assert not any("itself included" in n for b in small for n in b.model.notes_)

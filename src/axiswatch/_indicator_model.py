@@ -98,6 +98,12 @@ MIN_READINGS = 3
 MIN_AXES = 3
 #: Least pairs of fleet axes reading an indicator for its own allowance (3 axes give 3 pairs).
 MIN_PAIRS = 3
+#: Largest fleet whose new baselines are checked against the fleet without them
+#: (:func:`pool_fleet_without`). In a fleet of ``n`` axes the pairs with one axis are ``2 / n``
+#: of all pairs: at most 10 % from 20 axes on, too few to move the pairs' median much, while the
+#: leave-self-out pools (one per new axis, each over the others' pairs) would cost ``O(n^3)`` in
+#: a first run. Set by this argument, not measured.
+LEAVE_SELF_OUT_MAX_AXES = 20
 #: The task envelope in units of the largest leave-one-out signature distance of the fitting
 #: captures (:func:`task_envelope`); chosen on the development robots (docs/evaluation.md,
 #: "Through the monitor").

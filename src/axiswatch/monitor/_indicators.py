@@ -40,6 +40,7 @@ from typing import Any
 
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import (
+    LEAVE_SELF_OUT_MAX_AXES,
     FleetPrior,
     IndicatorAssessment,
     IndicatorModel,
@@ -196,7 +197,9 @@ def with_fleet(
     Notes
     -----
     One pool of the fleet per baseline, each over the pairs of the other axes: cubic in the
-    fleet's axes when all are new (a first run).
+    fleet's axes when all are new (a first run). So only a fleet of at most
+    ``LEAVE_SELF_OUT_MAX_AXES`` (20) axes checks each baseline without it; a larger one checks
+    it against the whole fleet's prior, where the pairs with one axis are at most a tenth.
 
     Examples
     --------
@@ -223,8 +226,9 @@ def with_fleet(
     except CalibrationError:
         return list(baselines)
     out = []
+    small = len(fleet) <= LEAVE_SELF_OUT_MAX_AXES
     for k, baseline in enumerate(baselines):
-        check = pool_fleet_without(fleet, len(others) + k)
+        check = pool_fleet_without(fleet, len(others) + k) if small else None
         model = copy.deepcopy(baseline.model).use_fleet(prior, check_against=check)
         out.append(IndicatorBaseline(model, baseline.file_hashes, baseline.paths))
     return out
