@@ -492,3 +492,27 @@ def grown_lines_naive(
         return float("nan")
     growth.sort(reverse=True)
     return sum(growth[:top]) / len(growth[:top])
+
+
+def fleet_difference_naive(
+    centre: dict[str, float],
+    within: dict[str, float],
+    fleet_centre: dict[str, float],
+    task_spreads: dict[str, float],
+    allowances: dict[str, float],
+    one_sided: set[str],
+) -> float:
+    """The axis's centre against the fleet's, indicator by indicator with a task spread ``s_t``:
+    the difference over ``sqrt(s_w^2 + s_t^2)`` and over its allowance, only upwards for
+    ``one_sided``; the largest (NaN when no such indicator is read by both)."""
+    nan = float("nan")
+    largest = nan
+    for name, own in within.items():
+        mine, theirs = centre.get(name, nan), fleet_centre.get(name, nan)
+        task = task_spreads.get(name, nan)
+        if mine != mine or theirs != theirs or task != task:
+            continue
+        z = (mine - theirs) / ((own**2 + task**2) ** 0.5 * allowances[name])
+        z = max(z, 0.0) if name in one_sided else abs(z)
+        largest = z if largest != largest else max(largest, z)
+    return largest

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import copy
 import inspect
 import math
 import textwrap
@@ -15,11 +16,14 @@ import axiswatch as aw
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._indicator_model import (
     IndicatorModel,
+    fleet_difference,
     indicator_allowances,
     leave_one_out_distances,
     pool_fleet,
+    pool_fleet_without,
     robust_spread,
 )
+from axiswatch._readings import INDICATORS
 from tests import naive
 
 RATE = 200.0
@@ -162,6 +166,99 @@ def test_fleet_prior_resists_a_faulty_minority() -> None:
     assert mixed_allowed < 1.5 * clean_allowed
 
 
+def test_a_worn_axis_of_four_is_flagged_against_the_other_three() -> None:
+    # Three healthy axes at three tasks and one worn from its first capture. Pooled with the
+    # others, the worn axis is in 3 of the 6 pairs: the median pair is a worn one, and the
+    # allowances it is checked against hide it.
+    healthy = [_fitted(100 * k, payload=float(k)) for k in range(3)]
+    worn = _fitted(700, coulomb=9.0)
+    fleet = [worn, *healthy]
+    prior = pool_fleet(fleet)
+    # The rule before: checked against the fleet with itself included, the worn axis passes.
+    before = [copy.deepcopy(m).use_fleet(prior) for m in fleet]
+    assert [m.fleet_check_ for m in before] == [None, None, None, None]
+    assert fleet_difference(worn.centre_, worn.within_, prior, 99.0)[0] < 1.0
+    models = [
+        m.use_fleet(prior, check_against=pool_fleet_without(fleet, k)) for k, m in enumerate(fleet)
+    ]
+    assert models[0].fleet_check_ is not None
+    assert models[0].fleet_check_.startswith("this axis's baseline differs from its fleet's: ")
+    assert "x its task-change allowance (already worn, or a task unlike the fleet's)" in (
+        models[0].fleet_check_
+    )
+    assert models[0].fleet_check_.endswith("checked against the 3 other axes of its profile")
+    assert [m.fleet_check_ for m in models[1:]] == [None, None, None]
+    # Captures are still scored with the prior of all four: no decision on a capture changes.
+    for old, new in zip(before, models, strict=True):
+        assert new.fleet is prior
+        assert new.threshold_ == old.threshold_
+        assert new.task_change_scales_ == old.task_change_scales_
+
+
+def test_a_fleet_of_three_checks_each_axis_with_itself_included() -> None:
+    fleet = [_fitted(100 * k, payload=float(k)) for k in range(2)] + [_fitted(700, coulomb=9.0)]
+    assert [pool_fleet_without(fleet, k) for k in range(3)] == [None, None, None]
+    prior = pool_fleet(fleet)
+    worn = fleet[2].use_fleet(prior, check_against=pool_fleet_without(fleet, 2))
+    assert any("checked against its fleet of 3 axes, itself included" in n for n in worn.notes_)
+    # The rule before, unchanged, and its limit: in 2 of the 3 pairs, the worn axis is not seen.
+    assert fleet_difference(worn.centre_, worn.within_, prior, 99.0)[0] < 1.0
+    assert worn.fleet_check_ is None
+
+
+def test_fleet_difference_matches_the_naive_twin() -> None:
+    fleet = [_fitted(100 * k, payload=float(k % 3)) for k in range(5)] + [_fitted(7, coulomb=6.0)]
+    prior = pool_fleet_without(fleet, 5)
+    assert prior is not None
+    worn = fleet[5]
+    up = {i.name for i in INDICATORS if i.sided == "up"}
+    got = fleet_difference(worn.centre_, worn.within_, prior, 99.0)[0]
+    fallback = prior.allowance(99.0)
+    allowances = {n: prior.allowances(99.0).get(n, fallback) for n in worn.within_}
+    want = naive.fleet_difference_naive(
+        worn.centre_, worn.within_, prior.centre, prior.task_spreads, allowances, up
+    )
+    assert got == pytest.approx(want, rel=1e-12)
+    assert got > 1.0
+
+
+def test_an_indicator_without_a_task_spread_is_not_checked() -> None:
+    # The 50 Hz axis gives no impulsiveness: the other three of a 200 Hz axis read it twice,
+    # too few for a task spread, so a task change's effect on it is unknown.
+    fleet = [_fitted(100 * k, payload=float(k), rate=200.0 if k < 3 else 50.0) for k in range(4)]
+    axis = fleet[0]
+    assert "impulsiveness" in axis.within_
+    with_itself = fleet_difference(axis.centre_, axis.within_, pool_fleet(fleet), 99.0)[1]
+    assert "impulsiveness" in with_itself
+    others = pool_fleet_without(fleet, 0)
+    assert others is not None
+    assert math.isnan(others.task_spreads["impulsiveness"])
+    distance, shifts = fleet_difference(axis.centre_, axis.within_, others, 99.0)
+    assert "impulsiveness" not in shifts
+    assert "coulomb_friction" in shifts
+    fallback = others.allowance(99.0)
+    allowances = {n: others.allowances(99.0).get(n, fallback) for n in axis.within_}
+    up = {i.name for i in INDICATORS if i.sided == "up"}
+    assert distance == pytest.approx(
+        naive.fleet_difference_naive(
+            axis.centre_, axis.within_, others.centre, others.task_spreads, allowances, up
+        ),
+        rel=1e-12,
+    )
+
+
+def test_the_checked_axis_must_be_in_the_fleet() -> None:
+    fleet = [_fitted(100 * k) for k in range(4)]
+    with pytest.raises(IndexError, match=r"'index' parameter must be in \[0, 4\).*Got 4"):
+        pool_fleet_without(fleet, 4)
+
+
+def test_a_fleet_check_needs_a_prior_to_score_with() -> None:
+    fleet = [_fitted(100 * k) for k in range(4)]
+    with pytest.raises(ValueError, match="'check_against' parameter of use_fleet needs a fleet"):
+        fleet[0].use_fleet(None, check_against=pool_fleet_without(fleet, 0))
+
+
 def test_fleet_needs_three_axes() -> None:
     with pytest.raises(aw.CalibrationError, match="at least 3 axes of one profile; got 2"):
         pool_fleet([_fitted(1), _fitted(50)])
@@ -292,3 +389,28 @@ def test_the_threshold_is_fitted_on_the_calibration_captures_leave_one_out_dista
         assert model.assess_fitting(k).distance == pytest.approx(model.own_loo_distances_[k])
     with pytest.raises(IndexError, match="'index' parameter must be in"):
         model.assess_fitting(6)
+
+
+def test_a_large_fleet_checks_a_baseline_with_itself_included(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Above LEAVE_SELF_OUT_MAX_AXES the leave-self-out pools (cubic in a first run) are not made:
+    # the check is against the whole fleet, and the notes say so. A cut at 3 axes shows it on 4.
+    from axiswatch.monitor import _indicators
+
+    monkeypatch.setattr(_indicators, "LEAVE_SELF_OUT_MAX_AXES", 3)
+    baselines = [
+        _indicators.IndicatorBaseline(_fitted(100 * k, payload=float(k)), ("h",) * 6, ("p",) * 6)
+        for k in range(4)
+    ]
+    pooled = _indicators.with_fleet(baselines)
+    for baseline in pooled:
+        assert baseline.model.fleet is not None
+        assert baseline.model.fleet.n_axes == 4
+        assert any(
+            "checked against its fleet of 4 axes, itself included" in n
+            for n in baseline.model.notes_
+        )
+    monkeypatch.setattr(_indicators, "LEAVE_SELF_OUT_MAX_AXES", 20)
+    small = _indicators.with_fleet(baselines)
+    assert not any("itself included" in n for b in small for n in b.model.notes_)

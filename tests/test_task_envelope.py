@@ -176,7 +176,9 @@ def test_the_monitor_scores_in_thresholds_and_calibration_gives_exactly_one() ->
         )
         for a in range(4)
     ]
-    pooled = with_fleet(baselines, [b.model for b in baselines])[0]
+    with pytest.raises(ValueError, match="'others' parameter of with_fleet must hold the models"):
+        with_fleet(baselines, [baselines[0].model])
+    pooled = with_fleet(baselines)[0]
     calibration = [
         threshold_units(assess_capture(pooled, robot.capture(0, seed=k), f"0/{k}", None))
         for k in range(1, 6)

@@ -34,6 +34,14 @@ estimated from what the user has:
   half-Laplace fit. Without a fleet prior the distance is in spreads and the threshold is the
   calibration fit alone. With 3 axes there are 3 pairs: the allowances are then a rough guess,
   and the report says how many pairs they rest on.
+* **the fleet check** (:func:`fleet_difference`): the axis's centre against the fleet's, in
+  units of each indicator's task-change allowance; over 1, the baseline is reported
+  (``fleet_check_``: already worn, or a task unlike the fleet's). It is made against the fleet
+  *without* the axis (:func:`pool_fleet_without`, leave-self-out) whenever 3 other axes remain:
+  pooled with the others, a worn axis inflates the task spreads and allowances it is checked
+  against (with 4 axes, 3 of the 6 pairs involve it) and hides. With fewer others it is checked
+  against the fleet with itself included, and says so. Captures are always scored with the prior
+  pooled over all the axes.
 * **the allowance only when the task changed** (``task_envelope_factor``, off by default: see
   :class:`IndicatorModel`): the fleet's spreads and allowance hide a fault as
   well as a task change, so a capture whose *motion* is the baseline's task is scored with the
@@ -83,9 +91,11 @@ __all__ = [
     "FleetPrior",
     "IndicatorAssessment",
     "IndicatorModel",
+    "fleet_difference",
     "indicator_allowances",
     "leave_one_out_distances",
     "pool_fleet",
+    "pool_fleet_without",
     "task_envelope",
 ]
 
@@ -96,6 +106,12 @@ MIN_READINGS = 3
 MIN_AXES = 3
 #: Least pairs of fleet axes reading an indicator for its own allowance (3 axes give 3 pairs).
 MIN_PAIRS = 3
+#: Largest fleet whose new baselines are checked against the fleet without them
+#: (:func:`pool_fleet_without`). In a fleet of ``n`` axes the pairs with one axis are ``2 / n``
+#: of all pairs: at most 10 % from 20 axes on, too few to move the pairs' median much, while the
+#: leave-self-out pools (one per new axis, each over the others' pairs) would cost ``O(n^3)`` in
+#: a first run. Set by this argument, not measured.
+LEAVE_SELF_OUT_MAX_AXES = 20
 #: The task envelope in units of the largest leave-one-out signature distance of the fitting
 #: captures (:func:`task_envelope`); chosen on the development robots (docs/evaluation.md,
 #: "Through the monitor").
@@ -364,6 +380,9 @@ def _order_cross_readings(
 def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
     """Pool fitted models of one profile's axes into a :class:`FleetPrior`.
 
+    The prior every axis's captures are scored with (all the axes pooled). An axis's own fleet
+    check is made against the others' (:func:`pool_fleet_without`).
+
     Raises
     ------
     CalibrationError
@@ -434,6 +453,128 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         indicator_scales,
         {n: len(z) for n, z in pair_shifts.items()},
     )
+
+
+def pool_fleet_without(models: Sequence[IndicatorModel], index: int) -> FleetPrior | None:
+    """The prior of the fleet without its ``index``-th axis: what that axis's baseline is
+    checked against (leave-self-out).
+
+    Pooled with the others, a worn axis inflates the task spreads and allowances it is checked
+    against: with 4 axes, 3 of the 6 pairs involve it and their median is a worn pair's.
+
+    Parameters
+    ----------
+    models : sequence of IndicatorModel
+        Fitted models of one profile's axes, the checked one included.
+    index : int
+        Position of the checked axis in ``models``.
+
+    Returns
+    -------
+    FleetPrior or None
+        :func:`pool_fleet` of the other models; None when fewer than 3 others remain (or none
+        of their indicators is read on enough of them): the caller then checks against the
+        fleet with the axis included (:meth:`IndicatorModel.use_fleet` without
+        ``check_against``).
+
+    Examples
+    --------
+    >>> from axiswatch.datasets import draw_robot
+    >>> robot = draw_robot(0)
+    >>> fleet = [IndicatorModel().fit(robot.capture(t, seed=0),
+    ...                               [robot.capture(t, seed=k) for k in range(1, 6)])
+    ...          for t in range(4)]
+    >>> pool_fleet_without(fleet, 0).n_axes, pool_fleet_without(fleet[:3], 0) is None
+    (3, True)
+    """
+    if not 0 <= index < len(models):
+        raise IndexError(
+            f"The 'index' parameter must be in [0, {len(models)}) (the fleet's axes). "
+            f"Got {index!r} instead."
+        )
+    others = [*models[:index], *models[index + 1 :]]
+    if len(others) < MIN_AXES:
+        return None
+    try:
+        return pool_fleet(others)
+    except CalibrationError:
+        return None
+
+
+def _combined_spreads(within: Mapping[str, float], prior: FleetPrior | None) -> dict[str, float]:
+    """``sqrt(s_w^2 + s_t^2)`` per indicator of ``within`` (``s_w`` where no ``s_t``)."""
+    spreads = prior.task_spreads if prior is not None else {}
+    out = {}
+    for name, own in within.items():
+        task = spreads.get(name, math.nan)
+        out[name] = math.hypot(own, task) if math.isfinite(task) else own
+    return out
+
+
+def _allowances(
+    within: Mapping[str, float], prior: FleetPrior | None, percentile: float
+) -> dict[str, float]:
+    """Task-change allowance per indicator of ``within``; empty without a prior."""
+    if prior is None:
+        return {}
+    own = prior.allowances(percentile)
+    fallback = prior.allowance(percentile)
+    return {name: own.get(name, fallback) for name in within}
+
+
+def _task_change_scales(
+    within: Mapping[str, float], prior: FleetPrior | None, percentile: float
+) -> dict[str, float]:
+    allowances = _allowances(within, prior, percentile)
+    return {n: s * allowances.get(n, 1.0) for n, s in _combined_spreads(within, prior).items()}
+
+
+def fleet_difference(
+    centre: Mapping[str, float],
+    within: Mapping[str, float],
+    prior: FleetPrior,
+    percentile: float,
+) -> tuple[float, dict[str, float]]:
+    """How far an axis's centre is from its fleet's, in task-change allowances.
+
+    The fleet check of :class:`IndicatorModel`: over 1, the axis's baseline differs from its
+    fleet's by more than a healthy task change is allowed to (already worn, or a task unlike the
+    fleet's).
+
+    Parameters
+    ----------
+    centre, within : mapping of str to float
+        The axis's centre and within-task spreads ``s_w`` per indicator (on the compared scale).
+    prior : FleetPrior
+        What the axis is checked against: the prior of the other axes
+        (:func:`pool_fleet_without`), else the fleet's with the axis included.
+    percentile : float in (0, 100)
+        Of the allowances (:meth:`FleetPrior.allowances`).
+
+    Returns
+    -------
+    (float, dict of str to float)
+        The largest shift and each indicator's: ``(centre - prior.centre) / (sqrt(s_w^2 + s_t^2)
+        x A_i)`` (one-sided for an indicator that only grows with a fault), over the indicators
+        of ``within`` that both give and that have a task spread ``s_t`` in ``prior`` (an
+        indicator read on fewer than 3 of its axes is not checked: what a task change does to
+        it is unknown); NaN and empty when there is none.
+
+    Examples
+    --------
+    >>> prior = FleetPrior({"coulomb_friction": 0.3}, 1.0, {"coulomb_friction": 3.0}, 4, 6,
+    ...                    {"coulomb_friction": 1.0}, {"coulomb_friction": 6})
+    >>> distance, shifts = fleet_difference({"coulomb_friction": 9.0},
+    ...                                     {"coulomb_friction": 0.4}, prior, 99.0)
+    >>> round(distance, 3)  # 6 / 0.5 spreads over an allowance of ln(100) = 4.6 spreads
+    2.606
+    """
+    # An indicator without a task spread (fewer than 3 of the fleet's axes read it) has no
+    # task-change allowance: its s_w alone would call any other task a difference.
+    checked = {
+        n: s for n, s in within.items() if math.isfinite(prior.task_spreads.get(n, math.nan))
+    }
+    return _distance(centre, prior.centre, _task_change_scales(checked, prior, percentile))
 
 
 @dataclass(frozen=True)
@@ -521,7 +662,9 @@ class IndicatorModel:
     percentile : float in (0, 100), default=99.0
     fleet : FleetPrior, optional
         Task-change spreads and allowance of the axis's profile (:func:`pool_fleet`); can be
-        set later with :meth:`use_fleet`.
+        set later with :meth:`use_fleet`, which also takes the prior of the other axes to
+        check the baseline against (given here, the baseline is checked against ``fleet``,
+        itself included).
     task_envelope_factor : float > 0 or None, default=None
         The task envelope in units of the largest leave-one-out signature distance of the
         fitting captures (:func:`task_envelope`; ``TASK_ENVELOPE_FACTOR`` = 2 was chosen on the
@@ -562,7 +705,9 @@ class IndicatorModel:
         Why the baseline capture is not trusted as it is (None when it agrees).
     fleet_check_ : str or None
         With a fleet prior: how the axis's centre differs from its fleet's by more than the
-        task-change allowance (None when it does not, or without a prior).
+        task-change allowance (:func:`fleet_difference`; None when it does not, or without a
+        prior), and what it was checked against: the other axes of its profile
+        (``check_against`` of :meth:`use_fleet`), else the fleet with the axis included.
     notes_ : list of str
         What the model could not estimate, in words.
 
@@ -595,6 +740,12 @@ class IndicatorModel:
     def pool(models: Sequence[IndicatorModel]) -> FleetPrior:
         """:func:`pool_fleet`: the fleet prior of fitted models of one profile's axes."""
         return pool_fleet(models)
+
+    @staticmethod
+    def pool_without(models: Sequence[IndicatorModel], index: int) -> FleetPrior | None:
+        """:func:`pool_fleet_without`: the prior the ``index``-th model's baseline is checked
+        against (``check_against`` of :meth:`use_fleet`)."""
+        return pool_fleet_without(models, index)
 
     def readings(self, capture: Capture) -> Readings:
         """The capture's indicators (:func:`~axiswatch.read_indicators` with the profile's
@@ -644,43 +795,65 @@ class IndicatorModel:
             envelope = task_envelope([r.signature for r in read], self.task_envelope_factor)
             if envelope is not None:
                 self.task_reference_, self.task_envelope_, self.task_loo_distances_ = envelope
-        self._threshold_from(rows)
+        self._threshold_from(rows, None)
         return self
 
-    def use_fleet(self, fleet: FleetPrior | None) -> IndicatorModel:
-        """Take a fleet prior (or drop it) and recompute the threshold."""
+    def use_fleet(
+        self, fleet: FleetPrior | None, *, check_against: FleetPrior | None = None
+    ) -> IndicatorModel:
+        """Take a fleet prior (or drop it) and recompute the threshold and the checks.
+
+        Parameters
+        ----------
+        fleet : FleetPrior or None
+            What captures are scored with: the prior of all the profile's axes, this one
+            included (:func:`pool_fleet`).
+        check_against : FleetPrior, optional
+            What the fleet check (``fleet_check_``) is made against: the prior of the other
+            axes (:func:`pool_fleet_without`). None: ``fleet`` itself, this axis included (a
+            worn axis then inflates the allowances it is checked against; the notes say so).
+
+        Examples
+        --------
+        >>> from axiswatch.datasets import draw_robot
+        >>> robot = draw_robot(0)
+        >>> fleet = [IndicatorModel().fit(robot.capture(t, seed=0),
+        ...                               [robot.capture(t, seed=k) for k in range(1, 6)])
+        ...          for t in range(4)]
+        >>> model = fleet[0].use_fleet(pool_fleet(fleet),
+        ...                            check_against=pool_fleet_without(fleet, 0))
+        >>> model.fleet.n_axes, model.fleet_check_ is None
+        (4, True)
+        """
+        if fleet is None and check_against is not None:
+            raise ValueError(
+                "The 'check_against' parameter of use_fleet needs a fleet prior to score with "
+                "('fleet'). Got fleet=None instead."
+            )
         self.fleet = fleet
-        self._threshold_from(self.calibration_rows_)
+        self._threshold_from(self.calibration_rows_, check_against)
         return self
 
     @property
     def scales_(self) -> dict[str, float]:
         """``sqrt(s_w^2 + s_t^2)`` per scored indicator (``s_w`` alone without a fleet prior)."""
-        spreads = self.fleet.task_spreads if self.fleet is not None else {}
-        out = {}
-        for name, within in self.within_.items():
-            task = spreads.get(name, math.nan)
-            out[name] = math.hypot(within, task) if math.isfinite(task) else within
-        return out
+        return _combined_spreads(self.within_, self.fleet)
 
     @property
     def allowances_(self) -> dict[str, float]:
         """Task-change allowance per scored indicator, in spreads (:meth:`FleetPrior.allowances`;
         the fleet's one allowance for an indicator without its own); empty without a prior."""
-        if self.fleet is None:
-            return {}
-        own = self.fleet.allowances(self.percentile)
-        fallback = self.fleet.allowance(self.percentile)
-        return {name: own.get(name, fallback) for name in self.within_}
+        return _allowances(self.within_, self.fleet, self.percentile)
 
     @property
     def task_change_scales_(self) -> dict[str, float]:
         """What a task change's shift is divided by: ``sqrt(s_w^2 + s_t^2) x A_i`` (so the
         distance is in allowance units), or :attr:`scales_` without a fleet prior."""
-        allowances = self.allowances_
-        return {n: s * allowances.get(n, 1.0) for n, s in self.scales_.items()}
+        return _task_change_scales(self.within_, self.fleet, self.percentile)
 
-    def _threshold_from(self, rows: Sequence[Mapping[str, float]]) -> None:
+    def _threshold_from(
+        self, rows: Sequence[Mapping[str, float]], check_against: FleetPrior | None
+    ) -> None:
         scales = self.task_change_scales_
         self.loo_distances_ = leave_one_out_distances(rows, scales)
         # The baseline's own leave-one-out distance is checked, not fitted: a faulty baseline
@@ -727,13 +900,22 @@ class IndicatorModel:
             )
         self.fleet_check_: str | None = None
         if self.fleet is not None:
-            d, shifts = _distance(self.centre_, self.fleet.centre, scales)
+            if check_against is not None:
+                against = check_against
+                whom = f"checked against the {against.n_axes} other axes of its profile"
+            else:
+                against = self.fleet
+                whom = f"checked against its fleet of {against.n_axes} axes, itself included"
+                self.notes_.append(
+                    f"baseline {whom} (a worn axis inflates the allowances it is checked against)"
+                )
+            d, shifts = fleet_difference(self.centre_, self.within_, against, self.percentile)
             if math.isfinite(d) and d > 1.0:
                 top = max(shifts, key=shifts.__getitem__)
                 self.fleet_check_ = (
                     f"this axis's baseline differs from its fleet's: {top} "
                     f"{shifts[top]:.1f} x its task-change allowance (already worn, or a task "
-                    "unlike the fleet's)"
+                    f"unlike the fleet's); {whom}"
                 )
                 self.notes_.append(self.fleet_check_)
 

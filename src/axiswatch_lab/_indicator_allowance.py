@@ -54,6 +54,7 @@ from axiswatch._indicator_model import (
     _transformed,
     leave_one_out_distances,
     pool_fleet,
+    pool_fleet_without,
 )
 from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
@@ -181,9 +182,10 @@ def _models(
             models[k] = IndicatorModel(profile, percentile=percentile).fit_readings(read)  # type: ignore[arg-type]
         except CalibrationError:
             continue
-    prior = pool_fleet(list(models.values()))
-    for model in models.values():
-        model.use_fleet(prior)
+    pool = list(models.values())
+    prior = pool_fleet(pool)
+    for k, model in enumerate(pool):
+        model.use_fleet(prior, check_against=pool_fleet_without(pool, k))
     return models, prior
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from axiswatch._indicator_model import IndicatorModel, pool_fleet
+from axiswatch._indicator_model import IndicatorModel, pool_fleet, pool_fleet_without
 from axiswatch._readings import (
     SIGNATURE_MOVING_QUANTILES,
     SIGNATURE_POSITION_QUANTILES,
@@ -105,7 +105,10 @@ def envelope_study(seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> pd.DataFrame:
                 ]
                 if pooled:
                     prior = pool_fleet(models)
-                    models = [m.use_fleet(prior) for m in models]
+                    models = [
+                        m.use_fleet(prior, check_against=pool_fleet_without(models, k))
+                        for k, m in enumerate(models)
+                    ]
                 for (a, _, monitored), model in zip(axes, models, strict=True):
                     for entry in monitored:
                         readings = entry["readings"]

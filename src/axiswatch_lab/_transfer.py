@@ -35,7 +35,7 @@ from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel, pool_fleet
+from axiswatch._indicator_model import IndicatorModel, pool_fleet, pool_fleet_without
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import Readings
 from axiswatch.datasets._family import SimulatedRobot, draw_robot
@@ -147,9 +147,10 @@ def robot_transfer(
             fleet[t] = new_model().fit_readings(fitting)
         except CalibrationError:
             unfitted.append(robot.tasks[t].name)  # reported: the axis cannot be monitored
-    prior = pool_fleet(list(fleet.values()))
-    for model in fleet.values():
-        model.use_fleet(prior)
+    pool = list(fleet.values())
+    prior = pool_fleet(pool)
+    for k, model in enumerate(pool):
+        model.use_fleet(prior, check_against=pool_fleet_without(pool, k))
     tests = paired_readings(robot, read, design)
     bases = sorted(fleet)
     distances = {
@@ -294,12 +295,13 @@ def _hydraulic(
         )
         for a in units
     }
-    prior = pool_fleet(list(models.values()))  # the faulty unit included: the monitor can't know
+    pool = [models[a] for a in units]
+    prior = pool_fleet(pool)  # the faulty unit included: the monitor can't know
     rows = []
-    for a in units:
+    for k, a in enumerate(units):
         if health[a] != "healthy":
             continue
-        model = models[a].use_fleet(prior)
+        model = models[a].use_fleet(prior, check_against=pool_fleet_without(pool, k))
         d = {u: [model.assess_readings(r).distance for r in read[u]] for u in units}
         own = d[a][n_calibration + 1 :]
         others = [x for u in units if u != a and health[u] == "healthy" for x in d[u]]

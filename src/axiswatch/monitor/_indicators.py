@@ -9,7 +9,10 @@ spreads. So, with the decision rule and the store unchanged:
    captures the monitor then decides as its calibration captures) and fits the model on all
    ``K + 1`` (:func:`fit_indicator_baseline`); an axis with fewer such captures waits;
 2. the driver pools the fitted models of the axes of one profile into a fleet prior
-   (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`);
+   (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`); each
+   axis's baseline is checked against the prior of the *other* axes when 3 remain
+   (:func:`~axiswatch._indicator_model.pool_fleet_without`: a worn axis must not set the
+   allowances it is checked against);
 3. a score job gives a capture the model was fitted on its *leave-one-out* assessment
    (:meth:`~axiswatch.IndicatorModel.assess_fitting`, in the axis's own spreads); any other
    capture is assessed against the centre (:func:`assess_capture`), in the own spreads when its
@@ -36,7 +39,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import FleetPrior, IndicatorAssessment, IndicatorModel, pool_fleet
+from axiswatch._indicator_model import (
+    LEAVE_SELF_OUT_MAX_AXES,
+    FleetPrior,
+    IndicatorAssessment,
+    IndicatorModel,
+    pool_fleet,
+    pool_fleet_without,
+)
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import Readings, read_indicators
 from axiswatch.exceptions import CalibrationError
@@ -165,10 +175,38 @@ def fleet_key(profile: AxisProfile | None) -> str:
 
 
 def with_fleet(
-    baselines: Sequence[IndicatorBaseline], fleet: Sequence[IndicatorModel]
+    baselines: Sequence[IndicatorBaseline], others: Sequence[IndicatorModel] = ()
 ) -> list[IndicatorBaseline]:
-    """The baselines with the fleet prior of ``fleet`` (the own models of one profile's axes,
-    these included), or unchanged when it has fewer than 3 axes or nothing to pool.
+    """The baselines with the prior of their fleet, or unchanged when it has fewer than 3 axes or
+    nothing to pool.
+
+    Parameters
+    ----------
+    baselines : sequence of IndicatorBaseline
+        The new baselines of one profile's axes.
+    others : sequence of IndicatorModel, default=()
+        The models of the profile's other axes (stored ones); the fleet is these and the
+        baselines' own.
+
+    Returns
+    -------
+    list of IndicatorBaseline
+        In order, each model a copy scored with the prior of the whole fleet and checked
+        (``fleet_check_``) against the prior of the fleet without it
+        (:func:`~axiswatch._indicator_model.pool_fleet_without`), or, with fewer than 3 other
+        axes, against the whole fleet's (its notes say so).
+
+    Raises
+    ------
+    ValueError
+        When ``others`` holds one of the baselines' own models (it would be pooled twice).
+
+    Notes
+    -----
+    One pool of the fleet per baseline, each over the pairs of the other axes: cubic in the
+    fleet's axes when all are new (a first run). So only a fleet of at most
+    ``LEAVE_SELF_OUT_MAX_AXES`` (20) axes checks each baseline without it; a larger one checks
+    it against the whole fleet's prior, where the pairs with one axis are at most a tenth.
 
     Examples
     --------
@@ -177,18 +215,28 @@ def with_fleet(
     ...     read = [read_axis_indicators(draw_robot(0).capture(task, seed=k), None)
     ...             for k in range(6)]
     ...     return fit_indicator_baseline(read, ["h"] * 6, ["p"] * 6, percentile=99.0)
-    >>> own = [fitted(task) for task in range(3)]
-    >>> pooled = with_fleet(own, [b.model for b in own])
-    >>> pooled[0].allowance() is not None, own[0].allowance() is None
-    (True, True)
+    >>> own = [fitted(task) for task in range(4)]
+    >>> pooled = with_fleet(own[:3], [own[3].model])
+    >>> pooled[0].model.fleet.n_axes, own[0].allowance() is None
+    (4, True)
     """
+    own = {id(b.model) for b in baselines}
+    if any(id(model) in own for model in others):
+        # The call before others existed passed the fleet, these included: each would count twice.
+        raise ValueError(
+            "The 'others' parameter of with_fleet must hold the models of the profile's other "
+            "axes; got one of these baselines' own (they are added to the fleet)."
+        )
+    fleet = [*others, *(b.model for b in baselines)]
     try:
-        prior: FleetPrior = pool_fleet(list(fleet))
+        prior: FleetPrior = pool_fleet(fleet)
     except CalibrationError:
         return list(baselines)
     out = []
-    for baseline in baselines:
-        model = copy.deepcopy(baseline.model).use_fleet(prior)
+    small = len(fleet) <= LEAVE_SELF_OUT_MAX_AXES
+    for k, baseline in enumerate(baselines):
+        check = pool_fleet_without(fleet, len(others) + k) if small else None
+        model = copy.deepcopy(baseline.model).use_fleet(prior, check_against=check)
         out.append(IndicatorBaseline(model, baseline.file_hashes, baseline.paths))
     return out
 

@@ -527,8 +527,10 @@ def _stored_indicator_models(
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
     """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
     axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
-    stored with an active baseline; an axis keeps the prior it was fitted with until it is
-    re-baselined (its threshold must not move under captures already decided)."""
+    stored with an active baseline, each new baseline checked against the others' prior
+    (:func:`~axiswatch.monitor._indicators.with_fleet`); an axis keeps the prior it was fitted
+    with until it is re-baselined (its threshold must not move under captures already
+    decided)."""
     if not fitted:
         return fitted
     groups = _stored_indicator_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
@@ -539,8 +541,8 @@ def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
     out = list(fitted)
     for key, members in new.items():
         own = [b for _, b in members]
-        fleet = [b.model for b in [*groups[key], *own]]
-        for (position, _), baseline in zip(members, with_fleet(own, fleet), strict=True):
+        stored = [b.model for b in groups[key]]
+        for (position, _), baseline in zip(members, with_fleet(own, stored), strict=True):
             if baseline.model.fleet is None:
                 continue
             model_key, blob = keep_model(baseline)
