@@ -277,6 +277,7 @@ def monitor(
             ("Axes not scored", result.axis_problems),
             ("Baselines to check", result.baseline_checks),
             ("Axes calibrating", result.calibrating),
+            ("Fleet allowances now applied", result.fleet_priors),
             ("Stale axes", result.stale),
         ):
             if lines:
