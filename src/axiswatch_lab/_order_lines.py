@@ -51,6 +51,7 @@ from unittest import mock
 import numpy as np
 import pandas as pd
 from scipy.signal import find_peaks
+from threadpoolctl import threadpool_limits
 
 import axiswatch._indicator_model as indicator_model
 from axiswatch._capture import Capture
@@ -257,6 +258,11 @@ def main(out: str, *args: str) -> None:
     [--candidates=A,B] SEED ...``: the study (development robots only while choosing), without
     kinematics unless ``--kinematics``; ``--baseline``: the product's ``order_lines`` against
     each baseline's own order spectrum instead of the candidates."""
+    with threadpool_limits(1):  # as transfer_study: a multi-threaded BLAS fights for the cores
+        _main(out, *args)
+
+
+def _main(out: str, *args: str) -> None:
     from axiswatch_lab._transfer import FAST_DESIGN
 
     fast = "--fast" in args
