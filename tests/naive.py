@@ -449,6 +449,51 @@ def indicator_allowances_naive(
     }
 
 
+def order_profile_naive(
+    orders: list[float], power: list[float], floor: list[float], per_decade: int
+) -> dict[int, float]:
+    """Cell -> log10(power / floor) summed over its bins, one bin at a time (cell ``k`` holds
+    the orders from ``10 ** (k / per_decade)`` up to the next cell's)."""
+    sums: dict[int, list[float]] = {}
+    for order, p, f in zip(orders, power, floor, strict=True):
+        if order <= 0 or f <= 0:
+            continue
+        k = math.floor(per_decade * math.log10(order))
+        cell = sums.setdefault(k, [0.0, 0.0])
+        cell[0] += p
+        cell[1] += f
+    return {k: math.log10(p / f) for k, (p, f) in sums.items() if f > 0}
+
+
+def order_reference_naive(profiles: list[dict[int, float]]) -> dict[int, float]:
+    """Per cell the middle of the sorted values of the profiles that read it, then the largest
+    of the cell and its two neighbours."""
+    cells = sorted({k for p in profiles for k, v in p.items() if v == v})
+    median = {}
+    for k in cells:
+        xs = sorted(p[k] for p in profiles if k in p and p[k] == p[k])
+        n = len(xs)
+        median[k] = xs[n // 2] if n % 2 else (xs[n // 2 - 1] + xs[n // 2]) / 2
+    out = {}
+    for k in range(min(cells), max(cells) + 1):
+        near = [median[j] for j in (k - 1, k, k + 1) if j in median]
+        if near:
+            out[k] = max(near)
+    return out
+
+
+def grown_lines_naive(
+    profile: dict[int, float], reference: dict[int, float], top: int, min_common: int
+) -> float:
+    """Growth of every cell both read, sorted by hand, the mean of the ``top`` largest."""
+    growth = [profile[k] - reference[k] for k in profile if k in reference]
+    growth = [g for g in growth if g == g]
+    if len(growth) < min_common:
+        return float("nan")
+    growth.sort(reverse=True)
+    return sum(growth[:top]) / len(growth[:top])
+
+
 def fleet_difference_naive(
     centre: dict[str, float],
     within: dict[str, float],

@@ -449,3 +449,42 @@ def _triage(store: SQLiteStore) -> list[AxisAttention]:
         store.alarms(),
         method="indicators",
     )
+
+
+def test_axes_fitted_before_their_fleet_had_three_get_its_prior_later(tmp_path: Path) -> None:
+    # Commissioned one at a time: a0 and a1 are fitted with no fleet prior (2 axes); when a2
+    # arrives, the three are a fleet, and a0 and a1 get its allowances from the next run on,
+    # while the scores already stored keep what they were scored with.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(2):
+        for day in range(7):
+            _write(robot.capture(a, seed=f"{a}/{day}"), root, "r1", f"a{a}", day)
+    settle(root)
+
+    def run() -> list[str]:
+        with SQLiteStore(tmp_path / "s.sqlite") as store:
+            return monitor_fleet(root, store, MonitorConfig(), settle_s=0).fleet_priors
+
+    assert run() == []
+    for day in range(8):
+        _write(robot.capture(2, seed=f"2/{day}"), root, "r1", "a2", day)
+    _write(robot.capture(0, seed="0/7"), root, "r1", "a0", 7)
+    settle(root)
+    given = run()
+    assert [line.split(":")[0] for line in given] == ["r1/a0", "r1/a1"]
+    assert all("task-change allowances from 3 axes of its fleet" in line for line in given)
+    for a in range(2):
+        _write(robot.capture(a, seed=f"{a}/8"), root, "r1", f"a{a}", 8)
+    settle(root)
+    assert run() == []  # nothing new to give
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        scores = store.score_table()
+    monitored = scores[(scores["role"] == "monitor") & scores["distance"].notna()]
+    axes = {
+        (row.axis, row.capture[-10:-8]): json.loads(row.details)["fleet_axes"]
+        for row in monitored.itertuples()
+    }
+    # a0's capture of the second run was scored before a2 was fitted: kept as it was.
+    assert axes[("a0", "08")] == 0
+    assert axes[("a0", "09")] == axes[("a1", "09")] == axes[("a2", "08")] == 3

@@ -69,6 +69,14 @@ from numpy.typing import NDArray
 
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
+from axiswatch._order_lines import (
+    MIN_COMMON_CELLS,
+    OrderProfile,
+    component_at,
+    grown_lines,
+    most_grown_order,
+    order_reference,
+)
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import (
     INDICATORS,
@@ -110,7 +118,19 @@ LEAVE_SELF_OUT_MAX_AXES = 20
 TASK_ENVELOPE_FACTOR = 2.0
 
 
+#: The order lines read against the baseline's own order spectrum (``order_lines=True``): in
+#: decades already (:func:`~axiswatch._order_lines.grown_lines`), only growth is abnormal.
+ORDER_LINES = Indicator(
+    "order_lines",
+    "a torque rate >= 100 Hz and steady runs resolving order lines, as the baseline's",
+    "up",
+    "order lines (new or grown against the baseline)",
+)
+
+
 def _declared(name: str) -> Indicator:
+    if name == ORDER_LINES.name:
+        return ORDER_LINES
     for indicator in INDICATORS:
         if indicator.name == name:
             return indicator
@@ -323,6 +343,40 @@ def indicator_allowances(
     }
 
 
+def _fitting_order_lines(read: Sequence[Readings]) -> tuple[OrderProfile | None, list[float]]:
+    """The order reference of the captures a model is fitted on, and each one's ``order_lines``
+    against the reference of the others (leave-one-out, as the calibration distances are)."""
+    profiles = [r.order_profile for r in read]
+    values = []
+    for k, profile in enumerate(profiles):
+        others = order_reference([p for j, p in enumerate(profiles) if j != k and p is not None])
+        values.append(
+            grown_lines(profile, others) if profile is not None and others is not None else math.nan
+        )
+    return order_reference([p for p in profiles if p is not None]), values
+
+
+def _order_cross_readings(
+    models: Sequence[IndicatorModel],
+) -> list[tuple[tuple[int, int], float]]:
+    """``((i, j), x)``: model ``i``'s ``order_lines`` of model ``j``'s fitting captures (the
+    median over them), for every ordered pair of models that read order lines."""
+    out = []
+    for (i, a), (j, b) in itertools.permutations(enumerate(models), 2):
+        reference = getattr(a, "order_reference_", None)
+        if reference is None:
+            continue
+        seen = [
+            grown_lines(r.order_profile, reference)
+            for r in b.fit_readings_
+            if r.order_profile is not None
+        ]
+        finite = [x for x in seen if math.isfinite(x)]
+        if finite:
+            out.append(((i, j), float(np.median(finite))))
+    return out
+
+
 def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
     """Pool fitted models of one profile's axes into a :class:`FleetPrior`.
 
@@ -345,16 +399,41 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         name: float(np.nanmedian(v)) if np.isfinite(v).any() else math.nan
         for name, v in centres.items()
     }
+    # The order lines are read against each axis's own reference, so their centres say nothing
+    # of a task change; what one does is axis a's reading of axis b's captures.
+    cross = _order_cross_readings(models)
+    if ORDER_LINES.name in centres:
+        shifts = [x - models[i].centre_.get(ORDER_LINES.name, math.nan) for (i, _), x in cross]
+        finite = [abs(d) for d in shifts if math.isfinite(d)]
+        task_spreads[ORDER_LINES.name] = (
+            MAD_TO_SD * float(np.median(finite)) if len(finite) >= MIN_PAIRS else math.nan
+        )
+    read_by = dict(cross)
     spread = [n for n in names if math.isfinite(task_spreads[n]) and task_spreads[n] > 0]
     distances = []
     pair_shifts: dict[str, list[float]] = {n: [] for n in spread}
-    for a, b in itertools.combinations(models, 2):
+    for (i, a), (j, b) in itertools.combinations(enumerate(models), 2):
         scales = {n: math.hypot(task_spreads[n], a.within_.get(n, math.nan)) for n in spread}
         scales = {n: s for n, s in scales.items() if math.isfinite(s)}
-        d, _ = _distance(a.centre_, b.centre_, scales)
+        mine, theirs = dict(a.centre_), dict(b.centre_)
+        if ORDER_LINES.name in mine:
+            # a's reading of b's captures against a's own centre: the shift b's task makes.
+            mine[ORDER_LINES.name] = read_by.get((i, j), math.nan)
+            theirs[ORDER_LINES.name] = a.centre_[ORDER_LINES.name]
+        d, _ = _distance(mine, theirs, scales)
         if math.isfinite(d):
             distances.append(d)
         for n, s in scales.items():
+            if n == ORDER_LINES.name:
+                # Both ways: each axis's reference reads the other's captures.
+                back = math.hypot(task_spreads[n], b.within_.get(n, math.nan))
+                for z in (
+                    (read_by.get((i, j), math.nan) - a.centre_.get(n, math.nan)) / s,
+                    (read_by.get((j, i), math.nan) - b.centre_.get(n, math.nan)) / back,
+                ):
+                    if math.isfinite(z):
+                        pair_shifts[n].append(abs(z))
+                continue
             z = (a.centre_.get(n, math.nan) - b.centre_.get(n, math.nan)) / s
             if math.isfinite(z):
                 pair_shifts[n].append(abs(z))  # a pair is a task change either way
@@ -594,6 +673,11 @@ class IndicatorModel:
         detects far more same-task friction faults for a few more false alarms, but on the real
         hydraulic actuators it raised 55 false alarms in 297 healthy captures
         (docs/evaluation.md, "Through the monitor").
+    order_lines : bool, default=False
+        Also read the torque's order spectrum and score ``order_lines``: how much the order
+        lines of a capture grew against the baseline's own order spectrum
+        (:mod:`axiswatch._order_lines`), without kinematics. Its task-change spread and
+        allowance come from the fleet: each axis's reference reading the other axes' captures.
 
     Attributes
     ----------
@@ -607,6 +691,9 @@ class IndicatorModel:
         Leave-one-out distance of each capture fitted on (baseline first; NaN where none) in the
         task-change units (:attr:`task_change_scales_`) and in the own spreads; each threshold
         is fitted on the calibration captures' (:func:`leave_one_out_distances`).
+    order_reference_ : OrderProfile or None
+        With ``order_lines``: the median order profile of the fitting captures
+        (:func:`~axiswatch._order_lines.order_reference`); None when none gave one.
     task_reference_ : ndarray of shape (6,) or None
         The median task signature of the fitting captures (None when fewer than 3 are read).
     task_envelope_ : float
@@ -641,11 +728,13 @@ class IndicatorModel:
         percentile: float = 99.0,
         fleet: FleetPrior | None = None,
         task_envelope_factor: float | None = None,
+        order_lines: bool = False,
     ) -> None:
         self.profile = profile
         self.percentile = percentile
         self.fleet = fleet
         self.task_envelope_factor = task_envelope_factor
+        self.order_lines = order_lines
 
     @staticmethod
     def pool(models: Sequence[IndicatorModel]) -> FleetPrior:
@@ -662,7 +751,7 @@ class IndicatorModel:
         """The capture's indicators (:func:`~axiswatch.read_indicators` with the profile's
         kinematics)."""
         kinematics = self.profile.kinematics() if self.profile is not None else {}
-        return read_indicators(capture, **kinematics)
+        return read_indicators(capture, **kinematics, order_lines=self.order_lines)
 
     def fit(self, baseline: Capture, calibration: Sequence[Capture]) -> IndicatorModel:
         """Centre and within-task spreads from the baseline and the calibration captures."""
@@ -678,6 +767,11 @@ class IndicatorModel:
         """:meth:`fit` from readings already taken (first = the baseline)."""
         self.fit_readings_ = list(read)
         rows = [_transformed(r) for r in read]
+        self.order_reference_: OrderProfile | None = None
+        if self.order_lines:
+            self.order_reference_, grown = _fitting_order_lines(read)
+            for row, value in zip(rows, grown, strict=True):
+                row[ORDER_LINES.name] = value
         names = list(rows[0])
         self.reasons_ = dict(read[0].reasons)
         self.centre_: dict[str, float] = {}
@@ -847,12 +941,57 @@ class IndicatorModel:
                 else "no task envelope"
             )
             case = f"{known}: {'fleet allowance' if self.fleet is not None else 'no fleet prior'}"
-        assessment = self._assess(
-            _transformed(readings), readings.reasons, self.centre_, own=case.startswith("same")
-        )
+        values, reasons = _transformed(readings), dict(readings.reasons)
+        if self.order_lines:
+            values[ORDER_LINES.name], why = self._order_lines(readings)
+            if why is not None:
+                reasons[ORDER_LINES.name] = why
+        assessment = self._assess(values, reasons, self.centre_, own=case.startswith("same"))
+        component = assessment.component
+        if assessment.top == ORDER_LINES.name:
+            component = self._where_grown(readings)
         return dataclasses.replace(
-            assessment, case=case, task_distance=distance, task_envelope=self.task_envelope_
+            assessment,
+            case=case,
+            task_distance=distance,
+            task_envelope=self.task_envelope_,
+            component=component,
         )
+
+    def _where_grown(self, readings: Readings) -> str:
+        """Where the order lines grew most and, with the profile's kinematics, the component
+        with a line there."""
+        # order_lines is read only when both are there.
+        assert readings.order_profile is not None
+        assert self.order_reference_ is not None
+        order = most_grown_order(readings.order_profile, self.order_reference_)
+        where = f"new or grown order lines, most at order {order:.4g}"
+        kinematics = self.profile.kinematics() if self.profile is not None else {}
+        if kinematics.get("gear_ratio") is None:
+            return where
+        name = component_at(
+            order,
+            kinematics["gear_ratio"],
+            kinematics["gear_stages"],
+            kinematics["bearing_orders"],
+        )
+        return f"{where}: {name}" if name is not None else f"{where} (no component's line there)"
+
+    def _order_lines(self, readings: Readings) -> tuple[float, str | None]:
+        """The capture's ``order_lines`` against the baseline's reference, or why none."""
+        if readings.order_profile is None:
+            return math.nan, readings.reasons.get(
+                ORDER_LINES.name, "not read (the readings were taken without order_lines)"
+            )
+        if self.order_reference_ is None:
+            return math.nan, "the baseline's captures gave no order spectrum"
+        value = grown_lines(readings.order_profile, self.order_reference_)
+        if not math.isfinite(value):
+            return math.nan, (
+                f"shares fewer than {MIN_COMMON_CELLS} order cells with the baseline's spectrum "
+                "(the speeds differ too much)"
+            )
+        return value, None
 
     def assess_fitting(self, index: int) -> IndicatorAssessment:
         """Leave-one-out assessment of the ``index``-th capture the model was fitted on (0: the

@@ -27,9 +27,10 @@ Indicators (the signal called torque may be a motor current or a pressure differ
   ``tooth_lines:<stage>`` for every gear stage and ``bearing_lines:<name>`` for every bearing,
   :func:`~axiswatch._mechanics.line_ratio` at the component's orders. Need the component's
   highest order to fall inside the band at the median moving speed and 20 motor revolutions.
-  Without kinematics no line indicator is read: the kinematics-free order-line summaries tried
-  on the development robots either raised Robot A's false alarms or were not scored where a
-  baseline has no lines (docs/evaluation.md, "Order lines without kinematics").
+  Without kinematics the kinematic lines are not read; the order spectrum is
+  (``order_lines=True``: :mod:`axiswatch._order_lines`), and a model compares it with its
+  baseline's own (``order_lines``: new or grown lines, docs/evaluation.md, "Order lines against
+  the baseline's own order spectrum").
 
 The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
 reading the drive loads on every capture, the kinematic band set by the speed and the tooth
@@ -59,6 +60,7 @@ from axiswatch._mechanics import (
     reversal_bursts,
     running_rms,
 )
+from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
@@ -155,12 +157,17 @@ class Readings:
     source : str
     signature : tuple of float
         The capture's :func:`task_signature` (empty when no motion could be read).
+    order_profile : OrderProfile or None
+        The torque's order spectrum on the common order grid
+        (:func:`~axiswatch._order_lines.order_profile`), when read (``order_lines=True``) and
+        the capture gives one; a model compares it with its baseline's (``order_lines``).
     """
 
     values: dict[str, float]
     reasons: dict[str, str] = field(default_factory=dict)
     source: str = "<memory>"
     signature: tuple[float, ...] = ()
+    order_profile: OrderProfile | None = field(default=None, compare=False)
 
     def available(self) -> list[str]:
         """Names of the indicators that were read."""
@@ -370,6 +377,7 @@ def read_indicators(
     gear_ratio: float | None = None,
     gear_stages: Mapping[str, float] | None = None,
     bearing_orders: Mapping[str, float] | None = None,
+    order_lines: bool = False,
 ) -> Readings:
     """Read every indicator a capture can give; NaN and the reason for the others.
 
@@ -383,6 +391,9 @@ def read_indicators(
         Name -> motor revolutions per revolution of a gear whose teeth are watched.
     bearing_orders : mapping of str to float, optional
         Name -> bearing defect frequency in orders of the motor speed.
+    order_lines : bool, default=False
+        Also read the torque's order spectrum (:attr:`Readings.order_profile`), or why it cannot
+        be read (``reasons["order_lines"]``).
 
     Returns
     -------
@@ -421,9 +432,16 @@ def read_indicators(
     moving = np.abs(m.speed) > MOVING_FRACTION * peak
     min_samples = max(5, round(0.2 * m.rate_hz))
     if peak <= 0 or moving.sum() < min_samples:
-        for name in values:
+        for name in [*values, *(["order_lines"] if order_lines else [])]:
             reasons[name] = "needs motion (the axis did not move for 0.2 s)"
         return Readings(values, reasons, capture.source, signature)
+    profile: OrderProfile | None = None
+    if order_lines:
+        spectrum = order_spectrum(m.position, m.speed, m.torque, m.rate_hz)
+        if isinstance(spectrum, str):
+            reasons["order_lines"] = spectrum
+        else:
+            profile = order_profile(spectrum)
     direction = np.sign(m.speed)
     both = [int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)]
     if all(both):
@@ -452,7 +470,7 @@ def read_indicators(
                 if m.rate_hz < MIN_BAND_RATE_HZ
                 else f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
             )
-        return Readings(values, reasons, capture.source, signature)
+        return Readings(values, reasons, capture.source, signature, profile)
     band = _band(m)
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
@@ -463,7 +481,7 @@ def read_indicators(
     values["reversal_bursts"] = bursts
     if not math.isfinite(bursts):
         reasons["reversal_bursts"] = "needs torque reversals while moving (none in this capture)"
-    return Readings(values, reasons, capture.source, signature)
+    return Readings(values, reasons, capture.source, signature, profile)
 
 
 def _kinematic_lines(

@@ -186,6 +186,11 @@ def monitor(
         "baseline's task, with this envelope factor (2 was chosen on development robots; "
         "default: off, every capture gets the fleet's allowance; docs/evaluation.md).",
     ),
+    order_lines: bool = typer.Option(
+        DEFAULTS.order_lines,
+        help="Method indicators: also score the torque's order lines against each baseline's "
+        "own order spectrum (no kinematics needed; 100 Hz or more; docs/evaluation.md).",
+    ),
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(
         None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
@@ -235,6 +240,7 @@ def monitor(
                 align_phase=align,
                 profile=None if profile is None else AxisProfile.from_toml(profile),
                 task_envelope=task_envelope,
+                order_lines=order_lines,
             )
             silence = _duration(stale_after, "--stale-after")
             check_request(root, config)
@@ -271,6 +277,7 @@ def monitor(
             ("Axes not scored", result.axis_problems),
             ("Baselines to check", result.baseline_checks),
             ("Axes calibrating", result.calibrating),
+            ("Fleet allowances now applied", result.fleet_priors),
             ("Stale axes", result.stale),
         ):
             if lines:

@@ -34,15 +34,15 @@ is lines, whatever orders they are at (kinematics-free):
 Compared on the development robots with the transfer design *without kinematics*
 (:func:`order_lines_study`): each candidate added to the readings against the readings alone.
 None passed (docs/evaluation.md, "Order lines without kinematics"): the summaries that find the
-faults add Robot-A false alarms, ``line_share`` is 0 in health and so not scored by the model;
-the product reads no line without kinematics.
+faults add Robot-A false alarms, ``line_share`` is 0 in health and so not scored by the model.
+:func:`baseline_relative_study` compares the product's ``order_lines`` instead (each capture's
+lines against its baseline's own order spectrum, :mod:`axiswatch._order_lines`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
-import itertools
 import math
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -50,13 +50,13 @@ from unittest import mock
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
-from scipy.fft import next_fast_len, rfft
-from scipy.ndimage import median_filter
-from scipy.signal import detrend, find_peaks, get_window
+from scipy.signal import find_peaks
+from threadpoolctl import threadpool_limits
 
 import axiswatch._indicator_model as indicator_model
 from axiswatch._capture import Capture
+from axiswatch._order_lines import OrderSpectrum
+from axiswatch._order_lines import order_spectrum as product_order_spectrum
 from axiswatch._readings import (
     BAND_FRACTION,
     INDICATORS,
@@ -79,16 +79,6 @@ __all__ = [
     "order_statistics",
 ]
 
-#: Share of the peak speed above which motion counts as steady (as the drive loads').
-STEADY_FRACTION = 0.5
-#: Least resolution cells of the median run in the order band.
-MIN_CELLS = 32
-#: Width of the running-median floor, in resolution cells of the median run.
-FLOOR_CELLS = 8
-#: Lowest order of the wide band, in resolution cells of the median run (a Hann window's
-#: leakage from a run's mean is below -62 dB there, from the curvature left after its straight
-#: line is removed below -55 dB).
-LOW_CELLS = 8
 #: A bin is a line when its power is this many times its floor (10 dB).
 LINE_PROMINENCE = 10.0
 
@@ -111,103 +101,29 @@ CANDIDATES: tuple[str, ...] = tuple(
 )
 
 
-@dataclasses.dataclass(frozen=True)
-class OrderSpectrum:
-    """The averaged order spectrum of a capture's steady runs, in the order band."""
-
-    orders: NDArray[np.float64]
-    power: NDArray[np.float64]
-    floor: NDArray[np.float64]
-    cells: float
-    bins_per_cell: float
-
-
-def _steady_runs(m: Motion) -> list[slice]:
-    speed = np.abs(m.speed)
-    peak = float(np.max(speed)) if speed.size else 0.0
-    key = np.where(speed > STEADY_FRACTION * peak, np.sign(m.speed), 0.0) if peak > 0 else speed
-    edges = np.flatnonzero(np.diff(key) != 0) + 1
-    bounds = np.concatenate([[0], edges, [key.size]])
-    return [
-        slice(int(a), int(b)) for a, b in itertools.pairwise(bounds) if key[a] != 0 and b - a > 8
-    ]
-
-
 def order_spectrum(m: Motion, band: str = "rate") -> OrderSpectrum | str:
-    """The order spectrum of the steady runs (see the module docstring), or why there is none.
+    """:func:`axiswatch._order_lines.order_spectrum` of a capture's motion, or why there is none.
 
     ``band="rate"``: the torque's band ``[0.04, 0.4] x`` the rate, orders that stay in it at every
-    steady speed; ``band="wide"``: the torque unfiltered, each run's straight line (in the angle)
-    removed, orders from :data:`LOW_CELLS` resolution cells of the median run up to ``0.4 x``
-    the rate at the fast steady speed.
+    steady speed; ``band="wide"``: the torque unfiltered (the product's).
 
     Examples
     --------
     >>> import numpy as np
     >>> from axiswatch import Capture
-    >>> t = np.arange(0, 6, 1e-3)  # strokes of 3 rad at 2 rad/s, a line at order 300
+    >>> t = np.arange(0, 6, 1e-3)
     >>> q = 3 * (1 - np.abs(2 * ((t / 3) % 1) - 1))
-    >>> noise = np.random.default_rng(0).normal(0, 0.05, t.size)
-    >>> torque = np.sign(np.gradient(q)) + 0.3 * np.sin(300 * q) + noise
-    >>> capture = Capture({"position": q, "torque": torque}, {"position": 1e3, "torque": 1e3})
-    >>> spectrum = order_spectrum(motion(capture), "wide")
-    >>> top = float(spectrum.orders[np.argmax(spectrum.power / spectrum.floor)])
-    >>> abs(top - 300) < 2  # within a resolution cell: a run of 3 rad resolves 2 pi / 3 orders
-    True
+    >>> torque = np.sign(np.gradient(q)) + 0.3 * np.sin(300 * q)
     >>> slow = Capture({"position": q[::20], "torque": torque[::20]}, {"position": 50.0,
     ...                                                               "torque": 50.0})
     >>> order_spectrum(motion(slow))
     'needs a torque rate >= 100 Hz (got 50 Hz)'
     """
-    if m.rate_hz < MIN_BAND_RATE_HZ:
-        return f"needs a torque rate >= {MIN_BAND_RATE_HZ:g} Hz (got {m.rate_hz:g} Hz)"
-    runs = _steady_runs(m)
-    if not runs:
-        return "needs steady motion"
+    if band == "wide":
+        return product_order_spectrum(m.position, m.speed, m.torque, m.rate_hz)
     low_hz, high_hz = (f * m.rate_hz for f in BAND_FRACTION)
-    torque = _band(m) if band == "rate" else m.torque
-    revs_per_s = np.concatenate([np.abs(m.speed[r]) for r in runs]) / (2 * math.pi)
-    slow, fast = (float(np.quantile(revs_per_s, q)) for q in (0.1, 0.9))
-    slowest = float(np.min(revs_per_s))
-    # Samples per unit of angle so that the highest frequency left in the torque (the band's top,
-    # or the rate's Nyquist frequency) at the slowest steady speed is below the grid's Nyquist
-    # order: nothing aliases into the order band.
-    per_rev = 2.0 * (high_hz if band == "rate" else 0.5 * m.rate_hz) / slowest
-    step = 2 * math.pi / per_rev
-    grids = []
-    for run in runs:
-        theta = m.position[run] * np.sign(m.speed[run][0])
-        order = np.argsort(theta, kind="stable")
-        theta, x = theta[order], torque[run][order]
-        n = int((theta[-1] - theta[0]) / step)
-        if n >= 16:
-            grid = np.interp(theta[0] + step * np.arange(n), theta, x)
-            if band != "rate":
-                grid = detrend(grid, type="linear")
-            grids.append(grid)
-    if not grids:
-        return "needs steady motion"
-    lengths = np.asarray([g.size for g in grids])
-    cell = per_rev / float(np.median(lengths))  # orders per resolution cell of the median run
-    low_order = low_hz / slow if band == "rate" else LOW_CELLS * cell
-    high_order = high_hz / fast
-    cells = max(high_order - low_order, 0.0) / cell
-    if cells < MIN_CELLS:
-        return (
-            f"needs steady runs resolving {MIN_CELLS} order lines in its order band "
-            f"(got {cells:.3g})"
-        )
-    nfft = next_fast_len(int(lengths.max()))
-    power = np.zeros(nfft // 2 + 1)
-    for g in grids:
-        window = get_window("hann", g.size)
-        power += np.abs(rfft(g * window, nfft)) ** 2 / float(np.sum(window**2)) * g.size
-    power /= float(lengths.sum())
-    orders = np.arange(power.size) * per_rev / nfft
-    inside = (orders >= low_order) & (orders <= high_order)
-    size = 2 * max(2, round(FLOOR_CELLS * cell / (per_rev / nfft) / 2)) + 1
-    floor = median_filter(power[inside], size=size, mode="nearest")
-    return OrderSpectrum(orders[inside], power[inside], floor, cells, nfft * cell / per_rev)
+    torque = _band(m) if m.rate_hz >= MIN_BAND_RATE_HZ else m.torque
+    return product_order_spectrum(m.position, m.speed, torque, m.rate_hz, (low_hz, high_hz))
 
 
 def order_statistics(spectrum: OrderSpectrum) -> dict[str, float]:
@@ -323,12 +239,43 @@ def order_lines_study(
     return pd.DataFrame(rows)
 
 
+def baseline_relative_study(seeds: Sequence[int], design: TransferDesign) -> pd.DataFrame:
+    """:func:`~axiswatch_lab._transfer.robot_transfer` per seed without and with the product's
+    ``order_lines`` (against each baseline's own order spectrum), on the same captures."""
+    rows = []
+    for seed in seeds:
+        with _simulated_once():
+            for chosen in (False, True):
+                variant = dataclasses.replace(design, order_lines=chosen)
+                record = robot_transfer(seed, variant)
+                rows.append({"candidate": "order_lines" if chosen else "none", **record})
+                print(rows[-1], flush=True)
+    return pd.DataFrame(rows)
+
+
 def main(out: str, *args: str) -> None:
-    """``python -m axiswatch_lab._order_lines OUT [--fast] [--candidates=A,B] SEED ...``: the
-    study without kinematics (development robots only while choosing)."""
+    """``python -m axiswatch_lab._order_lines OUT [--fast] [--kinematics] [--baseline]
+    [--candidates=A,B] SEED ...``: the study (development robots only while choosing), without
+    kinematics unless ``--kinematics``; ``--baseline``: the product's ``order_lines`` against
+    each baseline's own order spectrum instead of the candidates."""
+    with threadpool_limits(1):  # as transfer_study: a multi-threaded BLAS fights for the cores
+        _main(out, *args)
+
+
+def _main(out: str, *args: str) -> None:
     from axiswatch_lab._transfer import FAST_DESIGN
 
     fast = "--fast" in args
+    if "--baseline" in args:
+        design = dataclasses.replace(
+            FAST_DESIGN if fast else TransferDesign(), kinematics="--kinematics" in args
+        )
+        table = baseline_relative_study([int(a) for a in args if not a.startswith("--")], design)
+        Path(out).mkdir(parents=True, exist_ok=True)
+        name = "baseline_relative" + ("_kinematics" if design.kinematics else "")
+        table.to_csv(Path(out) / f"{name}.csv", index=False)
+        print(summary(table).to_string())
+        return
     chosen: Sequence[str] = CANDIDATES
     for arg in args:
         if arg.startswith("--candidates="):

@@ -60,6 +60,9 @@ class TransferDesign:
     kinematics : bool, default=True
         Give the model the robot's true kinematics (an AxisProfile with gear ratio, the tooth
         stage and the bearing order), as a service engineer would from the datasheets.
+    order_lines : bool, default=False
+        Models that also score the order lines against the baseline's own order spectrum
+        (``IndicatorModel(order_lines=True)``).
     """
 
     n_per_cell: int = 4
@@ -67,6 +70,7 @@ class TransferDesign:
     severity: float = 0.6
     robot_a_days: int = 190
     kinematics: bool = True
+    order_lines: bool = False
 
 
 #: A configuration of a few seconds per robot, for tests.
@@ -127,7 +131,11 @@ def robot_transfer(
     """
     robot = draw_robot(seed)
     profile = _profile(robot, design.kinematics)
-    read = read or IndicatorModel(profile).readings
+
+    def new_model() -> IndicatorModel:
+        return IndicatorModel(profile, order_lines=design.order_lines)
+
+    read = read or new_model().readings
     n_tasks = len(robot.tasks)
     fleet: dict[int, IndicatorModel] = {}
     unfitted = []
@@ -136,7 +144,7 @@ def robot_transfer(
             read(robot.capture(t, seed=f"fleet{k}")) for k in range(design.n_calibration + 1)
         ]
         try:
-            fleet[t] = IndicatorModel(profile).fit_readings(fitting)
+            fleet[t] = new_model().fit_readings(fitting)
         except CalibrationError:
             unfitted.append(robot.tasks[t].name)  # reported: the axis cannot be monitored
     pool = list(fleet.values())
@@ -169,9 +177,7 @@ def robot_transfer(
             [d > fleet[b].threshold_ for b in bases for d in healthy_other[b] if math.isfinite(d)]
         )
     )
-    oracle_models = {
-        t: IndicatorModel(profile).fit_readings(m.fit_readings_) for t, m in fleet.items()
-    }
+    oracle_models = {t: new_model().fit_readings(m.fit_readings_) for t, m in fleet.items()}
     for fault in FAULT_KINDS:
         aurocs = [
             _auroc(
@@ -213,8 +219,8 @@ def _robot_a(
     changes = [round(days * k / 4) for k in (1, 2, 3)]
     tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
     taken = [read(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
-    model = IndicatorModel(profile).fit_readings(taken[: design.n_calibration + 1])
-    model.use_fleet(prior)  # type: ignore[arg-type]
+    model = IndicatorModel(profile, order_lines=design.order_lines)
+    model.fit_readings(taken[: design.n_calibration + 1]).use_fleet(prior)  # type: ignore[arg-type]
     verdicts = [model.assess_readings(r) for r in taken[design.n_calibration + 1 :]]
     return {
         "robot_a_false_alarms": int(sum(v.alarm for v in verdicts)),
@@ -275,14 +281,18 @@ def hydraulic_captures(folder: Path) -> list[tuple[str, str, Capture]]:
     return out
 
 
-def _hydraulic(folder: Path, n_calibration: int, percentile: float) -> list[dict[str, object]]:
+def _hydraulic(
+    folder: Path, n_calibration: int, percentile: float, order_lines: bool
+) -> list[dict[str, object]]:
     captures = hydraulic_captures(folder)
     units = sorted({a for a, _, _ in captures})
-    reader = IndicatorModel(percentile=percentile)
+    reader = IndicatorModel(percentile=percentile, order_lines=order_lines)
     read = {a: [reader.readings(c) for u, _, c in captures if u == a] for a in units}
     health = {a: h for a, h, _ in captures}
     models = {
-        a: IndicatorModel(percentile=percentile).fit_readings(read[a][: n_calibration + 1])
+        a: IndicatorModel(percentile=percentile, order_lines=order_lines).fit_readings(
+            read[a][: n_calibration + 1]
+        )
         for a in units
     }
     pool = [models[a] for a in units]
@@ -341,13 +351,16 @@ def linear_axis_captures(folder: Path, window_s: float = 20.0) -> dict[str, list
     return out
 
 
-def _linear_axis(folder: Path, n_calibration: int, percentile: float) -> list[dict[str, object]]:
+def _linear_axis(
+    folder: Path, n_calibration: int, percentile: float, order_lines: bool
+) -> list[dict[str, object]]:
     windows = linear_axis_captures(folder)
-    reader = IndicatorModel(percentile=percentile)
+    reader = IndicatorModel(percentile=percentile, order_lines=order_lines)
     read = {k: [reader.readings(c) for c in v] for k, v in windows.items()}
     rows = []
     for base, other in (("normal", "session2016_jam_labels"), ("session2016_jam_labels", "normal")):
-        model = IndicatorModel(percentile=percentile).fit_readings(read[base][: n_calibration + 1])
+        model = IndicatorModel(percentile=percentile, order_lines=order_lines)
+        model.fit_readings(read[base][: n_calibration + 1])
         d = {k: [model.assess_readings(r).distance for r in v] for k, v in read.items()}
         own = d[base][n_calibration + 1 :] + d["pressure_anomaly"] * (base == "normal")
         every = [x for v in d.values() for x in v]
@@ -376,22 +389,23 @@ def real_data_transfer(
     n_calibration: int = 5,
     percentile: float = 99.0,
     datasets: Sequence[str] = REAL_DATASETS,
+    order_lines: bool = False,
 ) -> pd.DataFrame:
     """The same model on the real data sets found under ``data_root`` (absent ones skipped)."""
     with threadpool_limits(1):
-        rows = _real_rows(Path(data_root), n_calibration, percentile, datasets)
+        rows = _real_rows(Path(data_root), n_calibration, percentile, datasets, order_lines)
     return pd.DataFrame(rows)
 
 
 def _real_rows(
-    root: Path, n_calibration: int, percentile: float, datasets: Sequence[str]
+    root: Path, n_calibration: int, percentile: float, datasets: Sequence[str], order_lines: bool
 ) -> list[dict[str, object]]:
     rows: list[dict[str, object]] = []
     if "hydraulic_actuator" in datasets and (root / "hydraulic_actuator" / "index.csv").is_file():
-        rows += _hydraulic(root / "hydraulic_actuator", n_calibration, percentile)
+        rows += _hydraulic(root / "hydraulic_actuator", n_calibration, percentile, order_lines)
     if (
         "genesis_linear_axis" in datasets
         and (root / "genesis_linear_axis" / "normal.npz").is_file()
     ):
-        rows += _linear_axis(root / "genesis_linear_axis", n_calibration, percentile)
+        rows += _linear_axis(root / "genesis_linear_axis", n_calibration, percentile, order_lines)
     return rows

@@ -89,8 +89,11 @@ class IndicatorBaseline:
         return None if fleet is None else fleet.allowance(self.model.percentile)
 
 
-def read_axis_indicators(capture: Capture, profile: AxisProfile | None) -> Readings:
-    """:func:`~axiswatch.read_indicators` with the kinematics of the axis's profile, if any.
+def read_axis_indicators(
+    capture: Capture, profile: AxisProfile | None, *, order_lines: bool = False
+) -> Readings:
+    """:func:`~axiswatch.read_indicators` with the kinematics of the axis's profile, if any
+    (and the order spectrum with ``order_lines``).
 
     Examples
     --------
@@ -99,7 +102,8 @@ def read_axis_indicators(capture: Capture, profile: AxisProfile | None) -> Readi
     >>> read.reasons["impulsiveness"]
     'needs a torque rate >= 100 Hz (got 20 Hz)'
     """
-    return read_indicators(capture, **(profile.kinematics() if profile is not None else {}))
+    kinematics = profile.kinematics() if profile is not None else {}
+    return read_indicators(capture, **kinematics, order_lines=order_lines)
 
 
 def fit_indicator_baseline(
@@ -109,6 +113,7 @@ def fit_indicator_baseline(
     *,
     percentile: float,
     task_envelope_factor: float | None = None,
+    order_lines: bool = False,
 ) -> IndicatorBaseline:
     """Fit the axis's model on the readings of its baseline (first) and calibration captures.
 
@@ -122,6 +127,8 @@ def fit_indicator_baseline(
     task_envelope_factor : float > 0 or None, default=None
         :class:`~axiswatch.IndicatorModel`'s: None scores every capture with the fleet's
         allowance.
+    order_lines : bool, default=False
+        :class:`~axiswatch.IndicatorModel`'s (the readings must carry order profiles).
 
     Returns
     -------
@@ -148,7 +155,7 @@ def fit_indicator_baseline(
             f"capture. Got {len(readings)}, {len(file_hashes)} and {len(paths)} instead."
         )
     model = IndicatorModel(
-        percentile=percentile, task_envelope_factor=task_envelope_factor
+        percentile=percentile, task_envelope_factor=task_envelope_factor, order_lines=order_lines
     ).fit_readings(list(readings))
     return IndicatorBaseline(model, tuple(file_hashes), tuple(paths))
 
@@ -255,7 +262,8 @@ def assess_capture(
     """
     if file_hash in baseline.file_hashes:
         return baseline.model.assess_fitting(baseline.file_hashes.index(file_hash))
-    return baseline.model.assess_readings(read_axis_indicators(capture, profile))
+    read = read_axis_indicators(capture, profile, order_lines=baseline.model.order_lines)
+    return baseline.model.assess_readings(read)
 
 
 def threshold_units(assessment: IndicatorAssessment) -> float:

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from axiswatch._features import FeatureSpec
+from axiswatch._indicator_model import IndicatorModel
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import (
@@ -123,7 +124,9 @@ class MonitorSummary:
     ``waiting``: capture files not settled yet (scored by a later run; no attention needed).
     ``calibrating`` (method ``indicators``): axes whose baseline waits for its calibration
     captures (no attention needed); ``baseline_checks``: new baselines whose capture disagrees
-    with the calibration captures after it (a faulty first capture?), which need attention.
+    with the calibration captures after it (a faulty first capture?), which need attention;
+    ``fleet_priors``: axes fitted before their fleet had 3 axes that got its task-change
+    allowances in this run (their later captures are scored with them; no attention needed).
 
     ``n_files`` counts the capture files of the axis folders this run listed;
     ``unchanged_folders`` the axis folders it did not list, unchanged since a run finished them
@@ -145,6 +148,7 @@ class MonitorSummary:
     acknowledged_alarms: list[AlarmState] = field(default_factory=list)
     calibrating: list[str] = field(default_factory=list)
     baseline_checks: list[str] = field(default_factory=list)
+    fleet_priors: list[str] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
@@ -500,13 +504,24 @@ def _own_model(outcome: FitOutcome) -> IndicatorBaseline:
     return model
 
 
+@dataclass(frozen=True)
+class _StoredIndicators:
+    """An axis's stored IndicatorModel of its active baseline."""
+
+    robot: str
+    axis: str
+    baseline_id: int
+    saved: SavedModel
+    baseline: IndicatorBaseline
+
+
 def _stored_indicator_models(
     run: _Run, fitting: set[tuple[str, str]]
-) -> dict[str, list[IndicatorBaseline]]:
+) -> dict[str, list[_StoredIndicators]]:
     """The stored IndicatorModels of the active baselines of every axis the store knows (its
     folder listed in this run or not), but ``fitting``, by fleet."""
     source = run.caches.model_source()
-    groups: dict[str, list[IndicatorBaseline]] = defaultdict(list)
+    groups: dict[str, list[_StoredIndicators]] = defaultdict(list)
     if source is None:  # a store that keeps no models: only this run's fits are pooled
         return groups
     for row in run.store.axis_activity().itertuples(index=False):
@@ -520,17 +535,56 @@ def _stored_indicator_models(
         stored = resolve_model(ModelRef(saved.model_hash, source))
         if isinstance(stored, IndicatorBaseline):
             profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
-            groups[fleet_key(profile)].append(stored)
+            groups[fleet_key(profile)].append(
+                _StoredIndicators(robot, axis, baseline.id, saved, stored)
+            )
     return groups
+
+
+def _give_prior(
+    run: _Run,
+    stored: Sequence[_StoredIndicators],
+    new: Sequence[IndicatorModel],
+) -> None:
+    """Give the stored axes fitted without a fleet prior (their fleet had fewer than 3 axes
+    then) the prior of their fleet (``stored`` and the ``new`` models of this run): their stored
+    model is replaced, so their captures are scored with the task-change allowances from the
+    next run on (a run scores the axes with a stored model before it fits new ones); the scores
+    and decisions already stored stay (each score's details say how many fleet axes it was
+    scored with). A stored distance is in units of the threshold that applied, so the threshold
+    the monitor decides with stays 1."""
+    source = run.caches.model_source()
+    for entry in stored:
+        if entry.baseline.model.fleet is not None or source is None:
+            continue
+        others = [*(g.baseline.model for g in stored if g is not entry), *new]
+        (upgraded,) = with_fleet([entry.baseline], others)
+        if upgraded.model.fleet is None:
+            return  # fewer than 3 axes, or nothing to pool: no prior for any
+        model_key, blob = keep_model(upgraded)
+        if blob is None:
+            continue
+        run.caches.save_model(
+            entry.baseline_id, dataclasses.replace(entry.saved, model_hash=model_key), blob
+        )
+        line = (
+            f"{entry.robot}/{entry.axis}: task-change allowances from "
+            f"{upgraded.model.fleet.n_axes} axes of its fleet, from its next run's captures on"
+        )
+        check = upgraded.model.fleet_check_
+        run.summary.fleet_priors.append(line if check is None else f"{line}; {check}")
+        if check is not None:
+            run.summary.baseline_checks.append(f"{entry.robot}/{entry.axis}: {check}")
 
 
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
     """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
     axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
     stored with an active baseline, each new baseline checked against the others' prior
-    (:func:`~axiswatch.monitor._indicators.with_fleet`); an axis keeps the prior it was fitted
-    with until it is re-baselined (its threshold must not move under captures already
-    decided)."""
+    (:func:`~axiswatch.monitor._indicators.with_fleet`). An axis keeps the prior it was fitted
+    with until it is re-baselined (its allowances must not move under its captures); one fitted
+    without a prior, because its fleet had fewer than 3 axes then, gets the prior once its fleet
+    has them (:func:`_give_prior`)."""
     if not fitted:
         return fitted
     groups = _stored_indicator_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
@@ -541,7 +595,8 @@ def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
     out = list(fitted)
     for key, members in new.items():
         own = [b for _, b in members]
-        stored = [b.model for b in groups[key]]
+        stored = [g.baseline.model for g in groups[key]]
+        _give_prior(run, groups[key], [b.model for b in own])
         for (position, _), baseline in zip(members, with_fleet(own, stored), strict=True):
             if baseline.model.fleet is None:
                 continue

@@ -48,8 +48,9 @@ __all__ = [
 #: array in one packed member (format 1 had one ``.npy`` member per array: reading the zip
 #: members was 90 % of loading a model, 2 ms a capture in a fleet day).
 #: 3: a fleet prior keeps a task-change allowance per indicator (a model stored before has
-#: none, and is refitted).
-PERSIST_FORMAT = 3
+#: none, and is refitted). 4: an indicator model may keep its baseline's order spectrum and its
+#: readings their order profiles (``order_lines``).
+PERSIST_FORMAT = 4
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
@@ -67,6 +68,7 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.Threshold",
     "axiswatch._alignment.LowRankBasis",
     "axiswatch._indicator_model.FleetPrior",
+    "axiswatch._order_lines.OrderProfile",
     "axiswatch._readings.Readings",
     "axiswatch.monitor._indicators.IndicatorBaseline",
 )

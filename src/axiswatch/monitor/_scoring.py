@@ -109,6 +109,10 @@ class MonitorConfig:
         robots); None: every capture is scored with the allowance. Off by default: on the real
         hydraulic actuators it raised 55 false alarms in 297 healthy captures
         (docs/evaluation.md, "Through the monitor").
+    order_lines : bool, default=False
+        Method ``"indicators"``: also score ``order_lines``, the torque's order lines against
+        each baseline's own order spectrum (no kinematics needed; captures of 100 Hz or more
+        with steady motion). See :class:`~axiswatch.IndicatorModel`.
 
     Examples
     --------
@@ -134,9 +138,15 @@ class MonitorConfig:
     stage: FeatureStage | None = None
     profile: AxisProfile | None = None
     task_envelope: float | None = None
+    order_lines: bool = False
 
     def __post_init__(self) -> None:
         method_preset(self.method)
+        if self.order_lines and not self.preset.indicator_model:
+            raise ValueError(
+                "The 'order_lines' parameter is for the method 'indicators' only. Got "
+                f"order_lines=True for the method {self.method!r} instead."
+            )
         if self.task_envelope is not None and not (
             self.preset.indicator_model
             and math.isfinite(self.task_envelope)
@@ -212,7 +222,11 @@ class MonitorConfig:
         >>> MonitorConfig(method="indicators", percentile=95.0).indicator_model().percentile
         95.0
         """
-        return IndicatorModel(percentile=self.percentile, task_envelope_factor=self.task_envelope)
+        return IndicatorModel(
+            percentile=self.percentile,
+            task_envelope_factor=self.task_envelope,
+            order_lines=self.order_lines,
+        )
 
     def threshold_floor(self) -> float:
         """Least threshold: the ``percentile`` of the half-Laplace fit of healthy task changes
@@ -251,6 +265,8 @@ class MonitorConfig:
                 params["profile"] = self.profile.source
             if self.task_envelope is not None:  # absent otherwise: earlier stores still match
                 params["task_envelope"] = self.task_envelope
+            if self.order_lines:  # absent otherwise: earlier stores still match
+                params["order_lines"] = True
             return params
         model = self.model()
         params = {
@@ -418,7 +434,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
         if problem is not None:
             error = _bad_data(job.relative, problem)
             return FitOutcome(job, "", None, None, {}, digest, "", error, "bad data")
-        baseline = read_axis_indicators(capture, profile)
+        baseline = read_axis_indicators(capture, profile, order_lines=template.order_lines)
     except _DATA_ERRORS as exc:
         kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)
@@ -439,7 +455,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             )
             if data_quality_problem(calibration, reference) is not None:
                 continue
-            read = read_axis_indicators(calibration, profile)
+            read = read_axis_indicators(calibration, profile, order_lines=template.order_lines)
             if read.available():
                 readings.append(read)
                 hashes.append(file_hash(file.path))
@@ -460,6 +476,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             paths,
             percentile=template.percentile,
             task_envelope_factor=template.task_envelope_factor,
+            order_lines=template.order_lines,
         )
     except CalibrationError as exc:
         error = f"{job.relative}: not a baseline: {exc}"
