@@ -156,14 +156,15 @@ def _reader_floor(path: Path) -> None:
         scipy.fft.rfft(values)
 
 
-def case_job(method: str, quick: bool) -> dict[str, Any]:
+def case_job(method: str, quick: bool, *, order_lines: bool = False) -> dict[str, Any]:
     """The monitor's scoring job on one 3 s robot-simulator capture (warm worker: model kept,
-    BLAS limited once), against the physical floor of the same file, in the same process."""
+    BLAS limited once), against the physical floor of the same file, in the same process;
+    ``order_lines``: the ``indicators`` method with its order-lines option."""
     from axiswatch.monitor._fleet import FleetFile
     from axiswatch.monitor._models import ModelRef, keep_model
     from axiswatch.monitor._scoring import MonitorConfig, ScoreJob, score_capture
 
-    config = MonitorConfig(method=method)  # type: ignore[arg-type]
+    config = MonitorConfig(method=method, order_lines=order_lines)  # type: ignore[arg-type]
     baseline = awd.simulate_capture("heavy", seed=1)
     model: Any
     if config.preset.indicator_model:
@@ -172,10 +173,11 @@ def case_job(method: str, quick: bool) -> dict[str, Any]:
 
         fitting = [baseline] + [awd.simulate_capture("heavy", seed=s) for s in range(3, 8)]
         model = fit_indicator_baseline(
-            [read_axis_indicators(c, None) for c in fitting],
+            [read_axis_indicators(c, None, order_lines=order_lines) for c in fitting],
             [f"fit{k}" for k in range(6)],
             [""] * 6,
             percentile=config.percentile,
+            order_lines=order_lines,
         )
     else:
         model = config.model().fit(baseline)
@@ -200,7 +202,8 @@ def case_job(method: str, quick: bool) -> dict[str, Any]:
     job_s, floor_s = statistics.median(jobs), statistics.median(floors)
     reader_s = statistics.median(readers)
     return {
-        "case": f"3 s robot capture: scoring job ({method}) vs floor",
+        "case": f"3 s robot capture: scoring job ({method}"
+        f"{' --order-lines' if order_lines else ''}) vs floor",
         "fast_s": job_s,
         "dense_s": floor_s,
         "ratio": job_s / floor_s,
@@ -266,6 +269,7 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "capture-3s": lambda q: case_capture(3.0, q),
     "capture-60s": lambda q: case_capture(60.0, q),
     "job-3s-indicators": lambda q: case_job("indicators", q),
+    "job-3s-indicators-order-lines": lambda q: case_job("indicators", q, order_lines=True),
     "job-3s-mechanics": lambda q: case_job("mechanics", q),
     "job-3s-lra": lambda q: case_job("lra", q),
     "job-3s-pca": lambda q: case_job("pca", q),
