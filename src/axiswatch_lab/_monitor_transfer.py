@@ -52,9 +52,12 @@ def _write(capture: Capture, root: Path, robot: str, axis: str, index: int) -> N
 
 def _config(variant: str) -> MonitorConfig:
     """``indicators-envelope``: the method with the task envelope chosen on the development
-    robots; ``indicators-own`` is the method itself (the profiles make the difference)."""
+    robots; ``indicators-order-lines``: with its order-lines option; ``indicators-own`` is the
+    method itself (the profiles make the difference)."""
     if variant == "indicators-envelope":
         return MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
+    if variant == "indicators-order-lines":
+        return MonitorConfig(method="indicators", order_lines=True)
     return MonitorConfig(method=variant.split("-")[0])
 
 
