@@ -409,6 +409,9 @@ def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
     summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
     summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
     print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
+    # Per robot: a total can hide a robot that got worse (robot6 and robot2 in the study before).
+    by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
+    print(by_robot[list(summary.index)].to_string())
     print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
 
 
