@@ -161,6 +161,7 @@ class Readings:
         The torque's order spectrum on the common order grid
         (:func:`~axiswatch._order_lines.order_profile`), when read (``order_lines=True``) and
         the capture gives one; a model compares it with its baseline's (``order_lines``).
+        Not part of ``==`` (an array has no single truth value).
     """
 
     values: dict[str, float]
