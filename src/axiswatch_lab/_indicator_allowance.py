@@ -30,13 +30,15 @@ The alternatives scored here, each from the same readings:
 Added by i13h (allowances from an axis's own pairs, docs/evaluation.md "Allowances from an
 axis's own pairs"):
 
-* ``current``: the product's rule as it is, its allowances taken from the product
+* ``fleet only``: the product's rule before the own pairs (the study's reference), its
+  allowances taken from the fleet prior
   (:meth:`FleetPrior.allowances`), the reference the others are compared with;
 * ``own pairs, at least the fleet's``: per axis, ``A_i = max(A_i(fleet), A_i(own))``, where
   ``A_i(own)`` is the same half-Laplace rule (``median / ln 2``, the fleet's Bonferroni level)
   fitted to the ``|z_i|`` of the axis's centre against each other axis's centre
-  (:func:`own_pair_allowances`): an axis whose task is unlike the fleet's gets a larger
-  allowance, a normal axis about the fleet's;
+  (:func:`~axiswatch._indicator_model.own_pair_allowances`, the product's since it was chosen):
+  an axis whose task is unlike the fleet's gets a larger allowance, a normal axis about the
+  fleet's;
 * ``own pairs``: ``A_i(own)`` alone (smaller than the fleet's on an axis in the fleet's middle).
 
 Scenarios: the lab's transfer study (:mod:`axiswatch_lab._transfer`: paired AUROC and ``dr99``
@@ -61,12 +63,12 @@ import pandas as pd
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._indicator_model import (
     MIN_PAIRS,
-    ORDER_LINES,
     FleetPrior,
     IndicatorModel,
     _distance,
     _transformed,
     leave_one_out_distances,
+    own_pair_allowances,
     pool_fleet,
     pool_fleet_without,
 )
@@ -77,10 +79,10 @@ from axiswatch.exceptions import CalibrationError
 from axiswatch_lab._task_envelope import _scenario
 from axiswatch_lab._transfer import TransferDesign, _auroc, _profile, paired_readings
 
-__all__ = ["VARIANTS", "allowance_study", "indicator_allowances", "own_pair_allowances"]
+__all__ = ["VARIANTS", "allowance_study", "indicator_allowances"]
 
 VARIANTS: tuple[str, ...] = (
-    "current",
+    "fleet only",
     "own pairs, at least the fleet's",
     "own pairs",
     "scalar",
@@ -111,68 +113,6 @@ def indicator_allowances(
     out = {n: scalar for n in names}
     for n in fitted:
         out[n] = half_laplace_threshold(float(np.median(shifts[n])) / math.log(2.0), level)
-    return out
-
-
-def own_pair_allowances(
-    centre: Mapping[str, float],
-    within: Mapping[str, float],
-    others: Sequence[Mapping[str, float]],
-    prior: FleetPrior,
-    percentile: float,
-) -> dict[str, float]:
-    """Task-change allowances of one axis from its own pairs with the other axes.
-
-    The fleet's allowance ``A_i`` (:func:`~axiswatch._indicator_model.indicator_allowances`)
-    fits a half-Laplace to the ``|z_i|`` of *all* the fleet's pairs; here the same rule is
-    fitted to the pairs that involve this axis only: ``z_i = (c_i - c_i') / sqrt(s_w,i^2 +
-    s_t,i^2)`` of the axis's centre ``c_i`` against each other axis's ``c_i'`` (``s_w`` the
-    axis's own within-task spread, as its captures are scored), scale ``median / ln 2``, at the
-    fleet's Bonferroni level ``100 - (100 - p) / m`` (``m`` the indicators with a fleet scale).
-
-    Parameters
-    ----------
-    centre, within : mapping of str to float
-        The axis's centre and within-task spread per indicator (on the compared scale).
-    others : sequence of mapping of str to float
-        The other axes' centres (``n - 1`` of them in a fleet of ``n``; all the fleet's axes for
-        an axis fitted apart).
-    prior : FleetPrior
-        The fleet's prior: task spreads, the indicators with an allowance and their fallback.
-    percentile : float in (0, 100)
-
-    Returns
-    -------
-    dict of str to float
-        Per indicator of ``prior.indicator_scales``: the own-pairs allowance in spreads, or the
-        fleet's (:meth:`FleetPrior.allowances`) where fewer than ``MIN_PAIRS`` pairs read it,
-        their median is 0, or the indicator is ``order_lines`` (read against each axis's own
-        reference: its centres say nothing of a task change).
-
-    Examples
-    --------
-    >>> prior = FleetPrior({"a": 3.0}, 1.0, {"a": 0.0}, 5, 10, {"a": 1.0}, {"a": 10})
-    >>> others = [{"a": v} for v in (0.0, 5.0, 20.0, 30.0)]
-    >>> own = own_pair_allowances({"a": 10.0}, {"a": 4.0}, others, prior, 99.0)
-    >>> round(own["a"], 3)  # |z| 2, 1, 2, 4 in spreads of 5: median 2, 2 / ln 2 x ln 100
-    13.288
-    """
-    fleet = prior.allowances(percentile)
-    fitted = sum(math.isfinite(s) and s > 0 for s in prior.indicator_scales.values())
-    level = 100.0 - (100.0 - percentile) / max(fitted, 1)
-    out = {}
-    for name, fallback in fleet.items():
-        scale = math.hypot(prior.task_spreads.get(name, math.nan), within.get(name, math.nan))
-        shifts = [
-            abs((centre.get(name, math.nan) - other.get(name, math.nan)) / scale)
-            for other in others
-        ]
-        finite = [z for z in shifts if math.isfinite(z)]
-        middle = float(np.median(finite)) if finite else 0.0
-        if name == ORDER_LINES.name or len(finite) < MIN_PAIRS or not middle > 0:
-            out[name] = fallback
-        else:
-            out[name] = half_laplace_threshold(middle / math.log(2.0), level)
     return out
 
 
@@ -303,7 +243,7 @@ def _scorers(
         scorers = {}
         for k, m in every.items():
             fitted = copy.deepcopy(m).use_fleet(fits[plain])
-            if v == "current":
+            if v == "fleet only":
                 scorers[k] = Scorer(fitted, fleet, "per-indicator")
             elif v == "own pairs":
                 scorers[k] = Scorer(fitted, own[k], "per-indicator")
