@@ -28,6 +28,12 @@ estimated from what the user has:
   most and hid a fault on the others (docs/evaluation.md, "Transfer"). An indicator read on
   fewer than 3 pairs, or without a task spread, takes that one allowance. For an indicator that
   only grows with a fault the two-sided ``|z_i|`` makes its allowance conservative.
+* an axis whose own task is unlike the fleet's (a heavy payload on an arm, the other tasks
+  alike) would take the fleet's typical allowance and alarm on every change away from its task:
+  each axis takes, per indicator, the larger of the fleet's allowance and the same rule fitted to
+  its *own* pairs only (:func:`own_pair_allowances`: its centre against each other axis's).
+  Chosen on the development robots (docs/evaluation.md, "Allowances from an axis's own pairs");
+  the fleet check keeps the fleet's allowances.
 * a capture that changed task is scored in **allowance units**: its distance is the largest
   ``u_i = z_i / A_i``; the calibration captures' leave-one-out distances are in the same units
   and the **threshold** is the larger of 1 (an allowance) and the ``percentile`` of their
