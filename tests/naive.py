@@ -516,3 +516,35 @@ def fleet_difference_naive(
         z = max(z, 0.0) if name in one_sided else abs(z)
         largest = z if largest != largest else max(largest, z)
     return largest
+
+
+def own_pair_allowances_naive(
+    centre: dict[str, float],
+    within: dict[str, float],
+    others: list[dict[str, float]],
+    task_spreads: dict[str, float],
+    fleet_allowances: dict[str, float],
+    n_fitted: int,
+    percentile: float,
+) -> dict[str, float]:
+    """Per indicator of ``fleet_allowances``: the axis against each other axis by one loop, |z|
+    in the axis's own ``sqrt(s_w^2 + s_t^2)``, the middle of the sorted list, the exponential
+    quantile ``-b ln(1 - q)`` at Bonferroni's level over ``n_fitted`` indicators (fewer than 3
+    pairs, or a median of 0: the fleet's allowance)."""
+    nan = float("nan")
+    out = {}
+    for name, fallback in fleet_allowances.items():
+        scale = (task_spreads.get(name, nan) ** 2 + within.get(name, nan) ** 2) ** 0.5
+        zs = []
+        for other in others:
+            z = (centre.get(name, nan) - other.get(name, nan)) / scale
+            if z == z and abs(z) != float("inf"):
+                zs.append(abs(z))
+        zs.sort()
+        n = len(zs)
+        middle = (zs[n // 2] if n % 2 else (zs[n // 2 - 1] + zs[n // 2]) / 2) if n else 0.0
+        level = 1 - (1 - percentile / 100) / max(n_fitted, 1)
+        out[name] = (
+            -middle / math.log(2.0) * math.log(1 - level) if n >= 3 and middle > 0 else fallback
+        )
+    return out

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import copy
+import dataclasses
 import inspect
 import math
 import textwrap
@@ -19,6 +20,7 @@ from axiswatch._indicator_model import (
     fleet_difference,
     indicator_allowances,
     leave_one_out_distances,
+    own_pair_allowances,
     pool_fleet,
     pool_fleet_without,
     robust_spread,
@@ -86,7 +88,16 @@ def test_fleet_allowance_comes_from_the_fleet_pairs() -> None:
     assert prior.allowance(99.0) == pytest.approx(half_laplace_threshold(prior.allowance_scale, 99))
     assert all(n == 10 for n in prior.indicator_pairs.values())
     model = fleet[0].use_fleet(prior)
-    assert model.allowances_ == {n: prior.allowances(99.0)[n] for n in model.within_}
+    # Each indicator's allowance: the fleet's, or the axis's own pairs' where larger (fleet[0]
+    # carries no payload, the end of the fleet's range: its own pairs are larger on some).
+    own = own_pair_allowances(
+        fleet[0].centre_, fleet[0].within_, [m.centre_ for m in fleet[1:]], prior, 99.0
+    )
+    fleet_allowed = prior.allowances(99.0)
+    assert model.allowances_ == {n: max(fleet_allowed[n], own[n]) for n in model.within_}
+    assert any(own[n] > fleet_allowed[n] for n in model.within_)
+    assert model.fleet is not None
+    assert model.fleet.centres == ()  # the model keeps its prior without the fleet's centres
     # A task change is scored in allowance units: 1 is an allowance, the threshold at least 1.
     assert model.threshold_ >= 1.0
     want = fit_half_laplace(
@@ -147,7 +158,8 @@ def test_an_indicator_without_its_own_allowance_takes_the_fleets_one() -> None:
     fleet = [_fitted(100 * k, payload=float(k), rate=200.0 if k < 2 else 50.0) for k in range(4)]
     prior = pool_fleet(fleet)
     assert "impulsiveness" not in prior.indicator_scales
-    model = fleet[0].use_fleet(prior)
+    # Taken apart from the fleet's centres, the axis has the fleet's allowances only.
+    model = fleet[0].use_fleet(dataclasses.replace(prior, centres=()))
     assert model.allowances_["impulsiveness"] == prior.allowance(99.0)
     assert model.allowances_["coulomb_friction"] == prior.allowances(99.0)["coulomb_friction"]
     allowed = indicator_allowances({"a": 1.0, "b": math.nan, "c": 0.0}, 99.0, 7.0)
@@ -190,7 +202,8 @@ def test_a_worn_axis_of_four_is_flagged_against_the_other_three() -> None:
     assert [m.fleet_check_ for m in models[1:]] == [None, None, None]
     # Captures are still scored with the prior of all four: no decision on a capture changes.
     for old, new in zip(before, models, strict=True):
-        assert new.fleet is prior
+        assert new.fleet is not None
+        assert new.fleet.task_spreads == prior.task_spreads
         assert new.threshold_ == old.threshold_
         assert new.task_change_scales_ == old.task_change_scales_
 

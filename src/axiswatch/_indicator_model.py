@@ -28,6 +28,12 @@ estimated from what the user has:
   most and hid a fault on the others (docs/evaluation.md, "Transfer"). An indicator read on
   fewer than 3 pairs, or without a task spread, takes that one allowance. For an indicator that
   only grows with a fault the two-sided ``|z_i|`` makes its allowance conservative.
+* an axis whose own task is unlike the fleet's (a heavy payload on an arm, the other tasks
+  alike) would take the fleet's typical allowance and alarm on every change away from its task:
+  each axis takes, per indicator, the larger of the fleet's allowance and the same rule fitted to
+  its *own* pairs only (:func:`own_pair_allowances`: its centre against each other axis's).
+  Chosen on the development robots (docs/evaluation.md, "Allowances from an axis's own pairs");
+  the fleet check keeps the fleet's allowances.
 * a capture that changed task is scored in **allowance units**: its distance is the largest
   ``u_i = z_i / A_i``; the calibration captures' leave-one-out distances are in the same units
   and the **threshold** is the larger of 1 (an allowance) and the ``percentile`` of their
@@ -288,6 +294,10 @@ class FleetPrior:
         ``MIN_PAIRS`` pairs read it or their median is 0.
     indicator_pairs : dict of str to int
         How many pairs each of those rests on.
+    centres : tuple of dict of str to float
+        Each pooled axis's centre (what an axis's own pairs are read from:
+        :func:`own_pair_allowances`); a model keeps its prior without them once it has its own
+        allowances (:meth:`IndicatorModel.use_fleet`).
     """
 
     task_spreads: dict[str, float]
@@ -297,6 +307,7 @@ class FleetPrior:
     n_pairs: int
     indicator_scales: dict[str, float]
     indicator_pairs: dict[str, int]
+    centres: tuple[dict[str, float], ...] = ()
 
     def allowance(self, percentile: float) -> float:
         """The one task-change allowance at ``percentile`` (of the pairs' largest shift)."""
@@ -452,6 +463,7 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         len(distances),
         indicator_scales,
         {n: len(z) for n, z in pair_shifts.items()},
+        tuple(dict(m.centre_) for m in models),
     )
 
 
@@ -512,21 +524,95 @@ def _combined_spreads(within: Mapping[str, float], prior: FleetPrior | None) -> 
 
 
 def _allowances(
-    within: Mapping[str, float], prior: FleetPrior | None, percentile: float
+    within: Mapping[str, float],
+    prior: FleetPrior | None,
+    percentile: float,
+    own: Mapping[str, float] | None = None,
 ) -> dict[str, float]:
-    """Task-change allowance per indicator of ``within``; empty without a prior."""
+    """Task-change allowance per indicator of ``within``: the fleet's, or the axis's ``own``
+    (:func:`own_pair_allowances`) where that is larger; empty without a prior."""
     if prior is None:
         return {}
-    own = prior.allowances(percentile)
+    fleet = prior.allowances(percentile)
     fallback = prior.allowance(percentile)
-    return {name: own.get(name, fallback) for name in within}
+    mine = own or {}
+    return {name: max(fleet.get(name, fallback), mine.get(name, -math.inf)) for name in within}
 
 
 def _task_change_scales(
-    within: Mapping[str, float], prior: FleetPrior | None, percentile: float
+    within: Mapping[str, float],
+    prior: FleetPrior | None,
+    percentile: float,
+    own: Mapping[str, float] | None = None,
 ) -> dict[str, float]:
-    allowances = _allowances(within, prior, percentile)
+    allowances = _allowances(within, prior, percentile, own)
     return {n: s * allowances.get(n, 1.0) for n, s in _combined_spreads(within, prior).items()}
+
+
+def own_pair_allowances(
+    centre: Mapping[str, float],
+    within: Mapping[str, float],
+    others: Sequence[Mapping[str, float]],
+    prior: FleetPrior,
+    percentile: float,
+) -> dict[str, float]:
+    """Task-change allowances of one axis from its own pairs with the other axes.
+
+    The fleet's allowance ``A_i`` (:func:`indicator_allowances`) fits a half-Laplace to the
+    ``|z_i|`` of *all* the fleet's pairs; here the same rule is fitted to the pairs that involve
+    this axis only: ``z_i = (c_i - c_i') / sqrt(s_w,i^2 + s_t,i^2)`` of the axis's centre
+    ``c_i`` against each other axis's ``c_i'`` (``s_w`` the axis's own within-task spread, as
+    its captures are scored), scale ``median / ln 2``, at the fleet's Bonferroni level
+    ``100 - (100 - p) / m`` (``m`` the indicators with a fleet scale). An axis whose own task is
+    unlike the fleet's (a heavy payload on an arm, where the other tasks cluster) has large own
+    pairs: the fleet's allowance, set by the fleet's typical pair, would call every change away
+    from its task a fault. :class:`IndicatorModel` takes the larger of the two
+    (docs/evaluation.md, "Allowances from an axis's own pairs": chosen on the development
+    robots).
+
+    Parameters
+    ----------
+    centre, within : mapping of str to float
+        The axis's centre and within-task spread per indicator (on the compared scale).
+    others : sequence of mapping of str to float
+        The other axes' centres.
+    prior : FleetPrior
+        The fleet's prior: task spreads, the indicators with an allowance and their fallback.
+    percentile : float in (0, 100)
+
+    Returns
+    -------
+    dict of str to float
+        Per indicator of ``prior.indicator_scales``: the own-pairs allowance in spreads, or the
+        fleet's (:meth:`FleetPrior.allowances`) where fewer than ``MIN_PAIRS`` pairs read it,
+        their median is 0, or the indicator is ``order_lines`` (read against each axis's own
+        reference: its centres say nothing of a task change).
+
+    Examples
+    --------
+    >>> prior = FleetPrior({"a": 3.0}, 1.0, {"a": 0.0}, 5, 10, {"a": 1.0}, {"a": 10})
+    >>> others = [{"a": v} for v in (0.0, 5.0, 20.0, 30.0)]
+    >>> own = own_pair_allowances({"a": 10.0}, {"a": 4.0}, others, prior, 99.0)
+    >>> round(own["a"], 3)  # |z| 2, 1, 2, 4 in spreads of 5: median 2, 2 / ln 2 x ln 100
+    13.288
+    """
+    fleet = prior.allowances(percentile)
+    fitted = sum(math.isfinite(s) and s > 0 for s in prior.indicator_scales.values())
+    level = 100.0 - (100.0 - percentile) / max(fitted, 1)
+    out = {}
+    for name, fallback in fleet.items():
+        scale = math.hypot(prior.task_spreads.get(name, math.nan), within.get(name, math.nan))
+        shifts = [
+            abs((centre.get(name, math.nan) - other.get(name, math.nan)) / scale)
+            for other in others
+        ]
+        finite = [z for z in shifts if math.isfinite(z)]
+        middle = float(np.median(finite)) if finite else 0.0
+        if name == ORDER_LINES.name or len(finite) < MIN_PAIRS or not middle > 0:
+            out[name] = fallback
+        else:
+            out[name] = half_laplace_threshold(middle / math.log(2.0), level)
+    return out
 
 
 def fleet_difference(
@@ -834,6 +920,20 @@ class IndicatorModel:
         self._threshold_from(self.calibration_rows_, check_against)
         return self
 
+    def _own_allowances(self) -> None:
+        """The axis's allowances from its own pairs (:func:`own_pair_allowances`), when its
+        prior has the fleet's centres; the prior is then kept without them (a model of a fleet of
+        ``n`` axes would otherwise store ``n`` centres)."""
+        self.own_allowances_: dict[str, float] = {}
+        if self.fleet is None or not self.fleet.centres:
+            return  # a prior a model already keeps has no centres: the fleet's allowances only
+        # The axis itself is among the centres when it was pooled: its pair with itself is none.
+        others = [c for c in self.fleet.centres if c != self.centre_]
+        self.own_allowances_ = own_pair_allowances(
+            self.centre_, self.within_, others, self.fleet, self.percentile
+        )
+        self.fleet = dataclasses.replace(self.fleet, centres=())
+
     @property
     def scales_(self) -> dict[str, float]:
         """``sqrt(s_w^2 + s_t^2)`` per scored indicator (``s_w`` alone without a fleet prior)."""
@@ -841,19 +941,22 @@ class IndicatorModel:
 
     @property
     def allowances_(self) -> dict[str, float]:
-        """Task-change allowance per scored indicator, in spreads (:meth:`FleetPrior.allowances`;
-        the fleet's one allowance for an indicator without its own); empty without a prior."""
-        return _allowances(self.within_, self.fleet, self.percentile)
+        """Task-change allowance per scored indicator, in spreads: the fleet's
+        (:meth:`FleetPrior.allowances`; its one allowance for an indicator without its own), or
+        the axis's own pairs' where larger (:func:`own_pair_allowances`); empty without a
+        prior."""
+        return _allowances(self.within_, self.fleet, self.percentile, self.own_allowances_)
 
     @property
     def task_change_scales_(self) -> dict[str, float]:
         """What a task change's shift is divided by: ``sqrt(s_w^2 + s_t^2) x A_i`` (so the
         distance is in allowance units), or :attr:`scales_` without a fleet prior."""
-        return _task_change_scales(self.within_, self.fleet, self.percentile)
+        return _task_change_scales(self.within_, self.fleet, self.percentile, self.own_allowances_)
 
     def _threshold_from(
         self, rows: Sequence[Mapping[str, float]], check_against: FleetPrior | None
     ) -> None:
+        self._own_allowances()
         scales = self.task_change_scales_
         self.loo_distances_ = leave_one_out_distances(rows, scales)
         # The baseline's own leave-one-out distance is checked, not fitted: a faulty baseline

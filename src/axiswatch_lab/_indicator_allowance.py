@@ -27,6 +27,20 @@ The alternatives scored here, each from the same readings:
   MAD is far too small when the tasks' centres form clusters); the scalar allowance is refitted
   in those spreads; ``pairwise spreads, per-indicator``: both changes.
 
+Added by i13h (allowances from an axis's own pairs, docs/evaluation.md "Allowances from an
+axis's own pairs"):
+
+* ``fleet only``: the product's rule before the own pairs (the study's reference), its
+  allowances taken from the fleet prior
+  (:meth:`FleetPrior.allowances`), the reference the others are compared with;
+* ``own pairs, at least the fleet's``: per axis, ``A_i = max(A_i(fleet), A_i(own))``, where
+  ``A_i(own)`` is the same half-Laplace rule (``median / ln 2``, the fleet's Bonferroni level)
+  fitted to the ``|z_i|`` of the axis's centre against each other axis's centre
+  (:func:`~axiswatch._indicator_model.own_pair_allowances`, the product's since it was chosen):
+  an axis whose task is unlike the fleet's gets a larger allowance, a normal axis about the
+  fleet's;
+* ``own pairs``: ``A_i(own)`` alone (smaller than the fleet's on an axis in the fleet's middle).
+
 Scenarios: the lab's transfer study (:mod:`axiswatch_lab._transfer`: paired AUROC and ``dr99``
 per fault against healthy captures of other tasks, ``far99``, Robot A) and the monitor study's
 fleets (:mod:`axiswatch_lab._task_envelope`'s scenarios: 4 axes, two task changes; a friction
@@ -48,11 +62,13 @@ import pandas as pd
 
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._indicator_model import (
+    MIN_PAIRS,
     FleetPrior,
     IndicatorModel,
     _distance,
     _transformed,
     leave_one_out_distances,
+    own_pair_allowances,
     pool_fleet,
     pool_fleet_without,
 )
@@ -66,6 +82,9 @@ from axiswatch_lab._transfer import TransferDesign, _auroc, _profile, paired_rea
 __all__ = ["VARIANTS", "allowance_study", "indicator_allowances"]
 
 VARIANTS: tuple[str, ...] = (
+    "fleet only",
+    "own pairs, at least the fleet's",
+    "own pairs",
     "scalar",
     "per-indicator",
     "per-indicator, no Bonferroni",
@@ -73,7 +92,6 @@ VARIANTS: tuple[str, ...] = (
     "pairwise spreads",
     "pairwise spreads, per-indicator",
 )
-_MIN_PAIRS = 3
 
 
 def indicator_allowances(
@@ -89,7 +107,7 @@ def indicator_allowances(
             z = (a.centre_.get(n, math.nan) - b.centre_.get(n, math.nan)) / scale
             if math.isfinite(z):
                 shifts[n].append(abs(z))
-    fitted = [n for n in names if len(shifts[n]) >= _MIN_PAIRS and np.median(shifts[n]) > 0]
+    fitted = [n for n in names if len(shifts[n]) >= MIN_PAIRS and np.median(shifts[n]) > 0]
     m = max(len(fitted), 1)
     level = 100.0 - (100.0 - percentile) / m if bonferroni else percentile
     out = {n: scalar for n in names}
@@ -153,7 +171,7 @@ def pairwise_prior(models: Sequence[IndicatorModel]) -> FleetPrior:
             for a, b in itertools.combinations(models, 2)
         ]
         finite = [d for d in diffs if math.isfinite(d)]
-        spreads[n] = 1.4826 * float(np.median(finite)) if len(finite) >= _MIN_PAIRS else math.nan
+        spreads[n] = 1.4826 * float(np.median(finite)) if len(finite) >= MIN_PAIRS else math.nan
     distances = []
     for a, b in itertools.combinations(models, 2):
         scales = {
@@ -206,15 +224,35 @@ def _scorers(
         for b in (True, False)
     }
     every = dict(models) if extra is None else {**models, -1: extra}
+    fleet = prior.allowances(percentile)
+    own = {
+        k: own_pair_allowances(
+            m.centre_,
+            m.within_,
+            [o.centre_ for j, o in models.items() if j != k],
+            prior,
+            percentile,
+        )
+        for k, m in every.items()
+    }
     out = {}
     for v in VARIANTS:
         plain = not v.startswith("pairwise")
         rule = v if plain else ("scalar" if v == "pairwise spreads" else "per-indicator")
         chosen = allowances[(plain, "no Bonferroni" not in v)]
-        out[v] = {
-            k: Scorer(copy.deepcopy(m).use_fleet(fits[plain]), chosen, rule)
-            for k, m in every.items()
-        }
+        scorers = {}
+        for k, m in every.items():
+            fitted = copy.deepcopy(m).use_fleet(fits[plain])
+            if v == "fleet only":
+                scorers[k] = Scorer(fitted, fleet, "per-indicator")
+            elif v == "own pairs":
+                scorers[k] = Scorer(fitted, own[k], "per-indicator")
+            elif v == "own pairs, at least the fleet's":
+                larger = {n: max(a, own[k].get(n, a)) for n, a in fleet.items()}
+                scorers[k] = Scorer(fitted, larger, "per-indicator")
+            else:
+                scorers[k] = Scorer(fitted, chosen, rule)
+        out[v] = scorers
     return out
 
 
@@ -311,6 +349,9 @@ def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
     summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
     summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
     print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
+    # Per robot: a total can hide a robot that got worse (robot6 and robot2 in the study before).
+    by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
+    print(by_robot[list(summary.index)].to_string())
     print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
 
 

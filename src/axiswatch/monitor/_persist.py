@@ -49,8 +49,9 @@ __all__ = [
 #: members was 90 % of loading a model, 2 ms a capture in a fleet day).
 #: 3: a fleet prior keeps a task-change allowance per indicator (a model stored before has
 #: none, and is refitted). 4: an indicator model may keep its baseline's order spectrum and its
-#: readings their order profiles (``order_lines``).
-PERSIST_FORMAT = 4
+#: readings their order profiles (``order_lines``). 5: an indicator model keeps the allowances
+#: of its own pairs (``own_allowances_``).
+PERSIST_FORMAT = 5
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
