@@ -43,7 +43,6 @@ from pathlib import Path
 from typing import Any
 
 from axiswatch._features import FeatureSpec
-from axiswatch._indicator_model import IndicatorModel
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import (
@@ -542,23 +541,15 @@ def _stored_indicator_models(
 
 
 def _give_prior(
-    run: _Run,
-    stored: Sequence[_StoredIndicators],
-    new: Sequence[IndicatorModel],
+    run: _Run, stored: Sequence[_StoredIndicators], pooled: Sequence[IndicatorBaseline]
 ) -> None:
-    """Give the stored axes fitted without a fleet prior (their fleet had fewer than 3 axes
-    then) the prior of their fleet (``stored`` and the ``new`` models of this run): their stored
-    model is replaced, so their captures are scored with the task-change allowances from the
-    next run on (a run scores the axes with a stored model before it fits new ones); the scores
-    and decisions already stored stay (each score's details say how many fleet axes it was
-    scored with). A stored distance is in units of the threshold that applied, so the threshold
-    the monitor decides with stays 1."""
-    source = run.caches.model_source()
-    for entry in stored:
-        if entry.baseline.model.fleet is not None or source is None:
-            continue
-        others = [*(g.baseline.model for g in stored if g is not entry), *new]
-        (upgraded,) = with_fleet([entry.baseline], others)
+    """Store ``pooled``, the stored axes fitted without a fleet prior (their fleet had fewer than
+    3 axes then) now with their fleet's: their captures are scored with the task-change
+    allowances from the next run on (a run scores the axes with a stored model before it fits new
+    ones); the scores and decisions already stored stay (each score's details say how many fleet
+    axes it was scored with). A stored distance is in units of the threshold that applied, so the
+    threshold the monitor decides with stays 1."""
+    for entry, upgraded in zip(stored, pooled, strict=True):
         if upgraded.model.fleet is None:
             return  # fewer than 3 axes, or nothing to pool: no prior for any
         model_key, blob = keep_model(upgraded)
@@ -593,11 +584,15 @@ def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
         key = fleet_key(profile_for(outcome.job.file, run.config.profile))
         new[key].append((position, _own_model(outcome)))
     out = list(fitted)
+    stores_models = run.caches.model_source() is not None
     for key, members in new.items():
-        own = [b for _, b in members]
-        stored = [g.baseline.model for g in groups[key]]
-        _give_prior(run, groups[key], [b.model for b in own])
-        for (position, _), baseline in zip(members, with_fleet(own, stored), strict=True):
+        # One pool per fleet: the new baselines and the stored ones still without a prior get it
+        # together; the stored ones with a prior keep theirs.
+        needing = [g for g in groups[key] if g.baseline.model.fleet is None and stores_models]
+        keeping = [g.baseline.model for g in groups[key] if g not in needing]
+        pooled = with_fleet([*(g.baseline for g in needing), *(b for _, b in members)], keeping)
+        _give_prior(run, needing, pooled[: len(needing)])
+        for (position, _), baseline in zip(members, pooled[len(needing) :], strict=True):
             if baseline.model.fleet is None:
                 continue
             model_key, blob = keep_model(baseline)
