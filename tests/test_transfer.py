@@ -13,7 +13,7 @@ from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab._transfer import TransferDesign, real_data_transfer, robot_transfer
 from tests.conftest import SHARED_DATA
 
-TINY = TransferDesign(n_per_cell=1, n_calibration=2, robot_a_days=8)
+TINY = TransferDesign(n_per_cell=1, n_calibration=2, robot_a_days=8, degradation_days=3)
 
 
 @pytest.mark.slow
@@ -23,6 +23,11 @@ def test_robot_record_has_every_measure() -> None:
     for fault in ("backlash", "friction", "tooth", "bearing"):
         assert 0.0 <= float(record[f"auroc_{fault}"]) <= 1.0  # type: ignore[arg-type]
         assert 0.0 <= float(record[f"oracle_{fault}"]) <= 1.0  # type: ignore[arg-type]
+        alarmed = float(record[f"ramp_alarmed_{fault}"])  # type: ignore[arg-type]
+        assert 0.0 <= alarmed <= 1.0
+        # First alarms are at the two severities before the breakdown (1/3, 2/3), or none is.
+        severity = float(record[f"ramp_severity_{fault}"])  # type: ignore[arg-type]
+        assert (alarmed == 0.0 and math.isnan(severity)) or 1 / 3 <= severity <= 2 / 3
     assert record["robot_a_test_days"] == 8 - 3
     assert 0.0 < float(record["share_scored"]) <= 1.0  # type: ignore[arg-type]
     assert not math.isnan(float(record["far99"]))  # type: ignore[arg-type]
@@ -44,8 +49,11 @@ def test_every_capture_goes_through_the_given_read() -> None:
     design = dataclasses.replace(TINY, kinematics=False)
     with threadpool_limits(1):
         robot_transfer(DEVELOPMENT_ROBOTS[1], design, read=read)
-    # Six tasks: the fleet's (baseline + 2) and one per health (5) each, and Robot A's 8 days.
-    assert len(sources) == 6 * 3 + 6 * 5 + 8
+    # Six tasks: the fleet's (baseline + 2) and one per health (5) each, at most 2 days of
+    # each fault's degradation run before the breakdown (it stops at the first alarm), and
+    # Robot A's 8 days.
+    ramps = len(sources) - (6 * 3 + 6 * 5 + 8)
+    assert 6 * 4 <= ramps <= 6 * 4 * 2
     assert len(set(sources)) == 6
 
 

@@ -15,6 +15,11 @@ Research code (``axiswatch experiment transfer``). Per simulated robot of
 * **Robot A**: one axis for ``robot_a_days`` days, a capture a day at a random phase, the task
   changing ``3`` times; baseline day 1, calibration days ``2 .. n_calibration + 1``; false
   alarms are the later days over the threshold;
+* **degradation** (the issue's "runs that alarm before the breakdown"): per fleet axis and
+  fault type, a capture a day of the axis's own task with the fault's severity rising
+  ``1/n, 2/n, ..., (n - 1)/n`` before the breakdown at 1 (``n = degradation_days``);
+  ``ramp_alarmed_<fault>`` is the share of those runs with an alarm before the breakdown,
+  ``ramp_severity_<fault>`` the median severity of their first alarm (NaN when none alarmed);
 * ``share_scored``: the share of all test captures that got a distance.
 
 Real data (:func:`real_data_transfer`): the hydraulic actuators and the linear axis of
@@ -24,7 +29,7 @@ Real data (:func:`real_data_transfer`): the hydraulic actuators and the linear a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -63,6 +68,8 @@ class TransferDesign:
     order_lines : bool, default=False
         Models that also score the order lines against the baseline's own order spectrum
         (``IndicatorModel(order_lines=True)``).
+    degradation_days : int, default=12
+        Days from a healthy axis to the breakdown in each degradation run (below 2: no runs).
     """
 
     n_per_cell: int = 4
@@ -71,10 +78,11 @@ class TransferDesign:
     robot_a_days: int = 190
     kinematics: bool = True
     order_lines: bool = False
+    degradation_days: int = 12
 
 
 #: A configuration of a few seconds per robot, for tests.
-FAST_DESIGN = TransferDesign(n_per_cell=2, n_calibration=4, robot_a_days=24)
+FAST_DESIGN = TransferDesign(n_per_cell=2, n_calibration=4, robot_a_days=24, degradation_days=4)
 
 
 def _profile(robot: SimulatedRobot, kinematics: bool) -> AxisProfile:
@@ -204,7 +212,35 @@ def robot_transfer(
                 ]
             )
         )
+    record.update(_degradation(robot, fleet, design, read))
     record.update(_robot_a(robot, profile, prior, design, read))
+    return record
+
+
+def _degradation(
+    robot: SimulatedRobot,
+    fleet: Mapping[int, IndicatorModel],
+    design: TransferDesign,
+    read: Callable[[Capture], Readings],
+) -> dict[str, object]:
+    """Per fault: the share of the fleet's axes whose degradation run alarms before the
+    breakdown, and the median severity of the first alarm."""
+    days = design.degradation_days
+    if days < 2:
+        return {}
+    severities = [k / days for k in range(1, days + 1)]
+    record: dict[str, object] = {}
+    for fault in FAULT_KINDS:
+        first: list[float] = []
+        for t, model in sorted(fleet.items()):
+            for severity in severities[:-1]:  # the last capture is the breakdown itself
+                fault_now = Fault(fault, severity)  # type: ignore[arg-type]
+                capture = robot.capture(t, fault=fault_now, seed=f"ramp{fault}{severity:.6f}")
+                if model.assess_readings(read(capture)).alarm:
+                    first.append(severity)
+                    break
+        record[f"ramp_alarmed_{fault}"] = len(first) / len(fleet) if fleet else math.nan
+        record[f"ramp_severity_{fault}"] = float(np.median(first)) if first else math.nan
     return record
 
 
