@@ -548,3 +548,32 @@ def own_pair_allowances_naive(
             -middle / math.log(2.0) * math.log(1 - level) if n >= 3 and middle > 0 else fallback
         )
     return out
+
+
+def fleet_pair_shifts_naive(
+    centres: list[list[float]],
+    within: list[list[float]],
+    task_spreads: list[float],
+    one_sided: list[bool],
+) -> tuple[list[float], list[list[float]]]:
+    """Every pair ``i < j`` by two loops: ``z = (c_i - c_j) / sqrt(s_t^2 + s_w,i^2)`` per
+    indicator with a positive task spread; the pair's distance is the largest ``max(z, 0)`` (one
+    sided) or ``|z|`` over the finite ones (NaN if none); the shifts ``|z|``."""
+    nan = float("nan")
+    distances, shifts = [], []
+    n = len(centres)
+    for i in range(n):
+        for j in range(i + 1, n):
+            largest, row = nan, []
+            for k, spread in enumerate(task_spreads):
+                z = nan
+                if spread == spread and 0 < spread < float("inf"):
+                    scale = (spread**2 + within[i][k] ** 2) ** 0.5
+                    z = (centres[i][k] - centres[j][k]) / scale
+                row.append(abs(z))
+                if z == z:
+                    shift = max(z, 0.0) if one_sided[k] else abs(z)
+                    largest = shift if largest != largest else max(largest, shift)
+            distances.append(largest)
+            shifts.append(row)
+    return distances, shifts

@@ -427,3 +427,52 @@ def test_a_large_fleet_checks_a_baseline_with_itself_included(
     monkeypatch.setattr(_indicators, "LEAVE_SELF_OUT_MAX_AXES", 20)
     small = _indicators.with_fleet(baselines)
     assert not any("itself included" in n for b in small for n in b.model.notes_)
+
+
+def test_fleet_pair_shifts_match_the_loop_twin() -> None:
+    from axiswatch._indicator_model import fleet_pair_shifts
+
+    rng = np.random.default_rng(7)
+    centres = rng.normal(size=(9, 4)) * [1.0, 10.0, 0.1, 3.0]
+    within = rng.uniform(0.1, 2.0, size=(9, 4))
+    centres[[1, 4], 2] = np.nan  # an indicator two axes do not read
+    within[6, 0] = np.nan  # an axis without a within-task spread for one indicator
+    centres[8, :] = np.nan  # an axis that shares nothing
+    task = np.array([0.5, np.nan, 0.2, 0.0])  # no task spread, and a zero one: left out
+    sided = np.array([False, False, True, True])
+    distances, shifts = fleet_pair_shifts(centres, within, task, sided)
+    expected_d, expected_z = naive.fleet_pair_shifts_naive(
+        centres.tolist(), within.tolist(), task.tolist(), sided.tolist()
+    )
+    np.testing.assert_allclose(distances, expected_d, rtol=1e-12, equal_nan=True)
+    np.testing.assert_allclose(shifts, expected_z, rtol=1e-12, equal_nan=True)
+    assert np.isnan(distances[-1])  # the pair (7, 8): axis 8 reads nothing
+
+
+def test_pool_fleet_takes_its_scales_from_the_pairs_of_the_loop_twin() -> None:
+    from axiswatch._indicator_model import _declared
+
+    robot = aw.datasets.draw_robot(2)
+    fleet = [
+        IndicatorModel().fit(
+            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
+        )
+        for t in range(5)
+    ]
+    prior = pool_fleet(fleet)
+    names = [n for n, s in prior.task_spreads.items() if math.isfinite(s) and s > 0]
+    distances, shifts = naive.fleet_pair_shifts_naive(
+        [[m.centre_.get(n, math.nan) for n in names] for m in fleet],
+        [[m.within_.get(n, math.nan) for n in names] for m in fleet],
+        [prior.task_spreads[n] for n in names],
+        [_declared(n).sided == "up" for n in names],
+    )
+    finite = [d for d in distances if d == d]
+    assert prior.n_pairs == len(finite) == 10
+    assert prior.allowance_scale == pytest.approx(float(np.median(finite)) / math.log(2), rel=1e-12)
+    for k, n in enumerate(names):
+        z = [row[k] for row in shifts if row[k] == row[k]]
+        assert prior.indicator_pairs[n] == len(z)
+        assert prior.indicator_scales[n] == pytest.approx(
+            float(np.median(z)) / math.log(2), rel=1e-12
+        )

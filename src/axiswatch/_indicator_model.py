@@ -98,6 +98,7 @@ __all__ = [
     "IndicatorAssessment",
     "IndicatorModel",
     "fleet_difference",
+    "fleet_pair_shifts",
     "indicator_allowances",
     "leave_one_out_distances",
     "pool_fleet",
@@ -367,6 +368,90 @@ def _fitting_order_lines(read: Sequence[Readings]) -> tuple[OrderProfile | None,
     return order_reference([p for p in profiles if p is not None]), values
 
 
+def fleet_pair_shifts(
+    centres: NDArray[np.float64],
+    within: NDArray[np.float64],
+    task_spreads: NDArray[np.float64],
+    one_sided: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The shifts between every pair of a fleet's axes: what a healthy task change does.
+
+    For the pair of axes ``i < j`` and indicator ``k``, ``z = (c_ik - c_jk) / s_ik`` with
+    ``s_ik = sqrt(s_t,k^2 + s_w,ik^2)`` (axis ``i``'s centre read as a capture against axis
+    ``j``'s centre, in axis ``i``'s spreads, as :func:`pool_fleet` scores a pair).
+
+    Parameters
+    ----------
+    centres, within : ndarray of shape (n_axes, n_indicators)
+        Each axis's centre and within-task spread (NaN where not read).
+    task_spreads : ndarray of shape (n_indicators,)
+        ``s_t`` per indicator (an indicator whose ``s_t`` is not a positive number is left out).
+    one_sided : ndarray of bool, shape (n_indicators,)
+        Indicators of which only a growth counts in the pair's distance.
+
+    Returns
+    -------
+    distances : ndarray of shape (n_pairs,)
+        Per pair (in the order of ``itertools.combinations``): the largest shift over the
+        indicators the pair reads (``max(z, 0)`` for one-sided ones, ``|z|`` otherwise); NaN
+        where the pair shares none.
+    shifts : ndarray of shape (n_pairs, n_indicators)
+        ``|z|`` per pair and indicator (a pair is a task change either way); NaN where not read.
+        Memory ``O(n_axes^2 x n_indicators)``: 1 000 axes and 8 indicators take 32 MB.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d, z = fleet_pair_shifts(np.array([[0.0], [3.0], [4.0]]), np.array([[4.0], [4.0], [4.0]]),
+    ...                          np.array([3.0]), np.array([False]))
+    >>> d.tolist(), z[:, 0].tolist()  # pairs (0, 1), (0, 2), (1, 2) in spreads of 5
+    ([0.6, 0.8, 0.2], [0.6, 0.8, 0.2])
+    """
+    n_axes, n_indicators = centres.shape
+    usable = np.isfinite(task_spreads) & (task_spreads > 0)
+    scales = np.where(usable, np.hypot(task_spreads, within), np.nan)
+    rows = []
+    for i in range(n_axes - 1):  # one row of pairs at a time: O(n) NumPy calls
+        rows.append((centres[i] - centres[i + 1 :]) / scales[i])
+    z = np.concatenate(rows) if rows else np.empty((0, n_indicators))
+    shift = np.where(one_sided, np.maximum(z, 0.0), np.abs(z))
+    # fmax ignores NaN: the largest shift over the indicators read, NaN only where none is.
+    distances = np.fmax.reduce(shift, axis=1) if n_indicators else np.full(z.shape[0], np.nan)
+    return distances, np.abs(z)
+
+
+def _order_line_pairs(
+    models: Sequence[IndicatorModel],
+    cross: Sequence[tuple[tuple[int, int], float]],
+    task_spread: float,
+    distances: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The pairs' distances with their ``order_lines`` shift, and that indicator's ``|z|``.
+
+    The order lines are read against each axis's own reference: a pair's shift is axis ``i``'s
+    reading of axis ``j``'s captures against ``i``'s own centre (and, for the indicator's own
+    scale, both ways).
+    """
+    read_by = dict(cross)
+    out = distances.copy()
+    shifts: list[float] = []
+    name = ORDER_LINES.name
+    for p, ((i, a), (j, b)) in enumerate(itertools.combinations(enumerate(models), 2)):
+        if name not in a.centre_:
+            continue
+        scale = math.hypot(task_spread, a.within_.get(name, math.nan))
+        if not math.isfinite(scale):
+            continue
+        z = (read_by.get((i, j), math.nan) - a.centre_[name]) / scale
+        if math.isfinite(z):
+            out[p] = max(z, 0.0) if not math.isfinite(out[p]) else max(out[p], z, 0.0)
+        back = math.hypot(task_spread, b.within_.get(name, math.nan))
+        for shift in (z, (read_by.get((j, i), math.nan) - b.centre_.get(name, math.nan)) / back):
+            if math.isfinite(shift):
+                shifts.append(abs(shift))
+    return out, np.asarray(shifts, dtype=np.float64)
+
+
 def _order_cross_readings(
     models: Sequence[IndicatorModel],
 ) -> list[tuple[tuple[int, int], float]]:
@@ -419,36 +504,23 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         task_spreads[ORDER_LINES.name] = (
             MAD_TO_SD * float(np.median(finite)) if len(finite) >= MIN_PAIRS else math.nan
         )
-    read_by = dict(cross)
     spread = [n for n in names if math.isfinite(task_spreads[n]) and task_spreads[n] > 0]
-    distances = []
-    pair_shifts: dict[str, list[float]] = {n: [] for n in spread}
-    for (i, a), (j, b) in itertools.combinations(enumerate(models), 2):
-        scales = {n: math.hypot(task_spreads[n], a.within_.get(n, math.nan)) for n in spread}
-        scales = {n: s for n, s in scales.items() if math.isfinite(s)}
-        mine, theirs = dict(a.centre_), dict(b.centre_)
-        if ORDER_LINES.name in mine:
-            # a's reading of b's captures against a's own centre: the shift b's task makes.
-            mine[ORDER_LINES.name] = read_by.get((i, j), math.nan)
-            theirs[ORDER_LINES.name] = a.centre_[ORDER_LINES.name]
-        d, _ = _distance(mine, theirs, scales)
-        if math.isfinite(d):
-            distances.append(d)
-        for n, s in scales.items():
-            if n == ORDER_LINES.name:
-                # Both ways: each axis's reference reads the other's captures.
-                back = math.hypot(task_spreads[n], b.within_.get(n, math.nan))
-                for z in (
-                    (read_by.get((i, j), math.nan) - a.centre_.get(n, math.nan)) / s,
-                    (read_by.get((j, i), math.nan) - b.centre_.get(n, math.nan)) / back,
-                ):
-                    if math.isfinite(z):
-                        pair_shifts[n].append(abs(z))
-                continue
-            z = (a.centre_.get(n, math.nan) - b.centre_.get(n, math.nan)) / s
-            if math.isfinite(z):
-                pair_shifts[n].append(abs(z))  # a pair is a task change either way
-    if not distances:
+    columns = [n for n in spread if n != ORDER_LINES.name]
+    centre_rows = np.array([[m.centre_.get(n, math.nan) for n in columns] for m in models])
+    within_rows = np.array([[m.within_.get(n, math.nan) for n in columns] for m in models])
+    pair_d, pair_z = fleet_pair_shifts(
+        centre_rows.reshape(len(models), len(columns)),
+        within_rows.reshape(len(models), len(columns)),
+        np.array([task_spreads[n] for n in columns]),
+        np.array([_declared(n).sided == "up" for n in columns], dtype=bool),
+    )
+    pair_shifts = {n: pair_z[:, c][np.isfinite(pair_z[:, c])] for c, n in enumerate(columns)}
+    if ORDER_LINES.name in spread:
+        pair_d, pair_shifts[ORDER_LINES.name] = _order_line_pairs(
+            models, cross, task_spreads[ORDER_LINES.name], pair_d
+        )
+    distances = pair_d[np.isfinite(pair_d)]
+    if not distances.size:
         raise CalibrationError("No indicator is read on enough axes of the fleet to pool.")
     scale = max(float(np.median(distances)) / math.log(2.0), 1e-12)
     indicator_scales = {
@@ -460,7 +532,7 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         scale,
         fleet_centre,
         len(models),
-        len(distances),
+        int(distances.size),
         indicator_scales,
         {n: len(z) for n, z in pair_shifts.items()},
         tuple(dict(m.centre_) for m in models),
