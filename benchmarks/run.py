@@ -260,6 +260,58 @@ def case_mechanics(quick: bool) -> dict[str, Any]:
     }
 
 
+def case_pool(n_axes: int, quick: bool) -> dict[str, Any]:
+    """Pooling the fitted indicator models of ``n_axes`` axes of one profile into their fleet
+    prior (once per profile and monitor run with new baselines), against the pairs' shifts by
+    the loop twin of the tests (the pair loop ``pool_fleet`` had before), in the same process.
+
+    The axes: six models fitted on six tasks of a simulated robot, repeated with their centres
+    spread by 5 % (a fleet of one robot model on six kinds of task)."""
+    import copy
+
+    from axiswatch._indicator_model import _declared, pool_fleet
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests import naive
+
+    robot = awd.draw_robot(0)
+    fitted = [
+        aw.IndicatorModel().fit(
+            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
+        )
+        for t in range(6)
+    ]
+    rng = np.random.default_rng(0)
+    models = []
+    for i in range(n_axes):
+        model = copy.deepcopy(fitted[i % 6])
+        model.centre_ = {
+            k: v * (1 + 0.05 * rng.standard_normal()) for k, v in model.centre_.items()
+        }
+        models.append(model)
+    prior = pool_fleet(models)
+    names = [n for n, v in prior.task_spreads.items() if np.isfinite(v) and v > 0]
+
+    def reference() -> None:
+        naive.fleet_pair_shifts_naive(
+            [[m.centre_.get(n, np.nan) for n in names] for m in models],
+            [[m.within_.get(n, np.nan) for n in names] for m in models],
+            [prior.task_spreads[n] for n in names],
+            [_declared(n).sided == "up" for n in names],
+        )
+
+    repeats = 3 if quick else 7
+    fast_s = _median_time(lambda: pool_fleet(models), repeats)
+    reference_s = _median_time(reference, 1)  # the loop takes seconds at 500 axes
+    return {
+        "case": f"fleet prior: {n_axes} axes of one profile pooled",
+        "fast_s": fast_s,
+        "dense_s": reference_s,
+        "ratio": reference_s / fast_s,
+        "note": f"reference column = the {n_axes * (n_axes - 1) // 2:,} pairs by a Python loop",
+    }
+
+
 CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "mechanics-3s": case_mechanics,
     "lra-300": lambda q: case_lra(300, q),
@@ -274,6 +326,8 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "job-3s-lra": lambda q: case_job("lra", q),
     "job-3s-pca": lambda q: case_job("pca", q),
     "lra-60s-robot": case_lra_60s,
+    "pool-500": lambda q: case_pool(500, q),
+    "pool-2000": lambda q: case_pool(200 if q else 2000, q),
 }
 
 
