@@ -488,3 +488,53 @@ def test_axes_fitted_before_their_fleet_had_three_get_its_prior_later(tmp_path: 
     # a0's capture of the second run was scored before a2 was fitted: kept as it was.
     assert axes[("a0", "08")] == 0
     assert axes[("a0", "09")] == axes[("a1", "09")] == axes[("a2", "08")] == 3
+
+
+def test_an_axis_without_a_fleet_does_not_compare_another_task(tmp_path: Path) -> None:
+    # One axis, no fleet: its baseline on task 0, then three days of task 2 and one of task 0.
+    # A task change is not compared (nothing says what it does to the indicators), so it is no
+    # alarm; the baseline's task is still scored.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for day in range(6):
+        _write(robot.capture(0, seed=day), root, "r1", "a1", day)
+    for day in range(6, 9):
+        _write(robot.capture(2, seed=day), root, "r1", "a1", day)
+    _write(robot.capture(0, seed=9), root, "r1", "a1", 9)
+    settle(root)
+    store = MemoryStore()
+    summary = monitor_fleet(root, store, MonitorConfig(), settle_s=0)
+    assert summary.new_baselines == 1
+    rejected = fleet_rejections(store)
+    assert sorted(rejected["capture"]) == [f"2026-03-{d:02d}.parquet" for d in (7, 8, 9)]
+    assert all(": not scored: motion unlike the baseline's task" in e for e in rejected["error"])
+    assert all("rebaseline the axis on its new task" in e for e in rejected["error"])
+    scores = store.score_table()
+    monitored = scores[(scores["role"] == "monitor") & scores["distance"].notna()]
+    assert list(monitored["capture"]) == ["2026-03-10.parquet"]
+    assert summary.exit_code == 8  # no alarm; the captures not compared are listed
+
+
+def test_with_a_fleet_another_task_is_scored_against_its_allowances() -> None:
+    robot = draw_robot(ROBOT_SEED)
+    fleet = [
+        aw.IndicatorModel().fit(
+            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
+        )
+        for t in range(4)
+    ]
+    lone = aw.IndicatorModel().fit(
+        robot.capture(0, seed=0), [robot.capture(0, seed=k) for k in range(1, 6)]
+    )
+    other_task = robot.capture(2, seed=30)
+    alone = lone.assess(other_task)
+    assert not alone.scored
+    assert not alone.alarm
+    assert alone.case == "task changed: no fleet prior"
+    assert alone.task_distance > alone.task_envelope
+    assert "not compared" in alone.reason()
+    assert lone.assess(robot.capture(0, seed=30)).scored
+    lone.use_fleet(aw.IndicatorModel.pool(fleet))
+    scored = lone.assess(other_task)
+    assert scored.scored
+    assert scored.case == "no task envelope: fleet allowance"

@@ -59,6 +59,14 @@ estimated from what the user has:
   distance among the ``K + 1`` fitting captures, :func:`task_envelope`) is the same task; any
   other, and one whose motion cannot be read, is scored as a task change (fleet spreads, the
   threshold with the allowance), so missing data never tightens the test.
+* **an axis without a fleet** (fewer than 3 axes of its profile): nothing says what a task
+  change does to its indicators, and on the development robots such an axis, scored in its own
+  spreads, alarmed on up to 157 of 184 days after task changes (docs/evaluation.md, "An axis
+  without a fleet"). A capture whose motion is beyond the baseline's task envelope (the factor
+  given, else ``TASK_ENVELOPE_FACTOR``) is therefore not compared, and its assessment says why
+  and what to do (rebaseline the axis on its new task, or monitor 3 axes of its profile); the
+  baseline's task is scored in the own spreads as before, and a capture whose motion cannot be
+  read is scored too.
 """
 
 from __future__ import annotations
@@ -763,7 +771,8 @@ class IndicatorAssessment:
         Which spreads and threshold applied, in words: ``"same task as the baseline: own
         spreads"``, ``"task changed: fleet allowance"``, ``"task not read from the motion:
         fleet allowance"`` or, with the envelope off, ``"no task envelope: fleet allowance"``
-        (``"...: no fleet prior"`` without one).
+        (``"...: no fleet prior"`` without one); ``"task changed: no fleet prior"`` for a
+        capture of another task on an axis without a fleet prior, which is not scored.
     task_distance : float
         Signature distance from the baseline's task (NaN when not read), against
         ``task_envelope``.
@@ -828,8 +837,11 @@ class IndicatorModel:
     task_envelope_factor : float > 0 or None, default=None
         The task envelope in units of the largest leave-one-out signature distance of the
         fitting captures (:func:`task_envelope`; ``TASK_ENVELOPE_FACTOR`` = 2 was chosen on the
-        development robots); None: every capture is scored as a task change (the fleet's spreads
-        and allowance always). Off by default: on the development and held-out robots it
+        development robots); None: with a fleet prior, every capture is scored as a task change
+        (the fleet's spreads and allowance always). Without a fleet prior the envelope (this
+        factor, ``TASK_ENVELOPE_FACTOR`` when None) tells a capture of another task, which is
+        then not compared at all (nothing says what a task change does to the indicators; the
+        assessment says so and how to monitor the new task). Off by default: on the development and held-out robots it
         detects far more same-task friction faults for a few more false alarms, but on the real
         hydraulic actuators it raised 55 false alarms in 297 healthy captures
         (docs/evaluation.md, "Through the monitor").
@@ -855,7 +867,8 @@ class IndicatorModel:
         With ``order_lines``: the median order profile of the fitting captures
         (:func:`~axiswatch._order_lines.order_reference`); None when none gave one.
     task_reference_ : ndarray of shape (6,) or None
-        The median task signature of the fitting captures (None when fewer than 3 are read).
+        The median task signature of the fitting captures (None when fewer than 3 are read),
+        with or without ``task_envelope_factor``.
     task_envelope_ : float
         How far a capture's signature may be from it and still be the baseline's task (NaN
         without a reference).
@@ -951,10 +964,11 @@ class IndicatorModel:
         self.task_reference_: NDArray[np.float64] | None = None
         self.task_envelope_ = math.nan
         self.task_loo_distances_ = [math.nan] * len(read)
-        if self.task_envelope_factor is not None:
-            envelope = task_envelope([r.signature for r in read], self.task_envelope_factor)
-            if envelope is not None:
-                self.task_reference_, self.task_envelope_, self.task_loo_distances_ = envelope
+        # Always read: without a fleet prior a capture beyond the envelope is not compared.
+        factor = self.task_envelope_factor or TASK_ENVELOPE_FACTOR
+        envelope = task_envelope([r.signature for r in read], factor)
+        if envelope is not None:
+            self.task_reference_, self.task_envelope_, self.task_loo_distances_ = envelope
         self._threshold_from(rows, None)
         return self
 
@@ -1054,8 +1068,11 @@ class IndicatorModel:
             )
         if self.fleet is None:
             self.notes_.append(
-                "no task-change allowance: fewer than 3 axes of this profile to pool; "
-                "a task change may alarm"
+                "no task-change allowance: fewer than 3 axes of this profile to pool; a capture "
+                "whose motion is unlike the baseline's task is not compared"
+                if self.task_reference_ is not None
+                else "no task-change allowance: fewer than 3 axes of this profile to pool, and "
+                "the task could not be read from the motion: a task change may alarm"
             )
         else:
             # In allowance units: 1 is a shift as large as a healthy task change's allowance.
@@ -1107,15 +1124,18 @@ class IndicatorModel:
         if self.task_reference_ is not None and len(readings.signature):
             signature = np.asarray(readings.signature, dtype=np.float64)
             distance = signature_distance(signature, self.task_reference_)
-        if math.isfinite(distance) and distance <= self.task_envelope_:
+        changed = math.isfinite(distance) and distance > self.task_envelope_
+        if changed and self.fleet is None:
+            return self._not_compared(distance)
+        if self.task_envelope_factor is not None and math.isfinite(distance) and not changed:
             case = "same task as the baseline: own spreads"
         else:
             known = (
-                "task changed"
-                if math.isfinite(distance)
+                "no task envelope"
+                if self.task_envelope_factor is None
+                else "task changed"
+                if changed
                 else "task not read from the motion"
-                if self.task_envelope_factor is not None
-                else "no task envelope"
             )
             case = f"{known}: {'fleet allowance' if self.fleet is not None else 'no fleet prior'}"
         values, reasons = _transformed(readings), dict(readings.reasons)
@@ -1133,6 +1153,28 @@ class IndicatorModel:
             task_distance=distance,
             task_envelope=self.task_envelope_,
             component=component,
+        )
+
+    def _not_compared(self, task_distance: float) -> IndicatorAssessment:
+        """A capture of another task on an axis without a fleet prior: nothing says what a task
+        change does to its indicators (docs/evaluation.md, "An axis without a fleet")."""
+        why = (
+            f"unlike the baseline's task (task signature {task_distance:.2f} beyond its "
+            f"envelope {self.task_envelope_:.2f}): with fewer than 3 axes of this profile "
+            "nothing says what a task change does to the indicators, so it is not compared "
+            "(rebaseline the axis on its new task, or monitor 3 axes of its profile)"
+        )
+        return IndicatorAssessment(
+            distance=math.nan,
+            threshold=self.threshold_,
+            alarm=False,
+            top=None,
+            component=None,
+            indicators={},
+            unavailable={"motion": why},
+            case="task changed: no fleet prior",
+            task_distance=task_distance,
+            task_envelope=self.task_envelope_,
         )
 
     def _where_grown(self, readings: Readings) -> str:
