@@ -78,6 +78,14 @@ def synchronous(
     )
 
 
+def span_revolutions(angle: NDArray[np.float64]) -> float:
+    """The span of the motor angle over the samples, in revolutions: what sets the resolution
+    of the synchronous sums (``1 / span`` orders). Not the revolutions travelled: strokes back
+    and forth revisit the same angles, and waves of orders ``o`` and ``o + d`` stay alike over
+    them until ``d x span`` reaches a turn."""
+    return float(np.ptp(angle)) / (2 * math.pi) if angle.size else 0.0
+
+
 def floor_orders(
     lines: Sequence[float], avoid: Sequence[float], revolutions: float
 ) -> list[float]:
@@ -183,7 +191,8 @@ def capture_rows(
     theta = spec.gear_ratio * mh.position
     truth = _truth_angle(robot, task, seed)[: theta.size]
     error = (theta - truth)[keep]
-    revolutions = float(np.sum(np.abs(np.diff(theta))[keep[1:]])) / (2 * math.pi)
+    travel = float(np.sum(np.abs(np.diff(theta))[keep[1:]])) / (2 * math.pi)
+    revolutions = span_revolutions(theta[keep])
     n = int(keep.sum())
     sensor = math.sqrt(spec.noise_torque**2 + spec.torque_quantum**2 / 12)
     components = {
@@ -207,6 +216,7 @@ def capture_rows(
             "fault": fault,
             "n": n,
             "revolutions": revolutions,
+            "travel_revolutions": travel,
             "max_order": max(lines),
             "n_orders": len(lines),
             "fault_rms": float(np.std(difference)),
@@ -338,9 +348,11 @@ def synchronous_line_ratio(
     peak = float(np.max(np.abs(m.speed)))
     keep = np.abs(m.speed) > FAST_FRACTION * peak
     theta = gear_ratio * m.position
-    revolutions = float(np.sum(np.abs(np.diff(theta))[keep[1:]])) / (2 * math.pi)
+    revolutions = span_revolutions(theta[keep])
     if revolutions < MIN_REVOLUTIONS:
-        return f"needs {MIN_REVOLUTIONS:g} motor revolutions (got {revolutions:.3g})"
+        return (
+            f"needs a motor-angle span of {MIN_REVOLUTIONS:g} revolutions (got {revolutions:.3g})"
+        )
     design = _harmonic(m, keep, gear_ratio)
     if keep.sum() < MIN_SAMPLES_PER_COLUMN * design.shape[1]:
         return (
