@@ -25,7 +25,9 @@ GEAR_RATIO = 100.0
 PERIOD_S = 2.137
 
 
-def _strokes(rate_hz: float, line: float = 0.0, order: float = 3.37, seconds: float = 8.0) -> Capture:
+def _strokes(
+    rate_hz: float, line: float = 0.0, order: float = 3.37, seconds: float = 8.0
+) -> Capture:
     """Cosine strokes of 2 rad back and forth (:data:`PERIOD_S`) logged at ``rate_hz``
     without an anti-alias filter; torque: friction, noise and, with ``line``, a wave of that
     amplitude at ``order`` of the motor angle (``GEAR_RATIO x`` position): at up to 2.9 rad/s of
@@ -47,7 +49,11 @@ def _strokes(rate_hz: float, line: float = 0.0, order: float = 3.37, seconds: fl
 def test_synchronous_is_the_mean_of_the_demodulated_samples() -> None:
     rng = np.random.default_rng(0)
     r, angle = rng.normal(size=50), rng.uniform(0, 100, size=50)
-    naive = [sum(x * complex(math.cos(-o * a), math.sin(-o * a)) for x, a in zip(r, angle, strict=True)) / 50 for o in (0.7, 3.3)]
+    naive = [
+        sum(x * complex(math.cos(-o * a), math.sin(-o * a)) for x, a in zip(r, angle, strict=True))
+        / 50
+        for o in (0.7, 3.3)
+    ]
     assert np.allclose(synchronous(r, angle, [0.7, 3.3]), naive, rtol=1e-12, atol=1e-15)
 
 
@@ -64,7 +70,8 @@ def test_a_line_far_beyond_nyquist_is_recovered_from_samples_at_unrelated_angles
 
 def test_floor_orders_keep_off_the_lines_and_the_whole_orders() -> None:
     lines = tooth_orders(5.0)
-    assert all(abs(o - round(o)) > 1e-9 for o in lines) and max(lines) < 8
+    assert all(abs(o - round(o)) > 1e-9 for o in lines)
+    assert max(lines) < 8
     revolutions = 100.0
     floors = floor_orders(lines, lines, revolutions)
     keep_off = np.asarray([*lines, *range(0, 10)])
@@ -73,12 +80,15 @@ def test_floor_orders_keep_off_the_lines_and_the_whole_orders() -> None:
 
 
 def test_the_ratio_finds_an_aliased_line_and_stays_near_ln2_without_one() -> None:
-    healthy = synchronous_line_ratio(motion(_strokes(20.0)), GEAR_RATIO, [3.37, 4.37, 5.37, 6.37], [])
+    healthy = synchronous_line_ratio(
+        motion(_strokes(20.0)), GEAR_RATIO, [3.37, 4.37, 5.37, 6.37], []
+    )
     faulty = synchronous_line_ratio(
         motion(_strokes(20.0, line=1.0)), GEAR_RATIO, [3.37, 4.37, 5.37, 6.37], []
     )
     # One of four lines present: the median over the lines does not see it ...
-    assert isinstance(healthy, float) and isinstance(faulty, float)
+    assert isinstance(healthy, float)
+    assert isinstance(faulty, float)
     assert 0.1 < healthy < 4
     # ... but a comb at every line does.
     cap = _strokes(20.0)
@@ -86,17 +96,23 @@ def test_the_ratio_finds_an_aliased_line_and_stays_near_ln2_without_one() -> Non
     theta = GEAR_RATIO * m.position
     comb = sum(np.cos(o * theta) for o in (3.37, 4.37, 5.37, 6.37))
     combed = Capture(
-        {"position": cap.signals["position"], "speed": cap.signals["speed"], "torque": cap.signals["torque"] + comb},
+        {
+            "position": cap.signals["position"],
+            "speed": cap.signals["speed"],
+            "torque": cap.signals["torque"] + comb,
+        },
         dict(cap.rates_hz),
     )
     got = synchronous_line_ratio(motion(combed), GEAR_RATIO, [3.37, 4.37, 5.37, 6.37], [])
-    assert isinstance(got, float) and got > 3 * healthy
+    assert isinstance(got, float)
+    assert got > 3 * healthy
 
 
 def test_unavailable_with_a_reason() -> None:
     short = motion(_strokes(20.0, seconds=0.6))
     got = synchronous_line_ratio(short, 0.2, [3.37, 4.37, 5.37, 6.37], [])
-    assert isinstance(got, str) and got.startswith("needs a motor-angle span of 10 revolutions")
+    assert isinstance(got, str)
+    assert got.startswith("needs a motor-angle span of 10 revolutions")
 
 
 def test_needed_ratio_falls_with_the_number_of_lines() -> None:

@@ -63,9 +63,7 @@ LAGS: tuple[int, ...] = (1, 2, 3, 4, 6, 8)
 def tooth_orders(stage: float) -> list[float]:
     """The product's tooth orders: ``k / stage`` up to order 8, whole orders excluded."""
     return [
-        k / stage
-        for k in range(1, int(8 * stage) + 1)
-        if abs(k / stage - round(k / stage)) > 1e-9
+        k / stage for k in range(1, int(8 * stage) + 1) if abs(k / stage - round(k / stage)) > 1e-9
     ]
 
 
@@ -86,9 +84,7 @@ def span_revolutions(angle: NDArray[np.float64]) -> float:
     return float(np.ptp(angle)) / (2 * math.pi) if angle.size else 0.0
 
 
-def floor_orders(
-    lines: Sequence[float], avoid: Sequence[float], revolutions: float
-) -> list[float]:
+def floor_orders(lines: Sequence[float], avoid: Sequence[float], revolutions: float) -> list[float]:
     """Orders beside ``lines`` (:data:`FLOOR_CELLS` cells of ``1 / revolutions``) that stay
     :data:`FLOOR_GAP_CELLS` cells away from every line of ``avoid`` and every whole order, the
     :data:`FLOOR_PER_LINE` nearest per line."""
@@ -99,20 +95,21 @@ def floor_orders(
         found = [
             o + k * cell
             for k in sorted(FLOOR_CELLS, key=abs)
-            if o + k * cell > 0 and float(np.min(np.abs(keep_off - o - k * cell))) > FLOOR_GAP_CELLS * cell
+            if o + k * cell > 0
+            and float(np.min(np.abs(keep_off - o - k * cell))) > FLOOR_GAP_CELLS * cell
         ]
         out.update(round(f, 12) for f in found[:FLOOR_PER_LINE])
     return sorted(out)
 
 
-def _crude(m: Motion, keep: NDArray[np.bool_]) -> NDArray[np.float64]:
+def _crude(m: Motion, keep: NDArray[np.bool_], gear_ratio: float) -> NDArray[np.float64]:
     v = m.speed[keep]
     span = float(np.ptp(m.position[keep])) or 1.0
     q = (m.position[keep] - float(np.mean(m.position[keep]))) / span
     return np.column_stack([np.sign(v), v, m.acceleration[keep], np.ones_like(v), q, q**2, q**3])
 
 
-def _spline(m: Motion, keep: NDArray[np.bool_]) -> NDArray[np.float64]:
+def _spline(m: Motion, keep: NDArray[np.bool_], gear_ratio: float) -> NDArray[np.float64]:
     """Cubic B-splines in time (knots every :data:`SPLINE_KNOT_S`), each also times
     ``sign(speed)``: anything smooth in time, the reference's dynamics, the payload, gravity,
     the controller's slow response, and the friction's sign."""
@@ -126,10 +123,10 @@ def _spline(m: Motion, keep: NDArray[np.bool_]) -> NDArray[np.float64]:
     return np.concatenate([basis, basis * sign], axis=1)[keep]
 
 
-def _lagged(m: Motion, keep: NDArray[np.bool_]) -> NDArray[np.float64]:
+def _lagged(m: Motion, keep: NDArray[np.bool_], gear_ratio: float) -> NDArray[np.float64]:
     """The spline basis plus the measured speed and acceleration now and at :data:`LAGS`
     earlier samples (a causal linear model of the controller's response)."""
-    columns = [_spline(m, np.ones(m.time_s.size, dtype=bool))]
+    columns = [_spline(m, np.ones(m.time_s.size, dtype=bool), gear_ratio)]
     for signal in (m.speed, m.acceleration):
         for lag in (0, *LAGS):
             shifted = np.concatenate([np.full(lag, signal[0]), signal[: signal.size - lag]])
@@ -140,21 +137,27 @@ def _lagged(m: Motion, keep: NDArray[np.bool_]) -> NDArray[np.float64]:
 def _harmonic(m: Motion, keep: NDArray[np.bool_], gear_ratio: float) -> NDArray[np.float64]:
     """The spline basis plus sines and cosines of the motor angle at :data:`WHOLE_ORDERS`, as
     many as leave four samples per column."""
-    spline = _spline(m, keep)
+    spline = _spline(m, keep, gear_ratio)
     theta = gear_ratio * m.position[keep]
     room = max(0, (int(keep.sum()) // 4 - spline.shape[1]) // 2)
     waves = [f(k * theta) for k in WHOLE_ORDERS[:room] for f in (np.sin, np.cos)]
     return np.column_stack([spline, *waves]) if waves else spline
 
 
-RESIDUALS: dict[str, object] = {"crude": _crude, "spline": _spline, "lagged": _lagged, "harmonic": _harmonic}
+#: The residuals' designs: ``(motion, samples kept, gear ratio) -> columns``.
+RESIDUALS: dict[str, Callable[[Motion, NDArray[np.bool_], float], NDArray[np.float64]]] = {
+    "crude": _crude,
+    "spline": _spline,
+    "lagged": _lagged,
+    "harmonic": _harmonic,
+}
 
 
 def residual(
     m: Motion, keep: NDArray[np.bool_], kind: str, gear_ratio: float
 ) -> NDArray[np.float64]:
     """The torque at ``keep`` less its least-squares fit on the residual ``kind``'s design."""
-    design = _harmonic(m, keep, gear_ratio) if kind == "harmonic" else RESIDUALS[kind](m, keep)
+    design = RESIDUALS[kind](m, keep, gear_ratio)
     y = m.torque[keep]
     coefficients, *_ = scipy.linalg.lstsq(design, y)
     return np.asarray(y - design @ coefficients, dtype=np.float64)
@@ -239,7 +242,8 @@ def capture_rows(
 
 
 def feasibility(
-    seeds: Sequence[int] = DEVELOPMENT_ROBOTS, tasks: Sequence[int] = (0, 1, 2, 3, 4),
+    seeds: Sequence[int] = DEVELOPMENT_ROBOTS,
+    tasks: Sequence[int] = (0, 1, 2, 3, 4),
     n_seeds: int = 2,
 ) -> pd.DataFrame:
     """:func:`capture_rows` for every robot, two-way task and seed; one row per capture and
@@ -282,7 +286,10 @@ def summary(rows: pd.DataFrame) -> pd.DataFrame:
             "phase_err": med["phase_error_at_max_order"],
         }
         for kind in RESIDUALS:
-            record[f"snr_{kind}"] = float(np.median(g[f"line_{kind}"] / g[f"floor_{kind}"]))
+            # Median over the captures that have floor orders (a span too short to resolve
+            # orders beside the lines has none).
+            record[f"snr_{kind}"] = float(np.nanmedian(g[f"line_{kind}"] / g[f"floor_{kind}"]))
+        record["share_with_floor"] = float(np.mean(np.isfinite(g["floor_crude"])))
         record["snr_sensor"] = float(np.median(g["line_raw"] / g["sensor_floor"]))
         record["needed"] = needed_snr(int(med["n_orders"]))
         out.append(record)
@@ -291,8 +298,9 @@ def summary(rows: pd.DataFrame) -> pd.DataFrame:
 
 def main(out: str, *args: str) -> None:
     """``python -m axiswatch_lab._synchronous_lines OUT``: the feasibility rows and summary
-    (``OUT_rows.csv``, ``OUT_summary.csv``); ``OUT --compare [--fast] SEED ...``: the
-    comparison (``OUT_compare.csv``), development robots only while choosing."""
+    (``OUT_rows.csv``, ``OUT_summary.csv``); ``OUT --compare [--fast] [--candidates=A,B]
+    SEED ...``: the comparison (``OUT_compare.csv``; default the first candidate),
+    development robots only while choosing."""
     if "--compare" in args:
         from threadpoolctl import threadpool_limits
 
@@ -300,8 +308,13 @@ def main(out: str, *args: str) -> None:
         from axiswatch_lab._transfer import FAST_DESIGN
 
         design = FAST_DESIGN if "--fast" in args else TransferDesign()
+        chosen = ["synchronous"]
+        for arg in args:
+            if arg.startswith("--candidates="):
+                chosen = arg.split("=", 1)[1].split(",")
+        seeds = [int(a) for a in args if not a.startswith("--")]
         with threadpool_limits(1):
-            table = comparison([int(a) for a in args if not a.startswith("--")], design)
+            table = comparison(seeds, design, chosen)
         table.to_csv(f"{out}_compare.csv", index=False)
         with pd.option_context("display.width", 250, "display.max_columns", 40):
             print(compared(table).round(4).to_string())
@@ -312,7 +325,6 @@ def main(out: str, *args: str) -> None:
     table.to_csv(f"{out}_summary.csv", index=False)
     with pd.option_context("display.width", 250, "display.max_columns", 40):
         print(table.round(4).to_string(index=False))
-
 
 
 # --- the candidate reading and its comparison with the product's kinematic lines -------------
@@ -328,8 +340,11 @@ def synchronous_line_ratio(
     gear_ratio: float,
     lines: Sequence[float],
     avoid: Sequence[float],
+    *,
+    min_span: float = MIN_REVOLUTIONS,
+    min_line_turns: float = 0.0,
 ) -> float | str:
-    """Mean synchronous line power at ``lines`` over the mean at the floor orders beside them.
+    """Median synchronous line power at ``lines`` over the mean at the floor orders beside them.
 
     Residual: the torque at the fast samples (``|speed|`` above :data:`FAST_FRACTION` of its
     peak) less its least-squares fit on cubic B-splines in time, the same times the direction,
@@ -344,15 +359,19 @@ def synchronous_line_ratio(
     over their floors (robot 7, task 2: lines of 1.2-1.9 at 500-1800 times their floors in
     health); a fault raises most of its lines. The reason (a string) when the capture cannot
     give it.
+
+    ``min_span``: the least span of the motor angle (revolutions; the first candidate's 10, the
+    product's travel need). ``min_line_turns``: a line counts only where its phase turns this
+    many times over the span (``order x span``), so that its samples spread over its phase
+    (the second candidate: no span need but this one at 2 turns, and the free floor orders).
     """
     peak = float(np.max(np.abs(m.speed)))
     keep = np.abs(m.speed) > FAST_FRACTION * peak
     theta = gear_ratio * m.position
     revolutions = span_revolutions(theta[keep])
-    if revolutions < MIN_REVOLUTIONS:
-        return (
-            f"needs a motor-angle span of {MIN_REVOLUTIONS:g} revolutions (got {revolutions:.3g})"
-        )
+    if revolutions < min_span or revolutions <= 0:
+        return f"needs a motor-angle span of {min_span:g} revolutions (got {revolutions:.3g})"
+    lines = [o for o in lines if o * revolutions >= min_line_turns]
     design = _harmonic(m, keep, gear_ratio)
     if keep.sum() < MIN_SAMPLES_PER_COLUMN * design.shape[1]:
         return (
@@ -360,7 +379,7 @@ def synchronous_line_ratio(
             f"(got {int(keep.sum())})"
         )
     neighbours = [floor_orders([o], avoid, revolutions) for o in lines]
-    if sum(len(n) > 0 for n in neighbours) < min(MIN_LINES, len(lines)):
+    if not lines or sum(len(n) > 0 for n in neighbours) < min(MIN_LINES, len(lines)):
         return f"needs {MIN_LINES} lines with orders free of lines beside them"
     y = m.torque[keep]
     coefficients, *_ = scipy.linalg.lstsq(design, y)
@@ -375,12 +394,20 @@ def synchronous_line_ratio(
     return value if math.isfinite(value) else "needs a residual (the torque is a smooth fit)"
 
 
+#: The candidates compared with the product: keyword arguments of
+#: :func:`synchronous_line_ratio`.
+CANDIDATES: dict[str, dict[str, float]] = {
+    "synchronous": {},
+    "synchronous, resolved": {"min_span": 0.0, "min_line_turns": 2.0},
+}
+
+
 def reader(
-    robot: SimulatedRobot, cache: dict[int, Readings], synchronous_lines: bool
+    robot: SimulatedRobot, cache: dict[int, Readings], candidate: str | None
 ) -> Callable[[Capture], Readings]:
-    """The product's readings with the robot's kinematics; with ``synchronous_lines`` its
-    ``tooth_lines:*`` and ``bearing_lines:*`` are :func:`synchronous_line_ratio` instead (same
-    names). ``cache`` (keyed by the capture's ``id``: the captures must outlive it, as under
+    """The product's readings with the robot's kinematics; with a ``candidate`` (a key of
+    :data:`CANDIDATES`) its ``tooth_lines:*`` and ``bearing_lines:*`` are
+    :func:`synchronous_line_ratio` with that candidate's arguments instead (same names). ``cache`` (keyed by the capture's ``id``: the captures must outlive it, as under
     :func:`~axiswatch_lab._order_lines._simulated_once`) shares the product's readings."""
     profile = _profile(robot, True)
     model = IndicatorModel(profile)
@@ -392,12 +419,17 @@ def reader(
         if id(capture) not in cache:
             cache[id(capture)] = model.readings(capture)
         readings = cache[id(capture)]
-        if not synchronous_lines:
+        if candidate is None:
             return readings
         m = motion(capture)
         values, reasons = dict(readings.values), dict(readings.reasons)
-        for name, lines in (("tooth_lines:tooth stage", tooth), ("bearing_lines:motor bearing", bearing)):
-            got = synchronous_line_ratio(m, spec.gear_ratio, lines, [*tooth, *bearing])
+        for name, lines in (
+            ("tooth_lines:tooth stage", tooth),
+            ("bearing_lines:motor bearing", bearing),
+        ):
+            got = synchronous_line_ratio(
+                m, spec.gear_ratio, lines, [*tooth, *bearing], **CANDIDATES[candidate]
+            )
             reasons.pop(name, None)
             if isinstance(got, str):
                 values[name], reasons[name] = math.nan, got
@@ -408,17 +440,23 @@ def reader(
     return read
 
 
-def comparison(seeds: Sequence[int], design: TransferDesign = TransferDesign()) -> pd.DataFrame:
+def comparison(
+    seeds: Sequence[int],
+    design: TransferDesign | None = None,
+    candidates: Sequence[str] = ("synchronous",),
+) -> pd.DataFrame:
     """:func:`~axiswatch_lab._transfer.robot_transfer` per seed, the product's kinematic lines
-    (``product``) and the synchronous ones (``synchronous``) on the same captures."""
+    (``product``) and each of ``candidates`` (keys of :data:`CANDIDATES`) on the same captures
+    (``design``: the full :class:`~axiswatch_lab._transfer.TransferDesign` when None)."""
+    design = design or TransferDesign()
     rows = []
     for seed in seeds:
         robot = draw_robot(seed)
         with _simulated_once():
             cache: dict[int, Readings] = {}
-            for chosen in (False, True):
+            for chosen in (None, *candidates):
                 record = robot_transfer(seed, design, read=reader(robot, cache, chosen))
-                rows.append({"candidate": "synchronous" if chosen else "product", **record})
+                rows.append({"candidate": chosen or "product", **record})
                 print(rows[-1], flush=True)
     return pd.DataFrame(rows)
 
