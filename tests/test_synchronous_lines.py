@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from axiswatch import Capture
-from axiswatch._readings import motion
+from axiswatch._readings import Readings, motion
+from axiswatch.datasets import draw_robot
 from axiswatch_lab._synchronous_lines import (
     FLOOR_GAP_CELLS,
     floor_orders,
     needed_snr,
+    reader,
     synchronous,
     synchronous_line_ratio,
     tooth_orders,
@@ -118,3 +120,29 @@ def test_unavailable_with_a_reason() -> None:
 def test_needed_ratio_falls_with_the_number_of_lines() -> None:
     assert needed_snr(8) == pytest.approx(math.sqrt(math.sqrt(2) * 1.6449 / math.sqrt(8)), rel=1e-3)
     assert needed_snr(32) < needed_snr(8)
+
+
+def test_a_line_whose_phase_hardly_turns_over_the_span_is_not_counted() -> None:
+    m = motion(_strokes(20.0))
+    lines = [3.37, 4.37, 5.37, 6.37]
+    assert isinstance(synchronous_line_ratio(m, GEAR_RATIO, lines, [], min_span=0.0), float)
+    # A span of about 32 revolutions: no line turns 500 times over it.
+    got = synchronous_line_ratio(m, GEAR_RATIO, lines, [], min_span=0.0, min_line_turns=500.0)
+    assert got == "needs 4 lines with orders free of lines beside them"
+
+
+def test_the_reader_replaces_the_product_lines_under_the_same_names() -> None:
+    robot = draw_robot(3)
+    capture = robot.capture(0, seed="t")
+    cache: dict[int, Readings] = {}
+    product = reader(robot, cache, None)(capture)
+    candidate = reader(robot, cache, "synchronous-resolved")(capture)
+    names = ["tooth_lines:tooth stage", "bearing_lines:motor bearing"]
+    assert set(product.values) == set(candidate.values)
+    for name in names:
+        value = candidate.values[name]
+        assert math.isfinite(value) or name in candidate.reasons
+    others = [n for n in product.values if n not in names]
+    assert [candidate.values[n] for n in others] == pytest.approx(
+        [product.values[n] for n in others], nan_ok=True
+    )

@@ -398,7 +398,7 @@ def synchronous_line_ratio(
 #: :func:`synchronous_line_ratio`.
 CANDIDATES: dict[str, dict[str, float]] = {
     "synchronous": {},
-    "synchronous, resolved": {"min_span": 0.0, "min_line_turns": 2.0},
+    "synchronous-resolved": {"min_span": 0.0, "min_line_turns": 2.0},
 }
 
 
