@@ -17,7 +17,10 @@ residual (the RMS ``|c|`` at nearby orders no line sits at) and against the torq
 noise floor (the simulator's noise and resolution, read here only to measure, never by an
 indicator), and the motor-angle error of the logged position (PCHIP onto the torque's instants,
 times the gear ratio) against the truth of a noiseless position logged at the torque's rate.
-Nothing here is used by the product.
+The candidate reading (:func:`synchronous_line_ratio`, two variants in :data:`CANDIDATES`) is
+compared with the product's rate-band lines by :func:`comparison` (the transfer design, the
+same captures, the readings of the same names replaced); neither met the rule fixed before its
+run, so nothing here is used by the product.
 """
 
 from __future__ import annotations
