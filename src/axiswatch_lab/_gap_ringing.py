@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Any, Literal
 from pathlib import Path
 from unittest import mock
 
@@ -91,6 +92,14 @@ CROSSING_SMOOTHING_HZ = 10.0
 #: 1 / Phi^-1(3/4): the median absolute value of Gaussian noise -> its standard deviation.
 MAD_TO_SD = 1.4826
 
+#: The candidates compared (docs/evaluation.md): ``v1`` every sign change and the robust level
+#: of the motion (the first full run); ``v2`` passages through +-10 % of each estimate's peak
+#: and the residual away from the windows (chosen on the probe after ``v1`` failed the rule).
+CANDIDATES: dict[str, dict[str, Any]] = {
+    "v1": {"hysteresis": 0.0, "reference": "motion"},
+    "v2": {"hysteresis": 0.1, "reference": "away"},
+}
+
 GAP_RINGING = Indicator(
     "gap_ringing",
     f"a torque rate >= {MIN_RINGING_RATE_HZ:g} Hz and gap crossings (sign changes of the "
@@ -118,10 +127,20 @@ def _fit(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDA
     return design @ coefficients, design[:, 2:] @ coefficients[2:]
 
 
-def _sign_changes(x: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Indices ``i`` where ``x`` changes sign between samples ``i`` and ``i + 1``."""
-    s = np.sign(x)
-    return np.flatnonzero(s[1:] * s[:-1] < 0)
+def _sign_changes(x: NDArray[np.float64], hysteresis: float) -> NDArray[np.intp]:
+    """Indices ``i`` where ``x`` changes sign between samples ``i`` and ``i + 1``, counting only
+    passages from below ``-h`` to above ``h`` or back (``h = hysteresis x max |x|``), each at its
+    last sign change; with ``hysteresis=0`` every sign change."""
+    level = hysteresis * float(np.max(np.abs(x))) if x.size else 0.0
+    side = np.where(x > level, 1, np.where(x < -level, -1, 0))
+    outside = np.flatnonzero(side != 0)
+    changes = np.flatnonzero(np.sign(x[1:]) * np.sign(x[:-1]) < 0)
+    out = []
+    for a, b in zip(outside[:-1].tolist(), outside[1:].tolist(), strict=True):
+        if side[a] != side[b]:
+            between = changes[(changes >= a) & (changes < b)]
+            out.append(int(between[-1]))
+    return np.asarray(out, dtype=np.intp)
 
 
 def _filtered(sos: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -130,26 +149,40 @@ def _filtered(sos: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.fl
     return np.asarray(sosfiltfilt(sos, x, padlen=padlen), dtype=np.float64)
 
 
-def gap_crossings(m: Motion, moving: NDArray[np.bool_]) -> NDArray[np.intp]:
+def gap_crossings(
+    m: Motion, moving: NDArray[np.bool_], hysteresis: float = 0.0
+) -> NDArray[np.intp]:
     """Sample indices where the transmitted torque is estimated to change sign (sorted, unique).
 
     The union of the sign changes of the fit's rigid part (inertia x acceleration + position
-    cubic) and of the commanded torque low-passed at :data:`CROSSING_SMOOTHING_HZ`.
+    cubic) and of the commanded torque low-passed at :data:`CROSSING_SMOOTHING_HZ`; with a
+    ``hysteresis`` (share of each estimate's largest magnitude) only its passages through that
+    band around zero, not its noise while it hovers at zero (a wrist cruising at constant speed).
     """
     _, rigid = _fit(m, moving)
     smoothing = min(CROSSING_SMOOTHING_HZ, 0.25 * m.rate_hz)
     sos = butter(2, smoothing, fs=m.rate_hz, output="sos")
     commanded = _filtered(sos, m.torque)
-    return np.unique(np.concatenate([_sign_changes(rigid), _sign_changes(commanded)]))
+    return np.unique(
+        np.concatenate([_sign_changes(rigid, hysteresis), _sign_changes(commanded, hysteresis)])
+    )
 
 
-def gap_ringing(m: Motion) -> tuple[float, str | None]:
-    """The drive's ringing after the gap crossings over its level in the whole motion.
+def gap_ringing(
+    m: Motion, *, hysteresis: float = 0.0, reference: Literal["motion", "away"] = "motion"
+) -> tuple[float, str | None]:
+    """The drive's ringing after the gap crossings over its level in the motion.
 
     Parameters
     ----------
     m : Motion
         From :func:`~axiswatch._readings.motion`.
+    hysteresis : float, default=0.0
+        Of the crossings (:func:`gap_crossings`).
+    reference : {"motion", "away"}, default="motion"
+        The level the ringing is divided by: the residual's robust level over all moving
+        samples (``1.4826 x`` median absolute value; the first candidate), or its mean square
+        over the moving samples outside every window (the second).
 
     Returns
     -------
@@ -186,7 +219,7 @@ def gap_ringing(m: Motion) -> tuple[float, str | None]:
     whole, _ = _fit(m, moving)
     sos = butter(4, [low, high], btype="bandpass", fs=m.rate_hz, output="sos")
     residual = _filtered(sos, m.torque - whole)
-    crossings = gap_crossings(m, moving)
+    crossings = gap_crossings(m, moving, hysteresis)
     near = np.zeros(m.time_s.size, dtype=bool)
     before, after = RINGING_WINDOW_S
     for i in crossings.tolist():
@@ -194,10 +227,16 @@ def gap_ringing(m: Motion) -> tuple[float, str | None]:
     near &= moving
     if int(near.sum()) < 3:
         return math.nan, "needs gap crossings while moving (no sign change of the transmitted torque)"
-    level = MAD_TO_SD * float(np.median(np.abs(residual[moving])))
-    if not level > 0:
+    if reference == "away":
+        away = moving & ~near
+        if int(away.sum()) < 3:
+            return math.nan, "needs motion away from the gap crossings"
+        power = float(np.mean(residual[away] ** 2))
+    else:
+        power = (MAD_TO_SD * float(np.median(np.abs(residual[moving])))) ** 2
+    if not power > 0:
         return math.nan, "needs torque noise in the resonance band (the residual is flat)"
-    return float(np.mean(residual[near] ** 2)) / level**2, None
+    return float(np.mean(residual[near] ** 2)) / power, None
 
 
 # --- the study --------------------------------------------------------------------------------
@@ -225,14 +264,14 @@ class _Cached:
     """Readings of a capture, read once whatever the variant (captures are simulated again per
     variant, bit for bit the same; keyed by their signals)."""
 
-    def __init__(self, read: Callable[[Capture], Readings]) -> None:
-        self.read = read
+    def __init__(self, read: Callable[[Capture], Readings], candidate: str) -> None:
+        self.read, self.options = read, CANDIDATES[candidate]
         self.cache: dict[bytes, tuple[Readings, float, str | None]] = {}
 
     def __call__(self, capture: Capture, variant: str) -> Readings:
         key = b"".join(np.asarray(s).tobytes() for s in capture.signals.values())
         if key not in self.cache:
-            ringing, why = gap_ringing(motion(capture))
+            ringing, why = gap_ringing(motion(capture), **self.options)
             self.cache[key] = (self.read(capture), ringing, why)
         return _variant(*self.cache[key], variant)
 
@@ -283,6 +322,7 @@ def ringing_study(
     design: TransferDesign | None = None,
     *,
     monitor: bool = True,
+    candidate: str = "v1",
     progress: Callable[[str], None] = print,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(transfer rows, monitor-scenario rows): one per robot and variant (and scenario)."""
@@ -291,14 +331,15 @@ def ringing_study(
     with threadpool_limits(1), _declared():
         for seed in seeds:
             design_ = design or TransferDesign()
-            cached = _Cached(IndicatorModel(_profile_of(seed, design_.kinematics)).readings)
+            reader = IndicatorModel(_profile_of(seed, design_.kinematics)).readings
+            cached = _Cached(reader, candidate)
             for variant in VARIANTS:
                 record = robot_transfer(
                     seed, design_, read=lambda c, v=variant: cached(c, v)  # type: ignore[misc]
                 )
                 transfer.append({"variant": variant, **record})
             if monitor:
-                monitor_rows += _monitor_rows(seed, _Cached(read_indicators))
+                monitor_rows += _monitor_rows(seed, _Cached(read_indicators, candidate))
             progress(f"robot {seed} done")
     return pd.DataFrame(transfer), pd.DataFrame(monitor_rows)
 
@@ -309,10 +350,10 @@ def _profile_of(seed: int, kinematics: bool) -> object:
     return _profile(draw_robot(seed), kinematics)
 
 
-def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
+def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS, candidate: str = "v1") -> None:
     """Write ``transfer.csv`` and ``monitor.csv`` under ``out`` and print the summaries."""
     out.mkdir(parents=True, exist_ok=True)
-    transfer, monitor = ringing_study(seeds)
+    transfer, monitor = ringing_study(seeds, candidate=candidate)
     transfer.to_csv(out / "transfer.csv", index=False)
     monitor.to_csv(out / "monitor.csv", index=False)
     print(summary(transfer, monitor))
@@ -336,7 +377,8 @@ def summary(transfer: pd.DataFrame, monitor: pd.DataFrame) -> str:
     return "\n\n".join(lines)
 
 
-if __name__ == "__main__":  # python -m axiswatch_lab._gap_ringing OUT [SEED ...]
+if __name__ == "__main__":  # python -m axiswatch_lab._gap_ringing OUT CANDIDATE [SEED ...]
     import sys
 
-    main(Path(sys.argv[1]), tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS)
+    seeds = tuple(int(s) for s in sys.argv[3:]) or DEVELOPMENT_ROBOTS
+    main(Path(sys.argv[1]), seeds, sys.argv[2])
