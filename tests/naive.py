@@ -557,6 +557,8 @@ def gap_ringing_naive(
     acceleration: np.ndarray,
     torque: np.ndarray,
     rate_hz: float,
+    hysteresis: float = 0.0,
+    reference: str = "motion",
 ) -> float:
     """The ringing after the estimated gap crossings, sample by sample: normal equations for the
     fit, loops for the sign changes, the windows and the median (the band-pass is SciPy's)."""
@@ -580,22 +582,32 @@ def gap_ringing_naive(
     rigid = [sum(r[j] * coefficients[j] for j in range(2, 7)) for r in rows]
 
     def filtered(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
-        return sosfiltfilt(sos, x, padlen=min(3 * (2 * sos.shape[0] + 1), len(x) - 1))
+        return np.asarray(sosfiltfilt(sos, x, padlen=min(3 * (2 * sos.shape[0] + 1), len(x) - 1)))
 
     smooth = filtered(butter(2, min(10.0, 0.25 * rate_hz), fs=rate_hz, output="sos"), torque)
     crossings = set()
     for x in (rigid, smooth):
-        for k in range(n - 1):
-            if (x[k] > 0 and x[k + 1] < 0) or (x[k] < 0 and x[k + 1] > 0):
-                crossings.add(k)
+        level = hysteresis * max(abs(float(v)) for v in x)
+        side, last_change = 0, -1
+        for k in range(n):
+            if k > 0 and ((x[k - 1] > 0 and x[k] < 0) or (x[k - 1] < 0 and x[k] > 0)):
+                last_change = k - 1
+            here = 1 if x[k] > level else (-1 if x[k] < -level else 0)
+            if here == 0:
+                continue
+            if side != 0 and here != side:
+                crossings.add(last_change)
+            side = here
     sos = butter(4, [5.0, min(50.0, 0.45 * rate_hz)], btype="bandpass", fs=rate_hz, output="sos")
     residual = filtered(sos, torque - np.asarray(whole))
-    near = []
+    near, away = [], []
     for i in range(n):
-        if moving[i] and any(
-            time_s[k] - 0.05 <= time_s[i] <= time_s[k] + 0.3 for k in crossings
-        ):
+        if moving[i] and any(time_s[k] - 0.05 <= time_s[i] <= time_s[k] + 0.3 for k in crossings):
             near.append(float(residual[i]) ** 2)
+        elif moving[i]:
+            away.append(float(residual[i]) ** 2)
+    if reference == "away":
+        return (sum(near) / len(near)) / (sum(away) / len(away))
     magnitudes = sorted(abs(float(residual[i])) for i in range(n) if moving[i])
     middle = len(magnitudes) // 2
     median = (

@@ -31,10 +31,12 @@ docs section); the held-out robots were never run for it here.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from contextlib import AbstractContextManager
 from pathlib import Path
+from typing import Any, Literal
 from unittest import mock
 
 import numpy as np
@@ -59,7 +61,7 @@ from axiswatch._readings import (
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import Fault
 from axiswatch_lab._task_envelope import _AXES, _FIT
-from axiswatch_lab._transfer import TransferDesign, robot_transfer
+from axiswatch_lab._transfer import TransferDesign, _profile, robot_transfer
 
 __all__ = [
     "GAP_RINGING",
@@ -120,9 +122,7 @@ def _fit(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDA
     span = float(np.ptp(m.position[moving])) or 1.0
     q = (m.position - float(np.mean(m.position[moving]))) / span
     saturated = np.clip(m.speed / (MOVING_FRACTION * peak), -1.0, 1.0)
-    design = np.column_stack(
-        [saturated, m.speed, m.acceleration, np.ones_like(q), q, q**2, q**3]
-    )
+    design = np.column_stack([saturated, m.speed, m.acceleration, np.ones_like(q), q, q**2, q**3])
     coefficients, *_ = scipy.linalg.lstsq(design[moving], m.torque[moving])
     return design @ coefficients, design[:, 2:] @ coefficients[2:]
 
@@ -226,7 +226,10 @@ def gap_ringing(
         near |= (m.time_s >= m.time_s[i] - before) & (m.time_s <= m.time_s[i] + after)
     near &= moving
     if int(near.sum()) < 3:
-        return math.nan, "needs gap crossings while moving (no sign change of the transmitted torque)"
+        return (
+            math.nan,
+            "needs gap crossings while moving (no sign change of the transmitted torque)",
+        )
     if reference == "away":
         away = moving & ~near
         if int(away.sum()) < 3:
@@ -276,8 +279,13 @@ class _Cached:
         return _variant(*self.cache[key], variant)
 
 
-def _declared():  # type: ignore[no-untyped-def]
-    """The model's declarations with :data:`GAP_RINGING` (the study only)."""
+def _read(cached: _Cached, variant: str, capture: Capture) -> Readings:
+    return cached(capture, variant)
+
+
+def _declared() -> AbstractContextManager[object]:
+    """The model's declarations with :data:`GAP_RINGING` (the study only: the product's model
+    declares its own indicators)."""
     return mock.patch.object(indicator_model, "INDICATORS", (*INDICATORS, GAP_RINGING))
 
 
@@ -289,7 +297,8 @@ def _monitor_rows(seed: int, cached: _Cached) -> list[dict[str, object]]:
     for scenario in ("healthy", "fault"):
         captures = []
         for a in range(_AXES):
-            fitting, monitored = [], []
+            fitting: list[tuple[Capture, bool]] = []
+            monitored: list[tuple[Capture, bool]] = []
             for day in range(_FIT + (12 if scenario == "healthy" else 8)):
                 task, fault = a, None
                 if scenario == "healthy" and day >= _FIT + 4:
@@ -331,23 +340,17 @@ def ringing_study(
     with threadpool_limits(1), _declared():
         for seed in seeds:
             design_ = design or TransferDesign()
-            reader = IndicatorModel(_profile_of(seed, design_.kinematics)).readings
+            reader = IndicatorModel(_profile(draw_robot(seed), design_.kinematics)).readings
             cached = _Cached(reader, candidate)
             for variant in VARIANTS:
                 record = robot_transfer(
-                    seed, design_, read=lambda c, v=variant: cached(c, v)  # type: ignore[misc]
+                    seed, design_, read=functools.partial(_read, cached, variant)
                 )
                 transfer.append({"variant": variant, **record})
             if monitor:
                 monitor_rows += _monitor_rows(seed, _Cached(read_indicators, candidate))
             progress(f"robot {seed} done")
     return pd.DataFrame(transfer), pd.DataFrame(monitor_rows)
-
-
-def _profile_of(seed: int, kinematics: bool) -> object:
-    from axiswatch_lab._transfer import _profile
-
-    return _profile(draw_robot(seed), kinematics)
 
 
 def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS, candidate: str = "v1") -> None:
@@ -367,7 +370,9 @@ def summary(transfer: pd.DataFrame, monitor: pd.DataFrame) -> str:
     table["robot_a_false_alarms"] = grouped["robot_a_false_alarms"].sum()
     table["robots_a_clean"] = grouped["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
     lines = [table.T.to_string(float_format=lambda v: f"{v:.3f}")]
-    lines.append(transfer.pivot(index="robot", columns="variant", values="auroc_backlash").to_string())
+    lines.append(
+        transfer.pivot(index="robot", columns="variant", values="auroc_backlash").to_string()
+    )
     lines.append(
         transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms").to_string()
     )
