@@ -557,11 +557,11 @@ def gap_ringing_naive(
     acceleration: np.ndarray,
     torque: np.ndarray,
     rate_hz: float,
-    hysteresis: float = 0.0,
-    reference: str = "motion",
+    hysteresis: float = 0.1,
+    reference: str = "away",
 ) -> float:
-    """The ringing after the estimated gap crossings, sample by sample: normal equations for the
-    fit, loops for the sign changes, the windows and the median (the band-pass is SciPy's)."""
+    """:func:`axiswatch._ringing.gap_ringing`, sample by sample: normal equations for the fit,
+    loops for the passages, the windows and the median (the filters are SciPy's)."""
     from scipy.signal import butter, sosfiltfilt
 
     n = len(torque)

@@ -50,8 +50,10 @@ __all__ = [
 #: 3: a fleet prior keeps a task-change allowance per indicator (a model stored before has
 #: none, and is refitted). 4: an indicator model may keep its baseline's order spectrum and its
 #: readings their order profiles (``order_lines``). 5: an indicator model keeps the allowances
-#: of its own pairs (``own_allowances_``).
-PERSIST_FORMAT = 5
+#: of its own pairs (``own_allowances_``). 6: the indicators' backlash reading is
+#: ``gap_ringing`` (``reversal_bursts`` before): a stored model's centre and spreads of it mean
+#: something else, so it is refitted.
+PERSIST_FORMAT = 6
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
