@@ -1,32 +1,14 @@
-"""Backlash as the drive's ringing after the gear crosses its gap (issue 13, i14a).
+"""Backlash as the drive's ringing after the gear crosses its gap: the study (issue 13, i14a).
 
-Research study (docs/evaluation.md, "Backlash as ringing after the gap crossings"). The product's
-backlash indicator, ``reversal_bursts``, looks within +-0.02 s of the sign changes of the
-*commanded* torque, in a band set by the logging rate (``[0.04, 0.4] x rate``); its backlash
-AUROC on the development robots is about 0.46. In the simulator (and in a gearbox) the gap is
-crossed when the *transmitted* torque changes sign; the motor then strikes the other flank and
-the drive rings at its own resonance (10-20 Hz on the development robots, for 0.05-0.3 s,
-5-30 % of the peak torque), whatever the logging rate. :func:`gap_ringing` reads that ringing:
-
-* **crossings**: where the transmitted torque changes sign is not measured; it lies between two
-  estimates made from the capture, and both are used: the sign changes of the *rigid part* of a
-  least-squares fit of the torque (inertia x acceleration + a cubic in the position, i.e. the
-  torque minus its friction terms: what the gear would carry if the motor had no inertia), and
-  those of the commanded torque low-passed at 10 Hz (what it would carry if the motor had
-  neither inertia nor friction; the smoothing of ``reversal_bursts``);
-* **residual**: the torque minus the whole fit (friction ``sign(speed)`` saturated over the
-  lowest 10 % of the speed, viscous, inertia, position cubic), band-passed to
-  :data:`RINGING_BAND_HZ` (cut at :data:`NYQUIST_MARGIN` of the rate): the rigid motion and its
-  friction are removed, the resonance is kept;
-* **reading**: the mean square of that residual over the moving samples within
-  :data:`RINGING_WINDOW_S` of a crossing, over the square of its robust level over all the
-  moving samples (``1.4826 x`` its median absolute value: the noise and mesh ripple of that
-  capture, hardly moved by ringing that fills a minority of the motion). A ratio of one signal's
-  powers, so free of the torque's unit and of the task's torque scale.
-
-Nothing in it depends on the simulator: the band is a physical range of drive resonances, the
-windows a few periods of it. Chosen on development robots 0-7 only (the probe of the study's
-docs section); the held-out robots were never run for it here.
+Research study (docs/evaluation.md, "Backlash as ringing after the gap crossings"). It chose
+:func:`axiswatch._ringing.gap_ringing` (the product's ``gap_ringing`` reading since) over the
+former backlash indicator ``reversal_bursts`` (bursts within +-0.02 s of the *commanded*
+torque's sign changes, in the band ``[0.04, 0.4] x rate``, needing 100 Hz). Two candidates of
+the reading (:data:`CANDIDATES`) and three variants of the readings (:data:`VARIANTS`: the former
+product, ``reversal_bursts`` replaced, or ``gap_ringing`` added beside it) are scored on the
+development robots by the lab's transfer study (:func:`axiswatch_lab._transfer.robot_transfer`)
+and the monitor study's scenarios, each variant from the same readings. The former product's
+``reversal_bursts`` is read here as the product read it before (:func:`reversal_bursts_before`).
 """
 
 from __future__ import annotations
@@ -36,230 +18,119 @@ import math
 from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 from unittest import mock
 
 import numpy as np
 import pandas as pd
-import scipy.linalg
-from numpy.typing import NDArray
-from scipy.signal import butter, sosfiltfilt
 from threadpoolctl import threadpool_limits
 
 import axiswatch._indicator_model as indicator_model
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel, pool_fleet, pool_fleet_without
+from axiswatch._mechanics import reversal_bursts
 from axiswatch._readings import (
     INDICATORS,
+    MIN_BAND_MOTION_S,
+    MIN_BAND_RATE_HZ,
     MOVING_FRACTION,
     Indicator,
     Motion,
     Readings,
+    _band,
     motion,
     read_indicators,
 )
+from axiswatch._ringing import CROSSING_HYSTERESIS, gap_ringing
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import Fault
 from axiswatch_lab._task_envelope import _AXES, _FIT
 from axiswatch_lab._transfer import TransferDesign, _profile, robot_transfer
 
 __all__ = [
-    "GAP_RINGING",
-    "RINGING_BAND_HZ",
-    "RINGING_WINDOW_S",
+    "CANDIDATES",
+    "REVERSAL_BURSTS",
     "VARIANTS",
-    "gap_crossings",
-    "gap_ringing",
+    "candidate_ringing",
+    "reversal_bursts_before",
     "ringing_study",
 ]
 
-#: Band of the drive-train resonance (Hz): the first (gear-stiffness) mode of robot axes lies
-#: within it (10-20 Hz on the development robots, whose stiffness is drawn over a factor 4, i.e.
-#: a factor 2 in frequency); the lower edge is above the rigid motion left in the fit's residual
-#: (moves of 0.35 s and longer), the upper edge keeps the mesh ripple of fast logs out.
-RINGING_BAND_HZ: tuple[float, float] = (5.0, 50.0)
-#: Upper band edge at most this share of the rate (a margin under the Nyquist frequency).
-NYQUIST_MARGIN = 0.45
-#: Least torque rate (Hz): the band is then 5-9 Hz. A ringing above the Nyquist frequency
-#: reaches it aliased when the logger keeps every n-th sample without an anti-alias filter (the
-#: simulator's and many drives' trace buffers); behind an anti-alias filter it is lost, and the
-#: reading is then that of a healthy axis, not an alarm.
-MIN_RINGING_RATE_HZ = 20.0
-#: Window around each estimated gap crossing (s before, s after): the estimate's uncertainty
-#: before, a few periods of a 10-20 Hz ring decaying within 0.05-0.3 s after.
-RINGING_WINDOW_S: tuple[float, float] = (0.05, 0.3)
-#: Low-pass of the commanded torque whose sign changes are the second crossing estimate (Hz),
-#: as ``reversal_bursts``' (the rate's share 0.05 below 200 Hz).
-CROSSING_SMOOTHING_HZ = 10.0
-#: 1 / Phi^-1(3/4): the median absolute value of Gaussian noise -> its standard deviation.
-MAD_TO_SD = 1.4826
-
 #: The candidates compared (docs/evaluation.md): ``v1`` every sign change and the robust level
-#: of the motion (the first full run); ``v2`` passages through +-10 % of each estimate's peak
-#: and the residual away from the windows (chosen on the probe after ``v1`` failed the rule).
+#: of the motion (the first full run, failed the rule); ``v2`` passages through +-10 % of each
+#: estimate's peak and the residual away from the windows (the product's since).
 CANDIDATES: dict[str, dict[str, Any]] = {
     "v1": {"hysteresis": 0.0, "reference": "motion"},
-    "v2": {"hysteresis": 0.1, "reference": "away"},
+    "v2": {"hysteresis": CROSSING_HYSTERESIS, "reference": "away"},
 }
 
-GAP_RINGING = Indicator(
-    "gap_ringing",
-    f"a torque rate >= {MIN_RINGING_RATE_HZ:g} Hz and gap crossings (sign changes of the "
-    "transmitted torque's estimates) while moving",
+#: The former product's backlash indicator, declared for the study's model only.
+REVERSAL_BURSTS = Indicator(
+    "reversal_bursts",
+    f"a torque rate >= {MIN_BAND_RATE_HZ:g} Hz and torque reversals while moving",
     component="gear backlash",
     log=True,
 )
 
 
-def _fit(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(whole fit, rigid part) of the torque on every sample, fitted on the moving ones.
-
-    The friction column is ``sign(speed)`` saturated linearly below :data:`MOVING_FRACTION` of
-    the peak speed, so that the fit can be evaluated at rest (where ``sign`` would follow the
-    speed's noise); on the moving samples it is ``sign(speed)``, as the friction reading's.
-    """
-    peak = float(np.max(np.abs(m.speed)))
-    span = float(np.ptp(m.position[moving])) or 1.0
-    q = (m.position - float(np.mean(m.position[moving]))) / span
-    saturated = np.clip(m.speed / (MOVING_FRACTION * peak), -1.0, 1.0)
-    design = np.column_stack([saturated, m.speed, m.acceleration, np.ones_like(q), q, q**2, q**3])
-    coefficients, *_ = scipy.linalg.lstsq(design[moving], m.torque[moving])
-    return design @ coefficients, design[:, 2:] @ coefficients[2:]
-
-
-def _sign_changes(x: NDArray[np.float64], hysteresis: float) -> NDArray[np.intp]:
-    """Indices ``i`` where ``x`` changes sign between samples ``i`` and ``i + 1``, counting only
-    passages from below ``-h`` to above ``h`` or back (``h = hysteresis x max |x|``), each at its
-    last sign change; with ``hysteresis=0`` every sign change."""
-    level = hysteresis * float(np.max(np.abs(x))) if x.size else 0.0
-    side = np.where(x > level, 1, np.where(x < -level, -1, 0))
-    outside = np.flatnonzero(side != 0)
-    changes = np.flatnonzero(np.sign(x[1:]) * np.sign(x[:-1]) < 0)
-    out = []
-    for a, b in zip(outside[:-1].tolist(), outside[1:].tolist(), strict=True):
-        if side[a] != side[b]:
-            between = changes[(changes >= a) & (changes < b)]
-            out.append(int(between[-1]))
-    return np.asarray(out, dtype=np.intp)
-
-
-def _filtered(sos: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    # The default pad (3 x the filter's order) exceeds a short capture at a slow rate.
-    padlen = min(3 * (2 * sos.shape[0] + 1), x.size - 1)
-    return np.asarray(sosfiltfilt(sos, x, padlen=padlen), dtype=np.float64)
-
-
-def gap_crossings(
-    m: Motion, moving: NDArray[np.bool_], hysteresis: float = 0.0
-) -> NDArray[np.intp]:
-    """Sample indices where the transmitted torque is estimated to change sign (sorted, unique).
-
-    The union of the sign changes of the fit's rigid part (inertia x acceleration + position
-    cubic) and of the commanded torque low-passed at :data:`CROSSING_SMOOTHING_HZ`; with a
-    ``hysteresis`` (share of each estimate's largest magnitude) only its passages through that
-    band around zero, not its noise while it hovers at zero (a wrist cruising at constant speed).
-    """
-    _, rigid = _fit(m, moving)
-    smoothing = min(CROSSING_SMOOTHING_HZ, 0.25 * m.rate_hz)
-    sos = butter(2, smoothing, fs=m.rate_hz, output="sos")
-    commanded = _filtered(sos, m.torque)
-    return np.unique(
-        np.concatenate([_sign_changes(rigid, hysteresis), _sign_changes(commanded, hysteresis)])
-    )
-
-
-def gap_ringing(
-    m: Motion, *, hysteresis: float = 0.0, reference: Literal["motion", "away"] = "motion"
-) -> tuple[float, str | None]:
-    """The drive's ringing after the gap crossings over its level in the motion.
-
-    Parameters
-    ----------
-    m : Motion
-        From :func:`~axiswatch._readings.motion`.
-    hysteresis : float, default=0.0
-        Of the crossings (:func:`gap_crossings`).
-    reference : {"motion", "away"}, default="motion"
-        The level the ringing is divided by: the residual's robust level over all moving
-        samples (``1.4826 x`` median absolute value; the first candidate), or its mean square
-        over the moving samples outside every window (the second).
-
-    Returns
-    -------
-    (float, str or None)
-        The reading (a ratio of powers, about 1 when the crossings ring no more than the rest of
-        the motion) and None; or NaN and why it cannot be read.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> rate = 500.0
-    >>> t = np.arange(0, 4, 1 / rate)
-    >>> q = np.sin(np.pi * t)
-    >>> v, a = np.pi * np.cos(np.pi * t), -np.pi**2 * np.sin(np.pi * t)
-    >>> noise = np.random.default_rng(0).normal(scale=0.01, size=t.size)
-    >>> tau = 2.0 * a + 0.5 * np.sign(v) + noise
-    >>> m = Motion(t, q, v, a, tau, rate)
-    >>> quiet, _ = gap_ringing(m)
-    >>> ring = np.zeros_like(t)
-    >>> for c in (0.0, 1.0, 2.0, 3.0):  # the inertial torque changes sign at t = 0, 1, 2, 3
-    ...     after = np.clip(t - c, 0, None)
-    ...     ring += np.where(t > c, 0.2 * np.exp(-after / 0.1) * np.sin(2 * np.pi * 15 * after), 0)
-    >>> loud, _ = gap_ringing(Motion(t, q, v, a, tau + ring, rate))
-    >>> bool(quiet < 3), bool(loud > 10 * quiet)
-    (True, True)
-    """
-    if m.rate_hz < MIN_RINGING_RATE_HZ:
-        return math.nan, f"needs a torque rate >= {MIN_RINGING_RATE_HZ:g} Hz (got {m.rate_hz:g} Hz)"
+def reversal_bursts_before(m: Motion) -> tuple[float, str | None]:
+    """``reversal_bursts`` as :func:`~axiswatch._readings.read_indicators` read it before
+    ``gap_ringing`` replaced it (NaN and the reason where it could not be read)."""
     peak = float(np.max(np.abs(m.speed))) if m.speed.size else 0.0
     moving = np.abs(m.speed) > MOVING_FRACTION * peak
-    if peak <= 0 or int(moving.sum()) < 8:
-        return math.nan, "needs motion"
-    low, high = RINGING_BAND_HZ[0], min(RINGING_BAND_HZ[1], NYQUIST_MARGIN * m.rate_hz)
-    whole, _ = _fit(m, moving)
-    sos = butter(4, [low, high], btype="bandpass", fs=m.rate_hz, output="sos")
-    residual = _filtered(sos, m.torque - whole)
-    crossings = gap_crossings(m, moving, hysteresis)
-    near = np.zeros(m.time_s.size, dtype=bool)
-    before, after = RINGING_WINDOW_S
-    for i in crossings.tolist():
-        near |= (m.time_s >= m.time_s[i] - before) & (m.time_s <= m.time_s[i] + after)
-    near &= moving
-    if int(near.sum()) < 3:
-        return (
-            math.nan,
-            "needs gap crossings while moving (no sign change of the transmitted torque)",
-        )
-    if reference == "away":
-        away = moving & ~near
-        if int(away.sum()) < 3:
-            return math.nan, "needs motion away from the gap crossings"
-        power = float(np.mean(residual[away] ** 2))
-    else:
-        power = (MAD_TO_SD * float(np.median(np.abs(residual[moving])))) ** 2
-    if not power > 0:
-        return math.nan, "needs torque noise in the resonance band (the residual is flat)"
-    return float(np.mean(residual[near] ** 2)) / power, None
+    if peak <= 0 or moving.sum() < max(5, round(0.2 * m.rate_hz)):
+        return math.nan, "needs motion (the axis did not move for 0.2 s)"
+    if m.rate_hz < MIN_BAND_RATE_HZ:
+        return math.nan, f"needs a torque rate >= {MIN_BAND_RATE_HZ:g} Hz (got {m.rate_hz:g} Hz)"
+    seconds_moving = float(moving.sum()) / m.rate_hz
+    if seconds_moving < MIN_BAND_MOTION_S:
+        return math.nan, f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
+    bursts = reversal_bursts(
+        m.torque, _band(m), m.rate_hz, moving, smoothing_hz=min(10.0, 0.05 * m.rate_hz)
+    )
+    if not math.isfinite(bursts):
+        return math.nan, "needs torque reversals while moving (none in this capture)"
+    return bursts, None
+
+
+def candidate_ringing(m: Motion, candidate: str) -> tuple[float, str | None]:
+    """:func:`~axiswatch._ringing.gap_ringing` of a motion with a candidate's options."""
+    return gap_ringing(
+        m.time_s,
+        m.position,
+        m.speed,
+        m.acceleration,
+        m.torque,
+        m.rate_hz,
+        moving_fraction=MOVING_FRACTION,
+        **CANDIDATES[candidate],
+    )
 
 
 # --- the study --------------------------------------------------------------------------------
 
-#: The product as it is; ``reversal_bursts`` replaced by :func:`gap_ringing` (its reading under
-#: the old name, so the model's declarations hold); :func:`gap_ringing` added beside it.
+#: The former product (``reversal_bursts``); ``reversal_bursts`` replaced by ``gap_ringing``
+#: (the product's since); ``gap_ringing`` added beside it.
 VARIANTS: tuple[str, ...] = ("product", "replaced", "added")
 
 
-def _variant(base: Readings, ringing: float, why: str | None, variant: str) -> Readings:
-    values, reasons = dict(base.values), dict(base.reasons)
-    if variant == "replaced":
-        values["reversal_bursts"] = ringing
-        reasons.pop("reversal_bursts", None)
+def _variant(
+    base: Readings,
+    bursts: tuple[float, str | None],
+    ringing: tuple[float, str | None],
+    variant: str,
+) -> Readings:
+    """The readings of a variant from the product's ``base`` (whose ``gap_ringing`` is
+    replaced by the candidate's ``ringing``) and the former ``bursts``."""
+    values = {n: v for n, v in base.values.items() if n != "gap_ringing"}
+    reasons = {n: r for n, r in base.reasons.items() if n != "gap_ringing"}
+    kept = {"product": [("reversal_bursts", bursts)], "replaced": [("gap_ringing", ringing)]}
+    for name, (value, why) in kept.get(
+        variant, [("reversal_bursts", bursts), ("gap_ringing", ringing)]
+    ):
+        values[name] = value
         if why is not None:
-            reasons["reversal_bursts"] = why
-    elif variant == "added":
-        values[GAP_RINGING.name] = ringing
-        if why is not None:
-            reasons[GAP_RINGING.name] = why
+            reasons[name] = why
     return Readings(values, reasons, base.source, base.signature, base.order_profile)
 
 
@@ -268,14 +139,21 @@ class _Cached:
     variant, bit for bit the same; keyed by their signals)."""
 
     def __init__(self, read: Callable[[Capture], Readings], candidate: str) -> None:
-        self.read, self.options = read, CANDIDATES[candidate]
-        self.cache: dict[bytes, tuple[Readings, float, str | None]] = {}
+        self.read = read
+        self.candidate = candidate
+        self.cache: dict[
+            bytes, tuple[Readings, tuple[float, str | None], tuple[float, str | None]]
+        ] = {}
 
     def __call__(self, capture: Capture, variant: str) -> Readings:
         key = b"".join(np.asarray(s).tobytes() for s in capture.signals.values())
         if key not in self.cache:
-            ringing, why = gap_ringing(motion(capture), **self.options)
-            self.cache[key] = (self.read(capture), ringing, why)
+            m = motion(capture)
+            self.cache[key] = (
+                self.read(capture),
+                reversal_bursts_before(m),
+                candidate_ringing(m, self.candidate),
+            )
         return _variant(*self.cache[key], variant)
 
 
@@ -284,9 +162,9 @@ def _read(cached: _Cached, variant: str, capture: Capture) -> Readings:
 
 
 def _declared() -> AbstractContextManager[object]:
-    """The model's declarations with :data:`GAP_RINGING` (the study only: the product's model
-    declares its own indicators)."""
-    return mock.patch.object(indicator_model, "INDICATORS", (*INDICATORS, GAP_RINGING))
+    """The model's declarations with :data:`REVERSAL_BURSTS` (the study only: the product's
+    model declares its own indicators)."""
+    return mock.patch.object(indicator_model, "INDICATORS", (*INDICATORS, REVERSAL_BURSTS))
 
 
 def _monitor_rows(seed: int, cached: _Cached) -> list[dict[str, object]]:
