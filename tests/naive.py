@@ -577,3 +577,71 @@ def fleet_pair_shifts_naive(
             distances.append(largest)
             shifts.append(row)
     return distances, shifts
+
+
+def gap_ringing_naive(
+    time_s: np.ndarray,
+    position: np.ndarray,
+    speed: np.ndarray,
+    acceleration: np.ndarray,
+    torque: np.ndarray,
+    rate_hz: float,
+    hysteresis: float = 0.1,
+    reference: str = "away",
+) -> float:
+    """:func:`axiswatch._ringing.gap_ringing`, sample by sample: normal equations for the fit,
+    loops for the passages, the windows and the median (the filters are SciPy's)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    n = len(torque)
+    peak = max(abs(float(v)) for v in speed)
+    moving = [abs(float(v)) > 0.1 * peak for v in speed]
+    q_moving = [float(position[i]) for i in range(n) if moving[i]]
+    mean_q = sum(q_moving) / len(q_moving)
+    span = (max(q_moving) - min(q_moving)) or 1.0
+    rows = []
+    for i in range(n):
+        q = (float(position[i]) - mean_q) / span
+        s = min(1.0, max(-1.0, float(speed[i]) / (0.1 * peak)))
+        rows.append([s, float(speed[i]), float(acceleration[i]), 1.0, q, q**2, q**3])
+    design = np.asarray(rows)
+    fit_rows = design[np.asarray(moving)]
+    coefficients = np.linalg.solve(fit_rows.T @ fit_rows, fit_rows.T @ torque[np.asarray(moving)])
+    whole = [sum(r[j] * coefficients[j] for j in range(7)) for r in rows]
+    rigid = [sum(r[j] * coefficients[j] for j in range(2, 7)) for r in rows]
+
+    def filtered(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
+        return np.asarray(sosfiltfilt(sos, x, padlen=min(3 * (2 * sos.shape[0] + 1), len(x) - 1)))
+
+    smooth = filtered(butter(2, min(10.0, 0.25 * rate_hz), fs=rate_hz, output="sos"), torque)
+    crossings = set()
+    for x in (rigid, smooth):
+        level = hysteresis * max(abs(float(v)) for v in x)
+        side, last_change = 0, -1
+        for k in range(n):
+            if k > 0 and ((x[k - 1] > 0 and x[k] < 0) or (x[k - 1] < 0 and x[k] > 0)):
+                last_change = k - 1
+            here = 1 if x[k] > level else (-1 if x[k] < -level else 0)
+            if here == 0:
+                continue
+            if side != 0 and here != side:
+                crossings.add(last_change)
+            side = here
+    sos = butter(4, [5.0, min(50.0, 0.45 * rate_hz)], btype="bandpass", fs=rate_hz, output="sos")
+    residual = filtered(sos, torque - np.asarray(whole))
+    near, away = [], []
+    for i in range(n):
+        if moving[i] and any(time_s[k] - 0.05 <= time_s[i] <= time_s[k] + 0.3 for k in crossings):
+            near.append(float(residual[i]) ** 2)
+        elif moving[i]:
+            away.append(float(residual[i]) ** 2)
+    if reference == "away":
+        return (sum(near) / len(near)) / (sum(away) / len(away))
+    magnitudes = sorted(abs(float(residual[i])) for i in range(n) if moving[i])
+    middle = len(magnitudes) // 2
+    median = (
+        magnitudes[middle]
+        if len(magnitudes) % 2
+        else 0.5 * (magnitudes[middle - 1] + magnitudes[middle])
+    )
+    return (sum(near) / len(near)) / (1.4826 * median) ** 2

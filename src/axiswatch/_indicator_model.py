@@ -1258,7 +1258,9 @@ class IndicatorModel:
             for name in values
             if name not in shifts
         }
-        total = sum(shifts.values())
+        # Exactly rounded: a stored model lists its indicators in another order, and a plain
+        # sum's last bit (so the shares') would depend on it.
+        total = math.fsum(shifts.values())
         details: dict[str, dict[str, float]] = {
             name: {
                 "value": values[name],

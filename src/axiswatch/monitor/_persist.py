@@ -50,10 +50,12 @@ __all__ = [
 #: 3: a fleet prior keeps a task-change allowance per indicator (a model stored before has
 #: none, and is refitted). 4: an indicator model may keep its baseline's order spectrum and its
 #: readings their order profiles (``order_lines``). 5: an indicator model keeps the allowances
-#: of its own pairs (``own_allowances_``). 6: an indicator model keeps its baseline's task
-#: envelope without ``task_envelope_factor`` too (an axis without a fleet prior does not compare
-#: a capture of another task).
-PERSIST_FORMAT = 6
+#: of its own pairs (``own_allowances_``). 6: the indicators' backlash reading is
+#: ``gap_ringing`` (``reversal_bursts`` before): a stored model's centre and spreads of it mean
+#: something else, so it is refitted. 7: an indicator model keeps its baseline's task envelope
+#: without ``task_envelope_factor`` too (an axis without a fleet prior does not compare a
+#: capture of another task).
+PERSIST_FORMAT = 7
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
