@@ -96,7 +96,7 @@ def test_the_baseline_relative_study_compares_the_product_with_and_without_order
     plain = robot_transfer(3, design)
     for key in ("auroc_bearing", "far99", "robot_a_false_alarms"):
         assert table.loc[0, key] == pytest.approx(plain[key], rel=1e-12)
-    # With the lines, captures that gave nothing else are scored too, and the bearing fault's
-    # lines move the ranking (0.35 -> 0.67 here; a fixed seed).
-    assert table.loc[1, "share_scored"] > table.loc[0, "share_scored"]
+    # The lines score no fewer captures (since gap_ringing, every capture of this design is
+    # scored without them too), and the bearing fault's lines move the ranking (a fixed seed).
+    assert table.loc[1, "share_scored"] >= table.loc[0, "share_scored"]
     assert table.loc[1, "auroc_bearing"] > table.loc[0, "auroc_bearing"]
