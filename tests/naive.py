@@ -301,11 +301,18 @@ def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) 
     return terms
 
 
-def alarm_threshold_naive(distances: list[float], percentile: float, floor: float | None) -> float:
+def alarm_threshold_naive(
+    distances: list[float], percentile: float, floor: float | None, prediction: bool = False
+) -> float:
     """The alarm threshold spelled out: the exponential quantile at the mean distance (the
-    half-Laplace maximum-likelihood scale), or the floor where that is larger."""
+    half-Laplace maximum-likelihood scale), or with ``prediction`` the quantile of the next
+    distance (:func:`prediction_threshold_naive`); the floor where that is larger."""
     scale = sum(distances) / len(distances)
-    fitted = float(exponential_quantile(scale, percentile / 100.0))
+    fitted = (
+        prediction_threshold_naive(distances, percentile)
+        if prediction
+        else float(exponential_quantile(scale, percentile / 100.0))
+    )
     return fitted if floor is None or floor <= fitted else floor
 
 
@@ -645,3 +652,22 @@ def gap_ringing_naive(
         else 0.5 * (magnitudes[middle - 1] + magnitudes[middle])
     )
     return (sum(near) / len(near)) / (1.4826 * median) ** 2
+
+
+def prediction_threshold_naive(distances: list[float], percentile: float) -> float:
+    """The ``percentile`` of the next of exponential distances whose scale is their mean, from
+    the F(2, 2n) law of ``X / mean``: the F quantile by bisection on its survival function
+    ``(1 + x / n)^(-n)``, times the mean."""
+    n = len(distances)
+    mean = sum(distances) / n
+    tail = 1 - percentile / 100
+    low, high = 0.0, 1.0
+    while (1 + high / n) ** (-n) > tail:
+        high *= 2
+    for _ in range(200):
+        middle = (low + high) / 2
+        if (1 + middle / n) ** (-n) > tail:
+            low = middle
+        else:
+            high = middle
+    return mean * (low + high) / 2

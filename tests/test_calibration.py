@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import stats
 
 import axiswatch as aw
 from axiswatch import CalibrationError
 
+from . import naive
 from .naive import alarm_threshold_naive, exponential_quantile
 
 
@@ -125,3 +127,54 @@ def test_alarm_threshold_rejects_a_bad_floor(floor: object) -> None:
 def test_alarm_threshold_rejects_a_bad_percentile() -> None:
     with pytest.raises(ValueError, match=r"'percentile' parameter must be a float"):
         aw.alarm_threshold([1.0, 2.0], percentile=100.0)
+
+
+@pytest.mark.parametrize("n", [3, 5, 20, 200])
+def test_prediction_threshold_matches_the_f_quantile_of_the_loop_twin(n: int) -> None:
+    distances = np.random.default_rng(n).exponential(1.7, size=n).tolist()
+    fit = aw.fit_half_laplace(distances)
+    assert fit.prediction_threshold(99) == pytest.approx(
+        naive.prediction_threshold_naive(distances, 99), rel=1e-9
+    )
+    # The same as SciPy's F(2, 2n) quantile times the mean.
+    assert fit.prediction_threshold(95) == pytest.approx(
+        fit.scale * stats.f.ppf(0.95, 2, 2 * n), rel=1e-9
+    )
+    assert fit.prediction_threshold(99) > fit.threshold(99)
+
+
+def test_prediction_threshold_is_exceeded_by_one_in_a_hundred_next_healthy_distances() -> None:
+    # Monte Carlo over 40,000 calibrations of 5 exponential distances, one new distance each:
+    # the binomial standard error of a 1 % rate is 0.05 %; the plug-in threshold's rate is
+    # (1 + ln(100) / 5)^-5 = 3.8 %.
+    rng = np.random.default_rng(0)
+    samples = rng.exponential(1.0, size=(40_000, 6))
+    calibration, new = samples[:, :5], samples[:, 5]
+    scale = calibration.mean(axis=1)
+    plug_in = scale * np.log(100)
+    predictive = 5 * scale * np.expm1(np.log(100) / 5)
+    assert np.mean(new > predictive) == pytest.approx(0.01, abs=0.002)
+    assert np.mean(new > plug_in) == pytest.approx((1 + np.log(100) / 5) ** -5, abs=0.003)
+    fit = aw.fit_half_laplace(calibration[0])
+    assert fit.prediction_threshold(99) == pytest.approx(predictive[0], rel=1e-12)
+
+
+@pytest.mark.parametrize("floor", [None, 1.0, 40.0])
+def test_alarm_threshold_for_the_next_capture_matches_the_loop_twin(floor: float | None) -> None:
+    distances = [1.0, 2.5, 0.7, 3.1, 1.9]
+    got = aw.alarm_threshold(distances, percentile=99, floor=floor, prediction=True)
+    assert got.value == pytest.approx(
+        naive.alarm_threshold_naive(distances, 99, floor, prediction=True), rel=1e-9
+    )
+    assert got.prediction
+    assert got.fitted == pytest.approx(got.fit.prediction_threshold(99), rel=1e-12)
+    assert got.origin == ("floor" if floor == 40.0 else "fit")
+    if got.origin == "fit":
+        assert got.describe() == (
+            "99th pct of the next healthy capture, half-Laplace fit of 5 healthy captures"
+        )
+
+
+def test_prediction_threshold_rejects_a_bad_percentile() -> None:
+    with pytest.raises(ValueError, match="'percentile' parameter"):
+        aw.fit_half_laplace([1.0, 2.0]).prediction_threshold(100)

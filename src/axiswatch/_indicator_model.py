@@ -810,9 +810,8 @@ class IndicatorAssessment:
         # Without an envelope every capture is scored one way: the case says nothing (details
         # keep it).
         case = "" if self.case.startswith("no task envelope") else f"{self.case}; "
-        moved = (
-            f"{case}{self.top} ({self.component}) {entry['spreads']:.1f} spreads from its baseline"
-        )
+        part = f" ({self.component})" if self.component is not None else ""
+        moved = f"{case}{self.top}{part} {entry['spreads']:.1f} spreads from its baseline"
         if "allowance" in entry:
             return (
                 f"{moved}, {entry['spreads'] / entry['allowance']:.2f} x its task-change "
