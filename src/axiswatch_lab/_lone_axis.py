@@ -43,9 +43,9 @@ from axiswatch._indicator_model import (
     leave_one_out_distances,
 )
 from axiswatch._readings import Readings, signature_distance
-from axiswatch.datasets import Fault, draw_robot
+from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._transfer import TransferDesign, _profile
+from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings
 
 __all__ = ["VARIANTS", "lone_axis_robot", "lone_scores"]
 
@@ -129,20 +129,7 @@ def lone_axis_robot(seed: int, design: TransferDesign | None = None) -> list[dic
         )
         for t in range(n_tasks)
     }
-    cells = {
-        (t, h): [
-            read(
-                robot.capture(
-                    t,
-                    fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
-                    seed=f"{h}{i}",
-                )
-            )
-            for i in range(design.n_per_cell)
-        ]
-        for t in range(n_tasks)
-        for h in ("healthy", *FAULT_KINDS)
-    }
+    cells = paired_readings(robot, read, design)
     rows: list[dict[str, object]] = []
     for variant in VARIANTS:
         verdicts = [robot_a[variant](r) for r in taken[fitting:]]

@@ -30,9 +30,9 @@ from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import fit_half_laplace
 from axiswatch._indicator_model import IndicatorModel, pool_fleet
-from axiswatch.datasets import Fault, draw_robot
+from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._transfer import TransferDesign, _profile
+from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings
 
 __all__ = ["RULES", "robot_thresholds", "thresholds"]
 
@@ -70,20 +70,7 @@ def robot_thresholds(seed: int, design: TransferDesign | None = None) -> dict[st
     for model in fleet.values():
         model.use_fleet(prior)
     lone = {t: IndicatorModel(profile).fit_readings(r) for t, r in fitted.items()}
-    cells = {
-        (t, h): [
-            read(
-                robot.capture(
-                    t,
-                    fault=None if h == "healthy" else Fault(h, design.severity),  # type: ignore[arg-type]
-                    seed=f"{h}{i}",
-                )
-            )
-            for i in range(design.n_per_cell)
-        ]
-        for t in range(n_tasks)
-        for h in ("healthy", *FAULT_KINDS)
-    }
+    cells = paired_readings(robot, read, design)
     days = design.robot_a_days
     changes = [round(days * k / 4) for k in (1, 2, 3)]
     tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
