@@ -37,7 +37,9 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
-from scipy.signal import butter, sosfiltfilt
+from scipy.signal import sosfiltfilt
+
+from axiswatch._mechanics import butter_sos
 
 __all__ = [
     "CROSSING_HYSTERESIS",
@@ -124,12 +126,11 @@ def sign_passages(x: NDArray[np.float64], hysteresis: float) -> NDArray[np.intp]
     side = np.where(x > level, 1, np.where(x < -level, -1, 0))
     outside = np.flatnonzero(side != 0)
     changes = np.flatnonzero(np.sign(x[1:]) * np.sign(x[:-1]) < 0)
-    passages = [
-        int(changes[(changes >= a) & (changes < b)][-1])
-        for a, b in zip(outside[:-1].tolist(), outside[1:].tolist(), strict=True)
-        if side[a] != side[b]
-    ]
-    return np.asarray(passages, dtype=np.intp)
+    # Consecutive samples outside the band on opposite sides: x changed sign between them, and
+    # the passage is at the last change before the second one.
+    passing = side[outside[:-1]] != side[outside[1:]]
+    after = outside[1:][passing]
+    return np.asarray(changes[np.searchsorted(changes, after) - 1], dtype=np.intp)
 
 
 def _filtered(sos: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -156,8 +157,9 @@ def gap_crossings(
     >>> gap_crossings(np.cos(np.pi * t), np.cos(np.pi * t), 100.0).tolist()  # t = 0.5, 1.5
     [49, 149]
     """
-    sos = butter(2, min(CROSSING_SMOOTHING_HZ, 0.25 * rate_hz), fs=rate_hz, output="sos")
-    commanded = _filtered(sos, torque)
+    commanded = _filtered(
+        butter_sos(2, min(CROSSING_SMOOTHING_HZ, 0.25 * rate_hz), rate_hz), torque
+    )
     return np.unique(
         np.concatenate([sign_passages(rigid, hysteresis), sign_passages(commanded, hysteresis)])
     )
@@ -221,8 +223,7 @@ def gap_ringing(
         return math.nan, "needs motion"
     whole, rigid = _fit(position, speed, acceleration, torque, moving, moving_fraction * peak)
     low, high = RINGING_BAND_HZ[0], min(RINGING_BAND_HZ[1], NYQUIST_MARGIN * rate_hz)
-    sos = butter(4, [low, high], btype="bandpass", fs=rate_hz, output="sos")
-    residual = _filtered(sos, torque - whole)
+    residual = _filtered(butter_sos(4, (low, high), rate_hz), torque - whole)
     near = np.zeros(time_s.size, dtype=bool)
     before, after = RINGING_WINDOW_S
     for i in gap_crossings(rigid, torque, rate_hz, hysteresis).tolist():
