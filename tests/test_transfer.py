@@ -82,3 +82,17 @@ def test_monitor_study_rows_of_a_low_rate_robot(tmp_path: Path) -> None:
         assert rows[(scenario, "mechanics")]["stopped"]  # a 20 Hz robot: the band needs 600 Hz
     assert rows[("fault", "indicators")]["faulty_monitored"] == 8
     assert list(tmp_path.iterdir()) == []  # the scratch folders are removed
+
+
+@pytest.mark.slow
+def test_monitor_study_runs_one_fault_scenario_per_kind(tmp_path: Path) -> None:
+    from axiswatch_lab._monitor_transfer import monitor_robot
+
+    rows = monitor_robot(
+        DEVELOPMENT_ROBOTS[5], tmp_path, ("indicators",), faults=("friction", "backlash")
+    )
+    assert [r["scenario"] for r in rows] == ["healthy", "fault", "fault:backlash"]
+    backlash = rows[2]
+    assert backlash["faulty_monitored"] == 8  # axis a0's eight captures after calibration
+    assert 0 <= int(backlash["detected"]) <= 8  # type: ignore[call-overload]
+    assert backlash["healthy_monitored"] == 3 * 8

@@ -14,6 +14,8 @@ worker, an in-memory store); nothing of the methods is chosen here.
   capture over the threshold is a false alarm. *Fault* run: after calibration, 8 captures of the
   own task, axis 0's with a friction fault of severity 0.6 (the robot's own friction law):
   detection is the share of those over the threshold; the other axes' count as false alarms.
+  With ``--faults`` (``monitor_robot(..., faults=)``) one such run per fault kind (backlash,
+  tooth, bearing at the same severity; scenario ``fault:<kind>``).
 * **Real data** (``../shared/data``): the four hydraulic actuators as one fleet (act3 has gear
   damage from its first record, so the monitor can only note it against the fleet); the linear
   axis's two sessions as two axes, the normal session followed by the impaired-drive windows.
@@ -80,22 +82,29 @@ def _rates(scores: pd.DataFrame, selected: pd.Series) -> tuple[int, int]:
 
 
 def monitor_robot(
-    seed: int, scratch: Path, variants: tuple[str, ...] = VARIANTS
+    seed: int,
+    scratch: Path,
+    variants: tuple[str, ...] = VARIANTS,
+    faults: tuple[str, ...] = ("friction",),
 ) -> list[dict[str, object]]:
-    """Healthy and fault runs of one robot model, for each of ``variants``."""
+    """Healthy and fault runs of one robot model, for each of ``variants``: one fault run per
+    kind of ``faults`` (scenario ``"fault"`` for the friction fault, ``"fault:<kind>"`` for
+    another)."""
     robot = draw_robot(seed)
     rows: list[dict[str, object]] = []
-    for scenario in ("healthy", "fault"):
+    scenarios = ["healthy", *("fault" if k == "friction" else f"fault:{k}" for k in faults)]
+    for scenario in scenarios:
+        kind = "friction" if scenario == "fault" else scenario.partition(":")[2]
         root = scratch / f"{robot.name}-{scenario}"
         (root / robot.name).mkdir(parents=True)
         (root / robot.name / "robot.toml").write_text(f'name = "{robot.name}"\n')
         for a in range(_AXES):
-            for day in range(_CALIBRATION + 12 if scenario == "healthy" else _CALIBRATION + 8):
+            for day in range(_CALIBRATION + (12 if scenario == "healthy" else 8)):
                 task, fault = a, None
                 if scenario == "healthy" and day >= _CALIBRATION + 4:
                     task = (a + 1 + (day - _CALIBRATION - 4) // 4) % 5
-                if scenario == "fault" and a == 0 and day >= _CALIBRATION:
-                    fault = Fault("friction", 0.6)
+                if scenario != "healthy" and a == 0 and day >= _CALIBRATION:
+                    fault = Fault(kind, 0.6)  # type: ignore[arg-type]
                 capture = robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}")
                 _write(capture, root, robot.name, f"a{a}", day)
         n_files = sum(1 for _ in root.rglob("*.parquet"))
@@ -109,7 +118,8 @@ def monitor_robot(
                     own.unlink(missing_ok=True)
             scores, rejected, stopped = _run(root, variant)
             axes = scores["axis"] if not scores.empty else pd.Series(dtype=str)
-            over, n = _rates(scores, axes != ("a0" if scenario == "fault" else ""))
+            faulty = scenario != "healthy"
+            over, n = _rates(scores, axes != ("a0" if faulty else ""))
             row: dict[str, object] = {
                 "robot": robot.name,
                 "rate_hz": robot.spec.fast_rate_hz,
@@ -124,7 +134,7 @@ def monitor_robot(
                 "healthy_monitored": n,
                 "stopped": stopped,
             }
-            if scenario == "fault":
+            if faulty:
                 hit, m = _rates(scores, axes == "a0")
                 row.update(detected=hit, faulty_monitored=m)
             rows.append(row)
@@ -206,12 +216,15 @@ def main(
     data_root: Path,
     seeds: tuple[int, ...] = HELD_OUT,
     variants: tuple[str, ...] = VARIANTS,
+    faults: tuple[str, ...] = ("friction",),
 ) -> None:
     """Write ``robots.csv`` and ``real.csv`` under ``out`` (no real data for a ``data_root``
     that does not exist)."""
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as scratch:
-        robots = [row for seed in seeds for row in monitor_robot(seed, Path(scratch), variants)]
+        robots = [
+            row for seed in seeds for row in monitor_robot(seed, Path(scratch), variants, faults)
+        ]
         pd.DataFrame(robots).to_csv(out / "robots.csv", index=False)
         real = monitor_real_data(data_root, Path(scratch), variants)
         pd.DataFrame(real).to_csv(out / "real.csv", index=False)
@@ -220,16 +233,19 @@ def main(
 
 
 if __name__ == "__main__":
-    # python -m axiswatch_lab._monitor_transfer OUT DATA_ROOT [--variants=A,B] [SEED ...]
+    # python -m axiswatch_lab._monitor_transfer OUT DATA_ROOT [--variants=A,B] [--faults=K,L]
+    #     [SEED ...]
     import sys
 
     arguments = sys.argv[3:]
-    chosen = VARIANTS
-    if arguments and arguments[0].startswith("--variants="):
-        chosen = tuple(arguments.pop(0).split("=", 1)[1].split(","))
+    options = {"--variants": ",".join(VARIANTS), "--faults": "friction"}
+    while arguments and arguments[0].split("=", 1)[0] in options:
+        name, _, value = arguments.pop(0).partition("=")
+        options[name] = value
     main(
         Path(sys.argv[1]),
         Path(sys.argv[2]),
         tuple(int(s) for s in arguments) or HELD_OUT,
-        chosen,
+        tuple(options["--variants"].split(",")),
+        tuple(options["--faults"].split(",")),
     )
