@@ -236,6 +236,20 @@ def _robot_rows(
                 if h and f:
                     scores.append(_auroc(h, f))
             entry[f"auroc_{fault}"] = float(np.mean(scores)) if scores else math.nan
+        # Where the maximum comes from: the median u_i, and how often the indicator is the
+        # largest u_i, over the healthy captures of other tasks and over each fault's captures.
+        for health in ("healthy", *FAULT_KINDS):
+            us = [
+                u
+                for b in bases
+                for t in range(n_tasks)
+                if health != "healthy" or t != b
+                for u in units[(b, (t, health))]
+                if u
+            ]
+            read = [u[n] for u in us if math.isfinite(u.get(n, math.nan))]
+            entry[f"median_u_{health}"] = float(np.median(read)) if read else math.nan
+            entry[f"top_{health}"] = float(np.mean([max(u, key=u.__getitem__) == n for u in us]))
         per.append(entry)
     return rows, per
 
