@@ -516,11 +516,11 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         )
     spread = [n for n in names if math.isfinite(task_spreads[n]) and task_spreads[n] > 0]
     columns = [n for n in spread if n != ORDER_LINES.name]
-    centre_rows = np.array([[m.centre_.get(n, math.nan) for n in columns] for m in models])
-    within_rows = np.array([[m.within_.get(n, math.nan) for n in columns] for m in models])
+    shape = (len(columns), len(models))  # transposed below: one row per axis
+    within_rows = [[m.within_.get(n, math.nan) for m in models] for n in columns]
     pair_d, pair_z = fleet_pair_shifts(
-        centre_rows.reshape(len(models), len(columns)),
-        within_rows.reshape(len(models), len(columns)),
+        np.array([centres[n] for n in columns], dtype=np.float64).reshape(shape).T,
+        np.array(within_rows, dtype=np.float64).reshape(shape).T,
         np.array([task_spreads[n] for n in columns]),
         np.array([_declared(n).sided == "up" for n in columns], dtype=bool),
     )

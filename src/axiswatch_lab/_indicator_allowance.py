@@ -77,7 +77,13 @@ from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
 from axiswatch.exceptions import CalibrationError
 from axiswatch_lab._task_envelope import _scenario
-from axiswatch_lab._transfer import TransferDesign, _auroc, _profile, paired_readings
+from axiswatch_lab._transfer import (
+    TransferDesign,
+    _auroc,
+    _profile,
+    paired_readings,
+    robot_a_readings,
+)
 
 __all__ = ["VARIANTS", "allowance_study", "indicator_allowances"]
 
@@ -270,10 +276,7 @@ def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]
     }
     models, prior = _models(fits, profile, 99.0)
     tests = paired_readings(robot, reader.readings, design)
-    days = design.robot_a_days
-    changes = [round(days * k / 4) for k in (1, 2, 3)]
-    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
-    robot_a = [reader.readings(robot.capture(t, seed=f"robotA{d}")) for d, t in enumerate(tasks)]
+    robot_a = robot_a_readings(robot, reader.readings, design.robot_a_days)
     model_a = IndicatorModel(profile).fit_readings(robot_a[: design.n_calibration + 1])
     rows = []
     bases = sorted(models)

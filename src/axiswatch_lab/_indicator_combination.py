@@ -65,7 +65,13 @@ from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
 from axiswatch_lab._indicator_allowance import _models
-from axiswatch_lab._transfer import TransferDesign, _auroc, _profile, paired_readings
+from axiswatch_lab._transfer import (
+    TransferDesign,
+    _auroc,
+    _profile,
+    paired_readings,
+    robot_a_readings,
+)
 
 __all__ = ["VARIANTS", "Combiner", "combination_study"]
 
@@ -178,10 +184,7 @@ def _robot_rows(
     }
     models, prior = _models(fits, profile, 99.0)
     tests = paired_readings(robot, reader.readings, design)
-    days = design.robot_a_days
-    changes = [round(days * k / 4) for k in (1, 2, 3)]
-    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
-    robot_a = [reader.readings(robot.capture(t, seed=f"robotA{d}")) for d, t in enumerate(tasks)]
+    robot_a = robot_a_readings(robot, reader.readings, design.robot_a_days)
     model_a = IndicatorModel(profile).fit_readings(robot_a[: design.n_calibration + 1])
     model_a.use_fleet(prior)
     bases = sorted(models)
@@ -192,6 +195,8 @@ def _robot_rows(
         for b in bases
         for key, read in tests.items()
     }
+    combiner_a = Combiner(model_a)
+    robot_a_distances = [combiner_a.distances(r) for r in robot_a[design.n_calibration + 1 :]]
     rows: list[dict[str, object]] = []
     for v in VARIANTS:
         dist = {
@@ -210,8 +215,7 @@ def _robot_rows(
                 np.nanmean([_auroc(healthy[b], faulty[b]) for b in bases])
             )
             row[f"dr99_{fault}"] = float(np.mean([d > 1 for b in bases for d in faulty[b]]))
-        combiner_a = Combiner(model_a)
-        a = [combiner_a.distances(r)[v] for r in robot_a[design.n_calibration + 1 :]]
+        a = [d[v] for d in robot_a_distances]
         row["robot_a_false_alarms"] = int(sum(d > 1 for d in a))
         row["robot_a_test_days"] = len(a)
         rows.append(row)

@@ -45,7 +45,7 @@ from axiswatch._indicator_model import (
 from axiswatch._readings import Readings, signature_distance
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings
+from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings, robot_a_readings
 
 __all__ = ["VARIANTS", "lone_axis_robot", "lone_scores"]
 
@@ -115,10 +115,7 @@ def lone_axis_robot(seed: int, design: TransferDesign | None = None) -> list[dic
     profile = _profile(robot, design.kinematics)
     read = IndicatorModel(profile).readings
     fitting = design.n_calibration + 1
-    days = design.robot_a_days
-    changes = [round(days * k / 4) for k in (1, 2, 3)]
-    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
-    taken = [read(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
+    taken = robot_a_readings(robot, read, design.robot_a_days)
     robot_a = lone_scores(IndicatorModel(profile).fit_readings(taken[:fitting]))
     n_tasks = len(robot.tasks)
     scores = {

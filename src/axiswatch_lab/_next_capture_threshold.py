@@ -32,7 +32,7 @@ from axiswatch._calibration import fit_half_laplace
 from axiswatch._indicator_model import IndicatorModel, pool_fleet
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings
+from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings, robot_a_readings
 
 __all__ = ["RULES", "robot_thresholds", "thresholds"]
 
@@ -71,10 +71,7 @@ def robot_thresholds(seed: int, design: TransferDesign | None = None) -> dict[st
         model.use_fleet(prior)
     lone = {t: IndicatorModel(profile).fit_readings(r) for t, r in fitted.items()}
     cells = paired_readings(robot, read, design)
-    days = design.robot_a_days
-    changes = [round(days * k / 4) for k in (1, 2, 3)]
-    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
-    taken = [read(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
+    taken = robot_a_readings(robot, read, design.robot_a_days)
     robot_a = IndicatorModel(profile).fit_readings(taken[:fitting]).use_fleet(prior)
     record: dict[str, object] = {"robot": robot.name, "rate_hz": robot.spec.fast_rate_hz}
 

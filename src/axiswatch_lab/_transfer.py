@@ -48,7 +48,13 @@ from axiswatch.datasets._robot import FAULT_KINDS, Fault
 from axiswatch.exceptions import CalibrationError
 from axiswatch.monitor._parallel import parallel_map
 
-__all__ = ["TransferDesign", "real_data_transfer", "robot_transfer", "transfer_study"]
+__all__ = [
+    "TransferDesign",
+    "real_data_transfer",
+    "robot_a_readings",
+    "robot_transfer",
+    "transfer_study",
+]
 
 
 @dataclass(frozen=True)
@@ -244,6 +250,16 @@ def _degradation(
     return record
 
 
+def robot_a_readings(
+    robot: SimulatedRobot, read: Callable[[Capture], Readings], days: int
+) -> list[Readings]:
+    """Robot A's readings: a capture a day at a random phase for ``days`` days, the task
+    changing on days ``days / 4``, ``days / 2`` and ``3 days / 4`` (tasks 0 to 3)."""
+    changes = [round(days * k / 4) for k in (1, 2, 3)]
+    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
+    return [read(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
+
+
 def _robot_a(
     robot: SimulatedRobot,
     profile: AxisProfile,
@@ -251,10 +267,7 @@ def _robot_a(
     design: TransferDesign,
     read: Callable[[Capture], Readings],
 ) -> dict[str, object]:
-    days = design.robot_a_days
-    changes = [round(days * k / 4) for k in (1, 2, 3)]
-    tasks = [sum(day >= c for c in changes) for day in range(1, days + 1)]
-    taken = [read(robot.capture(t, seed=f"robotA{day}")) for day, t in enumerate(tasks)]
+    taken = robot_a_readings(robot, read, design.robot_a_days)
     model = IndicatorModel(profile, order_lines=design.order_lines)
     model.fit_readings(taken[: design.n_calibration + 1]).use_fleet(prior)  # type: ignore[arg-type]
     verdicts = [model.assess_readings(r) for r in taken[design.n_calibration + 1 :]]
