@@ -74,13 +74,13 @@ from axiswatch._indicator_model import (
 )
 from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
-from axiswatch.datasets._robot import FAULT_KINDS
 from axiswatch.exceptions import CalibrationError
 from axiswatch_lab._task_envelope import _scenario
 from axiswatch_lab._transfer import (
     TransferDesign,
-    _auroc,
     _profile,
+    fleet_readings,
+    paired_measures,
     paired_readings,
     robot_a_readings,
 )
@@ -266,14 +266,7 @@ def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]
     robot = draw_robot(seed)
     profile = _profile(robot, design.kinematics)
     reader = IndicatorModel(profile)
-    n_tasks = len(robot.tasks)
-    fits = {
-        t: [
-            reader.readings(robot.capture(t, seed=f"fleet{k}"))
-            for k in range(design.n_calibration + 1)
-        ]
-        for t in range(n_tasks)
-    }
+    fits = fleet_readings(robot, reader.readings, design)
     models, prior = _models(fits, profile, 99.0)
     tests = paired_readings(robot, reader.readings, design)
     robot_a = robot_a_readings(robot, reader.readings, design.robot_a_days)
@@ -286,18 +279,8 @@ def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]
             for b in bases
             for key, read in tests.items()
         }
-        healthy = {
-            b: [d for t in range(n_tasks) if t != b for d in dist[(b, (t, "healthy"))]]
-            for b in bases
-        }
         row: dict[str, object] = {"robot": robot.name, "variant": variant}
-        row["far99"] = float(np.mean([d > 1 for b in bases for d in healthy[b]]))
-        for fault in FAULT_KINDS:
-            faulty = {b: [d for t in range(n_tasks) for d in dist[(b, (t, fault))]] for b in bases}
-            row[f"auroc_{fault}"] = float(
-                np.nanmean([_auroc(healthy[b], faulty[b]) for b in bases])
-            )
-            row[f"dr99_{fault}"] = float(np.mean([d > 1 for b in bases for d in faulty[b]]))
+        row.update(paired_measures(dist, bases))
         a = [scorers[-1].distance(r) for r in robot_a[design.n_calibration + 1 :]]
         row["robot_a_false_alarms"] = int(sum(d > 1 for d in a))
         row["robot_a_test_days"] = len(a)

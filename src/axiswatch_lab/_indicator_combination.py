@@ -69,6 +69,8 @@ from axiswatch_lab._transfer import (
     TransferDesign,
     _auroc,
     _profile,
+    fleet_readings,
+    paired_measures,
     paired_readings,
     robot_a_readings,
 )
@@ -175,13 +177,7 @@ def _robot_rows(
     profile = _profile(robot, design.kinematics)
     reader = IndicatorModel(profile)
     n_tasks = len(robot.tasks)
-    fits = {
-        t: [
-            reader.readings(robot.capture(t, seed=f"fleet{k}"))
-            for k in range(design.n_calibration + 1)
-        ]
-        for t in range(n_tasks)
-    }
+    fits = fleet_readings(robot, reader.readings, design)
     models, prior = _models(fits, profile, 99.0)
     tests = paired_readings(robot, reader.readings, design)
     robot_a = robot_a_readings(robot, reader.readings, design.robot_a_days)
@@ -203,18 +199,8 @@ def _robot_rows(
             k: [combiners[k[0]].raw(v, u) / combiners[k[0]].thresholds[v] for u in us]
             for k, us in units.items()
         }
-        healthy = {
-            b: [d for t in range(n_tasks) if t != b for d in dist[(b, (t, "healthy"))]]
-            for b in bases
-        }
         row: dict[str, object] = {"robot": robot.name, "variant": v}
-        row["far99"] = float(np.mean([d > 1 for b in bases for d in healthy[b]]))
-        for fault in FAULT_KINDS:
-            faulty = {b: [d for t in range(n_tasks) for d in dist[(b, (t, fault))]] for b in bases}
-            row[f"auroc_{fault}"] = float(
-                np.nanmean([_auroc(healthy[b], faulty[b]) for b in bases])
-            )
-            row[f"dr99_{fault}"] = float(np.mean([d > 1 for b in bases for d in faulty[b]]))
+        row.update(paired_measures(dist, bases))
         a = [d[v] for d in robot_a_distances]
         row["robot_a_false_alarms"] = int(sum(d > 1 for d in a))
         row["robot_a_test_days"] = len(a)

@@ -45,7 +45,13 @@ from axiswatch._indicator_model import (
 from axiswatch._readings import Readings, signature_distance
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings, robot_a_readings
+from axiswatch_lab._transfer import (
+    TransferDesign,
+    _profile,
+    fleet_readings,
+    paired_readings,
+    robot_a_readings,
+)
 
 __all__ = ["VARIANTS", "lone_axis_robot", "lone_scores"]
 
@@ -119,12 +125,8 @@ def lone_axis_robot(seed: int, design: TransferDesign | None = None) -> list[dic
     robot_a = lone_scores(IndicatorModel(profile).fit_readings(taken[:fitting]))
     n_tasks = len(robot.tasks)
     scores = {
-        t: lone_scores(
-            IndicatorModel(profile).fit_readings(
-                [read(robot.capture(t, seed=f"fleet{k}")) for k in range(fitting)]
-            )
-        )
-        for t in range(n_tasks)
+        t: lone_scores(IndicatorModel(profile).fit_readings(fitting_readings))
+        for t, fitting_readings in fleet_readings(robot, read, design).items()
     }
     cells = paired_readings(robot, read, design)
     rows: list[dict[str, object]] = []

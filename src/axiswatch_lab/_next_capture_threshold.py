@@ -32,7 +32,13 @@ from axiswatch._calibration import fit_half_laplace
 from axiswatch._indicator_model import IndicatorModel, pool_fleet
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._transfer import TransferDesign, _profile, paired_readings, robot_a_readings
+from axiswatch_lab._transfer import (
+    TransferDesign,
+    _profile,
+    fleet_readings,
+    paired_readings,
+    robot_a_readings,
+)
 
 __all__ = ["RULES", "robot_thresholds", "thresholds"]
 
@@ -60,11 +66,7 @@ def robot_thresholds(seed: int, design: TransferDesign | None = None) -> dict[st
     profile = _profile(robot, design.kinematics)
     read = IndicatorModel(profile).readings
     fitting = design.n_calibration + 1
-    n_tasks = len(robot.tasks)
-    fitted = {
-        t: [read(robot.capture(t, seed=f"fleet{k}")) for k in range(fitting)]
-        for t in range(n_tasks)
-    }
+    fitted = fleet_readings(robot, read, design)
     fleet = {t: IndicatorModel(profile).fit_readings(r) for t, r in fitted.items()}
     prior = pool_fleet(list(fleet.values()))
     for model in fleet.values():

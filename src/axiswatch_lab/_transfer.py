@@ -50,6 +50,8 @@ from axiswatch.monitor._parallel import parallel_map
 
 __all__ = [
     "TransferDesign",
+    "fleet_readings",
+    "paired_measures",
     "real_data_transfer",
     "robot_a_readings",
     "robot_transfer",
@@ -111,6 +113,37 @@ def _auroc(healthy: Sequence[float], faulty: Sequence[float]) -> float:
     return float(roc_auc_score(labels, np.concatenate([h, f])))
 
 
+def fleet_readings(
+    robot: SimulatedRobot, read: Callable[[Capture], Readings], design: TransferDesign
+) -> dict[int, list[Readings]]:
+    """Per task, the readings (by ``read``) of the baseline and the ``design.n_calibration``
+    calibration captures of the fleet's axis on that task."""
+    return {
+        t: [read(robot.capture(t, seed=f"fleet{k}")) for k in range(design.n_calibration + 1)]
+        for t in range(len(robot.tasks))
+    }
+
+
+def paired_measures(
+    distances: Mapping[tuple[int, tuple[int, str]], Sequence[float]], bases: Sequence[int]
+) -> dict[str, float]:
+    """``far99``, ``auroc_<fault>`` and ``dr99_<fault>`` of the paired design from distances in
+    units of their threshold (over when above 1), keyed by (baseline axis, (task, health)).
+
+    The healthy captures of the baseline's own task are left out; AUROCs are averaged over the
+    baseline axes."""
+    tasks = sorted({t for _, (t, _) in distances})
+    healthy = {
+        b: [d for t in tasks if t != b for d in distances[(b, (t, "healthy"))]] for b in bases
+    }
+    out = {"far99": float(np.mean([d > 1 for b in bases for d in healthy[b]]))}
+    for fault in FAULT_KINDS:
+        faulty = {b: [d for t in tasks for d in distances[(b, (t, fault))]] for b in bases}
+        out[f"auroc_{fault}"] = float(np.nanmean([_auroc(healthy[b], faulty[b]) for b in bases]))
+        out[f"dr99_{fault}"] = float(np.mean([d > 1 for b in bases for d in faulty[b]]))
+    return out
+
+
 def paired_readings(
     robot: SimulatedRobot, read: Callable[[Capture], Readings], design: TransferDesign
 ) -> dict[tuple[int, str], list[Readings]]:
@@ -153,10 +186,7 @@ def robot_transfer(
     n_tasks = len(robot.tasks)
     fleet: dict[int, IndicatorModel] = {}
     unfitted = []
-    for t in range(n_tasks):
-        fitting = [
-            read(robot.capture(t, seed=f"fleet{k}")) for k in range(design.n_calibration + 1)
-        ]
+    for t, fitting in fleet_readings(robot, read, design).items():
         try:
             fleet[t] = new_model().fit_readings(fitting)
         except CalibrationError:
