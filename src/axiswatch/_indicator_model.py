@@ -71,7 +71,6 @@ estimated from what the user has:
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import itertools
 import math
@@ -144,21 +143,9 @@ ORDER_LINES = Indicator(
 )
 
 
-#: The fleet check's drive load: the mean of the two directions' (:func:`drive_friction_view`).
-DRIVE_FRICTION = Indicator(
-    "drive_friction",
-    "steady motion in both directions (the mean of load_forward and load_backward)",
-    "both",
-    "drive load, mean of both directions (friction, without gravity and payload)",
-)
-_DRIVE_LOADS = ("load_forward", "load_backward")
-
-
 def _declared(name: str) -> Indicator:
     if name == ORDER_LINES.name:
         return ORDER_LINES
-    if name == DRIVE_FRICTION.name:
-        return DRIVE_FRICTION
     for indicator in INDICATORS:
         if indicator.name == name:
             return indicator
@@ -708,115 +695,6 @@ def own_pair_allowances(
         else:
             out[name] = half_laplace_threshold(middle / math.log(2.0), level)
     return out
-
-
-def drive_friction_view(
-    centre: Mapping[str, float], within: Mapping[str, float]
-) -> tuple[dict[str, float], dict[str, float]]:
-    """An axis's centre and within-task spreads with its two drive loads replaced by their mean.
-
-    What the fleet check compares (:func:`fleet_check_difference`). A direction's drive load is
-    the mean of ``torque x sign(speed)`` over its steady motion: friction plus the mean gravity
-    and payload torque there, ``F + G`` forward and ``F - G`` backward. Another task (a payload,
-    a stroke at another height) moves ``G``, so the two directions by opposite amounts; wear
-    moves ``F``, so both up. Their mean ``F`` keeps the wear and drops the task's gravity and
-    payload (exactly when both directions cover the same positions at the same speeds).
-
-    Parameters
-    ----------
-    centre, within : mapping of str to float
-        An axis's centre and within-task spread ``s_w`` per indicator.
-
-    Returns
-    -------
-    (dict of str to float, dict of str to float)
-        Copies in which ``load_forward`` and ``load_backward`` are replaced by
-        ``drive_friction``: centre ``(c_f + c_b) / 2``, spread ``sqrt(s_f^2 + s_b^2) / 2`` (the
-        two directions' readings taken as independent); unchanged copies when the axis does not
-        give both loads with a spread.
-
-    Examples
-    --------
-    >>> centre, within = drive_friction_view(
-    ...     {"load_forward": 5.0, "load_backward": 1.0, "coulomb_friction": 2.0},
-    ...     {"load_forward": 0.3, "load_backward": 0.4, "coulomb_friction": 0.1})
-    >>> centre, within
-    ({'coulomb_friction': 2.0, 'drive_friction': 3.0}, {'coulomb_friction': 0.1, 'drive_friction': 0.25})
-    """
-    given = all(
-        math.isfinite(values.get(name, math.nan))
-        for values in (centre, within)
-        for name in _DRIVE_LOADS
-    )
-    if not given:
-        return dict(centre), dict(within)
-    forward, backward = _DRIVE_LOADS
-    out_centre = {n: v for n, v in centre.items() if n not in _DRIVE_LOADS}
-    out_within = {n: v for n, v in within.items() if n not in _DRIVE_LOADS}
-    out_centre[DRIVE_FRICTION.name] = 0.5 * (centre[forward] + centre[backward])
-    out_within[DRIVE_FRICTION.name] = 0.5 * math.hypot(within[forward], within[backward])
-    return out_centre, out_within
-
-
-def fleet_check_prior(models: Sequence[IndicatorModel], index: int) -> FleetPrior | None:
-    """The prior the ``index``-th model's baseline is checked against: :func:`pool_fleet_without`
-    of the models seen through :func:`drive_friction_view` (the two drive loads replaced by
-    their mean).
-
-    Parameters
-    ----------
-    models : sequence of IndicatorModel
-        Fitted models of one profile's axes, the checked one included.
-    index : int
-        Position of the checked axis in ``models``.
-
-    Returns
-    -------
-    FleetPrior or None
-        As :func:`pool_fleet_without`: None with fewer than 3 other axes.
-
-    Examples
-    --------
-    >>> from axiswatch.datasets import draw_robot
-    >>> robot = draw_robot(0)
-    >>> fleet = [IndicatorModel().fit(robot.capture(t, seed=0),
-    ...                               [robot.capture(t, seed=k) for k in range(1, 6)])
-    ...          for t in range(4)]
-    >>> prior = fleet_check_prior(fleet, 0)
-    >>> prior.n_axes, "drive_friction" in prior.task_spreads, "load_forward" in prior.task_spreads
-    (3, True, False)
-    """
-    viewed = []
-    for model in models:
-        seen = copy.copy(model)  # shares the fitted readings; only the two dicts are replaced
-        seen.centre_, seen.within_ = drive_friction_view(model.centre_, model.within_)
-        viewed.append(seen)
-    return pool_fleet_without(viewed, index)
-
-
-def fleet_check_difference(
-    centre: Mapping[str, float],
-    within: Mapping[str, float],
-    prior: FleetPrior,
-    percentile: float,
-) -> tuple[float, dict[str, float]]:
-    """:func:`fleet_difference` of the axis's :func:`drive_friction_view` when ``prior`` gives
-    the drive loads' mean a task spread (a prior of :func:`fleet_check_prior`), else of the
-    axis's own centre and spreads (the loads each on their own).
-
-    Examples
-    --------
-    >>> prior = FleetPrior({"drive_friction": 1.0}, 1.0, {"drive_friction": 2.0}, 4, 6,
-    ...                    {"drive_friction": 1.0}, {"drive_friction": 6})
-    >>> distance, shifts = fleet_check_difference(
-    ...     {"load_forward": 8.0, "load_backward": 0.0}, {"load_forward": 0.0,
-    ...     "load_backward": 0.0}, prior, 99.0)
-    >>> round(distance, 3)  # (4 - 2) / 1 spread over an allowance of ln(100) = 4.6 spreads
-    0.434
-    """
-    if math.isfinite(prior.task_spreads.get(DRIVE_FRICTION.name, math.nan)):
-        centre, within = drive_friction_view(centre, within)
-    return fleet_difference(centre, within, prior, percentile)
 
 
 def fleet_difference(
