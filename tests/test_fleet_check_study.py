@@ -4,31 +4,132 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
+from axiswatch._indicator_model import (
+    FleetPrior,
+    IndicatorModel,
+    fleet_difference,
+    pool_fleet_without,
+)
+from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
-from axiswatch_lab._fleet_check import hydraulic_fleet_checks, robot_fleet_checks
+from axiswatch_lab._fleet_check import (
+    SCENARIOS,
+    drive_friction_difference,
+    drive_friction_prior,
+    drive_friction_view,
+    growth_difference,
+    hydraulic_fleet_checks,
+    robot_fleet_checks,
+)
 from tests.conftest import SHARED_DATA
+
+RULES = ("itself included", "leave-self-out", "drive friction", "growth only")
 
 
 def _consistent(rows: list[dict[str, object]]) -> None:
     for row in rows:
         distance = float(row["distance"])  # type: ignore[arg-type]
         assert row["flagged"] == (math.isfinite(distance) and distance > 1.0)
-        assert bool(row["check"]) == row["flagged"]
+        assert bool(row["check"]) == row["monitor"]
 
 
 @pytest.mark.slow
-def test_robot_rows_check_each_axis_both_ways() -> None:
+def test_robot_rows_check_each_axis_by_each_rule() -> None:
     rows = robot_fleet_checks(DEVELOPMENT_ROBOTS[4], 4)
-    assert len(rows) == 2 * 4 * 2  # scenarios x axes x rules
+    assert len(rows) == len(SCENARIOS) * 4 * len(RULES)
     _consistent(rows)
-    worn = [r for r in rows if r["health"] == "worn"]
-    assert [(r["scenario"], r["axis"]) for r in worn] == [("worn", "a0")] * 2
+    worn = {(r["scenario"], r["axis"]) for r in rows if r["health"] == "worn"}
+    assert worn == {(name, "a0") for name, fault in SCENARIOS if fault is not None}
     for row in rows:
-        if row["flagged"]:
-            expected = "3 other axes" if row["rule"] == "leave-self-out" else "itself included"
-            assert expected in str(row["check"])
+        if row["rule"] == "leave-self-out":  # the product's check, through the monitor
+            assert row["monitor"] == row["flagged"]
+            assert not row["flagged"] or "3 other axes" in str(row["check"])
+    assert all(r["scoring_unchanged"] for r in rows)
+
+
+def _axis(seed: int, friction: float, gravity: float) -> IndicatorModel:
+    """Six captures' readings of a hand-built axis: the drive loads are friction plus and minus
+    the task's mean gravity torque, the Coulomb reading friction alone (noise 0.2 each)."""
+    rng = np.random.default_rng(seed)
+    read = []
+    for _ in range(6):
+        f = friction + rng.normal(scale=0.2)
+        values = {
+            "coulomb_friction": f + rng.normal(scale=0.2),
+            "load_forward": f + gravity + rng.normal(scale=0.2),
+            "load_backward": f - gravity + rng.normal(scale=0.2),
+        }
+        read.append(Readings(values))
+    return IndicatorModel().fit_readings(read)
+
+
+HEALTHY = [_axis(k, 10.0, g) for k, g in ((1, 0.0), (2, 1.0), (3, -1.0), (4, 0.5))]
+
+
+def test_the_loads_mean_drops_gravity_and_keeps_friction() -> None:
+    centre, within = drive_friction_view(
+        {"load_forward": 10.0 + 7.0, "load_backward": 10.0 - 7.0, "impulsiveness": 0.5},
+        {"load_forward": 0.6, "load_backward": 0.8, "impulsiveness": 0.1},
+    )
+    assert centre == {"impulsiveness": 0.5, "load_forward": 10.0}
+    assert within == {"impulsiveness": 0.1, "load_forward": pytest.approx(0.5)}
+    # One-way strokes: a lone backward load is kept, a lone forward one is not checked.
+    assert drive_friction_view({"load_backward": 3.0}, {"load_backward": 0.2}) == (
+        {"load_backward": 3.0},
+        {"load_backward": 0.2},
+    )
+    assert drive_friction_view({"load_forward": 3.0}, {"load_forward": 0.2}) == ({}, {})
+
+
+def test_a_task_with_another_gravity_is_flagged_per_direction_but_not_by_the_mean() -> None:
+    fleet = [_axis(0, 10.0, 15.0), *HEALTHY]
+    per_direction = fleet_difference(
+        fleet[0].centre_, fleet[0].within_, pool_fleet_without(fleet, 0), 99.0
+    )
+    assert per_direction[0] > 1.0
+    top = max(per_direction[1], key=per_direction[1].__getitem__)
+    assert top in {"load_forward", "load_backward"}
+    assert drive_friction_difference(fleet[0], fleet, 0, 99.0) < 1.0
+    prior = drive_friction_prior(fleet, 0)
+    assert prior is not None
+    assert "load_backward" not in prior.task_spreads
+
+
+def test_a_worn_axis_is_flagged_by_the_mean_of_its_loads() -> None:
+    fleet = [_axis(0, 14.0, 0.0), *HEALTHY]
+    assert drive_friction_difference(fleet[0], fleet, 0, 99.0) > 1.0
+    assert all(drive_friction_difference(m, fleet, k, 99.0) < 1.0 for k, m in enumerate(fleet) if k)
+
+
+def test_with_fewer_than_three_others_the_mean_falls_back_to_the_fleet_with_itself() -> None:
+    fleet = [_axis(0, 14.0, 0.0), *HEALTHY[:2]]
+    assert drive_friction_prior(fleet, 0) is None
+    assert drive_friction_difference(fleet[0], fleet, 0, 99.0) == pytest.approx(
+        fleet_difference(fleet[0].centre_, fleet[0].within_, IndicatorModel.pool(fleet), 99.0)[0]
+    )
+
+
+def test_growth_only_counts_a_centre_above_the_fleets() -> None:
+    prior = FleetPrior(
+        {"coulomb_friction": 0.3},
+        1.0,
+        {"coulomb_friction": 3.0},
+        4,
+        6,
+        {"coulomb_friction": 1.0},
+        {"coulomb_friction": 6},
+    )
+    within = {"coulomb_friction": 0.4}
+    above, below = {"coulomb_friction": 9.0}, {"coulomb_friction": -3.0}
+    assert growth_difference(above, within, prior, 99.0) == pytest.approx(
+        fleet_difference(above, within, prior, 99.0)[0]
+    )
+    assert fleet_difference(below, within, prior, 99.0)[0] > 1.0
+    assert growth_difference(below, within, prior, 99.0) == 0.0
+    assert math.isnan(growth_difference({}, within, prior, 99.0))
 
 
 @pytest.mark.skipif(
@@ -38,9 +139,7 @@ def test_robot_rows_check_each_axis_both_ways() -> None:
 def test_hydraulic_rows() -> None:
     rows = hydraulic_fleet_checks(SHARED_DATA)
     assert {(r["axis"], r["rule"]) for r in rows} == {
-        (a, rule)
-        for a in ("act1", "act2", "act3", "act5")
-        for rule in ("itself included", "leave-self-out")
+        (a, rule) for a in ("act1", "act2", "act3", "act5") for rule in RULES
     }
     assert {r["health"] for r in rows if r["axis"] == "act3"} == {"faulty"}
     _consistent(rows)
