@@ -137,9 +137,7 @@ def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]
         models, prior = _models(f, profile, 99.0)  # type: ignore[arg-type]
         bases = sorted(models)
         dist = {
-            (b, key): [
-                models[b].assess_readings(r).distance / models[b].threshold_ for r in read
-            ]
+            (b, key): [models[b].assess_readings(r).distance / models[b].threshold_ for r in read]
             for b in bases
             for key, read in t.items()  # type: ignore[attr-defined]
         }
