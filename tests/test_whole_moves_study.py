@@ -43,8 +43,8 @@ def _pick_and_place(phase: float, *, rate: float = 200.0, seconds: float = 4.0) 
     c = t % 3.0
 
     def ramp(s: np.ndarray) -> np.ndarray:
-        s = np.clip(s, 0.0, 1.0)
-        return 10 * s**3 - 15 * s**4 + 6 * s**5
+        r = np.clip(s, 0.0, 1.0)
+        return np.asarray(10 * r**3 - 15 * r**4 + 6 * r**5, dtype=np.float64)
 
     q = np.where(c < 1.5, ramp(c / 1.0), 1.0 - ramp((c - 1.5) / 1.0))
     v = np.gradient(q, 1 / rate)
