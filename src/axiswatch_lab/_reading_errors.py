@@ -1,0 +1,278 @@
+"""A friction reading as uncertain as its own least squares says (issue 13, i15a; lab study).
+
+Research study (docs/evaluation.md, "Drive loads from whole moves", second candidate). The
+product reads ``coulomb_friction`` and ``viscous_friction`` by least squares of the torque on
+``sign(v)``, ``v``, the acceleration and a cubic in the position
+(:func:`~axiswatch.read_indicators`). On a task of constant-speed moves most moving samples
+share one speed, ``sign(v)`` and ``v`` are nearly collinear, and the two coefficients trade off
+from capture to capture: on development robot 4 the healthy viscous readings of its
+constant-speed task spread 1.9 (1.4826 x MAD) against 0.17 on the baseline's task, and Robot A
+alarms on them. The least squares says so itself: the coefficient's standard error
+``sqrt(sigma^2 (X'X)^-1)`` (``sigma^2`` the residual variance) is 2.9 there against 0.10.
+
+Candidate: a capture's friction reading is compared with the spread it can have. The baseline's
+within-task spread ``s_w`` belongs to readings of the baseline's precision (``se_ref``, the
+median standard error of the fitting captures' readings); a reading whose own standard error
+``se`` is larger has a spread larger in proportion, so its shift is taken in
+``sqrt((s_w max(1, se / se_ref))^2 + s_t^2)`` instead of ``sqrt(s_w^2 + s_t^2)`` (times its
+allowance, as the product). No constant: the factor is the ratio of the capture's own standard
+error to the baseline's. The residuals are autocorrelated, so ``se`` is too small in absolute
+terms; only its ratio to ``se_ref`` (the same regression on the same axis) is used. The
+threshold is the product's (the calibration captures' ratios are about 1 by construction, and
+the factor can only lower a distance).
+
+:func:`friction_standard_errors` is the pure function. ``python -m axiswatch_lab._reading_errors
+OUT [SEED ...]`` scores ``current`` (the product), ``whole moves``
+(:mod:`axiswatch_lab._whole_moves`), ``friction errors`` and ``whole moves, friction errors`` from
+the same captures; development robots only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import cast
+
+import numpy as np
+import pandas as pd
+from threadpoolctl import threadpool_limits
+
+from axiswatch._capture import Capture
+from axiswatch._indicator_model import IndicatorModel, _distance, _transformed
+from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion, read_indicators
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch_lab._indicator_allowance import _models
+from axiswatch_lab._task_envelope import _AXES, _FIT
+from axiswatch_lab._transfer import (
+    TransferDesign,
+    _profile,
+    fleet_readings,
+    paired_measures,
+    paired_readings,
+    robot_a_readings,
+)
+from axiswatch_lab._whole_moves import whole_move_readings
+
+__all__ = ["VARIANTS", "friction_standard_errors", "study"]
+
+VARIANTS: tuple[str, ...] = (
+    "current",
+    "whole moves",
+    "friction errors",
+    "whole moves, friction errors",
+)
+FRICTION: tuple[str, ...] = ("coulomb_friction", "viscous_friction")
+
+#: One capture: (the product's readings, with whole-move loads, friction standard errors).
+Taken = tuple[Readings, Readings, dict[str, float]]
+
+
+def friction_standard_errors(m: Motion) -> dict[str, float]:
+    """Standard errors of the product's Coulomb and viscous coefficients of one capture.
+
+    The same design as :func:`axiswatch._readings._friction` (moving samples: ``|v|`` above
+    ``MOVING_FRACTION`` of the peak; columns ``sign(v)``, ``v``, the acceleration, 1 and a cubic
+    in the position; ``v`` dropped when the speeds are one), ``sqrt(diag(sigma^2 (X'X)^-1))``
+    with ``sigma^2`` the residual sum of squares over ``n - p``. NaN where the product reads
+    no coefficient.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 6, 0.01)
+    >>> q = np.sin(np.pi * t / 2) + 0.3 * np.sin(np.pi * t)
+    >>> v = np.gradient(q, 0.01)
+    >>> noise = np.random.default_rng(0).normal(scale=0.1, size=t.size)
+    >>> m = Motion(t, q, v, np.gradient(v, 0.01), 3 * np.sign(v) + 2 * v + noise, 100.0)
+    >>> se = friction_standard_errors(m)
+    >>> 0 < se["viscous_friction"] < 0.05 and 0 < se["coulomb_friction"] < 0.05
+    True
+    """
+    out = dict.fromkeys(FRICTION, math.nan)
+    peak = float(np.max(np.abs(m.speed))) if m.speed.size else 0.0
+    moving = np.abs(m.speed) > MOVING_FRACTION * peak
+    direction = np.sign(m.speed)
+    min_samples = max(5, round(0.2 * m.rate_hz))
+    if not all(int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)):
+        return out
+    v = m.speed[moving]
+    span = float(np.ptp(m.position[moving])) or 1.0
+    q = (m.position[moving] - float(np.mean(m.position[moving]))) / span
+    columns = [np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3]
+    speeds = np.abs(v)
+    separable = float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
+    if not separable:
+        del columns[1]
+    x = np.column_stack(columns)
+    y = m.torque[moving]
+    n, p = x.shape
+    if n <= p:
+        return out
+    coefficients, *_ = np.linalg.lstsq(x, y, rcond=None)
+    residual = y - x @ coefficients
+    sigma2 = float(residual @ residual) / (n - p)
+    covariance = sigma2 * np.linalg.pinv(x.T @ x)
+    out["coulomb_friction"] = math.sqrt(max(float(covariance[0, 0]), 0.0))
+    if separable:
+        out["viscous_friction"] = math.sqrt(max(float(covariance[1, 1]), 0.0))
+    return out
+
+
+def _take(read: Callable[[Capture], Readings]) -> Callable[[Capture], Taken]:
+    def take(capture: Capture) -> Taken:
+        r = read(capture)
+        return r, whole_move_readings(capture, r), friction_standard_errors(motion(capture))
+
+    return take
+
+
+def _readings(taken: Taken, variant: str) -> Readings:
+    return taken[1] if variant.startswith("whole moves") else taken[0]
+
+
+def _reference_errors(fitting: Sequence[Taken]) -> dict[str, float]:
+    """``se_ref`` per friction indicator: the median standard error of the fitting captures'."""
+    out = {}
+    for name in FRICTION:
+        finite = [t[2][name] for t in fitting if math.isfinite(t[2][name])]
+        out[name] = float(np.median(finite)) if finite else math.nan
+    return out
+
+
+def error_distance(
+    model: IndicatorModel, reference: Mapping[str, float], taken: Taken, variant: str
+) -> float:
+    """The variant's distance in units of the model's threshold (over when above 1)."""
+    readings = _readings(taken, variant)
+    scales = dict(model.task_change_scales_)
+    if variant.endswith("friction errors") and model.fleet is not None:
+        allowances = model.allowances_
+        for name in FRICTION:
+            if name not in scales:
+                continue
+            ratio = taken[2][name] / reference.get(name, math.nan)
+            factor = max(1.0, ratio) if math.isfinite(ratio) else 1.0
+            s_t = model.fleet.task_spreads.get(name, math.nan)
+            s_w = model.within_[name] * factor
+            spread = math.hypot(s_w, s_t) if math.isfinite(s_t) else s_w
+            scales[name] = spread * allowances.get(name, 1.0)
+    d, _ = _distance(_transformed(readings), model.centre_, scales)
+    return d / model.threshold_
+
+
+def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]:
+    robot = draw_robot(seed)
+    profile = _profile(robot, design.kinematics)
+    # The study's reader returns every capture's three readings (Taken), not one Readings.
+    read = cast(Callable[[Capture], Readings], _take(IndicatorModel(profile).readings))
+    fits = cast(dict[int, list[Taken]], fleet_readings(robot, read, design))
+    tests = cast(dict[tuple[int, str], list[Taken]], paired_readings(robot, read, design))
+    robot_a = cast(list[Taken], robot_a_readings(robot, read, design.robot_a_days))
+    n_fit = design.n_calibration + 1
+    rows = []
+    for variant in VARIANTS:
+        models, prior = _models(
+            {t: [_readings(x, variant) for x in f] for t, f in fits.items()}, profile, 99.0
+        )
+        refs = {b: _reference_errors(fits[b]) for b in models}
+        bases = sorted(models)
+        dist = {
+            (b, key): [error_distance(models[b], refs[b], x, variant) for x in taken]
+            for b in bases
+            for key, taken in tests.items()
+        }
+        row: dict[str, object] = {"robot": robot.name, "variant": variant}
+        row.update(paired_measures(dist, bases))
+        every = [d for v in dist.values() for d in v]
+        row["share_scored"] = float(np.mean([math.isfinite(d) for d in every]))
+        model_a = IndicatorModel(profile).fit_readings(
+            [_readings(x, variant) for x in robot_a[:n_fit]]
+        )
+        model_a.use_fleet(prior)
+        ref_a = _reference_errors(robot_a[:n_fit])
+        a = [error_distance(model_a, ref_a, x, variant) for x in robot_a[n_fit:]]
+        row["robot_a_false_alarms"] = int(sum(d > 1 for d in a))
+        row["robot_a_test_days"] = len(a)
+        rows.append(row)
+    return rows
+
+
+def _scenario(seed: int, scenario: str) -> list[tuple[int, list[Taken], list[tuple[Taken, bool]]]]:
+    """:func:`axiswatch_lab._task_envelope._scenario`, every capture taken by :func:`_take`."""
+    robot = draw_robot(seed)
+    take = _take(read_indicators)
+    out = []
+    for a in range(_AXES):
+        fitting: list[Taken] = []
+        monitored: list[tuple[Taken, bool]] = []
+        for day in range(_FIT + (12 if scenario == "healthy" else 8)):
+            task, fault = a, None
+            if scenario == "healthy" and day >= _FIT + 4:
+                task = (a + 1 + (day - _FIT - 4) // 4) % 5
+            if scenario == "fault" and a == 0 and day >= _FIT:
+                fault = Fault("friction", 0.6)
+            x = take(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
+            if day < _FIT:
+                fitting.append(x)
+            else:
+                monitored.append((x, fault is not None))
+        out.append((a, fitting, monitored))
+    return out
+
+
+def _monitor_rows(seed: int) -> list[dict[str, object]]:
+    rows: list[dict[str, object]] = []
+    for scenario in ("healthy", "fault"):
+        axes = _scenario(seed, scenario)
+        for variant in VARIANTS:
+            fits = {a: [_readings(x, variant) for x in fitting] for a, fitting, _ in axes}
+            models, _ = _models(fits, None, 99.0)
+            counts = {"false_alarms": 0, "healthy": 0, "detected": 0, "faulty": 0}
+            for a, fitting, monitored in axes:
+                ref = _reference_errors(fitting)
+                for x, faulty in monitored:
+                    over = error_distance(models[a], ref, x, variant) > 1
+                    counts["faulty" if faulty else "healthy"] += 1
+                    counts["detected" if faulty else "false_alarms"] += int(over)
+            rows.append(
+                {"robot": f"robot{seed}", "scenario": scenario, "variant": variant, **counts}
+            )
+    return rows
+
+
+def study(
+    seeds: Sequence[int] = DEVELOPMENT_ROBOTS,
+    design: TransferDesign | None = None,
+    *,
+    progress: Callable[[str], None] = print,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(transfer rows, monitor-scenario rows): one per robot and variant (and scenario)."""
+    transfer, monitor = [], []
+    with threadpool_limits(1):
+        for seed in seeds:
+            transfer += _transfer_rows(seed, design or TransferDesign())
+            monitor += _monitor_rows(seed)
+            progress(f"robot {seed} done")
+    return pd.DataFrame(transfer), pd.DataFrame(monitor)
+
+
+def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
+    """Write ``transfer.csv`` and ``monitor.csv`` under ``out`` and print the summaries."""
+    out.mkdir(parents=True, exist_ok=True)
+    transfer, monitor = study(seeds)
+    transfer.to_csv(out / "transfer.csv", index=False)
+    monitor.to_csv(out / "monitor.csv", index=False)
+    numeric = transfer.drop(columns=["robot"]).groupby("variant", sort=False)
+    summary = numeric.mean()
+    summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
+    summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
+    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
+    by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
+    print(by_robot[list(VARIANTS)].to_string())
+    print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
+
+
+if __name__ == "__main__":  # python -m axiswatch_lab._reading_errors OUT [SEED ...]
+    import sys
+
+    main(Path(sys.argv[1]), tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS)
