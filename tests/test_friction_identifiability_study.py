@@ -11,6 +11,7 @@ import pytest
 
 from axiswatch import Capture
 from axiswatch._readings import MOVING_FRACTION, Motion, motion, read_indicators
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch_lab._friction_identifiability import (
     NOT_SEPARABLE,
     VIF_BOUND,
@@ -109,3 +110,14 @@ def test_one_way_capture_keeps_the_products_reason() -> None:
     product = read_indicators(cap)
     assert identified_readings(cap, product) == product
     assert "both directions" in product.reasons["coulomb_friction"]
+
+
+def test_development_robot_4s_constant_speed_task_is_the_one_not_identified() -> None:
+    # Task 1 moves at constant speed for 80 % of each move, task 0 is minimum-jerk (i15a's
+    # diagnosis of Robot A's friction days): only task 1 is over the textbook bound.
+    robot = draw_robot(DEVELOPMENT_ROBOTS[4])
+    for task, over in ((0, False), (1, True)):
+        for seed in ("vif-a", "vif-b"):
+            m = motion(robot.capture(task, seed=seed))
+            moving = np.abs(m.speed) > MOVING_FRACTION * np.max(np.abs(m.speed))
+            assert (speed_inflation(_design(m, moving)) > VIF_BOUND) is over
