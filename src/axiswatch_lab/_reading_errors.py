@@ -32,26 +32,19 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import cast
 
 import numpy as np
 import pandas as pd
-from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel, _distance, _transformed
-from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion, read_indicators
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
-from axiswatch_lab._indicator_allowance import _models
-from axiswatch_lab._task_envelope import _AXES, _FIT
+from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion
+from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch_lab import _variant_study
 from axiswatch_lab._transfer import (
     TransferDesign,
-    _profile,
-    fleet_readings,
-    paired_measures,
-    paired_readings,
-    robot_a_readings,
 )
+from axiswatch_lab._variant_study import Variant
 from axiswatch_lab._whole_moves import whole_move_readings
 
 __all__ = ["VARIANTS", "friction_standard_errors", "study"]
@@ -160,84 +153,15 @@ def error_distance(
     return d / model.threshold_
 
 
-def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]:
-    robot = draw_robot(seed)
-    profile = _profile(robot, design.kinematics)
-    # The study's reader returns every capture's three readings (Taken), not one Readings.
-    read = cast(Callable[[Capture], Readings], _take(IndicatorModel(profile).readings))
-    fits = cast(dict[int, list[Taken]], fleet_readings(robot, read, design))
-    tests = cast(dict[tuple[int, str], list[Taken]], paired_readings(robot, read, design))
-    robot_a = cast(list[Taken], robot_a_readings(robot, read, design.robot_a_days))
-    n_fit = design.n_calibration + 1
-    rows = []
-    for variant in VARIANTS:
-        models, prior = _models(
-            {t: [_readings(x, variant) for x in f] for t, f in fits.items()}, profile, 99.0
-        )
-        refs = {b: _reference_errors(fits[b]) for b in models}
-        bases = sorted(models)
-        dist = {
-            (b, key): [error_distance(models[b], refs[b], x, variant) for x in taken]
-            for b in bases
-            for key, taken in tests.items()
-        }
-        row: dict[str, object] = {"robot": robot.name, "variant": variant}
-        row.update(paired_measures(dist, bases))
-        every = [d for v in dist.values() for d in v]
-        row["share_scored"] = float(np.mean([math.isfinite(d) for d in every]))
-        model_a = IndicatorModel(profile).fit_readings(
-            [_readings(x, variant) for x in robot_a[:n_fit]]
-        )
-        model_a.use_fleet(prior)
-        ref_a = _reference_errors(robot_a[:n_fit])
-        a = [error_distance(model_a, ref_a, x, variant) for x in robot_a[n_fit:]]
-        row["robot_a_false_alarms"] = int(sum(d > 1 for d in a))
-        row["robot_a_test_days"] = len(a)
-        rows.append(row)
-    return rows
+def _variant(name: str) -> Variant[Taken]:
+    def score(model: IndicatorModel, fitting: Sequence[Taken], taken: Taken) -> tuple[float, bool]:
+        distance = error_distance(model, _reference_errors(fitting), taken, name)
+        return distance, distance > 1
+
+    return Variant(name, lambda taken: _readings(taken, name), score)
 
 
-def _scenario(seed: int, scenario: str) -> list[tuple[int, list[Taken], list[tuple[Taken, bool]]]]:
-    """:func:`axiswatch_lab._task_envelope._scenario`, every capture taken by :func:`_take`."""
-    robot = draw_robot(seed)
-    take = _take(read_indicators)
-    out = []
-    for a in range(_AXES):
-        fitting: list[Taken] = []
-        monitored: list[tuple[Taken, bool]] = []
-        for day in range(_FIT + (12 if scenario == "healthy" else 8)):
-            task, fault = a, None
-            if scenario == "healthy" and day >= _FIT + 4:
-                task = (a + 1 + (day - _FIT - 4) // 4) % 5
-            if scenario == "fault" and a == 0 and day >= _FIT:
-                fault = Fault("friction", 0.6)
-            x = take(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
-            if day < _FIT:
-                fitting.append(x)
-            else:
-                monitored.append((x, fault is not None))
-        out.append((a, fitting, monitored))
-    return out
-
-
-def _monitor_rows(seed: int) -> list[dict[str, object]]:
-    rows: list[dict[str, object]] = []
-    for scenario in ("healthy", "fault"):
-        axes = _scenario(seed, scenario)
-        for variant in VARIANTS:
-            fits = {a: [_readings(x, variant) for x in fitting] for a, fitting, _ in axes}
-            models, _ = _models(fits, None, 99.0)
-            counts = {"false_alarms": 0, "healthy": 0, "detected": 0, "faulty": 0}
-            for a, fitting, monitored in axes:
-                ref = _reference_errors(fitting)
-                for x, faulty in monitored:
-                    over = error_distance(models[a], ref, x, variant) > 1
-                    counts["faulty" if faulty else "healthy"] += 1
-                    counts["detected" if faulty else "false_alarms"] += int(over)
-            rows.append(
-                {"robot": f"robot{seed}", "scenario": scenario, "variant": variant, **counts}
-            )
-    return rows
+STUDY: tuple[Variant[Taken], ...] = tuple(_variant(name) for name in VARIANTS)
 
 
 def study(
@@ -246,33 +170,14 @@ def study(
     *,
     progress: Callable[[str], None] = print,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(transfer rows, monitor-scenario rows): one per robot and variant (and scenario)."""
-    transfer, monitor = [], []
-    with threadpool_limits(1):
-        for seed in seeds:
-            transfer += _transfer_rows(seed, design or TransferDesign())
-            monitor += _monitor_rows(seed)
-            progress(f"robot {seed} done")
-    return pd.DataFrame(transfer), pd.DataFrame(monitor)
-
-
-def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
-    """Write ``transfer.csv`` and ``monitor.csv`` under ``out`` and print the summaries."""
-    out.mkdir(parents=True, exist_ok=True)
-    transfer, monitor = study(seeds)
-    transfer.to_csv(out / "transfer.csv", index=False)
-    monitor.to_csv(out / "monitor.csv", index=False)
-    numeric = transfer.drop(columns=["robot"]).groupby("variant", sort=False)
-    summary = numeric.mean()
-    summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
-    summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
-    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
-    by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
-    print(by_robot[list(VARIANTS)].to_string())
-    print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
+    """(transfer rows, monitor-scenario rows) of :data:`STUDY`
+    (:func:`axiswatch_lab._variant_study.study`)."""
+    return _variant_study.study(STUDY, _take, seeds, design, progress=progress)
 
 
 if __name__ == "__main__":  # python -m axiswatch_lab._reading_errors OUT [SEED ...]
     import sys
 
-    main(Path(sys.argv[1]), tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS)
+    _variant_study.main(
+        Path(sys.argv[1]), STUDY, _take, tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS
+    )

@@ -35,26 +35,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel
-from axiswatch._readings import MOVING_FRACTION, Readings, motion, read_indicators
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
-from axiswatch_lab._indicator_allowance import _models
-from axiswatch_lab._task_envelope import _AXES, _FIT
+from axiswatch._readings import MOVING_FRACTION, Readings, motion
+from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch_lab import _variant_study
 from axiswatch_lab._transfer import (
     TransferDesign,
-    _profile,
-    fleet_readings,
-    paired_measures,
-    paired_readings,
-    robot_a_readings,
 )
+from axiswatch_lab._variant_study import Variant
 
-__all__ = ["VARIANTS", "study", "whole_move_mask", "whole_move_readings"]
+__all__ = ["STUDY", "VARIANTS", "study", "whole_move_mask", "whole_move_readings"]
 
-VARIANTS: tuple[str, ...] = ("current", "whole moves")
 LOADS: tuple[tuple[float, str, str], ...] = (
     (1.0, "load_forward", "positive"),
     (-1.0, "load_backward", "negative"),
@@ -113,90 +105,11 @@ def _both(read: Callable[[Capture], Readings]) -> Callable[[Capture], tuple[Read
     return both
 
 
-def _pick(tree: object, k: int) -> object:
-    """The ``k``-th reading of every (product, candidate) pair in nested lists and dicts."""
-    if isinstance(tree, tuple) and len(tree) == 2 and isinstance(tree[0], Readings):
-        return tree[k]
-    if isinstance(tree, dict):
-        return {key: _pick(v, k) for key, v in tree.items()}
-    if isinstance(tree, list):
-        return [_pick(v, k) for v in tree]
-    return tree
-
-
-def _transfer_rows(seed: int, design: TransferDesign) -> list[dict[str, object]]:
-    robot = draw_robot(seed)
-    profile = _profile(robot, design.kinematics)
-    both = _both(IndicatorModel(profile).readings)
-    fits = fleet_readings(robot, both, design)  # type: ignore[arg-type]
-    tests = paired_readings(robot, both, design)  # type: ignore[arg-type]
-    robot_a = robot_a_readings(robot, both, design.robot_a_days)  # type: ignore[arg-type]
-    rows = []
-    for k, variant in enumerate(VARIANTS):
-        f, t, a = _pick(fits, k), _pick(tests, k), _pick(robot_a, k)
-        models, prior = _models(f, profile, 99.0)  # type: ignore[arg-type]
-        bases = sorted(models)
-        dist = {
-            (b, key): [models[b].assess_readings(r).distance / models[b].threshold_ for r in read]
-            for b in bases
-            for key, read in t.items()  # type: ignore[attr-defined]
-        }
-        row: dict[str, object] = {"robot": robot.name, "variant": variant}
-        row.update(paired_measures(dist, bases))
-        every = [d for v in dist.values() for d in v]
-        row["share_scored"] = float(np.mean([math.isfinite(d) for d in every]))
-        model_a = IndicatorModel(profile).fit_readings(a[: design.n_calibration + 1])  # type: ignore[index]
-        model_a.use_fleet(prior)
-        verdicts = [model_a.assess_readings(r) for r in a[design.n_calibration + 1 :]]  # type: ignore[index]
-        row["robot_a_false_alarms"] = int(sum(v.alarm for v in verdicts))
-        row["robot_a_test_days"] = len(verdicts)
-        rows.append(row)
-    return rows
-
-
-def _scenario(seed: int, scenario: str) -> list[tuple[int, list[object], list[dict[str, object]]]]:
-    """:func:`axiswatch_lab._task_envelope._scenario` with both readings of every capture."""
-    robot = draw_robot(seed)
-    both = _both(read_indicators)
-    out = []
-    for a in range(_AXES):
-        fitting: list[object] = []
-        monitored: list[dict[str, object]] = []
-        for day in range(_FIT + (12 if scenario == "healthy" else 8)):
-            task, fault = a, None
-            if scenario == "healthy" and day >= _FIT + 4:
-                task = (a + 1 + (day - _FIT - 4) // 4) % 5
-            if scenario == "fault" and a == 0 and day >= _FIT:
-                fault = Fault("friction", 0.6)
-            read = both(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
-            if day < _FIT:
-                fitting.append(read)
-            else:
-                monitored.append({"readings": read, "faulty": fault is not None})
-        out.append((a, fitting, monitored))
-    return out
-
-
-def _monitor_rows(seed: int) -> list[dict[str, object]]:
-    rows: list[dict[str, object]] = []
-    for scenario in ("healthy", "fault"):
-        axes = _scenario(seed, scenario)
-        for k, variant in enumerate(VARIANTS):
-            fits = {a: _pick(fitting, k) for a, fitting, _ in axes}
-            models, _ = _models(fits, None, 99.0)  # type: ignore[arg-type]
-            counts = {"false_alarms": 0, "healthy": 0, "detected": 0, "faulty": 0}
-            for a, _, monitored in axes:
-                for entry in monitored:
-                    readings = _pick(entry["readings"], k)
-                    assert isinstance(readings, Readings)
-                    over = models[a].assess_readings(readings).alarm
-                    key = "faulty" if entry["faulty"] else "healthy"
-                    counts[key] += 1
-                    counts["detected" if entry["faulty"] else "false_alarms"] += int(over)
-            rows.append(
-                {"robot": f"robot{seed}", "scenario": scenario, "variant": variant, **counts}
-            )
-    return rows
+STUDY: tuple[Variant[tuple[Readings, Readings]], ...] = (
+    Variant("current", lambda taken: taken[0]),
+    Variant("whole moves", lambda taken: taken[1]),
+)
+VARIANTS: tuple[str, ...] = tuple(v.name for v in STUDY)
 
 
 def study(
@@ -205,33 +118,14 @@ def study(
     *,
     progress: Callable[[str], None] = print,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(transfer rows, monitor-scenario rows): one per robot and variant (and scenario)."""
-    transfer, monitor = [], []
-    with threadpool_limits(1):
-        for seed in seeds:
-            transfer += _transfer_rows(seed, design or TransferDesign())
-            monitor += _monitor_rows(seed)
-            progress(f"robot {seed} done")
-    return pd.DataFrame(transfer), pd.DataFrame(monitor)
-
-
-def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
-    """Write ``transfer.csv`` and ``monitor.csv`` under ``out`` and print the summaries."""
-    out.mkdir(parents=True, exist_ok=True)
-    transfer, monitor = study(seeds)
-    transfer.to_csv(out / "transfer.csv", index=False)
-    monitor.to_csv(out / "monitor.csv", index=False)
-    numeric = transfer.drop(columns=["robot"]).groupby("variant", sort=False)
-    summary = numeric.mean()
-    summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
-    summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
-    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
-    by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
-    print(by_robot[list(VARIANTS)].to_string())
-    print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
+    """(transfer rows, monitor-scenario rows) of :data:`STUDY`
+    (:func:`axiswatch_lab._variant_study.study`)."""
+    return _variant_study.study(STUDY, _both, seeds, design, progress=progress)
 
 
 if __name__ == "__main__":  # python -m axiswatch_lab._whole_moves OUT [SEED ...]
     import sys
 
-    main(Path(sys.argv[1]), tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS)
+    _variant_study.main(
+        Path(sys.argv[1]), STUDY, _both, tuple(int(s) for s in sys.argv[2:]) or DEVELOPMENT_ROBOTS
+    )
