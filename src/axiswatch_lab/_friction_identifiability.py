@@ -28,19 +28,18 @@ the record only; the rule is held on ``friction identified``.
 :func:`speed_inflation` and :func:`identified_friction` are the pure functions;
 :func:`identified_readings` replaces the friction pair of a product reading. ``python -m
 axiswatch_lab._friction_identifiability OUT [SEED ...]`` scores ``current`` (the product) and the
-variants from the same captures, as :mod:`axiswatch_lab._whole_moves` does.
+variants, :data:`STUDY`, from the same captures (:mod:`axiswatch_lab._variant_study`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from operator import itemgetter
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import scipy.linalg
 from numpy.typing import NDArray
 
@@ -48,9 +47,6 @@ from axiswatch._capture import Capture
 from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
-from axiswatch_lab._transfer import (
-    TransferDesign,
-)
 from axiswatch_lab._variant_study import Variant
 
 __all__ = [
@@ -61,7 +57,6 @@ __all__ = [
     "identified_friction",
     "identified_readings",
     "speed_inflation",
-    "study",
 ]
 
 VARIANTS: tuple[str, ...] = ("current", "friction identified", "friction identified, at speed")
@@ -170,17 +165,6 @@ def _all(read: Callable[[Capture], Readings]) -> Callable[[Capture], tuple[Readi
 STUDY: tuple[Variant[tuple[Readings, ...]], ...] = tuple(
     Variant(name, itemgetter(k)) for k, name in enumerate(VARIANTS)
 )
-
-
-def study(
-    seeds: Sequence[int] = DEVELOPMENT_ROBOTS,
-    design: TransferDesign | None = None,
-    *,
-    progress: Callable[[str], None] = print,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(transfer rows, monitor-scenario rows) of :data:`STUDY`
-    (:func:`axiswatch_lab._variant_study.study`)."""
-    return _variant_study.study(STUDY, _all, seeds, design, progress=progress)
 
 
 if __name__ == "__main__":  # python -m axiswatch_lab._friction_identifiability OUT [SEED ...]

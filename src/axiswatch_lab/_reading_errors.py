@@ -24,7 +24,8 @@ the factor can only lower a distance).
 :func:`friction_standard_errors` is the pure function. ``python -m axiswatch_lab._reading_errors
 OUT [SEED ...]`` scores ``current`` (the product), ``whole moves``
 (:mod:`axiswatch_lab._whole_moves`), ``friction errors`` and ``whole moves, friction errors`` from
-the same captures; development robots only.
+the same captures (:data:`STUDY`, :mod:`axiswatch_lab._variant_study`); development robots
+only.
 """
 
 from __future__ import annotations
@@ -34,20 +35,16 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel, _distance, _transformed
 from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
-from axiswatch_lab._transfer import (
-    TransferDesign,
-)
 from axiswatch_lab._variant_study import Variant
 from axiswatch_lab._whole_moves import whole_move_readings
 
-__all__ = ["VARIANTS", "friction_standard_errors", "study"]
+__all__ = ["STUDY", "VARIANTS", "friction_standard_errors"]
 
 VARIANTS: tuple[str, ...] = (
     "current",
@@ -162,17 +159,6 @@ def _variant(name: str) -> Variant[Taken]:
 
 
 STUDY: tuple[Variant[Taken], ...] = tuple(_variant(name) for name in VARIANTS)
-
-
-def study(
-    seeds: Sequence[int] = DEVELOPMENT_ROBOTS,
-    design: TransferDesign | None = None,
-    *,
-    progress: Callable[[str], None] = print,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(transfer rows, monitor-scenario rows) of :data:`STUDY`
-    (:func:`axiswatch_lab._variant_study.study`)."""
-    return _variant_study.study(STUDY, _take, seeds, design, progress=progress)
 
 
 if __name__ == "__main__":  # python -m axiswatch_lab._reading_errors OUT [SEED ...]

@@ -18,34 +18,30 @@ end inside the capture, so every reading averages the same stretch of positions.
 without a whole steady move gives NaN and a reason. No constant is added.
 
 :func:`whole_move_mask` is the pure function; :func:`whole_move_readings` replaces the two loads
-of a product reading. ``study`` scores the product (``current``) and the candidate (``whole
-moves``) from the same captures: the transfer design (paired AUROC / ``dr99`` / ``far99`` per
-fault, Robot A) and the monitor study's scenarios scored by the model directly, as
+of a product reading. ``python -m axiswatch_lab._whole_moves OUT [SEED ...]`` scores the
+product (``current``) and the candidate (``whole moves``), :data:`STUDY`, from the same
+captures (:mod:`axiswatch_lab._variant_study`): the transfer design (paired AUROC / ``dr99`` /
+``far99`` per fault, Robot A) and the monitor study's scenarios scored by the model directly, as
 :mod:`axiswatch_lab._indicator_allowance` does. Development robots only.
-``python -m axiswatch_lab._whole_moves OUT [SEED ...]``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
 from axiswatch._readings import MOVING_FRACTION, Readings, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
-from axiswatch_lab._transfer import (
-    TransferDesign,
-)
 from axiswatch_lab._variant_study import Variant
 
-__all__ = ["STUDY", "VARIANTS", "study", "whole_move_mask", "whole_move_readings"]
+__all__ = ["STUDY", "VARIANTS", "whole_move_mask", "whole_move_readings"]
 
 LOADS: tuple[tuple[float, str, str], ...] = (
     (1.0, "load_forward", "positive"),
@@ -110,17 +106,6 @@ STUDY: tuple[Variant[tuple[Readings, Readings]], ...] = (
     Variant("whole moves", lambda taken: taken[1]),
 )
 VARIANTS: tuple[str, ...] = tuple(v.name for v in STUDY)
-
-
-def study(
-    seeds: Sequence[int] = DEVELOPMENT_ROBOTS,
-    design: TransferDesign | None = None,
-    *,
-    progress: Callable[[str], None] = print,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(transfer rows, monitor-scenario rows) of :data:`STUDY`
-    (:func:`axiswatch_lab._variant_study.study`)."""
-    return _variant_study.study(STUDY, _both, seeds, design, progress=progress)
 
 
 if __name__ == "__main__":  # python -m axiswatch_lab._whole_moves OUT [SEED ...]
