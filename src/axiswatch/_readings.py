@@ -72,6 +72,7 @@ __all__ = [
     "Indicator",
     "Motion",
     "Readings",
+    "friction_design",
     "motion",
     "read_indicators",
     "signature_distance",
@@ -354,17 +355,38 @@ def signature_distance(signature: NDArray[np.float64], reference: NDArray[np.flo
     return float(np.max(scaled))
 
 
-def _friction(m: Motion, moving: NDArray[np.bool_]) -> tuple[float, float, str | None]:
-    """Coulomb and viscous coefficients, and why the viscous one is missing (or None)."""
+def friction_design(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.float64], bool]:
+    """The least-squares design of the friction readings over the ``moving`` samples.
+
+    Columns ``sign(v)``, ``v``, the acceleration, 1 and a cubic in the position (centred, over
+    its span: gravity and payload), fitted to the torque; and whether ``v`` is told apart from
+    ``sign(v)``: the speeds are not all one (their spread above a tenth of their mean). Where
+    they are not, the friction reading drops column 1 and reads no viscous coefficient.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 2, 0.01)
+    >>> v = np.cos(np.pi * t)
+    >>> m = Motion(t, np.sin(np.pi * t) / np.pi, v, -np.pi * np.sin(np.pi * t), v, 100.0)
+    >>> design, separable = friction_design(m, np.abs(v) > 0.1)
+    >>> design.shape, separable
+    ((186, 7), True)
+    """
     v = m.speed[moving]
     span = float(np.ptp(m.position[moving])) or 1.0
     q = (m.position[moving] - float(np.mean(m.position[moving]))) / span
-    columns = [np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3]
+    design = np.column_stack(
+        [np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3]
+    )
     speeds = np.abs(v)
-    separable = float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
+    return design, float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
+
+
+def _friction(m: Motion, moving: NDArray[np.bool_]) -> tuple[float, float, str | None]:
+    """Coulomb and viscous coefficients, and why the viscous one is missing (or None)."""
+    design, separable = friction_design(m, moving)
     if not separable:
-        del columns[1]
-    design = np.column_stack(columns)
+        design = np.delete(design, 1, axis=1)
     coefficients, *_ = scipy.linalg.lstsq(design, m.torque[moving])
     if not separable:
         return float(coefficients[0]), math.nan, "moves at one speed only"

@@ -44,7 +44,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
-from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion
+from axiswatch._readings import MOVING_FRACTION, Motion, Readings, friction_design, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
@@ -67,11 +67,8 @@ FRICTION: tuple[str, ...] = ("coulomb_friction", "viscous_friction")
 
 
 def _design(m: Motion, moving: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """The product's friction design: sign(v), v, acceleration, 1, q, q^2, q^3."""
-    v = m.speed[moving]
-    span = float(np.ptp(m.position[moving])) or 1.0
-    q = (m.position[moving] - float(np.mean(m.position[moving]))) / span
-    return np.column_stack([np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3])
+    """The product's friction design, every column kept (:func:`friction_design`)."""
+    return friction_design(m, moving)[0]
 
 
 def speed_inflation(design: NDArray[np.float64]) -> float:

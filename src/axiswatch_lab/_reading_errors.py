@@ -38,7 +38,7 @@ import numpy as np
 
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel, _distance, _transformed
-from axiswatch._readings import MOVING_FRACTION, Motion, Readings, motion
+from axiswatch._readings import MOVING_FRACTION, Motion, Readings, friction_design, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
@@ -85,15 +85,9 @@ def friction_standard_errors(m: Motion) -> dict[str, float]:
     min_samples = max(5, round(0.2 * m.rate_hz))
     if not all(int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)):
         return out
-    v = m.speed[moving]
-    span = float(np.ptp(m.position[moving])) or 1.0
-    q = (m.position[moving] - float(np.mean(m.position[moving]))) / span
-    columns = [np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3]
-    speeds = np.abs(v)
-    separable = float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
+    x, separable = friction_design(m, moving)
     if not separable:
-        del columns[1]
-    x = np.column_stack(columns)
+        x = np.delete(x, 1, axis=1)
     y = m.torque[moving]
     n, p = x.shape
     if n <= p:
