@@ -22,11 +22,19 @@ from axiswatch_lab._fleet_check import (
     drive_friction_view,
     growth_difference,
     hydraulic_fleet_checks,
+    inverse_variance_difference,
+    inverse_variance_weight,
     robot_fleet_checks,
 )
 from tests.conftest import SHARED_DATA
 
-RULES = ("itself included", "leave-self-out", "drive friction", "growth only")
+RULES = (
+    "itself included",
+    "leave-self-out",
+    "drive friction",
+    "inverse variance",
+    "growth only",
+)
 
 
 def _consistent(rows: list[dict[str, object]]) -> None:
@@ -109,6 +117,57 @@ def test_with_fewer_than_three_others_the_mean_falls_back_to_the_fleet_with_itse
     assert drive_friction_prior(fleet, 0) is None
     assert drive_friction_difference(fleet[0], fleet, 0, 99.0) == pytest.approx(
         fleet_difference(fleet[0].centre_, fleet[0].within_, IndicatorModel.pool(fleet), 99.0)[0]
+    )
+
+
+def _two_noises(seed: int, friction: float, gravity: float) -> IndicatorModel:
+    """The drive loads of :func:`_axis` alone, the forward load four times noisier than the
+    backward one (2.0 against 0.5), as the drive of robot 5 in docs/evaluation.md."""
+    rng = np.random.default_rng(seed)
+    read = []
+    for _ in range(6):
+        f = friction + rng.normal(scale=0.2)
+        values = {
+            "load_forward": f + gravity + rng.normal(scale=2.0),
+            "load_backward": f - gravity + rng.normal(scale=0.5),
+        }
+        read.append(Readings(values))
+    return IndicatorModel().fit_readings(read)
+
+
+def test_the_weighted_mean_keeps_friction_and_a_share_of_gravity() -> None:
+    centre, within = drive_friction_view(
+        {"load_forward": 10.0 + 2.0, "load_backward": 10.0 - 2.0},
+        {"load_forward": 2.0, "load_backward": 0.5},
+        0.2,
+    )
+    # F + (2 w - 1) G: friction whole, 60 % of the gravity term with the backward load's sign.
+    assert centre["load_forward"] == pytest.approx(10.0 - 0.6 * 2.0)
+    assert within["load_forward"] == pytest.approx(math.hypot(0.2 * 2.0, 0.8 * 0.5))
+    assert drive_friction_view(centre, within, 0.5) == drive_friction_view(centre, within)
+
+
+def test_the_weight_is_the_fleets_inverse_variance() -> None:
+    fleet = [_two_noises(k, 10.0, 0.0) for k in range(5)]
+    forward = float(np.median([m.within_["load_forward"] for m in fleet]))
+    backward = float(np.median([m.within_["load_backward"] for m in fleet]))
+    weight = inverse_variance_weight(fleet)
+    assert weight == pytest.approx(backward**2 / (forward**2 + backward**2))
+    assert weight < 0.25  # the noisy forward load counts little
+    assert inverse_variance_weight(fleet[:2]) == 0.5
+    # Equal noise in both directions: about the plain mean.
+    assert inverse_variance_weight(HEALTHY) == pytest.approx(0.5, abs=0.25)
+
+
+def test_wear_the_plain_mean_dilutes_is_kept_by_the_weighted_one() -> None:
+    # Friction +2.5: 5 backward spreads, 1.25 forward ones. The plain mean's spread is set by
+    # the noisy direction; weighted, the precise backward load carries the wear.
+    healthy = [_two_noises(k, 10.0, g) for k, g in ((1, 0.0), (2, 0.3), (3, -0.3), (4, 0.1))]
+    fleet = [_two_noises(0, 12.5, 0.0), *healthy]
+    assert drive_friction_difference(fleet[0], fleet, 0, 99.0) < 1.0
+    assert inverse_variance_difference(fleet[0], fleet, 0, 99.0) > 1.0
+    assert all(
+        inverse_variance_difference(m, fleet, k, 99.0) < 1.0 for k, m in enumerate(fleet) if k
     )
 
 

@@ -15,7 +15,10 @@ unlike its fleet's"), each against the other axes as ``leave-self-out``:
 
 * ``drive friction``: the two drive loads compared as their mean (:func:`drive_friction_view`,
   :func:`drive_friction_prior`, :func:`drive_friction_difference`);
-* ``growth only``: every indicator one-sided, only a centre above the fleet's counts.
+* ``growth only``: every indicator one-sided, only a centre above the fleet's counts;
+* ``inverse variance`` (docs/evaluation.md, "An inverse-variance mean of the drive loads in the
+  fleet check"): as ``drive friction`` with the loads weighted by the inverse of the other
+  axes' typical within-task variances (:func:`inverse_variance_weight`).
 
 A flag is a distance over 1 (the monitor's ``fleet_check_``, "differs from its fleet's", for the
 rule it uses: ``monitor`` in each row).
@@ -42,6 +45,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from axiswatch._indicator_model import (
+    MIN_AXES,
     FleetPrior,
     IndicatorModel,
     _task_change_scales,
@@ -60,6 +64,8 @@ __all__ = [
     "drive_friction_view",
     "growth_difference",
     "hydraulic_fleet_checks",
+    "inverse_variance_difference",
+    "inverse_variance_weight",
     "robot_fleet_checks",
 ]
 
@@ -74,73 +80,142 @@ _MEAN_LOAD = "load_forward"
 
 
 def drive_friction_view(
-    centre: Mapping[str, float], within: Mapping[str, float]
+    centre: Mapping[str, float], within: Mapping[str, float], forward_weight: float = 0.5
 ) -> tuple[dict[str, float], dict[str, float]]:
-    """An axis's centre and within-task spreads with its two drive loads replaced by their mean.
+    """An axis's centre and within-task spreads with its two drive loads replaced by their
+    weighted mean.
 
     A direction's drive load is the mean of ``torque x sign(speed)`` over its steady motion:
     friction plus the mean gravity and payload torque there, ``F + G`` forward and ``F - G``
     backward. Another task (a payload, a stroke at another height) moves ``G``, the two
-    directions by opposite amounts; wear moves ``F``, both up. Their mean ``F`` keeps the wear
-    and drops the task's gravity and payload (exactly when both directions cover the same
-    positions at the same speeds).
+    directions by opposite amounts; wear moves ``F``, both up. Their weighted mean
+    ``w F_f + (1 - w) F_b = F + (2 w - 1) G`` keeps the whole wear whatever ``w`` and drops the
+    task's gravity and payload exactly at ``w = 1/2`` (when both directions cover the same
+    positions at the same speeds), a fraction ``|2 w - 1|`` of it remaining otherwise.
 
     Parameters
     ----------
     centre, within : mapping of str to float
         An axis's centre and within-task spread ``s_w`` per indicator.
+    forward_weight : float in [0, 1], default 0.5
+        ``w``, the forward load's weight (the candidate ``drive friction``: 0.5; ``inverse
+        variance``: :func:`inverse_variance_weight` of the fleet).
 
     Returns
     -------
     (dict of str to float, dict of str to float)
         Copies without the two loads and with their mean under ``load_forward`` (centre
-        ``(c_f + c_b) / 2``, spread ``sqrt(s_f^2 + s_b^2) / 2``, the directions' readings taken
-        as independent). An axis that gives one load only (one-way strokes) keeps a lone
-        ``load_backward`` and drops a lone ``load_forward``: in a fleet of two-way axes fewer
-        than 3 others give it alone, so the candidate as written in docs/evaluation.md would
-        not check it either.
+        ``w c_f + (1 - w) c_b``, spread ``sqrt(w^2 s_f^2 + (1 - w)^2 s_b^2)``, the directions'
+        readings taken as independent). An axis that gives one load only (one-way strokes)
+        keeps a lone ``load_backward`` and drops a lone ``load_forward``: in a fleet of two-way
+        axes fewer than 3 others give it alone, so the candidate as written in
+        docs/evaluation.md would not check it either.
 
     Examples
     --------
     >>> drive_friction_view({"load_forward": 5.0, "load_backward": 1.0, "coulomb_friction": 2.0},
     ...                     {"load_forward": 0.3, "load_backward": 0.4, "coulomb_friction": 0.1})
     ({'coulomb_friction': 2.0, 'load_forward': 3.0}, {'coulomb_friction': 0.1, 'load_forward': 0.25})
+    >>> centre, within = drive_friction_view({"load_forward": 5.0, "load_backward": 1.0},
+    ...                                      {"load_forward": 0.3, "load_backward": 0.4}, 0.75)
+    >>> centre["load_forward"], round(within["load_forward"], 4)
+    (4.0, 0.2462)
     """
     out_centre = {n: v for n, v in centre.items() if n not in _DRIVE_LOADS}
     out_within = {n: v for n, v in within.items() if n not in _DRIVE_LOADS}
     forward, backward = _DRIVE_LOADS
     gives = {n: n in centre and n in within for n in _DRIVE_LOADS}
     if all(gives.values()):
-        out_centre[_MEAN_LOAD] = 0.5 * (centre[forward] + centre[backward])
-        out_within[_MEAN_LOAD] = 0.5 * math.hypot(within[forward], within[backward])
+        w = forward_weight
+        out_centre[_MEAN_LOAD] = w * centre[forward] + (1.0 - w) * centre[backward]
+        out_within[_MEAN_LOAD] = math.hypot(w * within[forward], (1.0 - w) * within[backward])
     elif gives[backward]:
         out_centre[backward], out_within[backward] = centre[backward], within[backward]
     return out_centre, out_within
 
 
-def drive_friction_prior(models: Sequence[IndicatorModel], index: int) -> FleetPrior | None:
+def inverse_variance_weight(models: Sequence[IndicatorModel]) -> float:
+    """The forward load's weight ``w`` for :func:`drive_friction_view`: inverse-variance, from
+    the fleet's typical within-task spreads of the two loads.
+
+    ``w = m_b^2 / (m_f^2 + m_b^2)`` with ``m_f``, ``m_b`` the median within-task spreads of the
+    forward and backward load over the models that read both: one weight for every axis, so
+    that all are compared on the same combination of the loads (each axis's own spreads, from
+    its 6 captures, would give each axis another share ``2 w - 1`` of its gravity term, and let
+    a worn axis's own noise set the weight it is checked with).
+
+    Parameters
+    ----------
+    models : sequence of IndicatorModel
+        The fleet the weight is read from (the other axes, in the check).
+
+    Returns
+    -------
+    float in [0, 1]
+        0.5 (equal weights, the plain mean) when fewer than 3 models read both loads or their
+        spreads are not positive.
+
+    Examples
+    --------
+    >>> fleet = []
+    >>> for spreads in ((0.6, 0.3), (0.4, 0.2), (0.5, 0.25)):
+    ...     model = IndicatorModel()
+    ...     model.within_ = dict(zip(("load_forward", "load_backward"), spreads))
+    ...     fleet.append(model)
+    >>> inverse_variance_weight(fleet)  # 0.25^2 / (0.5^2 + 0.25^2)
+    0.2
+    """
+    both = [m.within_ for m in models if all(n in m.within_ for n in _DRIVE_LOADS)]
+    if len(both) < MIN_AXES:
+        return 0.5
+    forward, backward = (float(np.median([w[n] for w in both])) for n in _DRIVE_LOADS)
+    total = forward**2 + backward**2
+    if not (math.isfinite(total) and total > 0):
+        return 0.5
+    return backward**2 / total
+
+
+def drive_friction_prior(
+    models: Sequence[IndicatorModel], index: int, forward_weight: float = 0.5
+) -> FleetPrior | None:
     """:func:`~axiswatch._indicator_model.pool_fleet_without` of the models seen through
     :func:`drive_friction_view`: what the ``index``-th axis is checked against."""
     viewed = []
     for model in models:
         seen = copy.copy(model)  # shares the fitted readings; only the two dicts are replaced
-        seen.centre_, seen.within_ = drive_friction_view(model.centre_, model.within_)
+        seen.centre_, seen.within_ = drive_friction_view(
+            model.centre_, model.within_, forward_weight
+        )
         viewed.append(seen)
     return pool_fleet_without(viewed, index)
 
 
 def drive_friction_difference(
-    model: IndicatorModel, models: Sequence[IndicatorModel], index: int, percentile: float
+    model: IndicatorModel,
+    models: Sequence[IndicatorModel],
+    index: int,
+    percentile: float,
+    forward_weight: float = 0.5,
 ) -> float:
     """The candidate ``drive friction``: the ``index``-th model's :func:`drive_friction_view`
     against :func:`drive_friction_prior` (the fleet with itself included, each load on its own,
     with fewer than 3 others)."""
-    prior = drive_friction_prior(models, index)
+    prior = drive_friction_prior(models, index, forward_weight)
     if prior is None:
         return fleet_difference(model.centre_, model.within_, pool_fleet(models), percentile)[0]
-    return fleet_difference(*drive_friction_view(model.centre_, model.within_), prior, percentile)[
-        0
-    ]
+    view = drive_friction_view(model.centre_, model.within_, forward_weight)
+    return fleet_difference(*view, prior, percentile)[0]
+
+
+def inverse_variance_difference(
+    model: IndicatorModel, models: Sequence[IndicatorModel], index: int, percentile: float
+) -> float:
+    """The candidate ``inverse variance``: :func:`drive_friction_difference` with the forward
+    load weighted by :func:`inverse_variance_weight` of the other axes (the checked axis's
+    own spreads do not set the weight it is checked with)."""
+    others = [*models[:index], *models[index + 1 :]]
+    weight = inverse_variance_weight(others)
+    return drive_friction_difference(model, models, index, percentile, weight)
 
 
 def growth_difference(
@@ -202,6 +277,7 @@ def _checks(fitting: dict[str, list[Readings]], health: dict[str, str]) -> list[
                 0
             ],
             "drive friction": drive_friction_difference(model, models, k, _PERCENTILE),
+            "inverse variance": inverse_variance_difference(model, models, k, _PERCENTILE),
             "growth only": growth_difference(model.centre_, model.within_, against, _PERCENTILE),
         }
         for rule, distance in distances.items():
