@@ -43,8 +43,7 @@ from axiswatch._readings import (
 )
 from axiswatch._ringing import CROSSING_HYSTERESIS, gap_ringing
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
-from axiswatch.datasets._robot import Fault
-from axiswatch_lab._task_envelope import _AXES, _FIT
+from axiswatch_lab._task_envelope import _FIT, scenario_days
 from axiswatch_lab._transfer import TransferDesign, _profile, robot_transfer
 
 __all__ = [
@@ -173,19 +172,12 @@ def _monitor_rows(seed: int, cached: _Cached) -> list[dict[str, object]]:
     robot = draw_robot(seed)
     rows: list[dict[str, object]] = []
     for scenario in ("healthy", "fault"):
-        captures = []
-        for a in range(_AXES):
-            fitting: list[tuple[Capture, bool]] = []
-            monitored: list[tuple[Capture, bool]] = []
-            for day in range(_FIT + (12 if scenario == "healthy" else 8)):
-                task, fault = a, None
-                if scenario == "healthy" and day >= _FIT + 4:
-                    task = (a + 1 + (day - _FIT - 4) // 4) % 5
-                if scenario == "fault" and a == 0 and day >= _FIT:
-                    fault = Fault("friction", 0.6)
-                capture = robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}")
-                (fitting if day < _FIT else monitored).append((capture, fault is not None))
-            captures.append((fitting, monitored))
+        by_axis: dict[int, tuple[list[tuple[Capture, bool]], list[tuple[Capture, bool]]]] = {}
+        for a, day, task, fault in scenario_days(scenario):
+            fitting, monitored = by_axis.setdefault(a, ([], []))
+            capture = robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}")
+            (fitting if day < _FIT else monitored).append((capture, fault is not None))
+        captures = list(by_axis.values())
         for variant in VARIANTS:
             models = [
                 IndicatorModel().fit_readings([cached(c, variant) for c, _ in fitting])

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -34,12 +34,36 @@ from axiswatch._readings import (
 )
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
 
-__all__ = ["FACTORS", "envelope_study"]
+__all__ = ["FACTORS", "envelope_study", "scenario_days"]
 
 #: The envelope factors compared.
 FACTORS: tuple[float, ...] = (1.5, 2.0, 3.0)
 _AXES = 4
 _FIT = 6  # the baseline and K = 5
+
+
+def scenario_days(scenario: str) -> Iterator[tuple[int, int, int, Fault | None]]:
+    """``(axis, day, task, fault)`` of every capture of a monitor scenario, axis by axis.
+
+    Axis ``a`` runs task ``a``; its first ``_FIT`` days are its baseline and calibration.
+    *healthy*: then 4 days of its own task and 4 each of tasks ``a + 1`` and ``a + 2`` (mod 5);
+    *fault*: then 8 days of its own task, axis 0's with a friction fault of severity 0.6.
+
+    Examples
+    --------
+    >>> [(a, day, task) for a, day, task, _ in scenario_days("healthy")][9:12]
+    [(0, 9, 0), (0, 10, 1), (0, 11, 1)]
+    >>> sum(fault is not None for *_, fault in scenario_days("fault"))
+    8
+    """
+    for a in range(_AXES):
+        for day in range(_FIT + (12 if scenario == "healthy" else 8)):
+            task, fault = a, None
+            if scenario == "healthy" and day >= _FIT + 4:
+                task = (a + 1 + (day - _FIT - 4) // 4) % 5
+            if scenario == "fault" and a == 0 and day >= _FIT:
+                fault = Fault("friction", 0.6)
+            yield a, day, task, fault
 
 
 def _without_position(readings: Readings) -> Readings:
@@ -58,24 +82,17 @@ def _scenario(
 ) -> list[tuple[int, list[Readings], list[dict[str, object]]]]:
     """Per axis: its fitting readings and its monitored readings with their labels."""
     robot = draw_robot(seed)
-    out = []
-    for a in range(_AXES):
-        fitting, monitored = [], []
-        for day in range(_FIT + (12 if scenario == "healthy" else 8)):
-            task, fault = a, None
-            if scenario == "healthy" and day >= _FIT + 4:
-                task = (a + 1 + (day - _FIT - 4) // 4) % 5
-            if scenario == "fault" and a == 0 and day >= _FIT:
-                fault = Fault("friction", 0.6)
-            read = read_indicators(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
-            if day < _FIT:
-                fitting.append(read)
-            else:
-                monitored.append(
-                    {"readings": read, "same_task": task == a, "faulty": fault is not None}
-                )
-        out.append((a, fitting, monitored))
-    return out
+    out: dict[int, tuple[int, list[Readings], list[dict[str, object]]]] = {}
+    for a, day, task, fault in scenario_days(scenario):
+        _, fitting, monitored = out.setdefault(a, (a, [], []))
+        read = read_indicators(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
+        if day < _FIT:
+            fitting.append(read)
+        else:
+            monitored.append(
+                {"readings": read, "same_task": task == a, "faulty": fault is not None}
+            )
+    return list(out.values())
 
 
 def _variants() -> list[tuple[str, float | None, bool, bool]]:

@@ -32,9 +32,9 @@ from threadpoolctl import threadpool_limits
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel
 from axiswatch._readings import Readings, read_indicators
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch_lab._indicator_allowance import _models
-from axiswatch_lab._task_envelope import _AXES, _FIT
+from axiswatch_lab._task_envelope import _FIT, scenario_days
 from axiswatch_lab._transfer import (
     TransferDesign,
     _profile,
@@ -132,23 +132,15 @@ def _scenario(
     """:func:`axiswatch_lab._task_envelope._scenario`, every capture taken by ``take``."""
     robot = draw_robot(seed)
     read = take(read_indicators)
-    out = []
-    for a in range(_AXES):
-        fitting: list[T] = []
-        monitored: list[tuple[T, bool]] = []
-        for day in range(_FIT + (12 if scenario == "healthy" else 8)):
-            task, fault = a, None
-            if scenario == "healthy" and day >= _FIT + 4:
-                task = (a + 1 + (day - _FIT - 4) // 4) % 5
-            if scenario == "fault" and a == 0 and day >= _FIT:
-                fault = Fault("friction", 0.6)
-            x = read(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
-            if day < _FIT:
-                fitting.append(x)
-            else:
-                monitored.append((x, fault is not None))
-        out.append((a, fitting, monitored))
-    return out
+    out: dict[int, tuple[int, list[T], list[tuple[T, bool]]]] = {}
+    for a, day, task, fault in scenario_days(scenario):
+        _, fitting, monitored = out.setdefault(a, (a, [], []))
+        x = read(robot.capture(task, fault=fault, seed=f"{scenario}/{a}/{day}"))
+        if day < _FIT:
+            fitting.append(x)
+        else:
+            monitored.append((x, fault is not None))
+    return list(out.values())
 
 
 def _monitor_rows(
