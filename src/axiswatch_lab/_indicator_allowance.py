@@ -85,7 +85,7 @@ from axiswatch_lab._transfer import (
     robot_a_readings,
 )
 
-__all__ = ["VARIANTS", "allowance_study", "indicator_allowances"]
+__all__ = ["VARIANTS", "allowance_study", "indicator_allowances", "variant_summary"]
 
 VARIANTS: tuple[str, ...] = (
     "fleet only",
@@ -330,15 +330,25 @@ def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
     transfer, monitor = allowance_study(seeds)
     transfer.to_csv(out / "transfer.csv", index=False)
     monitor.to_csv(out / "monitor.csv", index=False)
+    print(variant_summary(transfer))
+    print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
+
+
+def variant_summary(transfer: pd.DataFrame) -> str:
+    """Per variant, in the rows' order: the means over the robots (Robot A's days summed, the
+    robots without one counted), then Robot A's days per robot."""
     numeric = transfer.drop(columns=["robot"]).groupby("variant", sort=False)
     summary = numeric.mean()
     summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
     summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
-    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
     # Per robot: a total can hide a robot that got worse (robot6 and robot2 in the study before).
     by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
-    print(by_robot[list(summary.index)].to_string())
-    print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
+    return "\n".join(
+        [
+            summary.T.to_string(float_format=lambda v: f"{v:.3f}"),
+            by_robot[list(summary.index)].to_string(),
+        ]
+    )
 
 
 if __name__ == "__main__":  # python -m axiswatch_lab._indicator_allowance OUT [SEED ...]

@@ -64,7 +64,7 @@ from axiswatch._indicator_model import (
 from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
-from axiswatch_lab._indicator_allowance import _models
+from axiswatch_lab._indicator_allowance import _models, variant_summary
 from axiswatch_lab._transfer import (
     TransferDesign,
     _auroc,
@@ -272,13 +272,7 @@ def main(out: Path, seeds: Sequence[int] = DEVELOPMENT_ROBOTS) -> None:
 
 def summarise(variants: pd.DataFrame, per: pd.DataFrame) -> None:
     """Print the variants' means (Robot A summed) and the per-indicator AUROC means."""
-    numeric = variants.drop(columns=["robot"]).groupby("variant", sort=False)
-    summary = numeric.mean()
-    summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
-    summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
-    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
-    by_robot = variants.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
-    print(by_robot[list(summary.index)].to_string())
+    print(variant_summary(variants))
     print(
         per.drop(columns=["robot"])
         .groupby("indicator")

@@ -33,7 +33,7 @@ from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel
 from axiswatch._readings import Readings, read_indicators
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
-from axiswatch_lab._indicator_allowance import _models
+from axiswatch_lab._indicator_allowance import _models, variant_summary
 from axiswatch_lab._task_envelope import _FIT, scenario_days
 from axiswatch_lab._transfer import (
     TransferDesign,
@@ -193,11 +193,5 @@ def main(
     transfer, monitor = study(variants, take, seeds)
     transfer.to_csv(out / "transfer.csv", index=False)
     monitor.to_csv(out / "monitor.csv", index=False)
-    numeric = transfer.drop(columns=["robot"]).groupby("variant", sort=False)
-    summary = numeric.mean()
-    summary["robot_a_false_alarms"] = numeric["robot_a_false_alarms"].sum()
-    summary["robots_a_clean"] = numeric["robot_a_false_alarms"].apply(lambda s: int((s == 0).sum()))
-    print(summary.T.to_string(float_format=lambda v: f"{v:.3f}"))
-    by_robot = transfer.pivot(index="robot", columns="variant", values="robot_a_false_alarms")
-    print(by_robot[[v.name for v in variants]].to_string())
+    print(variant_summary(transfer))
     print(monitor.drop(columns=["robot"]).groupby(["scenario", "variant"], sort=False).sum())
