@@ -20,6 +20,7 @@ import hashlib
 import os
 import resource
 import shutil
+import sqlite3
 import statistics
 import time
 from pathlib import Path
@@ -216,6 +217,15 @@ def case_history(folder: Path, days: int, method: str, repeats: int = 21) -> dic
     }
 
 
+def _copy_store(source: Path, target: Path) -> None:
+    """A consistent copy of a store (SQLite's backup: the file alone may miss its WAL, which a
+    process holding a read-only connection keeps open)."""
+    with sqlite3.connect(source) as reader, sqlite3.connect(target) as writer:
+        reader.backup(writer)
+    reader.close()
+    writer.close()
+
+
 def _write_curve(rows: list[dict[str, Any]], csv_path: Path, machine: str) -> None:
     """(Re)write the curve's CSV, so that a run cut short keeps what it measured."""
     serial = rows[0]["seconds"]  # 1 process (serial in the driver) comes first
@@ -253,12 +263,20 @@ def workers_curve(
 
     def timed(backend: str, count: int, **where: Any) -> None:
         path = folder / f"{backend}-{count}.db"
-        shutil.copy(template, path)
+        _copy_store(template, path)
         load = os.getloadavg()[0]
+        marks: list[float] = []
+
+        def progress(stage: str, done: int, total: int) -> None:
+            if stage == "captures":
+                marks.append(time.perf_counter())
+
         with Store(path) as store:
+            cpu = time.process_time()
             start = time.perf_counter()
-            summary = monitor_fleet(root, store, config, settle_s=0.0, **where)
+            summary = monitor_fleet(root, store, config, settle_s=0.0, progress=progress, **where)
             elapsed = time.perf_counter() - start
+            cpu = time.process_time() - cpu
             digest = score_hash(store)
         assert summary.scored == len(new_day), summary
         rows.append(
@@ -269,10 +287,18 @@ def workers_curve(
                 "seconds": round(elapsed, 3),
                 "load_before": round(load, 2),
                 "floor_s": round(floor, 3),
+                # The timeline: first and last result committed, and the driver's own CPU.
+                "first_result_s": round(marks[0] - start, 3),
+                "last_result_s": round(marks[-1] - start, 3),
+                "driver_cpu_s": round(cpu, 3),
                 "hash": digest[:16],
             }
         )
-        print(f"  {backend:<9} {count:>2} workers: {elapsed:8.2f} s (load {load:.1f})", flush=True)
+        print(
+            f"  {backend:<9} {count:>2} workers: {elapsed:8.2f} s (load {load:.1f}; first result "
+            f"{marks[0] - start:.2f} s, last {marks[-1] - start:.2f} s, driver CPU {cpu:.2f} s)",
+            flush=True,
+        )
         _write_curve(rows, csv_path, machine)
 
     for workers in counts:

@@ -8,10 +8,12 @@ write computes first and changes the lists last.
 
 from __future__ import annotations
 
+import contextlib
+import copy
 import dataclasses
 import json
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from datetime import datetime
 from typing import Any
 
@@ -63,6 +65,7 @@ class MemoryStore:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
+        self._in_batch = False
         self._baselines: list[Baseline] = []
         self._scores: list[_Score] = []
         self._rejections: list[tuple[Rejection, str]] = []
@@ -79,6 +82,22 @@ class MemoryStore:
 
     def close(self) -> None:
         pass
+
+    @contextlib.contextmanager
+    def batch(self) -> Iterator[None]:
+        """Every list and dict as it was before the batch comes back if the batch raises."""
+        if self._in_batch:
+            yield
+            return
+        state = {k: copy.deepcopy(v) for k, v in vars(self).items() if k != "_lock"}
+        self._in_batch = True
+        try:
+            yield
+        except BaseException:
+            vars(self).update(state)
+            raise
+        finally:
+            self._in_batch = False
 
     # --- writes ----------------------------------------------------------------------------
 

@@ -57,3 +57,24 @@ def test_non_sqlite_file_is_refused(tmp_path: Path) -> None:
 def test_folder_is_refused(tmp_path: Path) -> None:
     with pytest.raises(StoreError, match=r"exists but is not a file"):
         Store(tmp_path)
+
+
+def test_a_write_that_fails_inside_a_batch_undoes_only_itself(tmp_path: Path) -> None:
+    """In a batch each write is a savepoint: one that raises after writing is rolled back to it,
+    and the batch's earlier writes stay (they commit with the batch)."""
+    store = SQLiteStore(tmp_path / "s.db")
+    with store.batch():
+        with store._write() as db:
+            db.execute("INSERT INTO runs (started_at) VALUES ('kept')")
+        with pytest.raises(RuntimeError):
+            _fail_after_a_write(store)
+    store.close()
+    with sqlite3.connect(tmp_path / "s.db") as connection:
+        rows = [r[0] for r in connection.execute("SELECT started_at FROM runs")]
+    assert rows == ["kept"]
+
+
+def _fail_after_a_write(store: SQLiteStore) -> None:
+    with store._write() as db:
+        db.execute("INSERT INTO runs (started_at) VALUES ('undone')")
+        raise RuntimeError

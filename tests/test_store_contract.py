@@ -180,6 +180,46 @@ def test_a_failed_decision_writes_nothing(store: StoreBackend) -> None:
     assert store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING), window=1)
 
 
+def test_a_batch_keeps_all_its_writes_or_none(store: StoreBackend) -> None:
+    baseline_id = store.add_baseline(new_baseline())
+    assert baseline_id is not None
+    with store.batch():
+        assert store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING), window=1)
+        # A write that fails inside a batch changes nothing, and the batch goes on.
+        with pytest.raises(RuntimeError, match="boom"):
+            store.record_score(new_score(baseline_id, 3), _boom, window=1)
+        assert store.record_score(new_score(baseline_id, 4), fixed(CALIBRATING), window=1)
+        with store.batch():  # a nested batch is part of the outer one
+            assert store.record_score(new_score(baseline_id, 5), fixed(CALIBRATING), window=1)
+        # The batch's own writes are seen inside it (a decision builds on them).
+        assert store.scored_captures(baseline_id) == {
+            "2026-03-01.csv", "2026-03-02.csv", "2026-03-04.csv", "2026-03-05.csv"
+        }  # fmt: skip
+    assert store.scored_captures(baseline_id) == {
+        "2026-03-01.csv", "2026-03-02.csv", "2026-03-04.csv", "2026-03-05.csv"
+    }  # fmt: skip
+
+    def stopped_in_a_batch() -> None:
+        with store.batch():
+            assert store.record_score(new_score(baseline_id, 6), fixed(CALIBRATING), window=1)
+            store.reject_capture(
+                Rejection("r1", "a1", "pca", "2026-03-07.csv", "r1/a1/2026-03-07.csv", "h7", "x")
+            )
+            raise KeyboardInterrupt  # the run stopped while the batch was open
+
+    with pytest.raises(KeyboardInterrupt):
+        stopped_in_a_batch()
+    assert "2026-03-06.csv" not in store.scored_captures(baseline_id)
+    assert store.rejections("pca") == []
+    # Nothing is left half open: the next write commits on its own.
+    assert store.record_score(new_score(baseline_id, 6), fixed(CALIBRATING), window=1)
+    assert "2026-03-06.csv" in store.scored_captures(baseline_id)
+
+
+def _boom(history: AxisHistory) -> Decision:
+    raise RuntimeError("boom")
+
+
 def test_alarmed_captures_and_axes_in_alarm(store: StoreBackend) -> None:
     old = store.add_baseline(new_baseline())
     assert old is not None

@@ -606,6 +606,11 @@ def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
 
 def _score_jobs(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
     """One job per capture after the baseline that is neither scored under it nor rejected."""
+    with run.store.batch():  # the new files' index entries (and late captures) in one commit
+        return _score_jobs_of(run, states)
+
+
+def _score_jobs_of(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
     jobs: list[ScoreJob] = []
     for state in states:
         if state.model is None or state.baseline is None:
@@ -660,13 +665,18 @@ def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
     for index, job in enumerate(jobs):
         queue_of[job.baseline_id].append(index)
     first = run.done["captures"]
-    for count, (index, result) in enumerate(run.pool.map(score_capture, jobs), start=1):
-        pending[index] = result
-        queue = queue_of[jobs[index].baseline_id]
-        while queue and queue[0] in pending:
-            ready = pending.pop(queue.pop(0))
-            if commit_score(run.store, ready, run.config) and ready.error is None:
-                run.summary.scored += 1
+    count = 0
+    for group in run.pool.map_groups(score_capture, jobs):
+        # A worker's batch in one transaction: the driver, which alone writes, commits less.
+        with run.store.batch():
+            for index, result in group:
+                pending[index] = result
+                queue = queue_of[jobs[index].baseline_id]
+                while queue and queue[0] in pending:
+                    ready = pending.pop(queue.pop(0))
+                    if commit_score(run.store, ready, run.config) and ready.error is None:
+                        run.summary.scored += 1
+        count += len(group)
         run.report("captures", first + count, first + len(jobs))
     run.done["captures"] += len(jobs)
 
@@ -815,7 +825,8 @@ def monitor_fleet(
         for file in files:
             grouped[(file.robot, file.axis)].append(file)
         by_axis = {key: _Axis(key[0], key[1], axis_files) for key, axis_files in grouped.items()}
-        fit_jobs = [job for state in by_axis.values() if (job := _plan_baseline(run, state))]
+        with store.batch():
+            fit_jobs = [job for state in by_axis.values() if (job := _plan_baseline(run, state))]
 
         # Axes with a stored model first; then a chunk at a time, so that what the driver holds
         # per axis stays bounded however large the fleet (workers keep the models themselves).
@@ -835,9 +846,10 @@ def monitor_fleet(
         | {(f.robot, f.axis) for f in discovered if f.path in run.unreadable_paths}
         | {(r.robot, r.axis) for r in store.rejections(run.method)}
     )
-    for robot_axis, mtime_ns in folder_times.items():
-        if mtime_ns is not None and robot_axis not in problem_axes:
-            caches.finish_axis_folder(*robot_axis, config.method, params, mtime_ns)
+    with store.batch():
+        for robot_axis, mtime_ns in folder_times.items():
+            if mtime_ns is not None and robot_axis not in problem_axes:
+                caches.finish_axis_folder(*robot_axis, config.method, params, mtime_ns)
     store.resolve_transient(run.method, seen_at)
     run.summary.rejected = _standing_rejections(run)
     for alarm in store.alarms(run.method):

@@ -155,13 +155,27 @@ class WorkerPool:
 
     def map(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[tuple[int, R]]:
         """Apply ``fn`` to every item; yield ``(index, result)`` as results complete."""
+        return (pair for group in self.map_groups(fn, items) for pair in group)
+
+    def map_groups(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[list[tuple[int, R]]]:
+        """As :meth:`map`, the results that arrive together in one list: a worker's batch (one
+        item at a time when serial), so that the caller can store them in one transaction.
+
+        Examples
+        --------
+        >>> with WorkerPool() as pool:
+        ...     list(pool.map_groups(abs, [-3, 1]))
+        [[(0, 3)], [(1, 1)]]
+        """
         if self._client is not None:
             return self._dask_map(fn, items)
         if self._executor is not None:
             return self._process_map(fn, items)
-        return ((index, fn(item)) for index, item in enumerate(items))
+        return ([(index, fn(item))] for index, item in enumerate(items))
 
-    def _process_map(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[tuple[int, R]]:
+    def _process_map(
+        self, fn: Callable[[T], R], items: Iterable[T]
+    ) -> Iterator[list[tuple[int, R]]]:
         executor = self._executor
         assert executor is not None
 
@@ -186,7 +200,7 @@ class WorkerPool:
             for future in submitted:
                 future.cancel()
 
-    def _dask_map(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[tuple[int, R]]:
+    def _dask_map(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[list[tuple[int, R]]]:
         client, distributed = self._client, self._distributed
         slots = max(1, sum(client.nthreads().values()))
 
@@ -218,8 +232,9 @@ def _collect(
     items: Iterable[T],
     slots: int,
     result: Callable[[Any], list[R]],
-) -> Iterator[tuple[int, R]]:
-    """Keep ``slots * _IN_FLIGHT_PER_WORKER`` batches in flight; yield results as they complete."""
+) -> Iterator[list[tuple[int, R]]]:
+    """Keep ``slots * _IN_FLIGHT_PER_WORKER`` batches in flight; yield each batch's results
+    (``(index, result)`` pairs) as it completes."""
     window = slots * _IN_FLIGHT_PER_WORKER
     pending: dict[Any, list[int]] = {}
     batches = _batches(items, _batch_size(items, slots))
@@ -234,7 +249,7 @@ def _collect(
         if not pending:
             return
         for future in wait_one(set(pending)):
-            yield from zip(pending.pop(future), result(future), strict=True)
+            yield list(zip(pending.pop(future), result(future), strict=True))
 
 
 def parallel_map(

@@ -9,8 +9,10 @@ tests any other backend must pass).
 
 Safety: the store runs in WAL mode with a busy timeout, and every write is one short transaction
 opened with ``BEGIN IMMEDIATE`` (the writer takes the lock before it reads the state it builds
-on). A process killed at any moment therefore leaves the store as it was after its last commit,
-and two processes writing at once take turns instead of corrupting it.
+on), or a savepoint of a :meth:`~SQLiteStore.batch`'s transaction (the scores of the captures a
+worker returns together, the file index of a run's new files). A process killed at any moment
+therefore leaves the store as it was after its last commit, and two processes writing at once
+take turns instead of corrupting it.
 
 Tables (schema version 2):
 
@@ -59,7 +61,7 @@ import dataclasses
 import json
 import sqlite3
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -271,6 +273,16 @@ class StoreBackend(Protocol):
 
     def close(self) -> None:
         """Release the store."""
+        ...
+
+    def batch(self) -> AbstractContextManager[None]:
+        """Group the writes made inside into one transaction: when the block ends they are all
+        kept, and when it is left by an exception (or the process dies in it) none of them is.
+
+        Each write inside stays atomic on its own (one that raises changes nothing); a batch
+        inside a batch is part of the outer one. The monitor stores the scores of the captures
+        a worker returns together in one batch: fewer commits for the one process that writes.
+        """
         ...
 
     # writes
@@ -808,6 +820,7 @@ class SQLiteStore:
         self, path: str | Path, *, timeout_s: float = 60.0, read_only: bool = False
     ) -> None:
         self.path = Path(path)
+        self._batched = False
         if self.path.exists() and not self.path.is_file():
             raise StoreError(f"store '{self.path}' exists but is not a file.")
         try:
@@ -914,9 +927,42 @@ class SQLiteStore:
             raise StoreError(f"store '{self.path}': {exc}{hint}.") from exc
 
     @contextmanager
-    def _write(self) -> Iterator[sqlite3.Connection]:
-        """One write transaction (``BEGIN IMMEDIATE`` ... ``COMMIT``; rolled back on error)."""
+    def batch(self) -> Iterator[None]:
+        if self._batched:
+            yield
+            return
         connection = self._connection
+        with self._errors():
+            connection.execute("BEGIN IMMEDIATE")
+        self._batched = True
+        try:
+            yield
+        except BaseException:
+            self._batched = False
+            with self._errors():
+                if connection.in_transaction:
+                    connection.execute("ROLLBACK")
+            raise
+        self._batched = False
+        with self._errors():
+            connection.execute("COMMIT")
+
+    @contextmanager
+    def _write(self) -> Iterator[sqlite3.Connection]:
+        """One write transaction (``BEGIN IMMEDIATE`` ... ``COMMIT``; rolled back on error); in a
+        :meth:`batch`, a savepoint of the batch's transaction."""
+        connection = self._connection
+        if self._batched:
+            with self._errors():
+                connection.execute("SAVEPOINT write")
+                try:
+                    yield connection
+                except BaseException:
+                    connection.execute("ROLLBACK TO write")
+                    connection.execute("RELEASE write")
+                    raise
+                connection.execute("RELEASE write")
+            return
         with self._errors():
             connection.execute("BEGIN IMMEDIATE")
             try:
