@@ -64,3 +64,38 @@ def test_one_axis_per_chunk_equals_serial(
     monkeypatch.setattr(axiswatch.monitor._monitor, "_AXES_PER_CHUNK", 1)
     fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
     pd.testing.assert_frame_equal(_run(fleet, tmp_path / "k.db"), serial)
+
+
+def test_captures_sent_while_later_axes_are_planned_equal_serial(
+    serial: pd.DataFrame, small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A second run (stored models) plans one axis at a time and sends its captures to the
+    workers before the next axis is planned; the results are the serial run's."""
+    import axiswatch.monitor._monitor
+
+    monkeypatch.setattr(axiswatch.monitor._monitor, "_AXES_PER_PLAN", 1)
+    planned: list[int] = []  # stored-model axes per planned slice
+    jobs_of = axiswatch.monitor._monitor._score_jobs_of
+
+    def spy(run: object, states: list[object]) -> object:
+        planned.append(len(states))
+        return jobs_of(run, states)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(axiswatch.monitor._monitor, "_score_jobs_of", spy)
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    later = tmp_path / "later"
+    for path in sorted(fleet.glob("*/*/*.parquet")):
+        if path.stem >= sorted(p.stem for p in path.parent.glob("*.parquet"))[5]:
+            target = later / path.relative_to(fleet)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            path.rename(target)
+    with Store(tmp_path / "two.db") as store:
+        first = monitor_fleet(fleet, store, MonitorConfig(method="lra"), workers=2)
+        for path in sorted(later.rglob("*.parquet")):
+            path.rename(fleet / path.relative_to(later))
+        planned.clear()
+        again = monitor_fleet(fleet, store, MonitorConfig(method="lra"), workers=2)
+        assert planned == [1, 1]  # each axis's stored model, one slice each
+        results = fleet_results(store)[_COMPARED].reset_index(drop=True)
+    assert (first.scored, again.scored) == (8, 8)  # 5 files then 4 more on each of 2 axes
+    pd.testing.assert_frame_equal(results, serial)

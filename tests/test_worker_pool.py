@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+from collections.abc import Iterator
 
 import pytest
 from threadpoolctl import threadpool_info
@@ -46,3 +47,25 @@ def test_results_come_back_in_item_order_of_their_indices() -> None:
     with WorkerPool(workers=2) as pool:
         results = dict(pool.map(abs, [-i for i in range(100)]))
     assert results == {i: i for i in range(100)}
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_groups_are_the_batches_and_an_expected_length_sizes_an_iterators(workers: int) -> None:
+    consumed: list[int] = []
+
+    def produced(n: int) -> Iterator[int]:
+        for i in range(n):
+            consumed.append(i)
+            yield -i
+
+    with WorkerPool(workers=workers) as pool:
+        sized = list(pool.map_groups(abs, produced(40), expected=40))
+        unsized = list(pool.map_groups(abs, produced(10)))
+    pairs = sorted(pair for group in sized for pair in group)
+    assert pairs == [(i, i) for i in range(40)]
+    if workers == 1:  # serial: one item at a time, in order
+        assert [len(g) for g in sized] == [1] * 40
+    else:  # sized as a sequence of 40 would be: 40 / (2 workers x 4 in flight) = 5 a batch
+        assert sorted({len(g) for g in sized}) == [_batch_size(range(40), slots=2)] == [5]
+    assert [len(g) for g in unsized] == [1] * 10
+    assert consumed == list(range(40)) + list(range(10))

@@ -35,7 +35,7 @@ import dataclasses
 import json
 import time
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from glob import escape
@@ -658,15 +658,26 @@ def _out_of_order(run: _Run, file: FleetFile, baseline: Baseline) -> None:
     )  # fmt: skip
 
 
-def _score_in_order(run: _Run, jobs: list[ScoreJob]) -> None:
-    """Score the jobs anywhere; commit each axis's results in capture order as they complete."""
+def _score_in_order(run: _Run, planned: Iterable[ScoreJob], *, expected: int | None = None) -> None:
+    """Score the jobs anywhere; commit each axis's results in capture order as they complete.
+
+    ``planned`` may be a generator that plans the jobs while the first ones run (``expected``:
+    about how many it gives, to size the batches); an axis's jobs come in capture order.
+    """
     pending: dict[int, ScoreOutcome] = {}
     queue_of: dict[int, list[int]] = defaultdict(list)
-    for index, job in enumerate(jobs):
-        queue_of[job.baseline_id].append(index)
+    jobs: list[ScoreJob] = []
+
+    def dispatched() -> Iterator[ScoreJob]:
+        # A result can only come back for a job sent, so its axis's queue is known by then.
+        for job in planned:
+            queue_of[job.baseline_id].append(len(jobs))
+            jobs.append(job)
+            yield job
+
     first = run.done["captures"]
     count = 0
-    for group in run.pool.map_groups(score_capture, jobs):
+    for group in run.pool.map_groups(score_capture, dispatched(), expected=expected):
         # A worker's batch in one transaction: the driver, which alone writes, commits less.
         with run.store.batch():
             for index, result in group:
@@ -710,6 +721,8 @@ def _standing_rejections(run: _Run) -> list[str]:
 
 #: Axes fitted and scored at a time (see monitor_fleet).
 _AXES_PER_CHUNK = 256
+#: Axes planned in one transaction before their captures are sent to the workers.
+_AXES_PER_PLAN = 64
 
 
 def monitor_fleet(
@@ -825,12 +838,27 @@ def monitor_fleet(
         for file in files:
             grouped[(file.robot, file.axis)].append(file)
         by_axis = {key: _Axis(key[0], key[1], axis_files) for key, axis_files in grouped.items()}
-        with store.batch():
-            fit_jobs = [job for state in by_axis.values() if (job := _plan_baseline(run, state))]
+        fit_jobs: list[FitJob] = []
 
-        # Axes with a stored model first; then a chunk at a time, so that what the driver holds
-        # per axis stays bounded however large the fleet (workers keep the models themselves).
-        _score_in_order(run, _score_jobs(run, run.stored_models))
+        def stored_jobs() -> Iterator[ScoreJob]:
+            """Plan a slice of axes at a time (one transaction each) and send the captures of
+            those with a stored model to the workers at once: planning a large fleet (hashing
+            its new files) runs while the first captures are scored."""
+            axes = list(by_axis.values())
+            for start in range(0, len(axes), _AXES_PER_PLAN):
+                known = len(run.stored_models)
+                with store.batch():
+                    for state in axes[start : start + _AXES_PER_PLAN]:
+                        if job := _plan_baseline(run, state):
+                            fit_jobs.append(job)
+                    jobs = _score_jobs_of(run, run.stored_models[known:])
+                yield from jobs
+
+        # Axes with a stored model first, as they are planned (a day's run has one new capture
+        # per axis: the batches are sized for as many jobs as axes); then a chunk at a time, so
+        # that what the driver holds per axis stays bounded however large the fleet (workers
+        # keep the models themselves).
+        _score_in_order(run, stored_jobs(), expected=len(by_axis))
         for first in range(0, len(fit_jobs), _AXES_PER_CHUNK):
             chunk = fit_jobs[first : first + _AXES_PER_CHUNK]
             states = [by_axis[(job.file.robot, job.file.axis)] for job in chunk]

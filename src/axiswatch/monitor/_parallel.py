@@ -157,9 +157,15 @@ class WorkerPool:
         """Apply ``fn`` to every item; yield ``(index, result)`` as results complete."""
         return (pair for group in self.map_groups(fn, items) for pair in group)
 
-    def map_groups(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[list[tuple[int, R]]]:
+    def map_groups(
+        self, fn: Callable[[T], R], items: Iterable[T], *, expected: int | None = None
+    ) -> Iterator[list[tuple[int, R]]]:
         """As :meth:`map`, the results that arrive together in one list: a worker's batch (one
         item at a time when serial), so that the caller can store them in one transaction.
+
+        ``expected``: how many items an iterator (consumed as batches are sent, so that the
+        caller can go on producing them while the first ones run) will give, to size the
+        batches as for a sequence of that length; without it an iterator goes item by item.
 
         Examples
         --------
@@ -168,13 +174,13 @@ class WorkerPool:
         [[(0, 3)], [(1, 1)]]
         """
         if self._client is not None:
-            return self._dask_map(fn, items)
+            return self._dask_map(fn, items, expected)
         if self._executor is not None:
-            return self._process_map(fn, items)
+            return self._process_map(fn, items, expected)
         return ([(index, fn(item))] for index, item in enumerate(items))
 
     def _process_map(
-        self, fn: Callable[[T], R], items: Iterable[T]
+        self, fn: Callable[[T], R], items: Iterable[T], expected: int | None
     ) -> Iterator[list[tuple[int, R]]]:
         executor = self._executor
         assert executor is not None
@@ -194,13 +200,15 @@ class WorkerPool:
 
         try:
             yield from _collect(
-                submit, wait_one, items, self.workers, lambda future: future.result()
+                submit, wait_one, items, self.workers, lambda future: future.result(), expected
             )
         finally:
             for future in submitted:
                 future.cancel()
 
-    def _dask_map(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[list[tuple[int, R]]]:
+    def _dask_map(
+        self, fn: Callable[[T], R], items: Iterable[T], expected: int | None
+    ) -> Iterator[list[tuple[int, R]]]:
         client, distributed = self._client, self._distributed
         slots = max(1, sum(client.nthreads().values()))
 
@@ -221,7 +229,7 @@ class WorkerPool:
             return values
 
         try:
-            yield from _collect(submit, wait_one, items, slots, result)
+            yield from _collect(submit, wait_one, items, slots, result, expected)
         finally:
             client.cancel([f for f in submitted if not f.done()])
 
@@ -232,12 +240,14 @@ def _collect(
     items: Iterable[T],
     slots: int,
     result: Callable[[Any], list[R]],
+    expected: int | None = None,
 ) -> Iterator[list[tuple[int, R]]]:
     """Keep ``slots * _IN_FLIGHT_PER_WORKER`` batches in flight; yield each batch's results
     (``(index, result)`` pairs) as it completes."""
     window = slots * _IN_FLIGHT_PER_WORKER
     pending: dict[Any, list[int]] = {}
-    batches = _batches(items, _batch_size(items, slots))
+    sized = items if expected is None else range(expected)
+    batches = _batches(items, _batch_size(sized, slots))
     exhausted = False
     while True:
         while not exhausted and len(pending) < window:
