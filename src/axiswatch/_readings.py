@@ -437,8 +437,8 @@ def least_squares_errors(
     >>> x = np.column_stack([np.ones(4), np.arange(4.0)])
     >>> y = np.array([0.0, 1.0, 1.0, 3.0])
     >>> c = np.linalg.lstsq(x, y, rcond=None)[0]
-    >>> least_squares_errors(x, y, c).round(4).tolist()  # sigma^2 = 0.3
-    [0.4583, 0.2449]
+    >>> least_squares_errors(x, y, c).round(4).tolist()  # sigma^2 = 0.7 / 2; slope's 0.35 / 5
+    [0.495, 0.2646]
     """
     n, p = design.shape
     if n <= p:
