@@ -44,7 +44,7 @@ estimated from what the user has:
   captures' leave-one-out distances are computed without the factor
   (:meth:`IndicatorModel.error_factors`). Not the default: on the development and fresh robots
   it removed most of Robot A's false-alarm days but lowered ``dr99`` at the fixed 99 %
-  threshold by 0.01-0.03 (docs/evaluation.md, "An opt-in operating point: ``--whole-moves``").
+  threshold by up to 0.03 (docs/evaluation.md, "An opt-in operating point: ``--whole-moves``").
 * a capture that changed task is scored in **allowance units**: its distance is the largest
   ``u_i = z_i / A_i``; the calibration captures' leave-one-out distances are in the same units
   and the **threshold** is the larger of 1 (an allowance) and the ``percentile`` of their
@@ -892,7 +892,7 @@ class IndicatorModel:
         prior, widen the within-task spread of a friction reading looser than the baseline's
         (``max(1, se / se_ref)``, :meth:`error_factors`). On development robots 0-7 it cut Robot
         A's false-alarm days from 32 to 3 and on fresh robots 8-15 from 19 to 0, but lowered
-        ``dr99`` at the fixed 99 % threshold by 0.01-0.03, so it is not the default
+        ``dr99`` at the fixed 99 % threshold by up to 0.03, so it is not the default
         (docs/evaluation.md, "An opt-in operating point: ``--whole-moves``").
 
     Attributes

@@ -194,7 +194,7 @@ def monitor(
     whole_moves: bool = typer.Option(
         DEFAULTS.whole_moves,
         help="Method indicators, opt-in: drive loads from whole moves and loose friction "
-        "readings widened: fewer false alarms after task changes, dr99 0.01-0.03 lower "
+        "readings widened: fewer false alarms after task changes, dr99 up to 0.03 lower "
         "(docs/evaluation.md, 'An opt-in operating point').",
     ),
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),

@@ -117,8 +117,8 @@ class MonitorConfig:
         Method ``"indicators"``: an opt-in operating point, ``IndicatorModel(whole_moves=True)``:
         drive loads read on whole moves only, and a friction reading looser than its baseline's
         scored in a wider spread. Fewer false alarms after task changes (Robot A 32 -> 3 days on
-        development robots 0-7), slightly fewer detections at the 99 % threshold (``dr99``
-        0.01-0.03 lower): docs/evaluation.md, "An opt-in operating point: ``--whole-moves``".
+        development robots 0-7), slightly fewer detections at the 99 % threshold (``dr99`` up
+        to 0.03 lower): docs/evaluation.md, "An opt-in operating point: ``--whole-moves``".
 
     Examples
     --------
