@@ -18,18 +18,6 @@ Indicators (the signal called torque may be a motor current or a pressure differ
 * ``load_forward``, ``load_backward``: the mean of ``torque * sign(speed)`` over the steady
   motion (above half the peak speed) in each direction: friction plus the mean gravity and
   payload there; the friction reading of a stroke that moves one way only.
-
-With ``whole_moves=True`` (an opt-in operating point, not the default: docs/evaluation.md, "An
-opt-in operating point: ``--whole-moves``") the drive loads are read over the steady samples of
-the *whole moves* only (:func:`whole_move_mask`: runs of one direction that start and end inside
-the capture; a direction without one gets NaN and "needs a whole steady move"). A capture starts
-at a random phase of the task cycle: a move it cuts covers only part of the stroke, and its mean
-gravity torque moves with the phase (on development robot 2 one task's healthy load took three
-values, 0, 6 and 12 N m). The readings then also carry the least-squares standard errors of the
-two friction coefficients (:attr:`Readings.errors`, :func:`least_squares_errors` of the same
-design and solve), which :class:`~axiswatch.IndicatorModel` uses to widen the spread of a
-friction reading looser than its baseline's (on constant-speed moves ``sign(v)`` and ``v`` are
-nearly collinear and the two coefficients trade off from capture to capture).
 * ``impulsiveness``: kurtosis of the torque's band ``[0.04, 0.4] x rate`` while moving, divided
   by its own running RMS over 0.1 s (at least 8 samples). Needs a rate of 100 Hz or more (a
   band from 4 Hz) and 1 s of motion.
@@ -47,6 +35,18 @@ nearly collinear and the two coefficients trade off from capture to capture).
   (``order_lines=True``: :mod:`axiswatch._order_lines`), and a model compares it with its
   baseline's own (``order_lines``: new or grown lines, docs/evaluation.md, "Order lines against
   the baseline's own order spectrum").
+
+With ``whole_moves=True`` (an opt-in operating point, not the default: docs/evaluation.md, "An
+opt-in operating point: ``--whole-moves``") the drive loads are read over the steady samples of
+the *whole moves* only (:func:`whole_move_mask`: runs of one direction that start and end inside
+the capture; a direction without one gets NaN and "needs a whole steady move"). A capture starts
+at a random phase of the task cycle: a move it cuts covers only part of the stroke, and its mean
+gravity torque moves with the phase (on development robot 2 one task's healthy load took three
+values, 0, 6 and 12 N m). The readings then also carry the least-squares standard errors of the
+two friction coefficients (:attr:`Readings.errors`, :func:`least_squares_errors` of the same
+design and solve), which :class:`~axiswatch.IndicatorModel` uses to widen the spread of a
+friction reading looser than its baseline's (on constant-speed moves ``sign(v)`` and ``v`` are
+nearly collinear and the two coefficients trade off from capture to capture).
 
 The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
 reading the drive loads on every capture, the kinematic band set by the speed, the tooth
@@ -80,11 +80,11 @@ from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
+    "FRICTION",
     "INDICATORS",
     "Indicator",
     "Motion",
     "Readings",
-    "FRICTION",
     "drive_loads",
     "friction_design",
     "least_squares_errors",
@@ -511,8 +511,26 @@ def drive_loads(
     m: Motion, steady: NDArray[np.bool_], min_samples: int, *, whole_moves: bool
 ) -> tuple[dict[str, float], dict[str, str]]:
     """``load_forward`` and ``load_backward`` over the ``steady`` samples (NaN and the reason
-    where a direction has fewer than ``min(min_samples, 3)``); ``whole_moves`` only words the
-    reason (the caller has masked the steady samples to whole moves).
+    where a direction has fewer than ``min(min_samples, 3)``).
+
+    Parameters
+    ----------
+    m : Motion
+    steady : ndarray of bool, shape (n,)
+        The samples to average (above half the peak speed; with ``whole_moves`` of whole moves
+        only, :func:`whole_move_mask`).
+    min_samples : int
+        :func:`read_indicators`'s 0.2 s of samples (at least 5); a load needs
+        ``min(min_samples, 3)``.
+    whole_moves : bool
+        Only words the reason ("needs a whole steady move" instead of "needs steady motion").
+
+    Returns
+    -------
+    values : dict of str to float
+        Both loads, NaN where not read.
+    reasons : dict of str to str
+        Why a load is not read.
 
     Examples
     --------
