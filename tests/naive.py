@@ -671,3 +671,53 @@ def prediction_threshold_naive(distances: list[float], percentile: float) -> flo
         else:
             high = middle
     return mean * (low + high) / 2
+
+
+def whole_move_mask_naive(speed: list[float], fraction: float) -> list[bool]:
+    """Runs of one sign of a moving speed, walked sample by sample; a run touching either end of
+    the capture is cut (not whole)."""
+    peak = max(abs(v) for v in speed)
+    sign = [(1 if v > 0 else -1) if abs(v) > fraction * peak else 0 for v in speed]
+    out = [False] * len(speed)
+    i = 0
+    while i < len(sign):
+        j = i
+        while j + 1 < len(sign) and sign[j + 1] == sign[i]:
+            j += 1
+        if sign[i] != 0 and i > 0 and j < len(sign) - 1:
+            out[i : j + 1] = [True] * (j + 1 - i)
+        i = j + 1
+    return out
+
+
+def friction_standard_errors_naive(
+    position: list[float],
+    speed: list[float],
+    acceleration: list[float],
+    torque: list[float],
+    fraction: float,
+    *,
+    viscous: bool = True,
+) -> tuple[float, float]:
+    """Standard errors of the Coulomb and viscous coefficients: the design written row by row,
+    the normal equations' inverse ``(X'X)^-1`` and the residual variance over ``n - p`` (the
+    textbook ``sqrt(diag(sigma^2 (X'X)^-1))``). ``viscous=False`` leaves the speed column out
+    (its error is then NaN)."""
+    peak = max(abs(v) for v in speed)
+    moving = [k for k in range(len(speed)) if abs(speed[k]) > fraction * peak]
+    mean_q = sum(position[k] for k in moving) / len(moving)
+    span = max(position[k] for k in moving) - min(position[k] for k in moving)
+    rows, y = [], []
+    for k in moving:
+        q = (position[k] - mean_q) / span
+        v = speed[k]
+        speed_column = [v] if viscous else []
+        rows.append([math.copysign(1.0, v), *speed_column, acceleration[k], 1.0, q, q**2, q**3])
+        y.append(torque[k])
+    x = np.array(rows)
+    gram_inverse = np.linalg.inv(x.T @ x)
+    beta = gram_inverse @ (x.T @ np.array(y))
+    residual = np.array(y) - x @ beta
+    sigma2 = float(residual @ residual) / (len(y) - x.shape[1])
+    coulomb = math.sqrt(sigma2 * gram_inverse[0, 0])
+    return coulomb, math.sqrt(sigma2 * gram_inverse[1, 1]) if viscous else math.nan

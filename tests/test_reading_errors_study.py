@@ -19,26 +19,17 @@ from axiswatch_lab._reading_errors import (
     error_distance,
     friction_standard_errors,
 )
+from tests import naive
 
 
 def _standard_errors_naive(m: Motion) -> tuple[float, float]:
-    """Normal equations and the residual variance over n - p, term by term."""
-    peak = max(abs(v) for v in m.speed)
-    rows, y = [], []
-    moving = [k for k in range(m.speed.size) if abs(m.speed[k]) > MOVING_FRACTION * peak]
-    mean_q = sum(m.position[k] for k in moving) / len(moving)
-    span = max(m.position[k] for k in moving) - min(m.position[k] for k in moving)
-    for k in moving:
-        q = (m.position[k] - mean_q) / span
-        v = m.speed[k]
-        rows.append([math.copysign(1.0, v), v, m.acceleration[k], 1.0, q, q * q, q * q * q])
-        y.append(m.torque[k])
-    x = np.array(rows)
-    gram_inverse = np.linalg.inv(x.T @ x)
-    beta = gram_inverse @ (x.T @ np.array(y))
-    residual = np.array(y) - x @ beta
-    sigma2 = float(residual @ residual) / (len(y) - x.shape[1])
-    return math.sqrt(sigma2 * gram_inverse[0, 0]), math.sqrt(sigma2 * gram_inverse[1, 1])
+    return naive.friction_standard_errors_naive(
+        m.position.tolist(),
+        m.speed.tolist(),
+        m.acceleration.tolist(),
+        m.torque.tolist(),
+        MOVING_FRACTION,
+    )
 
 
 @pytest.mark.parametrize("task", [0, 1])

@@ -1,39 +1,15 @@
-"""The whole-moves study (lab, i15a): which samples count as whole moves, and that a drive load
-read on them does not depend on where the capture cut the task's cycle."""
+"""The whole-moves study (lab, i15a): a drive load read on whole moves does not depend on where
+the capture cut the task's cycle (the mask itself is the product's: tests/test_whole_moves_option.py)."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
-import pytest
 
 import axiswatch as aw
-from axiswatch._readings import MOVING_FRACTION, read_indicators
-from axiswatch_lab._whole_moves import whole_move_mask, whole_move_readings
-
-
-def _whole_move_mask_naive(speed: list[float], fraction: float) -> list[bool]:
-    peak = max(abs(v) for v in speed)
-    sign = [(1 if v > 0 else -1) if abs(v) > fraction * peak else 0 for v in speed]
-    out = [False] * len(speed)
-    i = 0
-    while i < len(sign):
-        j = i
-        while j + 1 < len(sign) and sign[j + 1] == sign[i]:
-            j += 1
-        if sign[i] != 0 and i > 0 and j < len(sign) - 1:
-            out[i : j + 1] = [True] * (j + 1 - i)
-        i = j + 1
-    return out
-
-
-@pytest.mark.parametrize("seed", range(5))
-def test_whole_move_mask_matches_the_naive_runs(seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    speed = np.repeat(rng.normal(size=30), rng.integers(1, 6, size=30)).astype(np.float64)
-    expected = _whole_move_mask_naive(speed.tolist(), MOVING_FRACTION)
-    assert whole_move_mask(speed, MOVING_FRACTION).tolist() == expected
+from axiswatch._readings import read_indicators
+from axiswatch_lab._whole_moves import whole_move_readings
 
 
 def _pick_and_place(phase: float, *, rate: float = 200.0, seconds: float = 4.0) -> aw.Capture:

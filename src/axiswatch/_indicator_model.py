@@ -34,6 +34,17 @@ estimated from what the user has:
   its *own* pairs only (:func:`own_pair_allowances`: its centre against each other axis's).
   Chosen on the development robots (docs/evaluation.md, "Allowances from an axis's own pairs");
   the fleet check keeps the fleet's allowances.
+* **a loose friction reading** (``whole_moves=True`` only, an opt-in operating point, and with
+  a fleet prior): the drive loads are read on whole moves and the least squares that reads
+  ``coulomb_friction`` and ``viscous_friction`` gives each a standard error ``se``
+  (:attr:`~axiswatch._readings.Readings.errors`); the model keeps ``se_ref``, the median of its
+  fitting captures', and takes a capture's friction shift in ``sqrt((s_w max(1, se / se_ref))^2
+  + s_t^2)`` (times its allowance): on constant-speed moves Coulomb and viscous trade off from
+  one capture to the next and their own least squares says so. The threshold and the fitting
+  captures' leave-one-out distances are computed without the factor
+  (:meth:`IndicatorModel.error_factors`). Not the default: on the development and fresh robots
+  it removed most of Robot A's false-alarm days but lowered ``dr99`` at the fixed 99 %
+  threshold by up to 0.03 (docs/evaluation.md, "An opt-in operating point: ``--whole-moves``").
 * a capture that changed task is scored in **allowance units**: its distance is the largest
   ``u_i = z_i / A_i``; the calibration captures' leave-one-out distances are in the same units
   and the **threshold** is the larger of 1 (an allowance) and the ``percentile`` of their
@@ -93,6 +104,7 @@ from axiswatch._order_lines import (
 )
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import (
+    FRICTION,
     INDICATORS,
     Indicator,
     Readings,
@@ -111,6 +123,7 @@ __all__ = [
     "leave_one_out_distances",
     "pool_fleet",
     "pool_fleet_without",
+    "reference_errors",
     "task_envelope",
 ]
 
@@ -699,6 +712,26 @@ def own_pair_allowances(
     return out
 
 
+def reference_errors(read: Sequence[Readings]) -> dict[str, float]:
+    """``se_ref`` per friction indicator: the median least-squares standard error of the
+    captures a model is fitted on (:attr:`~axiswatch._readings.Readings.errors`; NaN where none
+    has one).
+
+    Examples
+    --------
+    >>> from axiswatch._readings import Readings
+    >>> read = [Readings({}, errors={"coulomb_friction": e, "viscous_friction": math.nan})
+    ...         for e in (0.1, 0.3, 0.2)]
+    >>> reference_errors(read)
+    {'coulomb_friction': 0.2, 'viscous_friction': nan}
+    """
+    out = {}
+    for name in FRICTION:
+        finite = [e for r in read if math.isfinite(e := r.errors.get(name, math.nan))]
+        out[name] = float(np.median(finite)) if finite else math.nan
+    return out
+
+
 def fleet_difference(
     centre: Mapping[str, float],
     within: Mapping[str, float],
@@ -766,7 +799,10 @@ class IndicatorAssessment:
     indicators : dict
         Per indicator read: ``value``, ``baseline`` (the centre), ``spreads`` (the shift, in
         spreads), ``share`` (its part of the sum of the shifts in the distance's units) and,
-        with the fleet's allowances, ``allowance`` (its task-change allowance, in spreads).
+        with the fleet's allowances, ``allowance`` (its task-change allowance, in spreads) and,
+        with ``whole_moves``, for a friction reading looser than the baseline's,
+        ``error_factor`` (how much its within-task spread was widened:
+        :meth:`IndicatorModel.error_factors`).
     unavailable : dict of str to str
         Indicators not scored, and why.
     case : str
@@ -851,6 +887,13 @@ class IndicatorModel:
         lines of a capture grew against the baseline's own order spectrum
         (:mod:`axiswatch._order_lines`), without kinematics. Its task-change spread and
         allowance come from the fleet: each axis's reference reading the other axes' captures.
+    whole_moves : bool, default=False
+        An opt-in operating point: read the drive loads on whole moves only and, with a fleet
+        prior, widen the within-task spread of a friction reading looser than the baseline's
+        (``max(1, se / se_ref)``, :meth:`error_factors`). On development robots 0-7 it cut Robot
+        A's false-alarm days from 32 to 3 and on fresh robots 8-15 from 19 to 0, but lowered
+        ``dr99`` at the fixed 99 % threshold by up to 0.03, so it is not the default
+        (docs/evaluation.md, "An opt-in operating point: ``--whole-moves``").
 
     Attributes
     ----------
@@ -860,6 +903,9 @@ class IndicatorModel:
         1; without, the calibration fit in ``s_w``.
     own_threshold_ : float
         For the baseline's task: the calibration fit in ``s_w`` (no allowance).
+    se_ref_ : dict of str to float
+        With ``whole_moves``: per friction indicator, the median least-squares standard error of
+        the fitting captures' readings (:func:`reference_errors`); empty without.
     loo_distances_, own_loo_distances_ : list of float
         Leave-one-out distance of each capture fitted on (baseline first; NaN where none) in the
         task-change units (:attr:`task_change_scales_`) and in the own spreads; each threshold
@@ -903,12 +949,14 @@ class IndicatorModel:
         fleet: FleetPrior | None = None,
         task_envelope_factor: float | None = None,
         order_lines: bool = False,
+        whole_moves: bool = False,
     ) -> None:
         self.profile = profile
         self.percentile = percentile
         self.fleet = fleet
         self.task_envelope_factor = task_envelope_factor
         self.order_lines = order_lines
+        self.whole_moves = whole_moves
 
     @staticmethod
     def pool(models: Sequence[IndicatorModel]) -> FleetPrior:
@@ -923,9 +971,11 @@ class IndicatorModel:
 
     def readings(self, capture: Capture) -> Readings:
         """The capture's indicators (:func:`~axiswatch.read_indicators` with the profile's
-        kinematics)."""
+        kinematics, ``order_lines`` and ``whole_moves``)."""
         kinematics = self.profile.kinematics() if self.profile is not None else {}
-        return read_indicators(capture, **kinematics, order_lines=self.order_lines)
+        return read_indicators(
+            capture, **kinematics, order_lines=self.order_lines, whole_moves=self.whole_moves
+        )
 
     def fit(self, baseline: Capture, calibration: Sequence[Capture]) -> IndicatorModel:
         """Centre and within-task spreads from the baseline and the calibration captures."""
@@ -962,6 +1012,7 @@ class IndicatorModel:
                     "captures, or identical on all)"
                 )
         self.calibration_rows_ = rows
+        self.se_ref_ = reference_errors(read) if self.whole_moves else {}
         self.task_reference_: NDArray[np.float64] | None = None
         self.task_envelope_ = math.nan
         self.task_loo_distances_ = [math.nan] * len(read)
@@ -1022,6 +1073,53 @@ class IndicatorModel:
             self.centre_, self.within_, others, self.fleet, self.percentile
         )
         self.fleet = dataclasses.replace(self.fleet, centres=())
+
+    def error_factors(self, errors: Mapping[str, float]) -> dict[str, float]:
+        """How much looser than the baseline's a capture's friction readings are: per friction
+        indicator scored, ``max(1, se / se_ref)`` (1 where either error is not a positive
+        number); empty without ``whole_moves`` or without a fleet prior.
+
+        With a fleet prior a capture's friction shift is taken in
+        ``sqrt((s_w x factor)^2 + s_t^2)`` times its allowance: ``s_w`` belongs to readings of
+        the baseline's precision (``se_ref_``, the median standard error of the fitting
+        captures'), and a reading whose own least squares is looser (constant-speed moves, where
+        Coulomb and viscous trade off) spreads more in proportion. Only the ratio of two
+        standard errors of the same regression on the same axis enters, no constant
+        (docs/evaluation.md, "Drive loads from whole moves"). The factor never lowers a spread,
+        so it never raises a distance. The threshold and the leave-one-out distances of the
+        fitting captures are computed without it (their ratios are about 1 by construction), as
+        in the study that chose it; a capture of the baseline's task scored in the own spreads
+        (``task_envelope_factor``) takes no factor either.
+
+        Parameters
+        ----------
+        errors : mapping of str to float
+            The capture's :attr:`~axiswatch._readings.Readings.errors`.
+
+        Examples
+        --------
+        >>> from axiswatch.datasets import draw_robot
+        >>> robot = draw_robot(0)
+        >>> fleet = [IndicatorModel(whole_moves=True).fit(
+        ...     robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)])
+        ...     for t in range(4)]
+        >>> model = fleet[0].use_fleet(pool_fleet(fleet))
+        >>> looser = {n: 3 * se for n, se in model.se_ref_.items()}
+        >>> {n: round(f, 6) for n, f in model.error_factors(looser).items()}
+        {'coulomb_friction': 3.0, 'viscous_friction': 3.0}
+        >>> model.use_fleet(None).error_factors(looser)
+        {}
+        """
+        if self.fleet is None or not self.whole_moves:
+            return {}
+        out = {}
+        for name in FRICTION:
+            if name not in self.within_:
+                continue
+            se, reference = errors.get(name, math.nan), self.se_ref_.get(name, math.nan)
+            ratio = se / reference if math.isfinite(reference) and reference > 0 else math.nan
+            out[name] = max(1.0, ratio) if math.isfinite(ratio) else 1.0
+        return out
 
     @property
     def scales_(self) -> dict[str, float]:
@@ -1144,7 +1242,9 @@ class IndicatorModel:
             values[ORDER_LINES.name], why = self._order_lines(readings)
             if why is not None:
                 reasons[ORDER_LINES.name] = why
-        assessment = self._assess(values, reasons, self.centre_, own=case.startswith("same"))
+        assessment = self._assess(
+            values, reasons, self.centre_, own=case.startswith("same"), errors=readings.errors
+        )
         component = assessment.component
         if assessment.top == ORDER_LINES.name:
             component = self._where_grown(readings)
@@ -1249,8 +1349,14 @@ class IndicatorModel:
         centre: Mapping[str, float],
         *,
         own: bool,
+        errors: Mapping[str, float] | None = None,
     ) -> IndicatorAssessment:
-        scales = self.within_ if own else self.task_change_scales_
+        factors = {} if own else self.error_factors(errors or {})
+        if factors:
+            within = {n: s * factors.get(n, 1.0) for n, s in self.within_.items()}
+            scales = _task_change_scales(within, self.fleet, self.percentile, self.own_allowances_)
+        else:
+            scales = self.within_ if own else self.task_change_scales_
         threshold = self.own_threshold_ if own else self.threshold_
         allowances = {} if own else self.allowances_
         distance, shifts = _distance(values, centre, scales)
@@ -1274,6 +1380,8 @@ class IndicatorModel:
         for name, entry in details.items():
             if name in allowances:
                 entry["allowance"] = allowances[name]
+            if factors.get(name, 1.0) > 1.0:
+                entry["error_factor"] = factors[name]
         top = max(shifts, key=shifts.__getitem__) if shifts else None
         return IndicatorAssessment(
             distance=distance,
@@ -1286,8 +1394,9 @@ class IndicatorModel:
         )
 
     def params(self) -> dict[str, Any]:
-        """JSON-ready description of what was estimated and from what."""
-        return {
+        """JSON-ready description of what was estimated and from what (with ``whole_moves``,
+        also ``whole_moves`` and ``se_ref``)."""
+        params = {
             "centre": self.centre_,
             "within_spread": self.within_,
             "scales": self.scales_,
@@ -1299,3 +1408,6 @@ class IndicatorModel:
             "fleet_check": self.fleet_check_,
             "notes": self.notes_,
         }
+        if self.whole_moves:  # absent otherwise: the default's description is as before
+            params.update(whole_moves=True, se_ref=self.se_ref_)
+        return params

@@ -36,6 +36,18 @@ Indicators (the signal called torque may be a motor current or a pressure differ
   baseline's own (``order_lines``: new or grown lines, docs/evaluation.md, "Order lines against
   the baseline's own order spectrum").
 
+With ``whole_moves=True`` (an opt-in operating point, not the default: docs/evaluation.md, "An
+opt-in operating point: ``--whole-moves``") the drive loads are read over the steady samples of
+the *whole moves* only (:func:`whole_move_mask`: runs of one direction that start and end inside
+the capture; a direction without one gets NaN and "needs a whole steady move"). A capture starts
+at a random phase of the task cycle: a move it cuts covers only part of the stroke, and its mean
+gravity torque moves with the phase (on development robot 2 one task's healthy load took three
+values, 0, 6 and 12 N m). The readings then also carry the least-squares standard errors of the
+two friction coefficients (:attr:`Readings.errors`, :func:`least_squares_errors` of the same
+design and solve), which :class:`~axiswatch.IndicatorModel` uses to widen the spread of a
+friction reading looser than its baseline's (on constant-speed moves ``sign(v)`` and ``v`` are
+nearly collinear and the two coefficients trade off from capture to capture).
+
 The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
 reading the drive loads on every capture, the kinematic band set by the speed, the tooth
 orders and ``gap_ringing`` were chosen on the development robots of :mod:`axiswatch.datasets` (docs/evaluation.md,
@@ -68,15 +80,19 @@ from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
+    "FRICTION",
     "INDICATORS",
     "Indicator",
     "Motion",
     "Readings",
+    "drive_loads",
     "friction_design",
+    "least_squares_errors",
     "motion",
     "read_indicators",
     "signature_distance",
     "task_signature",
+    "whole_move_mask",
 ]
 
 #: Relative band of the impulsive indicators, in units of the torque's rate (a decade below a
@@ -103,6 +119,8 @@ MOVING_FRACTION = 0.1
 SIGNATURE_TOP_QUANTILE = 0.98
 SIGNATURE_MOVING_QUANTILES: tuple[float, ...] = (0.5, 0.9)
 SIGNATURE_POSITION_QUANTILES: tuple[float, ...] = (0.02, 0.98)
+#: The readings of the friction least squares, which carry a standard error (``whole_moves``).
+FRICTION: tuple[str, ...] = ("coulomb_friction", "viscous_friction")
 
 
 @dataclass(frozen=True)
@@ -172,6 +190,10 @@ class Readings:
         (:func:`~axiswatch._order_lines.order_profile`), when read (``order_lines=True``) and
         the capture gives one; a model compares it with its baseline's (``order_lines``).
         Not part of ``==`` (an array has no single truth value).
+    errors : dict of str to float
+        Read with ``whole_moves=True``: the least-squares standard errors of
+        ``coulomb_friction`` and ``viscous_friction`` (:data:`FRICTION`; NaN where the
+        coefficient is not read). Empty otherwise.
     """
 
     values: dict[str, float]
@@ -179,6 +201,7 @@ class Readings:
     source: str = "<memory>"
     signature: tuple[float, ...] = ()
     order_profile: OrderProfile | None = field(default=None, compare=False)
+    errors: dict[str, float] = field(default_factory=dict)
 
     def available(self) -> list[str]:
         """Names of the indicators that were read."""
@@ -386,15 +409,153 @@ def friction_design(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.fl
     return design, float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
 
 
-def _friction(m: Motion, moving: NDArray[np.bool_]) -> tuple[float, float, str | None]:
-    """Coulomb and viscous coefficients, and why the viscous one is missing (or None)."""
+def least_squares_errors(
+    design: NDArray[np.float64], target: NDArray[np.float64], coefficients: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Standard errors of least-squares coefficients: ``sqrt(diag(sigma^2 (X'X)^+))``.
+
+    ``sigma^2`` is the residual sum of squares over ``n - p``. The pseudo-inverse lets a
+    rank-deficient design (a cubic of a position that hardly moves) give the minimum-norm
+    solve's errors instead of failing. The residuals of a torque are autocorrelated, so the
+    errors understate a coefficient's spread in absolute terms; :class:`~axiswatch.IndicatorModel`
+    uses only their ratio to its baseline's (the same regression on the same axis).
+
+    Parameters
+    ----------
+    design : ndarray of shape (n, p)
+    target : ndarray of shape (n,)
+    coefficients : ndarray of shape (p,)
+        The least-squares solve of ``design @ c = target``.
+
+    Returns
+    -------
+    ndarray of shape (p,)
+        All NaN when ``n <= p`` (no residual degree of freedom).
+
+    Examples
+    --------
+    >>> x = np.column_stack([np.ones(4), np.arange(4.0)])
+    >>> y = np.array([0.0, 1.0, 1.0, 3.0])
+    >>> c = np.linalg.lstsq(x, y, rcond=None)[0]
+    >>> least_squares_errors(x, y, c).round(4).tolist()  # sigma^2 = 0.7 / 2; slope's 0.35 / 5
+    [0.495, 0.2646]
+    """
+    n, p = design.shape
+    if n <= p:
+        return np.full(p, np.nan)
+    residual = target - design @ coefficients
+    sigma2 = float(residual @ residual) / (n - p)
+    covariance = sigma2 * np.linalg.pinv(design.T @ design)
+    return np.sqrt(np.maximum(np.diag(covariance), 0.0))
+
+
+def whole_move_mask(speed: NDArray[np.float64], moving_fraction: float) -> NDArray[np.bool_]:
+    """The samples of the moves that start and end inside the capture.
+
+    A move is a run of samples with ``|speed| > moving_fraction x max |speed|`` and one sign of
+    the speed; it is whole when neither its first nor its last sample is an end of the capture.
+    With ``whole_moves=True`` the drive loads are read on whole moves only: a move the capture
+    cuts covers only part of its stroke, so its mean gravity torque depends on where the capture
+    started.
+
+    Parameters
+    ----------
+    speed : ndarray of shape (n,)
+    moving_fraction : float in [0, 1)
+        Share of the peak ``|speed|`` above which a sample moves (:data:`MOVING_FRACTION`).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+
+    Examples
+    --------
+    >>> v = np.array([2.0, 2.0, 0.0, -2.0, -2.0, 0.0, 2.0])
+    >>> whole_move_mask(v, 0.1).astype(int).tolist()  # the first and last moves are cut
+    [0, 0, 0, 1, 1, 0, 0]
+    """
+    if not speed.size:
+        return np.zeros(0, dtype=bool)
+    peak = float(np.max(np.abs(speed)))
+    moving = np.abs(speed) > moving_fraction * peak
+    label = np.where(moving, np.sign(speed), 0.0)
+    cuts = np.flatnonzero(np.diff(label) != 0) + 1
+    starts, stops = np.r_[0, cuts], np.r_[cuts, speed.size]
+    # A run counts when it moves and touches neither end of the capture.
+    keep = (label[starts] != 0) & (starts > 0) & (stops < speed.size)
+    return np.asarray(np.repeat(keep, stops - starts), dtype=bool)
+
+
+def _friction(
+    m: Motion, moving: NDArray[np.bool_], *, errors: bool
+) -> tuple[float, float, str | None, dict[str, float]]:
+    """Coulomb and viscous coefficients, why the viscous one is missing (or None), and, with
+    ``errors``, their standard errors from the same design and solve (else empty)."""
     design, separable = friction_design(m, moving)
     if not separable:
         design = np.delete(design, 1, axis=1)
-    coefficients, *_ = scipy.linalg.lstsq(design, m.torque[moving])
+    torque = m.torque[moving]
+    coefficients, *_ = scipy.linalg.lstsq(design, torque)
+    se: dict[str, float] = {}
+    if errors:
+        each = least_squares_errors(design, torque, coefficients)
+        se = {"coulomb_friction": float(each[0]), "viscous_friction": math.nan}
+        if separable:
+            se["viscous_friction"] = float(each[1])
     if not separable:
-        return float(coefficients[0]), math.nan, "moves at one speed only"
-    return float(coefficients[0]), float(coefficients[1]), None
+        return float(coefficients[0]), math.nan, "moves at one speed only", se
+    return float(coefficients[0]), float(coefficients[1]), None, se
+
+
+def drive_loads(
+    m: Motion, steady: NDArray[np.bool_], min_samples: int, *, whole_moves: bool
+) -> tuple[dict[str, float], dict[str, str]]:
+    """``load_forward`` and ``load_backward`` over the ``steady`` samples (NaN and the reason
+    where a direction has fewer than ``min(min_samples, 3)``).
+
+    Parameters
+    ----------
+    m : Motion
+    steady : ndarray of bool, shape (n,)
+        The samples to average (above half the peak speed; with ``whole_moves`` of whole moves
+        only, :func:`whole_move_mask`).
+    min_samples : int
+        :func:`read_indicators`'s 0.2 s of samples (at least 5); a load needs
+        ``min(min_samples, 3)``.
+    whole_moves : bool
+        Only words the reason ("needs a whole steady move" instead of "needs steady motion").
+
+    Returns
+    -------
+    values : dict of str to float
+        Both loads, NaN where not read.
+    reasons : dict of str to str
+        Why a load is not read.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 2, 0.01)
+    >>> v = np.cos(np.pi * t)
+    >>> m = Motion(t, np.sin(np.pi * t) / np.pi, v, -np.pi * np.sin(np.pi * t), 2 * v, 100.0)
+    >>> values, reasons = drive_loads(m, v > 0.5, 20, whole_moves=False)
+    >>> round(values["load_forward"], 2), reasons["load_backward"]
+    (1.65, 'needs steady motion in the negative direction')
+    """
+    direction = np.sign(m.speed)
+    values: dict[str, float] = {}
+    reasons: dict[str, str] = {}
+    for d, name, word in ((1.0, "load_forward", "positive"), (-1.0, "load_backward", "negative")):
+        mine = steady & (direction == d)
+        if mine.sum() >= min(min_samples, 3):
+            values[name] = float(np.mean(m.torque[mine] * d))
+        else:
+            values[name] = math.nan
+            reasons[name] = (
+                f"needs a whole steady move in the {word} direction"
+                if whole_moves
+                else f"needs steady motion in the {word} direction"
+            )
+    return values, reasons
 
 
 def _band(m: Motion) -> NDArray[np.float64]:
@@ -410,6 +571,7 @@ def read_indicators(
     gear_stages: Mapping[str, float] | None = None,
     bearing_orders: Mapping[str, float] | None = None,
     order_lines: bool = False,
+    whole_moves: bool = False,
 ) -> Readings:
     """Read every indicator a capture can give; NaN and the reason for the others.
 
@@ -426,6 +588,10 @@ def read_indicators(
     order_lines : bool, default=False
         Also read the torque's order spectrum (:attr:`Readings.order_profile`), or why it cannot
         be read (``reasons["order_lines"]``).
+    whole_moves : bool, default=False
+        Read the drive loads on whole moves only (:func:`whole_move_mask`) and keep the friction
+        coefficients' standard errors (:attr:`Readings.errors`): the opt-in operating point of
+        :class:`~axiswatch.IndicatorModel`'s ``whole_moves``. False reads as before.
 
     Returns
     -------
@@ -463,10 +629,11 @@ def read_indicators(
     peak = float(np.max(np.abs(m.speed))) if m.speed.size else 0.0
     moving = np.abs(m.speed) > MOVING_FRACTION * peak
     min_samples = max(5, round(0.2 * m.rate_hz))
+    errors = dict.fromkeys(FRICTION, math.nan) if whole_moves else {}
     if peak <= 0 or moving.sum() < min_samples:
         for name in [*values, *(["order_lines"] if order_lines else [])]:
             reasons[name] = "needs motion (the axis did not move for 0.2 s)"
-        return Readings(values, reasons, capture.source, signature)
+        return Readings(values, reasons, capture.source, signature, errors=errors)
     profile: OrderProfile | None = None
     if order_lines:
         spectrum = order_spectrum(m.position, m.speed, m.torque, m.rate_hz)
@@ -477,20 +644,20 @@ def read_indicators(
     direction = np.sign(m.speed)
     both = [int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)]
     if all(both):
-        coulomb, viscous, why = _friction(m, moving)
+        coulomb, viscous, why, se = _friction(m, moving, errors=whole_moves)
         values["coulomb_friction"], values["viscous_friction"] = coulomb, viscous
+        errors.update(se)
         if why is not None:
             reasons["viscous_friction"] = f"needs moves at more than one speed ({why})"
     else:
         for name in ("coulomb_friction", "viscous_friction"):
             reasons[name] = "needs motion in both directions (the capture moves one way)"
     steady = np.abs(m.speed) > 0.5 * peak
-    for d, name, word in ((1.0, "load_forward", "positive"), (-1.0, "load_backward", "negative")):
-        mine = steady & (direction == d)
-        if mine.sum() >= min(min_samples, 3):
-            values[name] = float(np.mean(m.torque[mine] * d))
-        else:
-            reasons[name] = f"needs steady motion in the {word} direction"
+    if whole_moves:
+        steady &= whole_move_mask(m.speed, MOVING_FRACTION)
+    loads, why_not = drive_loads(m, steady, min_samples, whole_moves=whole_moves)
+    values.update(loads)
+    reasons.update(why_not)
     if kinematic:
         assert gear_ratio is not None
         _kinematic_lines(m, gear_ratio, kinematic, peak, values, reasons)
@@ -513,12 +680,12 @@ def read_indicators(
             if m.rate_hz < MIN_BAND_RATE_HZ
             else f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
         )
-        return Readings(values, reasons, capture.source, signature, profile)
+        return Readings(values, reasons, capture.source, signature, profile, errors)
     band = _band(m)
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
     values["impulsiveness"] = pearson_kurtosis(normalised[moving])
-    return Readings(values, reasons, capture.source, signature, profile)
+    return Readings(values, reasons, capture.source, signature, profile, errors)
 
 
 def _kinematic_lines(

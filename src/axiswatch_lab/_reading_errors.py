@@ -21,7 +21,9 @@ terms; only its ratio to ``se_ref`` (the same regression on the same axis) is us
 threshold is the product's (the calibration captures' ratios are about 1 by construction, and
 the factor can only lower a distance).
 
-:func:`friction_standard_errors` is the pure function. ``python -m axiswatch_lab._reading_errors
+:func:`friction_standard_errors` is the pure function (its arithmetic
+:func:`~axiswatch._readings.least_squares_errors`, shared with the product's opt-in
+``whole_moves``, i16a). ``python -m axiswatch_lab._reading_errors
 OUT [SEED ...]`` scores ``current`` (the product), ``whole moves``
 (:mod:`axiswatch_lab._whole_moves`), ``friction errors`` and ``whole moves, friction errors`` from
 the same captures (:data:`STUDY`, :mod:`axiswatch_lab._variant_study`); development robots
@@ -38,7 +40,15 @@ import numpy as np
 
 from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel, _distance, _transformed
-from axiswatch._readings import MOVING_FRACTION, Motion, Readings, friction_design, motion
+from axiswatch._readings import (
+    FRICTION,
+    MOVING_FRACTION,
+    Motion,
+    Readings,
+    friction_design,
+    least_squares_errors,
+    motion,
+)
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
@@ -52,7 +62,6 @@ VARIANTS: tuple[str, ...] = (
     "friction errors",
     "whole moves, friction errors",
 )
-FRICTION: tuple[str, ...] = ("coulomb_friction", "viscous_friction")
 
 #: One capture: (the product's readings, with whole-move loads, friction standard errors).
 Taken = tuple[Readings, Readings, dict[str, float]]
@@ -93,12 +102,10 @@ def friction_standard_errors(m: Motion) -> dict[str, float]:
     if n <= p:
         return out
     coefficients, *_ = np.linalg.lstsq(x, y, rcond=None)
-    residual = y - x @ coefficients
-    sigma2 = float(residual @ residual) / (n - p)
-    covariance = sigma2 * np.linalg.pinv(x.T @ x)
-    out["coulomb_friction"] = math.sqrt(max(float(covariance[0, 0]), 0.0))
+    errors = least_squares_errors(x, y, np.asarray(coefficients, dtype=np.float64))
+    out["coulomb_friction"] = float(errors[0])
     if separable:
-        out["viscous_friction"] = math.sqrt(max(float(covariance[1, 1]), 0.0))
+        out["viscous_friction"] = float(errors[1])
     return out
 
 

@@ -76,6 +76,9 @@ class TransferDesign:
     order_lines : bool, default=False
         Models that also score the order lines against the baseline's own order spectrum
         (``IndicatorModel(order_lines=True)``).
+    whole_moves : bool, default=False
+        Models at the opt-in operating point ``IndicatorModel(whole_moves=True)`` (drive loads
+        from whole moves, loose friction readings widened).
     degradation_days : int, default=12
         Days from a healthy axis to the breakdown in each degradation run (below 2: no runs).
     """
@@ -86,6 +89,7 @@ class TransferDesign:
     robot_a_days: int = 190
     kinematics: bool = True
     order_lines: bool = False
+    whole_moves: bool = False
     degradation_days: int = 12
 
 
@@ -180,7 +184,9 @@ def robot_transfer(
     profile = _profile(robot, design.kinematics)
 
     def new_model() -> IndicatorModel:
-        return IndicatorModel(profile, order_lines=design.order_lines)
+        return IndicatorModel(
+            profile, order_lines=design.order_lines, whole_moves=design.whole_moves
+        )
 
     read = read or new_model().readings
     n_tasks = len(robot.tasks)
@@ -298,7 +304,7 @@ def _robot_a(
     read: Callable[[Capture], Readings],
 ) -> dict[str, object]:
     taken = robot_a_readings(robot, read, design.robot_a_days)
-    model = IndicatorModel(profile, order_lines=design.order_lines)
+    model = IndicatorModel(profile, order_lines=design.order_lines, whole_moves=design.whole_moves)
     model.fit_readings(taken[: design.n_calibration + 1]).use_fleet(prior)  # type: ignore[arg-type]
     verdicts = [model.assess_readings(r) for r in taken[design.n_calibration + 1 :]]
     return {
@@ -361,17 +367,17 @@ def hydraulic_captures(folder: Path) -> list[tuple[str, str, Capture]]:
 
 
 def _hydraulic(
-    folder: Path, n_calibration: int, percentile: float, order_lines: bool
+    folder: Path, n_calibration: int, percentile: float, order_lines: bool, whole_moves: bool
 ) -> list[dict[str, object]]:
     captures = hydraulic_captures(folder)
     units = sorted({a for a, _, _ in captures})
-    reader = IndicatorModel(percentile=percentile, order_lines=order_lines)
+    reader = IndicatorModel(percentile=percentile, order_lines=order_lines, whole_moves=whole_moves)
     read = {a: [reader.readings(c) for u, _, c in captures if u == a] for a in units}
     health = {a: h for a, h, _ in captures}
     models = {
-        a: IndicatorModel(percentile=percentile, order_lines=order_lines).fit_readings(
-            read[a][: n_calibration + 1]
-        )
+        a: IndicatorModel(
+            percentile=percentile, order_lines=order_lines, whole_moves=whole_moves
+        ).fit_readings(read[a][: n_calibration + 1])
         for a in units
     }
     pool = [models[a] for a in units]
@@ -431,14 +437,16 @@ def linear_axis_captures(folder: Path, window_s: float = 20.0) -> dict[str, list
 
 
 def _linear_axis(
-    folder: Path, n_calibration: int, percentile: float, order_lines: bool
+    folder: Path, n_calibration: int, percentile: float, order_lines: bool, whole_moves: bool
 ) -> list[dict[str, object]]:
     windows = linear_axis_captures(folder)
-    reader = IndicatorModel(percentile=percentile, order_lines=order_lines)
+    reader = IndicatorModel(percentile=percentile, order_lines=order_lines, whole_moves=whole_moves)
     read = {k: [reader.readings(c) for c in v] for k, v in windows.items()}
     rows = []
     for base, other in (("normal", "session2016_jam_labels"), ("session2016_jam_labels", "normal")):
-        model = IndicatorModel(percentile=percentile, order_lines=order_lines)
+        model = IndicatorModel(
+            percentile=percentile, order_lines=order_lines, whole_moves=whole_moves
+        )
         model.fit_readings(read[base][: n_calibration + 1])
         d = {k: [model.assess_readings(r).distance for r in v] for k, v in read.items()}
         own = d[base][n_calibration + 1 :] + d["pressure_anomaly"] * (base == "normal")
@@ -469,22 +477,34 @@ def real_data_transfer(
     percentile: float = 99.0,
     datasets: Sequence[str] = REAL_DATASETS,
     order_lines: bool = False,
+    whole_moves: bool = False,
 ) -> pd.DataFrame:
     """The same model on the real data sets found under ``data_root`` (absent ones skipped)."""
     with threadpool_limits(1):
-        rows = _real_rows(Path(data_root), n_calibration, percentile, datasets, order_lines)
+        rows = _real_rows(
+            Path(data_root), n_calibration, percentile, datasets, order_lines, whole_moves
+        )
     return pd.DataFrame(rows)
 
 
 def _real_rows(
-    root: Path, n_calibration: int, percentile: float, datasets: Sequence[str], order_lines: bool
+    root: Path,
+    n_calibration: int,
+    percentile: float,
+    datasets: Sequence[str],
+    order_lines: bool,
+    whole_moves: bool,
 ) -> list[dict[str, object]]:
     rows: list[dict[str, object]] = []
     if "hydraulic_actuator" in datasets and (root / "hydraulic_actuator" / "index.csv").is_file():
-        rows += _hydraulic(root / "hydraulic_actuator", n_calibration, percentile, order_lines)
+        rows += _hydraulic(
+            root / "hydraulic_actuator", n_calibration, percentile, order_lines, whole_moves
+        )
     if (
         "genesis_linear_axis" in datasets
         and (root / "genesis_linear_axis" / "normal.npz").is_file()
     ):
-        rows += _linear_axis(root / "genesis_linear_axis", n_calibration, percentile, order_lines)
+        rows += _linear_axis(
+            root / "genesis_linear_axis", n_calibration, percentile, order_lines, whole_moves
+        )
     return rows

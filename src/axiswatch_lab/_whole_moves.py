@@ -17,8 +17,9 @@ The candidate reads the loads on **whole moves** only: the samples of runs of on
 end inside the capture, so every reading averages the same stretch of positions. A direction
 without a whole steady move gives NaN and a reason. No constant is added.
 
-:func:`whole_move_mask` is the pure function; :func:`whole_move_readings` replaces the two loads
-of a product reading. ``python -m axiswatch_lab._whole_moves OUT [SEED ...]`` scores the
+:func:`~axiswatch._readings.whole_move_mask` is the pure function (in the product since the
+opt-in operating point ``whole_moves``, i16a); :func:`whole_move_readings` replaces the two loads
+of a product reading with :func:`~axiswatch._readings.drive_loads` over whole moves. ``python -m axiswatch_lab._whole_moves OUT [SEED ...]`` scores the
 product (``current``) and the candidate (``whole moves``), :data:`STUDY`, from the same
 captures (:mod:`axiswatch_lab._variant_study`): the transfer design (paired AUROC / ``dr99`` /
 ``far99`` per fault, Robot A) and the monitor study's scenarios scored by the model directly, as
@@ -28,48 +29,24 @@ captures (:mod:`axiswatch_lab._variant_study`): the transfer design (paired AURO
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
-from axiswatch._readings import MOVING_FRACTION, Readings, motion
+from axiswatch._readings import (
+    MOVING_FRACTION,
+    Readings,
+    drive_loads,
+    motion,
+    whole_move_mask,
+)
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
 
-__all__ = ["STUDY", "VARIANTS", "whole_move_mask", "whole_move_readings"]
-
-LOADS: tuple[tuple[float, str, str], ...] = (
-    (1.0, "load_forward", "positive"),
-    (-1.0, "load_backward", "negative"),
-)
-
-
-def whole_move_mask(speed: NDArray[np.float64], moving_fraction: float) -> NDArray[np.bool_]:
-    """The samples of the moves that start and end inside the capture.
-
-    A move is a run of samples with ``|speed| > moving_fraction x max |speed|`` and one sign of
-    the speed; it is whole when neither its first nor its last sample is an end of the capture.
-
-    Examples
-    --------
-    >>> v = np.array([2.0, 2.0, 0.0, -2.0, -2.0, 0.0, 2.0])
-    >>> whole_move_mask(v, 0.1).astype(int).tolist()  # the first and last moves are cut
-    [0, 0, 0, 1, 1, 0, 0]
-    """
-    peak = float(np.max(np.abs(speed))) if speed.size else 0.0
-    moving = np.abs(speed) > moving_fraction * peak
-    label = np.where(moving, np.sign(speed), 0.0)
-    cuts = np.flatnonzero(np.diff(label) != 0) + 1
-    out = np.zeros(speed.size, dtype=bool)
-    for start, stop in zip(np.r_[0, cuts], np.r_[cuts, speed.size], strict=True):
-        if label[start] != 0 and start > 0 and stop < speed.size:
-            out[start:stop] = True
-    return out
+__all__ = ["STUDY", "VARIANTS", "whole_move_readings"]
 
 
 def whole_move_readings(capture: Capture, read: Readings) -> Readings:
@@ -82,14 +59,11 @@ def whole_move_readings(capture: Capture, read: Readings) -> Readings:
     whole = whole_move_mask(m.speed, MOVING_FRACTION)
     steady = whole & (np.abs(m.speed) > 0.5 * peak)
     min_samples = max(5, round(0.2 * m.rate_hz))
-    for d, name, word in LOADS:
-        mine = steady & (np.sign(m.speed) == d)
+    loads, why_not = drive_loads(m, steady, min_samples, whole_moves=True)
+    for name in loads:
         reasons.pop(name, None)
-        if mine.sum() >= min(min_samples, 3):
-            values[name] = float(np.mean(m.torque[mine] * d))
-        else:
-            values[name] = math.nan
-            reasons[name] = f"needs a whole steady move in the {word} direction"
+    values.update(loads)
+    reasons.update(why_not)
     return dataclasses.replace(read, values=values, reasons=reasons)
 
 

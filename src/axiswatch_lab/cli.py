@@ -234,6 +234,13 @@ def experiment_transfer(
         bool,
         typer.Option(help="Also score the order lines against each baseline's order spectrum."),
     ] = False,
+    whole_moves: Annotated[
+        bool,
+        typer.Option(
+            help="Models at the opt-in operating point IndicatorModel(whole_moves=True): loads "
+            "from whole moves, loose friction readings widened (docs/evaluation.md)."
+        ),
+    ] = False,
 ) -> None:
     """Transfer study (issue 13): held-out simulated robots and the real data sets."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
@@ -259,14 +266,17 @@ def experiment_transfer(
             )
             raise typer.Exit(2) from None
     design = dataclasses.replace(
-        FAST_DESIGN if fast else TransferDesign(), kinematics=kinematics, order_lines=order_lines
+        FAST_DESIGN if fast else TransferDesign(),
+        kinematics=kinematics,
+        order_lines=order_lines,
+        whole_moves=whole_moves,
     )
     table = transfer_study(seeds, design, workers=workers)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "robots.csv", index=False)
     typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
     folder = data if data is not None else default_data_dir("hydraulic_actuator").parent
-    real = real_data_transfer(folder, order_lines=order_lines)
+    real = real_data_transfer(folder, order_lines=order_lines, whole_moves=whole_moves)
     real.to_csv(out / "real.csv", index=False)
     if len(real):
         typer.echo("\n" + real.to_string(index=False, float_format=lambda v: f"{v:.3f}"))

@@ -90,10 +90,15 @@ class IndicatorBaseline:
 
 
 def read_axis_indicators(
-    capture: Capture, profile: AxisProfile | None, *, order_lines: bool = False
+    capture: Capture,
+    profile: AxisProfile | None,
+    *,
+    order_lines: bool = False,
+    whole_moves: bool = False,
 ) -> Readings:
     """:func:`~axiswatch.read_indicators` with the kinematics of the axis's profile, if any
-    (and the order spectrum with ``order_lines``).
+    (and the order spectrum with ``order_lines``, the whole-move loads and friction errors with
+    ``whole_moves``).
 
     Examples
     --------
@@ -103,7 +108,7 @@ def read_axis_indicators(
     'needs a torque rate >= 100 Hz (got 20 Hz)'
     """
     kinematics = profile.kinematics() if profile is not None else {}
-    return read_indicators(capture, **kinematics, order_lines=order_lines)
+    return read_indicators(capture, **kinematics, order_lines=order_lines, whole_moves=whole_moves)
 
 
 def fit_indicator_baseline(
@@ -114,6 +119,7 @@ def fit_indicator_baseline(
     percentile: float,
     task_envelope_factor: float | None = None,
     order_lines: bool = False,
+    whole_moves: bool = False,
 ) -> IndicatorBaseline:
     """Fit the axis's model on the readings of its baseline (first) and calibration captures.
 
@@ -129,6 +135,8 @@ def fit_indicator_baseline(
         allowance.
     order_lines : bool, default=False
         :class:`~axiswatch.IndicatorModel`'s (the readings must carry order profiles).
+    whole_moves : bool, default=False
+        :class:`~axiswatch.IndicatorModel`'s (the readings must be read with it).
 
     Returns
     -------
@@ -155,7 +163,10 @@ def fit_indicator_baseline(
             f"capture. Got {len(readings)}, {len(file_hashes)} and {len(paths)} instead."
         )
     model = IndicatorModel(
-        percentile=percentile, task_envelope_factor=task_envelope_factor, order_lines=order_lines
+        percentile=percentile,
+        task_envelope_factor=task_envelope_factor,
+        order_lines=order_lines,
+        whole_moves=whole_moves,
     ).fit_readings(list(readings))
     return IndicatorBaseline(model, tuple(file_hashes), tuple(paths))
 
@@ -262,8 +273,11 @@ def assess_capture(
     """
     if file_hash in baseline.file_hashes:
         return baseline.model.assess_fitting(baseline.file_hashes.index(file_hash))
-    read = read_axis_indicators(capture, profile, order_lines=baseline.model.order_lines)
-    return baseline.model.assess_readings(read)
+    model = baseline.model
+    read = read_axis_indicators(
+        capture, profile, order_lines=model.order_lines, whole_moves=model.whole_moves
+    )
+    return model.assess_readings(read)
 
 
 def threshold_units(assessment: IndicatorAssessment) -> float:

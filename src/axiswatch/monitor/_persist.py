@@ -54,8 +54,11 @@ __all__ = [
 #: ``gap_ringing`` (``reversal_bursts`` before): a stored model's centre and spreads of it mean
 #: something else, so it is refitted. 7: an indicator model keeps its baseline's task envelope
 #: without ``task_envelope_factor`` too (an axis without a fleet prior does not compare a
-#: capture of another task).
-PERSIST_FORMAT = 7
+#: capture of another task). 8: an indicator model keeps ``whole_moves`` and ``se_ref_``, and
+#: its readings their friction standard errors (``errors``; empty without ``whole_moves``): a
+#: format-7 blob would come back without them, so it is refitted (to the same model, for the
+#: default).
+PERSIST_FORMAT = 8
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
