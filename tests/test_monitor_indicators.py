@@ -6,6 +6,7 @@ import io
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -538,3 +539,29 @@ def test_with_a_fleet_another_task_is_scored_against_its_allowances() -> None:
     scored = lone.assess(other_task)
     assert scored.scored
     assert scored.case == "no task envelope: fleet allowance"
+
+
+def test_the_fleet_pool_does_not_depend_on_which_worker_finishes_first(
+    low_rate_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Baselines returned by the workers in the reverse order give the scores of the in-order
+    run, bit for bit: a pair's task shift is read in its first axis's spreads, so the fleet's
+    prior depends on the order the axes are pooled in, which must not be the workers'."""
+    from axiswatch.monitor._parallel import WorkerPool
+
+    def scores(name: str) -> pd.DataFrame:
+        with SQLiteStore(tmp_path / name) as store:
+            monitor_fleet(low_rate_fleet, store, MonitorConfig(method="indicators"), settle_s=0)
+            table = store.score_table()
+        return table.sort_values(["axis", "capture"]).reset_index(drop=True)[
+            ["axis", "capture", "role", "distance", "threshold", "over", "alarm"]
+        ]
+
+    in_order = scores("in_order.sqlite")
+    forward = WorkerPool.map
+
+    def last_first(self: WorkerPool, fn: Any, items: Any) -> Any:
+        return iter(list(forward(self, fn, items))[::-1])
+
+    monkeypatch.setattr(WorkerPool, "map", last_first)
+    pd.testing.assert_frame_equal(scores("last_first.sqlite"), in_order)

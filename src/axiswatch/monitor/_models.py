@@ -51,7 +51,7 @@ class ModelRef:
 
 
 _cache: OrderedDict[str, Fitted] = OrderedDict()
-_stores: dict[tuple[int, str], Store] = {}
+_stores: dict[tuple[int, str], tuple[int, Store]] = {}
 
 
 def keep_model(model: Fitted, *, params: dict[str, Any] | None = None) -> tuple[str, bytes | None]:
@@ -74,11 +74,17 @@ def _remember(key: str, model: Fitted) -> None:
 
 
 def _read_only(store_path: str) -> Store:
-    # One connection per process and store (a forked worker must not use its parent's).
+    # One connection per process and store (a forked worker must not use its parent's), and per
+    # file: a store deleted and made anew at the same path (a long-lived process, a notebook)
+    # gets a new connection instead of reading the old file's models through the old one.
     key = (os.getpid(), store_path)
-    if key not in _stores:
-        _stores[key] = Store(store_path, read_only=True)
-    return _stores[key]
+    file_id = os.stat(store_path).st_ino
+    opened = _stores.get(key)
+    if opened is None or opened[0] != file_id:
+        if opened is not None:
+            opened[1].close()
+        opened = _stores[key] = (file_id, Store(store_path, read_only=True))
+    return opened[1]
 
 
 def resolve_model(ref: ModelRef) -> Fitted:

@@ -361,14 +361,7 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         return None
     state.candidates = [stored]
     saved = run.caches.saved_model(baseline.id)
-    # A model saved without the baseline's data-quality reference is refitted: the reference
-    # judges "no motion" in every later capture.
-    if (
-        saved is not None
-        and saved.reference is not None
-        and (saved.file_hash, saved.params, saved.library_version)
-        == (baseline.file_hash, params, model_version())
-    ):
+    if saved is not None and saved.reference is not None and _still_valid(run, saved, baseline):
         source = run.caches.model_source()
         assert source is not None  # a store that keeps models is one workers can read
         state.model, state.rates_hz = ModelRef(saved.model_hash, source), saved.rates_hz
@@ -377,6 +370,18 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         return None
     following = [f for f in state.files if _key(f) > _key(stored) and run.usable(f)]
     return run.fit_job(stored, following)
+
+
+def _still_valid(run: _Run, saved: SavedModel, baseline: Baseline) -> bool:
+    """A stored model of the baseline that this run can use as it is: same file, parameters,
+    library version and model format. Any other is refitted (and never read: a blob of an
+    older format cannot be). A model saved without the baseline's data-quality reference is
+    refitted too: the reference judges "no motion" in every later capture."""
+    return saved.reference is not None and (
+        saved.file_hash,
+        saved.params,
+        saved.library_version,
+    ) == (baseline.file_hash, run.params, model_version())
 
 
 def _plan_new(run: _Run, state: _Axis, retired: Baseline | None) -> FitJob | None:
@@ -493,6 +498,9 @@ def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str],
             if next_job is not None:
                 retry.append(next_job)
         jobs = retry
+    # Workers finish in any order; the fleet's pool (its medians and sums) must see the axes in
+    # one order, or a run on several workers scores differently from a serial one.
+    fitted.sort(key=lambda outcome: (outcome.job.file.robot, outcome.job.file.axis))
     for outcome in _with_fleet_priors(run, fitted):
         _accept_baseline(run, by_axis[(outcome.job.file.robot, outcome.job.file.axis)], outcome)
 
@@ -529,7 +537,9 @@ def _stored_indicator_models(
         if (robot, axis) in fitting or baseline is None or baseline.retired:
             continue
         saved = run.caches.saved_model(baseline.id)
-        if saved is None:
+        # An outdated model (another format, version or parameters: an upgrade) is left out of
+        # the pool until its axis is refitted, when a new file of it arrives.
+        if saved is None or not _still_valid(run, saved, baseline):
             continue
         stored = resolve_model(ModelRef(saved.model_hash, source))
         if isinstance(stored, IndicatorBaseline):
