@@ -565,3 +565,35 @@ def test_the_fleet_pool_does_not_depend_on_which_worker_finishes_first(
 
     monkeypatch.setattr(WorkerPool, "map", last_first)
     pd.testing.assert_frame_equal(scores("last_first.sqlite"), in_order)
+
+
+def test_a_store_of_an_older_model_format_is_refitted_not_a_crash(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """After an upgrade that changes the stored model format, the axes refit one at a time (a
+    chunk each) and the fleet pool leaves out the models not refitted yet instead of reading
+    them ('stored model has format N')."""
+    import axiswatch.monitor._models
+    import axiswatch.monitor._monitor
+    import axiswatch.monitor._persist
+
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for a in range(3):
+        for day in range(7):
+            _write(robot.capture(a, seed=day), root, "r1", f"a{a}", day)
+    settle(root)
+    config = MonitorConfig(method="indicators")
+    current = axiswatch.monitor._persist.PERSIST_FORMAT
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        monkeypatch.setattr(axiswatch.monitor._persist, "PERSIST_FORMAT", current - 1)
+        monitor_fleet(root, store, config, settle_s=0)  # written by the older version
+        monkeypatch.setattr(axiswatch.monitor._persist, "PERSIST_FORMAT", current)
+        monkeypatch.setattr(axiswatch.monitor._monitor, "_AXES_PER_CHUNK", 1)
+        axiswatch.monitor._models._cache.clear()  # the upgraded version runs in a new process
+        for a in range(3):
+            _write(robot.capture(a, seed=7), root, "r1", f"a{a}", 7)
+        settle(root)
+        summary = monitor_fleet(root, store, config, settle_s=0)
+    assert summary.new_baselines == 0  # refitted, the same baselines
+    assert summary.scored == 3
