@@ -395,13 +395,19 @@ def test_the_report_names_the_indicators_alarms_top_indicator(
         assert "spreads from its baseline" in top
 
 
-def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) -> None:
+def _three_axes(tmp_path: Path) -> tuple[Path, Any]:
+    """A fleet folder of one robot model's axes 0-2, 7 healthy days each, and the robot."""
     root = tmp_path / "fleet"
     robot = draw_robot(ROBOT_SEED)
     for a in range(3):
         for day in range(7):
             _write(robot.capture(a, seed=day), root, "r1", f"a{a}", day)
     settle(root)
+    return root, robot
+
+
+def test_a_new_axis_is_pooled_with_the_stored_axes_of_its_fleet(tmp_path: Path) -> None:
+    root, robot = _three_axes(tmp_path)
     config = MonitorConfig(method="indicators")
     with SQLiteStore(tmp_path / "s.sqlite") as store:
         monitor_fleet(root, store, config, settle_s=0)
@@ -577,12 +583,7 @@ def test_a_store_of_an_older_model_format_is_refitted_not_a_crash(
     import axiswatch.monitor._monitor
     import axiswatch.monitor._persist
 
-    root = tmp_path / "fleet"
-    robot = draw_robot(ROBOT_SEED)
-    for a in range(3):
-        for day in range(7):
-            _write(robot.capture(a, seed=day), root, "r1", f"a{a}", day)
-    settle(root)
+    root, robot = _three_axes(tmp_path)
     config = MonitorConfig(method="indicators")
     current = axiswatch.monitor._persist.PERSIST_FORMAT
     with SQLiteStore(tmp_path / "s.sqlite") as store:

@@ -53,6 +53,7 @@ from axiswatch_lab.cli import experiment_app
 from tests import naive
 from tests.conftest import settle
 from tests.memory_store import MemoryStore
+from tests.test_whole_moves_study import _pick_and_place as pick_and_place
 
 RATE = 200.0
 LOADS = ("load_forward", "load_backward")
@@ -175,22 +176,8 @@ def test_friction_errors_of_a_development_robot_match_the_textbook_and_the_lab(t
 
 
 def _pick_and_place(phase: float, *, seconds: float = 4.0) -> aw.Capture:
-    """Minimum-jerk moves of 1 rad out and back (cycle 3 s), gravity 20 cos(q): a capture of
-    ``seconds`` starting ``phase`` s into the cycle."""
-    t = phase + np.arange(0, seconds, 1 / RATE)
-    c = t % 3.0
-
-    def ramp(s: np.ndarray) -> np.ndarray:
-        r = np.clip(s, 0.0, 1.0)
-        return np.asarray(10 * r**3 - 15 * r**4 + 6 * r**5, dtype=np.float64)
-
-    q = np.where(c < 1.5, ramp(c / 1.0), 1.0 - ramp((c - 1.5) / 1.0))
-    v = np.gradient(q, 1 / RATE)
-    tau = 3.0 * np.sign(v) * (np.abs(v) > 1e-9) + 2.0 * v + 20.0 * np.cos(q)
-    return aw.Capture(
-        {"position": q, "speed": v, "torque": tau},
-        {"position": RATE, "speed": RATE, "torque": RATE},
-    )
+    """The whole-move study's pick-and-place capture (tests/test_whole_moves_study.py) at RATE."""
+    return pick_and_place(phase, rate=RATE, seconds=seconds)
 
 
 def test_a_cut_move_does_not_change_the_load() -> None:
