@@ -218,6 +218,24 @@ def test_rebaseline_command(fleet: Path, tmp_path: Path) -> None:
     assert "1 new baseline(s)" in rerun.output
 
 
+def test_backup_command_copies_every_result_and_never_overwrites(
+    fleet: Path, tmp_path: Path
+) -> None:
+    store, copy = tmp_path / "s.db", tmp_path / "backup.db"
+    runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "pca"])
+    done = runner.invoke(app, ["backup", "--store", str(store), str(copy)])
+    assert done.exit_code == 0, done.output
+    n_rows = len(_results(store))
+    assert n_rows > 0
+    assert f"({n_rows} score rows)" in done.output
+    pd.testing.assert_frame_equal(_results(copy), _results(store))
+    again = runner.invoke(app, ["backup", "--store", str(store), str(copy)])
+    assert again.exit_code == 1
+    assert again.output.strip().splitlines() == [
+        f"error: backup '{copy}' already exists; a backup never overwrites."
+    ]
+
+
 def test_report_command_writes_one_page(fleet: Path, tmp_path: Path) -> None:
     store = tmp_path / "s.db"
     for method in ("lra", "pca"):

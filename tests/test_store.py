@@ -78,3 +78,61 @@ def _fail_after_a_write(store: SQLiteStore) -> None:
     with store._write() as db:
         db.execute("INSERT INTO runs (started_at) VALUES ('undone')")
         raise RuntimeError
+
+
+def _runs(path: Path) -> list[str]:
+    return [str(r[0]) for r in _query(path, "SELECT started_at FROM runs ORDER BY rowid")]
+
+
+def _add_runs(store: SQLiteStore, names: list[str]) -> None:
+    for name in names:
+        with store._write() as db:
+            db.execute("INSERT INTO runs (started_at) VALUES (?)", (name,))
+
+
+def test_closing_the_writer_moves_the_log_into_the_file_while_a_reader_stays(
+    tmp_path: Path,
+) -> None:
+    """A worker or notebook that keeps a read-only connection keeps the WAL alive after the
+    writer closes; the writer's close checkpoints it, so the store file alone holds every
+    commit (a naive copy of ``fleet.db`` misses none). Fails without the checkpoint in
+    ``close``: the copy then has no runs."""
+    path = tmp_path / "fleet.db"
+    writer = SQLiteStore(path)
+    reader = SQLiteStore(path, read_only=True)
+    assert reader.score_table().empty  # the reader has used its connection
+    _add_runs(writer, ["a", "b", "c"])
+    writer.close()
+    assert (tmp_path / "fleet.db-wal").exists()  # the reader keeps the log file
+    alone = tmp_path / "alone" / "fleet.db"
+    alone.parent.mkdir()
+    alone.write_bytes(path.read_bytes())  # the store file only, as a naive backup copies it
+    reader.close()
+    assert _runs(alone) == ["a", "b", "c"]
+
+
+def test_backup_is_one_file_with_every_commit_while_the_writer_is_open(tmp_path: Path) -> None:
+    path = tmp_path / "fleet.db"
+    with SQLiteStore(path) as store:
+        _add_runs(store, ["a", "b"])
+        assert (tmp_path / "fleet.db-wal").stat().st_size > 0  # the commits are in the log
+        copy = store.backup(tmp_path / "copy.db")
+        _add_runs(store, ["after"])  # not in the copy: it was made before
+    assert copy == tmp_path / "copy.db"
+    assert not (tmp_path / "copy.db-wal").exists()
+    assert _query(copy, "PRAGMA journal_mode") == [("delete",)]
+    assert _runs(copy) == ["a", "b"]
+    assert _runs(path) == ["a", "b", "after"]
+    with Store(copy) as restored:  # a backup opens as a store
+        assert restored.version == SCHEMA_VERSION
+
+
+def test_backup_never_overwrites_and_leaves_nothing_when_it_fails(tmp_path: Path) -> None:
+    (tmp_path / "taken.db").write_bytes(b"precious")
+    with SQLiteStore(tmp_path / "fleet.db") as store:
+        with pytest.raises(StoreError, match=r"backup '.*taken.db' already exists; a backup"):
+            store.backup(tmp_path / "taken.db")
+        with pytest.raises(StoreError, match=r"folder '.*missing' does not exist"):
+            store.backup(tmp_path / "missing" / "copy.db")
+    assert (tmp_path / "taken.db").read_bytes() == b"precious"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fleet.db", "taken.db"]

@@ -577,6 +577,24 @@ def simulate_fleet_command(
 
 
 @app.command()
+def backup(
+    store: StorePath,
+    destination: Annotated[Path, typer.Argument(help="The new file (never overwritten).")],
+    debug: bool = DEBUG,
+) -> None:
+    """Write a consistent copy of the store, also while monitor runs (SQLite's online backup)."""
+    from axiswatch.monitor._store import Store
+
+    with _failures(debug):
+        _require_store(store)
+        with Store(store) as opened:
+            copy = opened.backup(destination)
+        with Store(copy, read_only=True) as restored:
+            rows = len(restored.score_table())
+        typer.echo(f"Backup: {copy} ({rows} score rows); open it with --store to use it.")
+
+
+@app.command()
 def demo(
     out: Annotated[
         Path | None, typer.Option(help="Working folder (default: a temporary one).")

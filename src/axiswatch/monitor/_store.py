@@ -61,7 +61,7 @@ import dataclasses
 import json
 import sqlite3
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import AbstractContextManager, contextmanager, suppress
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -821,6 +821,7 @@ class SQLiteStore:
     ) -> None:
         self.path = Path(path)
         self._batched = False
+        self._read_only = read_only
         if self.path.exists() and not self.path.is_file():
             raise StoreError(f"store '{self.path}' exists but is not a file.")
         try:
@@ -1095,8 +1096,77 @@ class SQLiteStore:
             )
 
     def close(self) -> None:
-        """Close the connection."""
+        """Close the connection, first moving the write-ahead log into the store file.
+
+        SQLite moves the log into the file when the last connection closes; a process that still
+        holds a read-only connection (a worker, a notebook) would otherwise keep the latest
+        commits in ``<store>-wal`` only, and a copy of the store file alone would miss them.
+        The checkpoint does not wait for others: frames a busy reader or writer still needs stay
+        in the log (nothing is lost). :meth:`backup` is the safe copy in every case.
+        """
+        if not self._read_only:
+            # PASSIVE never waits: what a busy reader or writer still needs stays in the log
+            # (nothing is lost), and is moved by a later checkpoint.
+            with suppress(sqlite3.Error):
+                self._connection.execute("PRAGMA wal_checkpoint(PASSIVE)")
         self._connection.close()
+
+    def backup(self, destination: str | Path) -> Path:
+        """Write a consistent copy of the store to a new file, also while others write to it.
+
+        SQLite's online backup: the copy holds every commit made before it started, the
+        write-ahead log's included, in one self-contained file (copying the store file alone can
+        miss the commits still in ``<store>-wal``). It is written next to ``destination`` and
+        renamed into place once its integrity is checked, so a failed backup leaves no file.
+
+        Parameters
+        ----------
+        destination : str or Path
+            The new file; it must not exist (a backup never overwrites).
+
+        Returns
+        -------
+        Path
+            ``destination``.
+
+        Raises
+        ------
+        StoreError
+            When ``destination`` exists, its folder does not, or the copy fails its check.
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> folder = pathlib.Path(tempfile.mkdtemp())
+        >>> with SQLiteStore(folder / "fleet.db") as store:
+        ...     copy = store.backup(folder / "fleet-backup.db")
+        >>> with SQLiteStore(copy) as restored:
+        ...     restored.version
+        2
+        """
+        target = Path(destination)
+        if target.exists():
+            raise StoreError(f"backup '{target}' already exists; a backup never overwrites.")
+        if not target.parent.is_dir():
+            raise StoreError(f"backup '{target}': folder '{target.parent}' does not exist.")
+        partial = target.with_name(f".{target.name}.partial")
+        partial.unlink(missing_ok=True)
+        try:
+            copy = sqlite3.connect(partial)
+            try:
+                self._connection.backup(copy)
+                copy.execute("PRAGMA journal_mode = DELETE")  # one self-contained file
+                check = copy.execute("PRAGMA integrity_check").fetchone()[0]
+            finally:
+                copy.close()
+            if check != "ok":
+                raise StoreError(f"backup '{target}': the copy fails SQLite's check: {check}.")
+            partial.replace(target)
+        except sqlite3.Error as exc:
+            raise StoreError(f"backup '{target}': {exc}.") from None
+        finally:
+            partial.unlink(missing_ok=True)
+        return target
 
     def __enter__(self) -> SQLiteStore:
         return self
