@@ -37,6 +37,20 @@ def _monitor(fleet: Path, store: Path) -> object:
     return runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "pca"])
 
 
+def test_monitor_says_why_each_axis_is_in_alarm(alarmed: tuple[Path, Path]) -> None:
+    """The run's last lines name each axis in alarm with the report's reason (what the
+    distance and threshold are), not only the axis."""
+    fleet, store = alarmed
+    again = _monitor(fleet, store)
+    assert again.exit_code == 4, again.output
+    tail = again.output.strip().splitlines()[-2:]
+    assert tail[0] == "ALARM (pca) on robot01/axis1"
+    assert tail[1].startswith("  robot01/axis1: ALARM since 2026-03-10 (1 capture in alarm): ")
+    with Store(store) as opened:
+        last = opened.score_table(robot="robot01", axis="axis1").iloc[-1]
+    assert f"Distance {last.distance:.4g} > threshold {last.threshold:.4g} (99th pct" in tail[1]
+
+
 def test_an_acknowledged_alarm_does_not_exit_4_until_it_is_raised_again(
     alarmed: tuple[Path, Path],
 ) -> None:

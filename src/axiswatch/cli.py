@@ -131,6 +131,25 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> None:
     typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
+def _alarm_reasons(
+    store: Any, method: str, axes: list[tuple[str, str]], stale_after: timedelta | None
+) -> list[str]:
+    """One line per axis in alarm: why (the report's first-screen line), read from the store."""
+    import pandas as pd
+
+    from axiswatch.monitor._attention import triage
+    from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+
+    if not axes:
+        return []
+    summary = fleet_summary(store, stale_after=stale_after)
+    results = pd.concat([fleet_results(store, robot=r, axis=a) for r, a in axes])
+    listed = triage(summary, results, fleet_rejections(store), store.changed_file_table(),
+                    store.alarms(method), method=method)  # fmt: skip
+    wanted = set(axes)
+    return [f"{i.robot}/{i.axis}: {i.line}" for i in listed if (i.robot, i.axis) in wanted]
+
+
 @app.command()
 def monitor(
     root: Annotated[Path, typer.Argument(help="Fleet folder ROOT/<robot>/<axis>/<capture>.<ext>.")],
@@ -270,6 +289,7 @@ def monitor(
                     "in this run."
                 )
                 _echo_summary(opened, silence)
+                reasons = _alarm_reasons(opened, result.method, list(result.alarms), silence)
         finally:
             if client is not None:
                 client.close()
@@ -306,6 +326,8 @@ def monitor(
         if result.alarms:
             axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
             typer.echo(f"\nALARM ({result.method}) on {axes}")
+            for line in reasons:
+                typer.echo(f"  {line}")
     raise typer.Exit(result.exit_code)
 
 
