@@ -218,6 +218,22 @@ def test_rebaseline_command(fleet: Path, tmp_path: Path) -> None:
     assert "1 new baseline(s)" in rerun.output
 
 
+def test_monitor_prints_a_summary_that_fits_a_terminal(fleet: Path, tmp_path: Path) -> None:
+    """The summary printed after a run keeps the columns a service engineer reads first; the
+    threshold's origin, the same for every axis, is said once below it."""
+    store = tmp_path / "s.db"
+    done = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "pca"])
+    lines = done.output.splitlines()
+    assert lines[1].split() == [
+        "robot", "axis", "method", "state", "alarm_since", "scored", "over", "last_capture",
+        "last_distance", "threshold", "rejected",
+    ]  # fmt: skip
+    assert max(len(line) for line in lines[1:4]) <= 120
+    assert lines[4] == (
+        "threshold of every axis: 99th pct of half-Laplace fit of 5 healthy captures."
+    )
+
+
 def test_backup_command_copies_every_result_and_never_overwrites(
     fleet: Path, tmp_path: Path
 ) -> None:

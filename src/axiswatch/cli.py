@@ -128,7 +128,16 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> None:
     if summary.empty:
         typer.echo("No axis has a baseline yet.")
         return
-    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
+    columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
+               "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip
+    if summary.acknowledged_by.notna().any():
+        columns.insert(5, "acknowledged_by")
+    shown = summary[columns].fillna({"alarm_since": "", "acknowledged_by": ""})
+    typer.echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    origins = summary.threshold_origin.dropna().unique()
+    if len(origins) == 1:
+        typer.echo(f"threshold of every axis: {origins[0]}.")
 
 
 def _alarm_reasons(
