@@ -265,8 +265,9 @@ def case_mechanics(quick: bool) -> dict[str, Any]:
 
 def case_pool(n_axes: int, quick: bool) -> dict[str, Any]:
     """Pooling the fitted indicator models of ``n_axes`` axes of one profile into their fleet
-    prior (once per profile and monitor run with new baselines), against the pairs' shifts by
-    the loop twin of the tests (the pair loop ``pool_fleet`` had before), in the same process.
+    prior (once per profile and monitor run with new baselines), against the ordered pairs'
+    shifts by the loop twin of the tests (the pair loop ``pool_fleet`` had before), in the same
+    process.
 
     The axes: six models fitted on six tasks of a simulated robot, repeated with their centres
     spread by 5 % (a fleet of one robot model on six kinds of task)."""
@@ -311,7 +312,7 @@ def case_pool(n_axes: int, quick: bool) -> dict[str, Any]:
         "fast_s": fast_s,
         "dense_s": reference_s,
         "ratio": reference_s / fast_s,
-        "note": f"reference column = the {n_axes * (n_axes - 1) // 2:,} pairs by a Python loop",
+        "note": f"reference column = the {n_axes * (n_axes - 1):,} ordered pairs by a Python loop",
     }
 
 

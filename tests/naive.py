@@ -428,9 +428,10 @@ def indicator_allowances_naive(
     percentile: float,
     fallback: float,
 ) -> dict[str, float]:
-    """Per indicator: every pair of axes by two loops, |z| by hand, the middle of the sorted
-    list, the exponential quantile ``-b ln(1 - q)`` at Bonferroni's level (fewer than 3 pairs,
-    or a median of 0: ``fallback``)."""
+    """Per indicator: every ordered pair of axes by two loops (``i``'s centre in ``j``'s
+    spreads), |z| by hand, the middle of the sorted list, the exponential quantile
+    ``-b ln(1 - q)`` at Bonferroni's level (fewer than 3 pairs, or a median of 0:
+    ``fallback``)."""
     nan = float("nan")
     shifts: dict[str, list[float]] = {}
     for name, spread in task_spreads.items():
@@ -438,8 +439,10 @@ def indicator_allowances_naive(
             continue
         shifts[name] = []
         for i in range(len(centres)):
-            for j in range(i + 1, len(centres)):
-                scale = (spread**2 + withins[i].get(name, nan) ** 2) ** 0.5
+            for j in range(len(centres)):
+                if i == j:
+                    continue
+                scale = (spread**2 + withins[j].get(name, nan) ** 2) ** 0.5
                 z = (centres[i].get(name, nan) - centres[j].get(name, nan)) / scale
                 if z == z and abs(z) != float("inf"):
                     shifts[name].append(abs(z))
@@ -562,27 +565,31 @@ def fleet_pair_shifts_naive(
     within: list[list[float]],
     task_spreads: list[float],
     one_sided: list[bool],
-) -> tuple[list[float], list[list[float]]]:
-    """Every pair ``i < j`` by two loops: ``z = (c_i - c_j) / sqrt(s_t^2 + s_w,i^2)`` per
-    indicator with a positive task spread; the pair's distance is the largest ``max(z, 0)`` (one
-    sided) or ``|z|`` over the finite ones (NaN if none); the shifts ``|z|``."""
+) -> tuple[list[list[float]], list[list[float]]]:
+    """Every ordered pair ``i != j`` by two loops: ``z = (c_i - c_j) / sqrt(s_t^2 + s_w,j^2)``
+    per indicator with a positive task spread (capture ``i`` in baseline ``j``'s spreads); the
+    pair's distance is the largest ``max(z, 0)`` (one sided) or ``|z|`` over the finite ones
+    (NaN if none, and on the diagonal); per indicator the list of the finite ``|z|``."""
     nan = float("nan")
-    distances, shifts = [], []
     n = len(centres)
+    distances = [[nan] * n for _ in range(n)]
+    shifts: list[list[float]] = [[] for _ in task_spreads]
     for i in range(n):
-        for j in range(i + 1, n):
-            largest, row = nan, []
+        for j in range(n):
+            if i == j:
+                continue
+            largest = nan
             for k, spread in enumerate(task_spreads):
-                z = nan
-                if spread == spread and 0 < spread < float("inf"):
-                    scale = (spread**2 + within[i][k] ** 2) ** 0.5
-                    z = (centres[i][k] - centres[j][k]) / scale
-                row.append(abs(z))
-                if z == z:
-                    shift = max(z, 0.0) if one_sided[k] else abs(z)
-                    largest = shift if largest != largest else max(largest, shift)
-            distances.append(largest)
-            shifts.append(row)
+                if not (spread == spread and 0 < spread < float("inf")):
+                    continue
+                scale = (spread**2 + within[j][k] ** 2) ** 0.5
+                z = (centres[i][k] - centres[j][k]) / scale
+                if z != z:
+                    continue
+                shifts[k].append(abs(z))
+                shift = max(z, 0.0) if one_sided[k] else abs(z)
+                largest = shift if largest != largest else max(largest, shift)
+            distances[i][j] = largest
     return distances, shifts
 
 

@@ -84,9 +84,9 @@ def test_fleet_allowance_comes_from_the_fleet_pairs() -> None:
     fleet = [_fitted(100 * k, payload=float(k), task_envelope_factor=None) for k in range(5)]
     prior = pool_fleet(fleet)
     assert prior.n_axes == 5
-    assert prior.n_pairs == 10
+    assert prior.n_pairs == 20  # 10 pairs, both ways
     assert prior.allowance(99.0) == pytest.approx(half_laplace_threshold(prior.allowance_scale, 99))
-    assert all(n == 10 for n in prior.indicator_pairs.values())
+    assert all(n == 20 for n in prior.indicator_pairs.values())
     model = fleet[0].use_fleet(prior)
     # Each indicator's allowance: the fleet's, or the axis's own pairs' where larger (fleet[0]
     # carries no payload, the end of the fleet's range: its own pairs are larger on some).
@@ -440,13 +440,64 @@ def test_fleet_pair_shifts_match_the_loop_twin() -> None:
     centres[8, :] = np.nan  # an axis that shares nothing
     task = np.array([0.5, np.nan, 0.2, 0.0])  # no task spread, and a zero one: left out
     sided = np.array([False, False, True, True])
-    distances, shifts = fleet_pair_shifts(centres, within, task, sided)
+    distances, medians, counts = fleet_pair_shifts(centres, within, task, sided)
     expected_d, expected_z = naive.fleet_pair_shifts_naive(
         centres.tolist(), within.tolist(), task.tolist(), sided.tolist()
     )
     np.testing.assert_allclose(distances, expected_d, rtol=1e-12, equal_nan=True)
-    np.testing.assert_allclose(shifts, expected_z, rtol=1e-12, equal_nan=True)
-    assert np.isnan(distances[-1])  # the pair (7, 8): axis 8 reads nothing
+    assert counts.tolist() == [len(z) for z in expected_z] == [49, 0, 30, 0]
+    np.testing.assert_allclose(
+        medians, [float(np.median(z)) if z else math.nan for z in expected_z], rtol=1e-12
+    )
+    assert np.isnan(distances[8, :]).all()  # axis 8 reads nothing
+    assert np.isnan(distances[:, 8]).all()
+    assert np.isnan(np.diag(distances)).all()
+    # Read in the baseline's spreads: axis 6 has no within-task spread of indicator 0, so the
+    # pairs with 6 as the baseline (column 6) read only indicator 2, those with 6 as the
+    # capture (row 6) both.
+    assert distances[0, 6] == pytest.approx(
+        max((centres[0, 2] - centres[6, 2]) / math.hypot(0.2, within[6, 2]), 0.0), rel=1e-12
+    )
+    assert distances[6, 0] == pytest.approx(
+        max(
+            abs(centres[6, 0] - centres[0, 0]) / math.hypot(0.5, within[0, 0]),
+            (centres[6, 2] - centres[0, 2]) / math.hypot(0.2, within[0, 2]),
+        ),
+        rel=1e-12,
+    )
+
+
+def test_the_fleet_prior_does_not_depend_on_the_order_of_the_axes() -> None:
+    """Fails before i17a: each pair ``i < j`` was read one way, in axis ``i``'s spreads (and a
+    one-sided indicator counted only ``i``'s growth), so listing the axes in another order
+    changed ``allowance_scale`` and the indicators' scales (on main a3707e2 this test fails at
+    the first order: ``allowance_scale`` 1.566 against 1.840 in the listed order)."""
+    robot = aw.datasets.draw_robot(2)
+    fleet = [
+        IndicatorModel().fit(
+            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
+        )
+        for t in range(6)
+    ]
+    prior = pool_fleet(fleet)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        order = rng.permutation(len(fleet))
+        other = pool_fleet([fleet[k] for k in order])
+        assert other.allowance_scale == pytest.approx(prior.allowance_scale, rel=1e-12, abs=0)
+        assert other.n_pairs == prior.n_pairs == 30
+        assert other.indicator_pairs == prior.indicator_pairs
+        assert other.task_spreads == pytest.approx(prior.task_spreads, rel=1e-12, nan_ok=True)
+        assert other.indicator_scales == pytest.approx(
+            prior.indicator_scales, rel=1e-12, nan_ok=True
+        )
+        assert other.allowances(99.0) == pytest.approx(prior.allowances(99.0), rel=1e-12)
+        # and so each axis's model, scored with it, whatever the order it was pooled in
+        for k in range(len(fleet)):
+            here = copy.deepcopy(fleet[k]).use_fleet(prior)
+            there = copy.deepcopy(fleet[k]).use_fleet(other)
+            assert there.threshold_ == pytest.approx(here.threshold_, rel=1e-12)
+            assert there.allowances_ == pytest.approx(here.allowances_, rel=1e-12)
 
 
 def test_pool_fleet_takes_its_scales_from_the_pairs_of_the_loop_twin() -> None:
@@ -467,12 +518,11 @@ def test_pool_fleet_takes_its_scales_from_the_pairs_of_the_loop_twin() -> None:
         [prior.task_spreads[n] for n in names],
         [_declared(n).sided == "up" for n in names],
     )
-    finite = [d for d in distances if d == d]
-    assert prior.n_pairs == len(finite) == 10
+    finite = [d for row in distances for d in row if d == d]
+    assert prior.n_pairs == len(finite) == 20  # 10 pairs, both ways
     assert prior.allowance_scale == pytest.approx(float(np.median(finite)) / math.log(2), rel=1e-12)
     for k, n in enumerate(names):
-        z = [row[k] for row in shifts if row[k] == row[k]]
-        assert prior.indicator_pairs[n] == len(z)
+        assert prior.indicator_pairs[n] == len(shifts[k])
         assert prior.indicator_scales[n] == pytest.approx(
-            float(np.median(z)) / math.log(2), rel=1e-12
+            float(np.median(shifts[k])) / math.log(2), rel=1e-12
         )

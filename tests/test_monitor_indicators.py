@@ -551,8 +551,10 @@ def test_the_fleet_pool_does_not_depend_on_which_worker_finishes_first(
     low_rate_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Baselines returned by the workers in the reverse order give the scores of the in-order
-    run, bit for bit: a pair's task shift is read in its first axis's spreads, so the fleet's
-    prior depends on the order the axes are pooled in, which must not be the workers'."""
+    run, bit for bit. The monitor pools them in (robot, axis) order (a608273: a pair's task shift
+    was read in its first axis's spreads, so the prior depended on the order); since i17a the
+    prior reads every pair both ways and does not depend on it
+    (``test_indicator_model.py::test_the_fleet_prior_does_not_depend_on_the_order_of_the_axes``)."""
     from axiswatch.monitor._parallel import WorkerPool
 
     def scores(name: str) -> pd.DataFrame:

@@ -28,6 +28,12 @@ FAULTY = {
     "robot02/axis1": ("bearing motor_inner_race",),
     "robot03/axis2": ("friction", "drive load"),
 }
+#: A healthy axis the default calls over its threshold at the demo's last capture (README, "What
+#: the demo shows": robot02/axis2, Coulomb friction 1.25 x its task-change allowance on 03-30).
+#: Since i17a the fleet prior reads every pair of axes both ways and does not depend on the order
+#: of the robot folders; read one way (main a3707e2) the demo listed it in 3 of the 6 orders of
+#: its robot folders, not in the order they have.
+FALSE_ALARMS = {"robot02/axis2": ("friction",)}
 
 
 def _chromium() -> str:
@@ -128,8 +134,8 @@ def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: 
 
     screen = _FirstScreen()
     screen.feed(loaded.stdout)
-    assert set(screen.items) == set(FAULTY), screen.items
-    for axis, components in FAULTY.items():
+    assert set(screen.items) == set(FAULTY) | set(FALSE_ALARMS), screen.items
+    for axis, components in {**FAULTY, **FALSE_ALARMS}.items():
         line = screen.items[axis]
         assert screen.kinds[axis] == "alarm", (axis, screen.kinds[axis])
         # The indicator that moved, the part it watches, and by how much.

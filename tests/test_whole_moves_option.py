@@ -313,8 +313,11 @@ def test_a_model_stored_in_format_7_is_refused_for_a_refit(monkeypatch: pytest.M
     monkeypatch.setattr(_persist, "PERSIST_FORMAT", 7)
     old = dump_model(model)
     monkeypatch.undo()
-    assert _persist.PERSIST_FORMAT == 8
-    with pytest.raises(ValueError, match=r"stored model has format 7; this axiswatch reads 8"):
+    current = _persist.PERSIST_FORMAT
+    assert current >= 8  # 8 added whole_moves (9: the fleet prior of ordered pairs, i17a)
+    with pytest.raises(
+        ValueError, match=rf"stored model has format 7; this axiswatch reads {current}"
+    ):
         load_model(old)
 
 
@@ -400,7 +403,10 @@ def test_the_option_scores_as_the_lab_variant(seed: int) -> None:
 #: Readings and the four fleet models' distances of two development captures, printed (repr) by
 #: main at 69f1b03, before the option existed, with the script of :func:`_default_record`. The
 #: option's loads differ on the first (robot 2's whole-move load_backward is 5.7727...), so these
-#: tell the default from the option.
+#: tell the default from the option. The distances printed again by i17a (the readings unchanged):
+#: the fleet prior reads every pair both ways since, which moved the allowances (at 69f1b03 the
+#: first capture's were 0.0318, 0.1929, 0.2686, 0.1751 and the second's 2.530, 0.790, 3.506,
+#: 0.663).
 PINNED: dict[tuple[int, int, str | None], dict[str, object]] = {
     (2, 0, None): {
         "coulomb_friction": 6.13595061675336,
@@ -408,10 +414,10 @@ PINNED: dict[tuple[int, int, str | None], dict[str, object]] = {
         "load_forward": 8.879870598719483,
         "load_backward": 5.626274895913613,
         "distances": [
-            0.031800221616502526,
-            0.19292390746634983,
-            0.2686020991033537,
-            0.175077946081231,
+            0.033797132508454876,
+            0.19176993770446477,
+            0.2669954620389547,
+            0.17403072151272636,
         ],
     },
     (4, 1, "friction"): {
@@ -420,9 +426,9 @@ PINNED: dict[tuple[int, int, str | None], dict[str, object]] = {
         "load_forward": 27.546879791166493,
         "load_backward": 27.81799968864668,
         "distances": [
-            2.5295315948524357,
-            0.7901769458293413,
-            3.506330528857182,
+            2.299386903091971,
+            0.7182841772218285,
+            3.1873136166287277,
             0.6634293964240624,
         ],
     },

@@ -18,15 +18,19 @@ estimated from what the user has:
   that only grow with a fault); the **distance** of a capture is the largest ``z`` over the
   indicators it gives.
 * with a fleet prior, each indicator has its own **task-change allowance** ``A_i``: each pair of
-  the fleet's axes is a healthy task change, and ``A_i`` is a percentile of the half-Laplace
-  whose scale is ``median / ln 2`` of that indicator's ``|z_i|`` over the pairs that read it (the
-  median keeps a faulty minority, under half of the pairs, from inflating it). The percentile is
+  the fleet's axes is a healthy task change, taken both ways as the monitor reads a capture
+  (:func:`fleet_pair_shifts`: axis ``a``'s centre against baseline ``b``'s, in ``b``'s spreads,
+  and ``b``'s against ``a``'s, so the prior does not depend on the order of the axes), and
+  ``A_i`` is a percentile of the half-Laplace whose scale is ``median / ln 2`` of that
+  indicator's ``|z_i|`` over the ordered pairs that read it (the median keeps a faulty minority,
+  under half of the pairs, from inflating it). The percentile is
   Bonferroni's ``100 - (100 - p) / m`` over the ``m`` indicators with an allowance, so that a
   healthy task change exceeds *some* allowance at most ``100 - p`` % of the time, as the one
   allowance of the largest shift did before. One allowance for all (the same percentile ``p``
-  of the half-Laplace of the pairs' largest shift) was set by the indicators a task change moves
-  most and hid a fault on the others (docs/evaluation.md, "Transfer"). An indicator read on
-  fewer than 3 pairs, or without a task spread, takes that one allowance. For an indicator that
+  of the half-Laplace of the ordered pairs' largest shift) was set by the indicators a task
+  change moves most and hid a fault on the others (docs/evaluation.md, "Transfer"). An indicator
+  read on fewer than 3 ordered pairs (2 axes), or without a task spread, takes that one
+  allowance. For an indicator that
   only grows with a fault the two-sided ``|z_i|`` makes its allowance conservative.
 * an axis whose own task is unlike the fleet's (a heavy payload on an arm, the other tasks
   alike) would take the fleet's typical allowance and alarm on every change away from its task:
@@ -49,14 +53,14 @@ estimated from what the user has:
   ``u_i = z_i / A_i``; the calibration captures' leave-one-out distances are in the same units
   and the **threshold** is the larger of 1 (an allowance) and the ``percentile`` of their
   half-Laplace fit. Without a fleet prior the distance is in spreads and the threshold is the
-  calibration fit alone. With 3 axes there are 3 pairs: the allowances are then a rough guess,
-  and the report says how many pairs they rest on.
+  calibration fit alone. With 3 axes there are 6 ordered pairs (3 pairs both ways): the
+  allowances are then a rough guess, and the report says how many pairs they rest on.
 * **the fleet check** (:func:`fleet_difference`): the axis's centre against the fleet's, in
   units of each indicator's task-change allowance; over 1, the baseline is reported
   (``fleet_check_``: already worn, or a task unlike the fleet's). It is made against the fleet
   *without* the axis (:func:`pool_fleet_without`, leave-self-out) whenever 3 other axes remain:
   pooled with the others, a worn axis inflates the task spreads and allowances it is checked
-  against (with 4 axes, 3 of the 6 pairs involve it) and hides. With fewer others it is checked
+  against (with 4 axes, half the pairs involve it) and hides. With fewer others it is checked
   against the fleet with itself included, and says so. Captures are always scored with the prior
   pooled over all the axes.
 * **the allowance only when the task changed** (``task_envelope_factor``, off by default: see
@@ -132,7 +136,8 @@ MAD_TO_SD = 1.4826
 #: Least readings for a spread; least axes for a fleet prior.
 MIN_READINGS = 3
 MIN_AXES = 3
-#: Least pairs of fleet axes reading an indicator for its own allowance (3 axes give 3 pairs).
+#: Least ordered pairs of fleet axes reading an indicator for its own allowance (3 axes give 6,
+#: 2 axes 2).
 MIN_PAIRS = 3
 #: Largest fleet whose new baselines are checked against the fleet without them
 #: (:func:`pool_fleet_without`). Measured on the development robots (docs/evaluation.md, "The
@@ -312,12 +317,14 @@ class FleetPrior:
     centre : dict of str to float
         The fleet's median reading per indicator.
     n_axes, n_pairs : int
+        The axes pooled, and the ordered pairs (each pair both ways: :func:`fleet_pair_shifts`)
+        that read an indicator, which ``allowance_scale`` rests on.
     indicator_scales : dict of str to float
         Per indicator with a task spread: the half-Laplace scale of its ``|z_i|`` between two
-        healthy axes (``median / ln 2`` over the pairs that read it); NaN when fewer than
-        ``MIN_PAIRS`` pairs read it or their median is 0.
+        healthy axes (``median / ln 2`` over the ordered pairs that read it); NaN when fewer
+        than ``MIN_PAIRS`` ordered pairs read it or their median is 0.
     indicator_pairs : dict of str to int
-        How many pairs each of those rests on.
+        How many ordered pairs each of those rests on.
     centres : tuple of dict of str to float
         Each pooled axis's centre (what an axis's own pairs are read from:
         :func:`own_pair_allowances`); a model keeps its prior without them once it has its own
@@ -396,12 +403,15 @@ def fleet_pair_shifts(
     within: NDArray[np.float64],
     task_spreads: NDArray[np.float64],
     one_sided: NDArray[np.bool_],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The shifts between every pair of a fleet's axes: what a healthy task change does.
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """The shifts between every ordered pair of a fleet's axes: what a healthy task change does.
 
-    For the pair of axes ``i < j`` and indicator ``k``, ``z = (c_ik - c_jk) / s_ik`` with
-    ``s_ik = sqrt(s_t,k^2 + s_w,ik^2)`` (axis ``i``'s centre read as a capture against axis
-    ``j``'s centre, in axis ``i``'s spreads, as :func:`pool_fleet` scores a pair).
+    For axes ``i != j`` and indicator ``k``, ``z_ijk = (c_ik - c_jk) / s_jk`` with
+    ``s_jk = sqrt(s_t,k^2 + s_w,jk^2)``: axis ``i``'s centre read as a capture against baseline
+    ``j``, in the baseline's spreads, as the monitor reads a capture. Every pair is taken both
+    ways, so nothing depends on the order the axes are listed in: a permutation of the axes
+    permutes the rows and columns of ``distances`` and leaves ``medians`` and ``counts`` as they
+    are (one pair read one way, ``i < j`` in ``i``'s spreads, made the prior depend on it).
 
     Parameters
     ----------
@@ -414,35 +424,50 @@ def fleet_pair_shifts(
 
     Returns
     -------
-    distances : ndarray of shape (n_pairs,)
-        Per pair (in the order of ``itertools.combinations``): the largest shift over the
-        indicators the pair reads (``max(z, 0)`` for one-sided ones, ``|z|`` otherwise); NaN
-        where the pair shares none.
-    shifts : ndarray of shape (n_pairs, n_indicators)
-        ``|z|`` per pair and indicator (a pair is a task change either way); NaN where not read.
-        Memory: two arrays of this shape, 64 MB for 1 000 axes and 8 indicators.
+    distances : ndarray of shape (n_axes, n_axes)
+        ``[i, j]``: the largest shift of the ordered pair (capture ``i``, baseline ``j``) over
+        the indicators it reads (``max(z, 0)`` for one-sided ones, ``|z|`` otherwise); NaN on
+        the diagonal and where the pair shares none.
+    medians : ndarray of shape (n_indicators,)
+        Per indicator, the median of ``|z_ijk|`` over the ordered pairs that read it (a pair is
+        a task change either way); NaN where none does or the indicator is left out.
+    counts : ndarray of int, shape (n_indicators,)
+        How many ordered pairs read each indicator.
+
+    Notes
+    -----
+    One indicator at a time: memory is ``distances`` and a few ``(n_axes, n_axes)``
+    temporaries, a peak of 40 MB at 1,000 axes whatever the number of indicators
+    (``tracemalloc``, 8 indicators; the unordered pairs read one way, with every indicator's
+    ``|z|`` kept, peaked at 128 MB).
 
     Examples
     --------
     >>> import numpy as np
-    >>> d, z = fleet_pair_shifts(np.array([[0.0], [3.0], [4.0]]), np.array([[4.0], [4.0], [4.0]]),
-    ...                          np.array([3.0]), np.array([False]))
-    >>> d.tolist(), z[:, 0].tolist()  # pairs (0, 1), (0, 2), (1, 2) in spreads of 5
-    ([0.6, 0.8, 0.2], [0.6, 0.8, 0.2])
+    >>> d, middle, n = fleet_pair_shifts(np.array([[0.0], [3.0], [8.0]]),
+    ...                                  np.array([[4.0], [4.0], [0.0]]),
+    ...                                  np.array([3.0]), np.array([False]))
+    >>> d.round(3).tolist()  # [i, j]: c_i - c_j in spreads of baseline j: 5, 5 and 3
+    [[nan, 0.6, 2.667], [0.6, nan, 1.667], [1.6, 1.0, nan]]
+    >>> float(middle[0].round(3)), int(n[0])  # median |z| of the 6 ordered pairs
+    (1.3, 6)
     """
     n_axes, n_indicators = centres.shape
+    distances = np.full((n_axes, n_axes), np.nan)
+    medians = np.full(n_indicators, np.nan)
+    counts = np.zeros(n_indicators, dtype=np.int64)
     usable = np.isfinite(task_spreads) & (task_spreads > 0)
-    scales = np.where(usable, np.hypot(task_spreads, within), np.nan)
-    z = np.empty((n_axes * (n_axes - 1) // 2, n_indicators))
-    start = 0
-    for i in range(n_axes - 1):  # one axis's pairs at a time: O(n) NumPy calls, no copies
-        stop = start + n_axes - 1 - i
-        np.divide(centres[i] - centres[i + 1 :], scales[i], out=z[start:stop])
-        start = stop
-    shift = np.where(one_sided, np.maximum(z, 0.0), np.abs(z))
-    # fmax ignores NaN: the largest shift over the indicators read, NaN only where none is.
-    distances = np.fmax.reduce(shift, axis=1) if n_indicators else np.full(z.shape[0], np.nan)
-    return distances, np.abs(z, out=z)
+    for k in np.flatnonzero(usable):
+        # Row i the capture, column j the baseline and its spreads.
+        z = (centres[:, k, None] - centres[None, :, k]) / np.hypot(task_spreads[k], within[:, k])
+        np.fill_diagonal(z, np.nan)  # an axis against itself is no task change
+        # fmax ignores NaN: the largest shift over the indicators read, NaN only where none is.
+        np.fmax(distances, np.maximum(z, 0.0) if one_sided[k] else np.abs(z), out=distances)
+        read = np.abs(z[np.isfinite(z)])
+        counts[k] = read.size
+        if read.size:
+            medians[k] = np.median(read)
+    return distances, medians, counts
 
 
 def _order_line_pairs(
@@ -451,29 +476,23 @@ def _order_line_pairs(
     task_spread: float,
     distances: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The pairs' distances with their ``order_lines`` shift, and that indicator's ``|z|``.
+    """The ordered pairs' distances (:func:`fleet_pair_shifts`) with their ``order_lines``
+    shift, and that indicator's ``|z|`` over the ordered pairs.
 
-    The order lines are read against each axis's own reference: a pair's shift is axis ``i``'s
-    reading of axis ``j``'s captures against ``i``'s own centre (and, for the indicator's own
-    scale, both ways).
+    The order lines are read against each axis's own reference: the ordered pair (capture
+    ``i``, baseline ``j``) is baseline ``j``'s reading of axis ``i``'s captures against ``j``'s
+    own centre, in ``j``'s spreads, as :func:`fleet_pair_shifts` reads the other indicators.
     """
-    read_by = dict(cross)
     out = distances.copy()
     shifts: list[float] = []
     name = ORDER_LINES.name
-    for p, ((i, a), (j, b)) in enumerate(itertools.combinations(enumerate(models), 2)):
-        if name not in a.centre_:
-            continue
-        scale = math.hypot(task_spread, a.within_.get(name, math.nan))
-        if not math.isfinite(scale):
-            continue
-        z = (read_by.get((i, j), math.nan) - a.centre_[name]) / scale
+    for (j, i), seen in cross:  # model j's order_lines of model i's captures
+        baseline = models[j]
+        scale = math.hypot(task_spread, baseline.within_.get(name, math.nan))
+        z = (seen - baseline.centre_.get(name, math.nan)) / scale
         if math.isfinite(z):
-            out[p] = max(z, 0.0) if not math.isfinite(out[p]) else max(out[p], z, 0.0)
-        back = math.hypot(task_spread, b.within_.get(name, math.nan))
-        for shift in (z, (read_by.get((j, i), math.nan) - b.centre_.get(name, math.nan)) / back):
-            if math.isfinite(shift):
-                shifts.append(abs(shift))
+            out[i, j] = max(z, 0.0) if not math.isfinite(out[i, j]) else max(out[i, j], z, 0.0)
+            shifts.append(abs(z))
     return out, np.asarray(shifts, dtype=np.float64)
 
 
@@ -533,24 +552,26 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
     columns = [n for n in spread if n != ORDER_LINES.name]
     shape = (len(columns), len(models))  # transposed below: one row per axis
     within_rows = [[m.within_.get(n, math.nan) for m in models] for n in columns]
-    pair_d, pair_z = fleet_pair_shifts(
+    pair_d, medians, counts = fleet_pair_shifts(
         np.array([centres[n] for n in columns], dtype=np.float64).reshape(shape).T,
         np.array(within_rows, dtype=np.float64).reshape(shape).T,
         np.array([task_spreads[n] for n in columns]),
         np.array([_declared(n).sided == "up" for n in columns], dtype=bool),
     )
-    pair_shifts = {n: pair_z[:, c][np.isfinite(pair_z[:, c])] for c, n in enumerate(columns)}
+    pair_shifts = {n: (float(medians[c]), int(counts[c])) for c, n in enumerate(columns)}
     if ORDER_LINES.name in spread:
-        pair_d, pair_shifts[ORDER_LINES.name] = _order_line_pairs(
-            models, cross, task_spreads[ORDER_LINES.name], pair_d
+        pair_d, order_z = _order_line_pairs(models, cross, task_spreads[ORDER_LINES.name], pair_d)
+        pair_shifts[ORDER_LINES.name] = (
+            float(np.median(order_z)) if order_z.size else math.nan,
+            int(order_z.size),
         )
     distances = pair_d[np.isfinite(pair_d)]
     if not distances.size:
         raise CalibrationError("No indicator is read on enough axes of the fleet to pool.")
     scale = max(float(np.median(distances)) / math.log(2.0), 1e-12)
     indicator_scales = {
-        n: float(np.median(z)) / math.log(2.0) if len(z) >= MIN_PAIRS else math.nan
-        for n, z in pair_shifts.items()
+        n: middle / math.log(2.0) if count >= MIN_PAIRS else math.nan
+        for n, (middle, count) in pair_shifts.items()
     }
     return FleetPrior(
         task_spreads,
@@ -559,7 +580,7 @@ def pool_fleet(models: Sequence[IndicatorModel]) -> FleetPrior:
         len(models),
         int(distances.size),
         indicator_scales,
-        {n: len(z) for n, z in pair_shifts.items()},
+        {n: count for n, (_, count) in pair_shifts.items()},
         tuple(dict(m.centre_) for m in models),
     )
 
@@ -569,7 +590,7 @@ def pool_fleet_without(models: Sequence[IndicatorModel], index: int) -> FleetPri
     checked against (leave-self-out).
 
     Pooled with the others, a worn axis inflates the task spreads and allowances it is checked
-    against: with 4 axes, 3 of the 6 pairs involve it and their median is a worn pair's.
+    against: with 4 axes, half the pairs involve it and their median is a worn pair's.
 
     Parameters
     ----------
@@ -1179,7 +1200,7 @@ class IndicatorModel:
             own = sum(math.isfinite(v) for v in self.fleet.indicator_scales.values())
             self.notes_.append(
                 f"task-change allowances from {self.fleet.n_axes} axes ({self.fleet.n_pairs} "
-                f"pairs): {own} indicators their own, the others the fleet's one allowance "
+                f"ordered pairs): {own} indicators their own, the others the fleet's one allowance "
                 f"{self.fleet.allowance(self.percentile):.2f} spreads; calibration threshold "
                 f"{fitted:.2f} allowances"
             )

@@ -498,8 +498,11 @@ def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str],
             if next_job is not None:
                 retry.append(next_job)
         jobs = retry
-    # Workers finish in any order; the fleet's pool (its medians and sums) must see the axes in
-    # one order, or a run on several workers scores differently from a serial one.
+    # Workers finish in any order. The fleet's prior no longer depends on the order its axes are
+    # pooled in (each pair is read both ways, in its baseline's spreads: fleet_pair_shifts; read
+    # one way it did, and a run on several workers scored differently from a serial one); the
+    # baselines are still accepted in one order, so a run on several workers stores them (their
+    # ids) and lists their checks as a serial run does.
     fitted.sort(key=lambda outcome: (outcome.job.file.robot, outcome.job.file.axis))
     for outcome in _with_fleet_priors(run, fitted):
         _accept_baseline(run, by_axis[(outcome.job.file.robot, outcome.job.file.axis)], outcome)

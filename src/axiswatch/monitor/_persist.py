@@ -57,8 +57,11 @@ __all__ = [
 #: capture of another task). 8: an indicator model keeps ``whole_moves`` and ``se_ref_``, and
 #: its readings their friction standard errors (``errors``; empty without ``whole_moves``): a
 #: format-7 blob would come back without them, so it is refitted (to the same model, for the
-#: default).
-PERSIST_FORMAT = 8
+#: default). 9: a fleet prior's scales are medians over the ordered pairs of its axes, each read
+#: in its baseline's spreads (:func:`~axiswatch._indicator_model.fleet_pair_shifts`), and its
+#: ``n_pairs`` counts them; a format-8 model keeps a prior that depends on the order its fleet
+#: was listed in (and counts the pairs one way), so it is refitted and pooled again.
+PERSIST_FORMAT = 9
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
