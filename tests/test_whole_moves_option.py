@@ -578,11 +578,22 @@ def test_the_transfer_command_gives_the_option_to_the_design(
     monkeypatch.setattr(_transfer, "transfer_study", study)
     monkeypatch.setattr(_transfer, "real_data_transfer", real)
     args = ["transfer", "--out", str(tmp_path / "t"), "--robots", "0", "--fast"]
-    assert runner.invoke(experiment_app, [*args, "--whole-moves"]).exit_code == 0
+    assert runner.invoke(experiment_app, [*args, "--whole-moves", "--real-data"]).exit_code == 0
     assert asked["design"] == dataclasses.replace(_transfer.FAST_DESIGN, whole_moves=True)
     assert asked["real"] == {"order_lines": False, "whole_moves": True}
-    assert runner.invoke(experiment_app, args).exit_code == 0
+    asked.clear()
+    done = runner.invoke(experiment_app, args)
+    assert done.exit_code == 0
     assert asked["design"] == _transfer.FAST_DESIGN
+    # Robots chosen by seed (or the development ones) never read the real data unasked.
+    assert "real" not in asked
+    assert "real data not read" in done.output
+    held_out = ["transfer", "--out", str(tmp_path / "h"), "--fast"]
+    assert runner.invoke(experiment_app, held_out).exit_code == 0
+    assert asked["real"] == {"order_lines": False, "whole_moves": False}
+    asked.clear()
+    assert runner.invoke(experiment_app, [*held_out, "--no-real-data"]).exit_code == 0
+    assert "real" not in asked
 
 
 def test_the_transfer_design_fits_its_models_with_the_option(

@@ -241,6 +241,14 @@ def experiment_transfer(
             "from whole moves, loose friction readings widened (docs/evaluation.md)."
         ),
     ] = False,
+    real_data: Annotated[
+        bool | None,
+        typer.Option(
+            "--real-data/--no-real-data",
+            help="Also score the real data sets (default: only with --robots held-out, so that "
+            "a development run never reads them).",
+        ),
+    ] = None,
 ) -> None:
     """Transfer study (issue 13): held-out simulated robots and the real data sets."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
@@ -275,6 +283,9 @@ def experiment_transfer(
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "robots.csv", index=False)
     typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
+    if not (robots == "held-out" if real_data is None else real_data):
+        typer.echo(f"\nwrote {out / 'robots.csv'} (real data not read: --real-data reads it)")
+        return
     folder = data if data is not None else default_data_dir("hydraulic_actuator").parent
     real = real_data_transfer(folder, order_lines=order_lines, whole_moves=whole_moves)
     real.to_csv(out / "real.csv", index=False)
