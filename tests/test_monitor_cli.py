@@ -234,6 +234,21 @@ def test_monitor_prints_a_summary_that_fits_a_terminal(fleet: Path, tmp_path: Pa
     )
 
 
+def test_a_reader_that_goes_away_is_not_an_error(fleet: Path, tmp_path: Path) -> None:
+    """`axiswatch monitor ... | head -1`: the pipe closes before the summary is written; the
+    command stops quietly (Click's exit status 1 for a broken pipe) instead of printing
+    'error: [Errno 32] Broken pipe' as if monitoring had failed."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "axiswatch", "monitor", str(fleet), "--store",
+         str(tmp_path / "s.db"), "--method", "pca"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert run.stdout is not None
+    run.stdout.close()  # the reader is gone before the first line
+    _, err = run.communicate(timeout=300)
+    assert (run.returncode, err) == (1, "")
+
+
 def test_backup_command_copies_every_result_and_never_overwrites(
     fleet: Path, tmp_path: Path
 ) -> None:

@@ -48,6 +48,8 @@ def _failures(debug: bool) -> Iterator[None]:
 
     try:
         yield
+    except BrokenPipeError:
+        raise  # the reader went away (`| head`): Click exits quietly, nothing failed
     except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
         if debug:
             raise
