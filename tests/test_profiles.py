@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._profiles import AxisProfile, find_profile
+from axiswatch.exceptions import ProfileError
 
 
 def _controller_csv(path: Path, *, irregular: bool = False) -> Path:
@@ -87,7 +89,7 @@ def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("data", "message"),
     [
-        ({"colums": {}}, r"Unknown key\(s\) \['colums'\]"),
+        ({"colums": {}}, r"unknown key\(s\) \['colums'\]"),
         ({"columns": {"x": "angle"}}, "maps to role 'angle'"),
         ({"units": {"time": "min"}}, "time unit must be one of"),
         ({"units": {"position": "grad"}}, "position unit must be one of"),
@@ -98,6 +100,43 @@ def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
 def test_bad_profiles_are_named(data: dict[str, object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         AxisProfile.from_dict(data)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('columns = "time"', r"'columns' must be a table \(\[columns\].*got 'time' \(str\)"),
+        ("[columns]\nt = 1", r"\[columns\]: 't' must map to a quoted role.*got 1 \(int\)"),
+        ("[units]\nposition = 3", r"\[units\]: 'position' must be a quoted string; got 3"),
+        ("[units]\ntorque = 5", r"\[units\]: 'torque' must be a quoted string; got 5"),
+        ('resample_irregular = "no"', r"'resample_irregular' must be true or false.*'no' \(str\)"),
+        ("name = 3", r"'name' must be a quoted string; got 3 \(int\)"),
+        (
+            '[kinematics]\ngear_ratio = "abc"',
+            r"\[kinematics\]: 'gear_ratio' must be a number > 0; got 'abc' \(str\)",
+        ),
+        ('[kinematics]\ngear_stages = "x"', r"\[kinematics\]: 'gear_stages' must be a table"),
+        ("[kinematics.bearing_orders]\nb = true", r"bearing_orders\.b must be a number > 0"),
+        ("[colums]\nt = 'time'", r"unknown key\(s\) \['colums'\]; expected some of"),
+    ],
+)
+def test_wrong_types_in_a_profile_file_name_the_file_and_key(
+    tmp_path: Path, text: str, message: str
+) -> None:
+    # Before: 'columns = "time"' raised "dictionary update sequence element #0 ...", a string
+    # gear ratio "could not convert string to float", and "no", 3 or a quoted ratio were
+    # silently taken (resample_irregular = "no" turned resampling on).
+    path = tmp_path / "robot.toml"
+    path.write_text(text + "\n")
+    with pytest.raises(ProfileError, match=f"{re.escape(str(path))}.*{message}"):
+        AxisProfile.from_toml(path)
+
+
+def test_a_profile_that_is_not_utf8_text_names_the_file(tmp_path: Path) -> None:
+    path = tmp_path / "axis.toml"
+    path.write_bytes(b"name = '\xff\xfe'\n")
+    with pytest.raises(ProfileError, match="axis profile must be UTF-8 text"):
+        AxisProfile.from_toml(path)
 
 
 def test_unreadable_toml_names_the_file(tmp_path: Path) -> None:

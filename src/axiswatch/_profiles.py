@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch.exceptions import CaptureError
+from axiswatch.exceptions import CaptureError, ProfileError
 
 __all__ = ["AxisProfile", "find_profile"]
 
@@ -60,9 +60,37 @@ FLEET_PROFILE = "axiswatch.toml"
 def _check(mapping: Mapping[str, Any], allowed: set[str], where: str) -> None:
     unknown = sorted(set(mapping) - allowed)
     if unknown:
-        raise ValueError(
-            f"Unknown key(s) {unknown} in {where}; expected some of {sorted(allowed)}."
+        raise ProfileError(
+            f"{where}: unknown key(s) {unknown}; expected some of {sorted(allowed)}."
         )
+
+
+def _got(value: object) -> str:
+    return f"{value!r} ({type(value).__name__})"
+
+
+def _table(data: Mapping[str, Any], key: str, where: str) -> dict[str, Any]:
+    """The TOML table ``key`` of ``data`` (empty when absent); anything else is an error."""
+    value = data.get(key, {})
+    if not isinstance(value, Mapping):
+        raise ProfileError(
+            f"{where}: '{key}' must be a table ([{key}] with lines such as name = value); "
+            f"got {_got(value)}."
+        )
+    return dict(value)
+
+
+def _text(data: Mapping[str, Any], key: str, where: str, default: str | None) -> str | None:
+    value = data.get(key, default)
+    if value is not None and not isinstance(value, str):
+        raise ProfileError(f"{where}: '{key}' must be a quoted string; got {_got(value)}.")
+    return value
+
+
+def _number(value: object, key: str, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ProfileError(f"{where}: '{key}' must be a number > 0; got {_got(value)}.")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -112,49 +140,67 @@ class AxisProfile:
         where = f"axis profile {self.source}"
         for column, role in self.columns.items():
             if role not in ROLES:
-                raise ValueError(
+                raise ProfileError(
                     f"{where}: column {column!r} maps to role {role!r}; expected one of {list(ROLES)}."
                 )
         if self.time_unit not in TIME_UNITS:
-            raise ValueError(
+            raise ProfileError(
                 f"{where}: time unit must be one of {list(TIME_UNITS)}. Got {self.time_unit!r} instead."
             )
         if self.position_unit not in POSITION_UNITS:
-            raise ValueError(
+            raise ProfileError(
                 f"{where}: position unit must be one of {list(POSITION_UNITS)}. "
                 f"Got {self.position_unit!r} instead."
             )
         if self.gear_ratio is not None and not self.gear_ratio > 0:
-            raise ValueError(f"{where}: gear_ratio must be > 0. Got {self.gear_ratio!r} instead.")
+            raise ProfileError(f"{where}: gear_ratio must be > 0. Got {self.gear_ratio!r} instead.")
         for label, table in (
             ("gear_stages", self.gear_stages),
             ("bearing_orders", self.bearing_orders),
         ):
             for key, value in table.items():
-                if not (isinstance(value, int | float) and value > 0):
-                    raise ValueError(f"{where}: {label}.{key} must be a number > 0. Got {value!r}.")
+                if isinstance(value, bool) or not (isinstance(value, int | float) and value > 0):
+                    raise ProfileError(
+                        f"{where}: {label}.{key} must be a number > 0. Got {value!r}."
+                    )
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "<memory>") -> AxisProfile:
         """A profile from the TOML file's tables (``name``, ``columns``, ``units``,
         ``resample_irregular``, ``kinematics``)."""
         _check(data, {"name", "columns", "units", "resample_irregular", "kinematics"}, source)
-        units = dict(data.get("units", {}))
+        columns = _table(data, "columns", source)
+        for column, role in columns.items():
+            if not isinstance(role, str):
+                raise ProfileError(
+                    f"{source} [columns]: {column!r} must map to a quoted role, one of "
+                    f"{list(ROLES)}; got {_got(role)}."
+                )
+        units = _table(data, "units", source)
         _check(units, {"time", "position", "torque"}, f"{source} [units]")
-        kinematics = dict(data.get("kinematics", {}))
+        for key in units:
+            _text(units, key, f"{source} [units]", None)
+        resample = data.get("resample_irregular", False)
+        if not isinstance(resample, bool):
+            raise ProfileError(
+                f"{source}: 'resample_irregular' must be true or false (unquoted); "
+                f"got {_got(resample)}."
+            )
+        kinematics = _table(data, "kinematics", source)
         _check(
             kinematics, {"gear_ratio", "gear_stages", "bearing_orders"}, f"{source} [kinematics]"
         )
         ratio = kinematics.get("gear_ratio")
+        where = f"{source} [kinematics]"
         return cls(
-            name=data.get("name"),
-            columns=dict(data.get("columns", {})),
+            name=_text(data, "name", source, None),
+            columns=columns,
             time_unit=units.get("time", "s"),
             position_unit=units.get("position", "rad"),
-            resample_irregular=bool(data.get("resample_irregular", False)),
-            gear_ratio=None if ratio is None else float(ratio),
-            gear_stages=dict(kinematics.get("gear_stages", {})),
-            bearing_orders=dict(kinematics.get("bearing_orders", {})),
+            resample_irregular=resample,
+            gear_ratio=None if ratio is None else _number(ratio, "gear_ratio", where),
+            gear_stages=_table(kinematics, "gear_stages", where),
+            bearing_orders=_table(kinematics, "bearing_orders", where),
             source=source,
         )
 
@@ -165,9 +211,13 @@ class AxisProfile:
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
-            raise CaptureError(f"{path}: no such axis profile file.") from None
+            raise ProfileError(f"{path}: no such axis profile file.") from None
+        except UnicodeDecodeError as exc:
+            raise ProfileError(
+                f"{path}: an axis profile must be UTF-8 text (TOML); {exc}."
+            ) from exc
         except tomllib.TOMLDecodeError as exc:
-            raise CaptureError(f"{path}: not a valid TOML axis profile: {exc}.") from exc
+            raise ProfileError(f"{path}: not a valid TOML axis profile: {exc}.") from exc
         return cls.from_dict(data, source=str(path))
 
     @classmethod

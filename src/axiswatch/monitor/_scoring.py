@@ -25,7 +25,7 @@ from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
-from axiswatch.exceptions import CalibrationError, CaptureError
+from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._indicators import (
@@ -347,10 +347,12 @@ def _one_line(exc: BaseException, path: Path, relative: str) -> str:
 
 def _failure_kind(exc: BaseException) -> tuple[str, bool]:
     """Kind of a job's failure and whether it is transient: an operating-system error reading
-    the file (permission, I/O error on a share) may pass; a malformed capture does not."""
+    the file (permission, I/O error on a share) may pass; a malformed capture does not. A
+    malformed axis profile is transient too: the capture is read again once the profile is
+    fixed, though the capture file itself does not change."""
     if isinstance(exc, OSError) and not isinstance(exc, CaptureError):
         return "unreadable", True
-    return "invalid", False
+    return "invalid", isinstance(exc, ProfileError)
 
 
 def _bad_data(relative: str, problem: str) -> str:
@@ -437,8 +439,8 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
     """The baseline and the next readable captures, read and fitted as one IndicatorModel; an
     outcome ``waiting`` while fewer than ``calibration_size`` captures give a reading."""
     path = job.file.path
-    profile = profile_for(job.file, job.profile)
     try:
+        profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
         capture = read_capture(path, profile=profile)
         problem = data_quality_problem(capture)
