@@ -283,7 +283,7 @@ def _uniform(frame: pd.DataFrame, path: Path) -> pd.DataFrame:
         k = int(np.flatnonzero(steps <= 0)[0])
         raise CaptureError(
             f"{path}: column 'time' must be strictly increasing; row {k + 1} has "
-            f"t={time_s[k + 1]!r} s after t={time_s[k]!r} s."
+            f"t={time_s[k + 1]:.9g} s after t={time_s[k]:.9g} s."
         )
     step = float(np.median(steps))
     grid = np.arange(0.0, time_s[-1] + 0.5 * step, step)
