@@ -11,6 +11,8 @@ import pytest
 import axiswatch as aw
 import axiswatch._capture
 from axiswatch import CaptureError
+from axiswatch._capture import sampling_period
+from tests.naive import sampling_period_naive
 
 
 @pytest.mark.parametrize("suffix", [".parquet", ".csv"])
@@ -108,15 +110,25 @@ def test_a_row_written_twice_is_read_once_a_repeated_stamp_is_named(tmp_path: Pa
         aw.read_capture(_write(tmp_path, doubled))
 
 
-def test_jittered_stamps_give_the_rate_of_their_mean_step(tmp_path: Path) -> None:
+def test_jittered_stamps_give_the_rate_of_their_least_squares_slope(tmp_path: Path) -> None:
     # A logger's clock jittering 1 % of the period: before, the rate was the median step's,
     # 0.08 % off, and the capture was rejected against the baseline's rate (0.1 %).
     n = 400
     t = np.arange(n) / 100.0 + np.random.default_rng(3).normal(0.0, 1e-4, n)
     frame = pd.DataFrame({"time": t, "speed": np.sin(t), "torque": np.cos(t)})
     capture = aw.read_capture(_write(tmp_path, frame), expected_rates_hz={"speed": 100.0})
-    assert capture.rates_hz["speed"] == pytest.approx((n - 1) / (t[-1] - t[0]), rel=1e-12)
+    assert capture.rates_hz["speed"] == pytest.approx(1 / sampling_period_naive(list(t)), rel=1e-12)
     assert capture.rates_hz["speed"] == pytest.approx(100.0, rel=1e-4)
+
+
+def test_sampling_period_is_the_naive_least_squares_slope_or_the_exact_step() -> None:
+    rng = np.random.default_rng(7)
+    jittered = np.arange(500) * 0.01 + rng.uniform(-0.002, 0.002, 500)
+    assert sampling_period(jittered) == pytest.approx(
+        sampling_period_naive(jittered.tolist()), rel=1e-12
+    )
+    exact = np.arange(500) / 2000.0
+    assert sampling_period(exact) == float(np.median(np.diff(exact)))
 
 
 def test_rate_differs_from_expected(tmp_path: Path) -> None:

@@ -285,6 +285,28 @@ def test_an_axis_short_of_calibration_captures_waits(tmp_path: Path) -> None:
     assert summary.scored == 6
 
 
+def test_an_axis_whose_later_captures_cannot_be_used_says_why_it_waits(tmp_path: Path) -> None:
+    # Before: "calibrating, 0 of 5 captures ... give a reading" and nothing else, run after run,
+    # while six later captures sat in the folder at another rate than the baseline's.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    _write(robot.capture(0, seed=0), root, "r1", "a1", 0)
+    for day in range(1, 7):
+        capture = robot.capture(0, seed=day)
+        halved = {name: values[::2] for name, values in capture.signals.items()}
+        rates = {name: rate / 2 for name, rate in capture.rates_hz.items()}
+        _write(aw.Capture(halved, rates), root, "r1", "a1", day)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    rate = robot.capture(0, seed=0).rates_hz["position"]
+    assert summary.calibrating == [
+        "r1/a1: calibrating, 0 of 5 captures after the baseline r1/a1/2026-03-01.parquet give "
+        "a reading; the indicators baseline is set once all have arrived (6 could not be used; "
+        f"the first: r1/a1/2026-03-02.parquet: column 'position' is sampled at {rate / 2:.6g} Hz; "
+        f"expected {rate:.6g} Hz (the baseline's rate))"
+    ]
+
+
 def test_a_faulty_first_capture_is_reported(tmp_path: Path) -> None:
     root = tmp_path / "fleet"
     robot = draw_robot(ROBOT_SEED)

@@ -71,6 +71,23 @@ def test_irregular_stamps_need_the_option(tmp_path: Path) -> None:
     assert capture.rates_hz["torque"] == pytest.approx(250.0, rel=0.05)
 
 
+def test_resampled_captures_of_one_jittering_clock_share_its_rate(tmp_path: Path) -> None:
+    # A 100 Hz logger whose stamps jitter by up to 20 % of the period: before, each capture was
+    # put on a grid at its median step, which moved by ~0.2 % from capture to capture, and the
+    # captures after the baseline were refused for another rate than the baseline's.
+    lenient = AxisProfile(resample_irregular=True)
+    rng = np.random.default_rng(11)
+    rates = []
+    for k in range(4):
+        t = np.arange(400) / 100.0 + rng.uniform(-0.002, 0.002, 400)
+        path = tmp_path / f"c{k}.csv"
+        pd.DataFrame({"time": t, "position": np.sin(t), "torque": np.cos(t)}).to_csv(path)
+        expected = None if not rates else {"position": rates[0]}
+        capture = aw.read_capture(path, expected_rates_hz=expected, profile=lenient)
+        rates.append(capture.rates_hz["position"])
+    assert rates == pytest.approx([100.0] * 4, rel=2e-4)
+
+
 def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
     path = tmp_path / "axis.toml"
     path.write_text(

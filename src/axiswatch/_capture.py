@@ -33,6 +33,7 @@ __all__ = [
     "as_capture",
     "capture_to_frame",
     "read_capture",
+    "sampling_period",
     "write_capture",
 ]
 
@@ -41,6 +42,40 @@ DEFAULT_SIGNALS: tuple[str, ...] = ("position", "speed", "torque")
 #: Relative tolerance on the spacing of time stamps of one signal: loggers jitter a little, but a
 #: step that is 1.5 periods or more means a missing (NaN) sample.
 _SPACING_RTOL = 0.25
+
+
+def sampling_period(stamps: NDArray[np.float64]) -> float:
+    """Sampling period of uniformly meant time stamps, in their unit.
+
+    Exact stamps (every step within 1e-9 of their median) give their median step; jittered ones
+    (a logger's clock) the least-squares slope of the stamps on the sample index. The median of
+    jittered steps, or the mean step (set by the jitter of the two end stamps alone), moves from
+    capture to capture by a share of the jitter, and every capture's rate is checked against its
+    baseline's to 0.1 %; the slope's error falls as ``n ** -1.5``.
+
+    Parameters
+    ----------
+    stamps : ndarray of shape (n_samples,)
+        Increasing time stamps, at least 2.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> sampling_period(np.array([0.0, 0.5, 1.0, 1.5]))
+    0.5
+    >>> round(sampling_period(np.array([0.0, 0.11, 0.19, 0.31, 0.4])), 12)  # jittered 0.1 s
+    0.1
+    """
+    steps = np.diff(stamps)
+    median = float(np.median(steps))
+    if np.abs(steps - median).max() <= 1e-9 * median:
+        return median
+    index = np.arange(stamps.size, dtype=np.float64)
+    centred = index - index.mean()
+    return float(np.dot(centred, stamps - stamps.mean()) / np.dot(centred, centred))
 
 
 @dataclass(frozen=True)
@@ -248,10 +283,23 @@ def _signal_from_column(
     off = np.flatnonzero(np.abs(steps - period) > _SPACING_RTOL * period)
     if off.size:
         k = off[0]
+        between = (time_s > stamps[k]) & (time_s < stamps[k + 1])
+        if between.any():  # the file has rows there, blank in this column
+            where = time_s[between]
+            raise CaptureError(
+                f"{path}: column '{name}' is not uniformly sampled: blank (NaN) at "
+                f"t={where[0]:.6g} s ({where.size} row(s)) inside the signal, whose period is "
+                f"{period:.6g} s; expected a value at each of its sampling instants."
+            )
+        cause = (
+            "a gap in time"
+            if steps[k] > 1.5 * period
+            else "irregular stamps? resample_irregular = true in the axis profile puts them on "
+            "a uniform grid"
+        )
         raise CaptureError(
             f"{path}: column '{name}' is not uniformly sampled: step of {steps[k]:.6g} s after "
-            f"t={stamps[k]:.6g} s where the signal's period is {period:.6g} s "
-            f"(a NaN inside the signal, or a jump in time)."
+            f"t={stamps[k]:.6g} s where the signal's period is {period:.6g} s ({cause})."
         )
     # A signal sampled on a coarser grid than the file's rows: every row between its first and last
     # sample that lies on its own grid must hold a value.
@@ -265,13 +313,9 @@ def _signal_from_column(
             f"{path}: column '{name}' has NaN inside the signal at t={time_s[first + holes[0]]:.6g} s; "
             "expected a value at each of the signal's own sampling instants."
         )
-    # Exact stamps keep the median step; jittered ones (a logger's clock) give their mean step,
-    # (last - first) / (n - 1): the median of jittered steps is off by a share of the jitter, and
-    # the rate is checked against the baseline's to 0.1 % (1 % jitter gave 99.94 Hz against the
-    # baseline's 100.06 Hz, and a readable capture was rejected).
-    if np.abs(steps - period).max() > 1e-9 * period:
-        period = float(stamps[-1] - stamps[0]) / (stamps.size - 1)
-    return column[present], 1.0 / period, float(stamps[0])
+    # With the median step, 1 % jitter gave 99.94 Hz against the baseline's 100.06 Hz, and a
+    # readable capture was rejected.
+    return column[present], 1.0 / sampling_period(stamps), float(stamps[0])
 
 
 def read_capture(

@@ -460,6 +460,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
         return FitOutcome(job, "", None, None, {}, digest, "", error, "not scored")
     reference = QualityReference.of(capture)
     readings, hashes, paths = [baseline], [digest], [job.relative]
+    unusable: list[str] = []  # why, for the axis's line while it waits
     for file, relative in zip(job.calibration, job.relatives, strict=True):
         if len(readings) > job.calibration_size:
             break
@@ -468,7 +469,9 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             calibration = read_capture(
                 file.path, expected_rates_hz=capture.rates_hz, profile=profile
             )
-            if data_quality_problem(calibration, reference) is not None:
+            problem = data_quality_problem(calibration, reference)
+            if problem is not None:
+                unusable.append(_bad_data(relative, problem))
                 continue
             read = read_axis_indicators(
                 calibration,
@@ -480,7 +483,10 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
                 readings.append(read)
                 hashes.append(file_hash(file.path))
                 paths.append(relative)
-        except _DATA_ERRORS:
+            else:
+                unusable.append(f"{relative}: no indicator can be read")
+        except _DATA_ERRORS as exc:
+            unusable.append(_one_line(exc, file.path, relative))
             continue
     if len(readings) <= job.calibration_size:
         waiting = (
@@ -488,6 +494,11 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             f"{job.calibration_size} captures after the baseline {job.relative} give a reading; "
             "the indicators baseline is set once all have arrived"
         )
+        if unusable:
+            # Otherwise an axis whose later captures all fail (another rate than the baseline's)
+            # waits for ever without a word of why.
+            first = unusable[0].removesuffix(".")
+            waiting += f" ({len(unusable)} could not be used; the first: {first})"
         return FitOutcome(job, "", None, None, {}, digest, "", None, waiting=waiting)
     try:
         fitted = fit_indicator_baseline(
