@@ -131,6 +131,55 @@ def test_sampling_period_is_the_naive_least_squares_slope_or_the_exact_step() ->
     assert sampling_period(exact) == float(np.median(np.diff(exact)))
 
 
+def test_iso_8601_and_datetime_stamps_are_read_as_seconds_from_the_first(tmp_path: Path) -> None:
+    # Before: "column 'time' must be numeric; found non-numeric value '2026-01-01T06:00:00'" and,
+    # for a Parquet datetime column, "found non-numeric value None (dtype datetime64[ns])".
+    frame = _frame()
+    start = pd.Timestamp("2026-01-01T06:00:00")
+    dated = frame.assign(time=start + pd.to_timedelta(frame["time"], unit="s"))
+    iso = dated.assign(time=dated["time"].map(lambda t: t.isoformat() + "+01:00"))
+    for path in (
+        _write(tmp_path, iso, "iso.csv"),
+        _write(tmp_path, dated.assign(time=dated["time"].astype(str)), "text.csv"),
+    ):
+        capture = aw.read_capture(path)
+        assert capture.rates_hz["speed"] == pytest.approx(2000.0, rel=1e-9)
+        assert capture.start_s == 0.0
+    parquet = tmp_path / "dated.parquet"
+    dated.to_parquet(parquet, index=False)
+    assert aw.read_capture(parquet).rates_hz["torque"] == pytest.approx(2000.0, rel=1e-9)
+    iso.loc[5, "time"] = "soon"
+    with pytest.raises(CaptureError, match=r"starts with the ISO-8601 date-time .* but not every"):
+        aw.read_capture(_write(tmp_path, iso, "bad.csv"))
+
+
+def test_unix_milliseconds_read_as_seconds_are_refused_naming_the_unit(tmp_path: Path) -> None:
+    # Before: read as seconds, a 2 kHz capture had a rate of 2 Hz and was scored, silently.
+    frame = _frame()
+    frame["time"] = 1_767_225_600_000 + np.arange(len(frame)) / 2.0
+    with pytest.raises(CaptureError, match=r"starts at 1\.767e\+12 s .* are the stamps in ms\?"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame["time"] = 1_767_225_600 + np.arange(len(frame)) / 2000.0  # Unix seconds are fine
+    assert aw.read_capture(_write(tmp_path, frame)).rates_hz["speed"] == pytest.approx(
+        2000.0, rel=1e-6
+    )
+
+
+def test_a_column_blank_inside_a_gap_and_irregular_steps_are_told_apart(tmp_path: Path) -> None:
+    frame = _frame()
+    frame.loc[10:12, "speed"] = np.nan
+    with pytest.raises(CaptureError, match=r"'speed' .* blank \(NaN\) at t=0\.005 s \(3 row"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame = _frame()
+    frame.loc[20:, "time"] += 3.0
+    with pytest.raises(CaptureError, match=r"'speed' .* step of 3\.0005 s .*\(a gap in time\)"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame = _frame()
+    frame.loc[20:, "time"] += 0.0002  # a step of 1.4 periods
+    with pytest.raises(CaptureError, match=r"irregular stamps\? resample_irregular = true"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
 def test_rate_differs_from_expected(tmp_path: Path) -> None:
     path = _write(tmp_path, _frame())
     with pytest.raises(CaptureError, match=r"'speed' is sampled at 2000 Hz; expected 1000 Hz"):

@@ -14,6 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
+from axiswatch._capture import capture_to_frame
 from axiswatch._readings import Readings, read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import Fault, draw_robot
@@ -305,6 +306,28 @@ def test_an_axis_whose_later_captures_cannot_be_used_says_why_it_waits(tmp_path:
         f"the first: r1/a1/2026-03-02.parquet: column 'position' is sampled at {rate / 2:.6g} Hz; "
         f"expected {rate:.6g} Hz (the baseline's rate))"
     ]
+
+
+def test_stamps_in_milliseconds_read_as_seconds_are_not_scored(tmp_path: Path) -> None:
+    # Before: a 50 Hz log stamped 0, 20, 40 ... ms became a 0.05 Hz capture, and its friction
+    # and drive loads were read and scored in wrong units, without a word.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for day in range(7):
+        frame = capture_to_frame(robot.capture(0, seed=day))
+        frame["time"] = (frame["time"] * 1000).round()
+        folder = root / "r1" / "a1"
+        folder.mkdir(parents=True, exist_ok=True)
+        frame.to_csv(folder / f"2026-03-{day + 1:02d}.csv", index=False)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    assert summary.scored == 0
+    assert summary.new_baselines == 0
+    assert summary.rejected[0] == (
+        "r1/a1/2026-03-01.csv: signals sampled at 0.05 Hz at most; the indicators need 20 Hz or "
+        "more (stamps in milliseconds read as seconds? declare the unit in the axis profile: "
+        '[units] time = "ms").'
+    )
 
 
 def test_a_faulty_first_capture_is_reported(tmp_path: Path) -> None:

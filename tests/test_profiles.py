@@ -88,6 +88,21 @@ def test_resampled_captures_of_one_jittering_clock_share_its_rate(tmp_path: Path
     assert rates == pytest.approx([100.0] * 4, rel=2e-4)
 
 
+def test_profile_reads_iso_stamps_and_refuses_a_unit_too_large(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path)
+    iso = frame.assign(
+        Timestamp=pd.to_datetime(frame["Timestamp"], unit="ms").dt.strftime("%Y-%m-%dT%H:%M:%S.%f")
+    )
+    iso.to_csv(path, index=False)
+    capture = aw.read_capture(path, profile=PROFILE)  # before: "must hold numbers in ms"
+    assert capture.rates_hz["position"] == pytest.approx(250.0)
+    frame.to_csv(path, index=False)
+    seconds = AxisProfile(columns=dict(PROFILE.columns), position_unit="deg")
+    with pytest.raises(aw.CaptureError, match=r"when read in s; are the stamps in ms\?"):
+        aw.read_capture(path, profile=seconds)
+
+
 def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
     path = tmp_path / "axis.toml"
     path.write_text(

@@ -12,6 +12,7 @@ at its own instants and is blank (NaN) elsewhere. Rates are inferred from the ti
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +33,8 @@ __all__ = [
     "Capture",
     "as_capture",
     "capture_to_frame",
+    "check_stamp_unit",
+    "date_stamps",
     "read_capture",
     "sampling_period",
     "write_capture",
@@ -42,6 +45,65 @@ DEFAULT_SIGNALS: tuple[str, ...] = ("position", "speed", "torque")
 #: Relative tolerance on the spacing of time stamps of one signal: loggers jitter a little, but a
 #: step that is 1.5 periods or more means a missing (NaN) sample.
 _SPACING_RTOL = 0.25
+
+
+#: Stamps read as seconds beyond this (the year 5138) are in a smaller unit than the one read:
+#: Unix milliseconds read as seconds start in the year 57,000.
+LATEST_STAMP_S = 1e11
+
+_ISO_DATE = re.compile(r"\s*\d{4}-\d{2}-\d{2}[T ]\d")
+
+
+def date_stamps(stamps: pd.Series, path: Path) -> NDArray[np.float64] | None:
+    """Seconds from the first stamp of date-time stamps: a datetime column (Parquet) or ISO-8601
+    text (``2026-01-01T06:00:00.010``, with or without an offset); None for other stamps.
+
+    Examples
+    --------
+    >>> date_stamps(pd.Series(["2026-01-01T06:00:00", "2026-01-01T06:00:00.25"]), Path("c.csv"))
+    array([0.  , 0.25])
+    >>> date_stamps(pd.Series([0.0, 0.25]), Path("c.csv")) is None
+    True
+    """
+    if pd.api.types.is_datetime64_any_dtype(stamps):
+        times = stamps
+    else:
+        first = stamps.iloc[0] if len(stamps) else None
+        if not (isinstance(first, str) and _ISO_DATE.match(first)):
+            return None
+        try:
+            times = pd.to_datetime(stamps, format="ISO8601", utc=True)
+        except (ValueError, TypeError) as exc:
+            message = str(exc).splitlines()[0]
+            raise CaptureError(
+                f"{path}: column 'time' starts with the ISO-8601 date-time {first!r} but not "
+                f"every stamp is one: {message}"
+            ) from exc
+    if bool(times.isna().any()):
+        raise CaptureError(f"{path}: column 'time' has a blank date-time; expected one per row.")
+    nanoseconds = pd.DatetimeIndex(times).as_unit("ns").asi8
+    return np.asarray((nanoseconds - nanoseconds[0]) / 1e9, dtype=np.float64)
+
+
+def check_stamp_unit(first_s: float, unit: str, path: Path) -> None:
+    """Refuse stamps that, read in ``unit``, lie after :data:`LATEST_STAMP_S` seconds: Unix
+    milliseconds read as seconds would otherwise give a 100 Hz log a rate of 0.1 Hz, silently.
+
+    Examples
+    --------
+    >>> check_stamp_unit(1.767e12, "s", Path("c.csv"))
+    Traceback (most recent call last):
+    ...
+    axiswatch.exceptions.CaptureError: c.csv: column 'time' starts at 1.767e+12 s ...
+    """
+    if abs(first_s) <= LATEST_STAMP_S:
+        return
+    smaller = {"s": "ms", "ms": "us", "us": "ns"}.get(unit, "ns")
+    raise CaptureError(
+        f"{path}: column 'time' starts at {first_s:.4g} s (after the year 5000) when read in "
+        f"{unit}; are the stamps in {smaller}? Declare the unit in the axis profile "
+        f'([units] time = "{smaller}").'
+    )
 
 
 def sampling_period(stamps: NDArray[np.float64]) -> float:
@@ -372,6 +434,12 @@ def read_capture(
         frame = frame.loc[~repeated].reset_index(drop=True)
     if profile is not None:
         frame = profile.standardise(frame, path)
+    elif "time" in frame.columns:
+        dates = date_stamps(frame["time"], path)
+        if dates is not None:
+            frame = frame.assign(time=dates)
+        elif pd.api.types.is_numeric_dtype(frame["time"]) and frame.shape[0]:
+            check_stamp_unit(float(frame["time"].iloc[0]), "s", path)
     if "time" not in frame.columns:
         raise CaptureError(
             f"{path}: missing column 'time' (seconds, strictly increasing); "

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._capture import sampling_period
+from axiswatch._capture import check_stamp_unit, date_stamps, sampling_period
 from axiswatch.exceptions import CaptureError, ProfileError
 
 __all__ = ["AxisProfile", "find_profile"]
@@ -260,14 +260,20 @@ class AxisProfile:
                 f"{dict(self.columns)} and the file has {found}."
             )
         stamps = renamed["time"]
-        if not pd.api.types.is_numeric_dtype(stamps):
+        dates = date_stamps(stamps, path)
+        if dates is not None:  # date-times carry their own unit
+            relative = dates
+        elif not pd.api.types.is_numeric_dtype(stamps):
             raise CaptureError(
-                f"{path}: column 'time' must hold numbers in {self.time_unit}; got {stamps.iloc[0]!r}."
+                f"{path}: column 'time' must hold numbers in {self.time_unit} or ISO-8601 "
+                f"date-times; got {stamps.iloc[0]!r}."
             )
-        # Subtract the first stamp in the file's own integers or floats before scaling: Unix
-        # nanoseconds as float64 would lose the sub-microsecond steps.
-        first = stamps.iloc[0]
-        relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
+        else:
+            # Subtract the first stamp in the file's own integers or floats before scaling: Unix
+            # nanoseconds as float64 would lose the sub-microsecond steps.
+            first = stamps.iloc[0]
+            check_stamp_unit(float(first) * TIME_UNITS[self.time_unit], self.time_unit, path)
+            relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
         renamed["time"] = relative
         scale = POSITION_UNITS[self.position_unit]
         for role in ("position", "speed"):

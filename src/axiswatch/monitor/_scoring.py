@@ -31,6 +31,7 @@ from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._indicators import (
     IndicatorBaseline,
     assess_capture,
+    check_monitor_rate,
     fit_indicator_baseline,
     indicator_details,
     read_axis_indicators,
@@ -443,6 +444,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
         profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
         capture = read_capture(path, profile=profile)
+        check_monitor_rate(capture)
         problem = data_quality_problem(capture)
         if problem is not None:
             error = _bad_data(job.relative, problem)
