@@ -180,6 +180,20 @@ def test_a_column_blank_inside_a_gap_and_irregular_steps_are_told_apart(tmp_path
         aw.read_capture(_write(tmp_path, frame))
 
 
+def test_headers_in_other_case_or_with_spaces_are_the_same_columns(tmp_path: Path) -> None:
+    # Before: "missing column 'time' ...; found columns ['Time', 'Speed ', 'TORQUE']".
+    frame = _frame().rename(columns={"time": "Time", "speed": "Speed ", "torque": "TORQUE"})
+    capture = aw.read_capture(_write(tmp_path, frame))
+    assert capture.names == ("speed", "torque")
+    assert capture.signals["torque"].tolist() == _frame()["torque"].tolist()
+    frame["torque"] = frame["TORQUE"]  # 'torque' and 'TORQUE': which one is meant?
+    assert aw.read_capture(_write(tmp_path, frame)).names == ("speed", "TORQUE", "torque")
+    frame = frame.drop(columns="torque")
+    frame[" Speed"] = 1.0
+    with pytest.raises(CaptureError, match=r"name \['speed'\] more than once \(up to case and"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
 def test_rate_differs_from_expected(tmp_path: Path) -> None:
     path = _write(tmp_path, _frame())
     with pytest.raises(CaptureError, match=r"'speed' is sampled at 2000 Hz; expected 1000 Hz"):

@@ -103,6 +103,16 @@ def test_profile_reads_iso_stamps_and_refuses_a_unit_too_large(tmp_path: Path) -
         aw.read_capture(path, profile=seconds)
 
 
+def test_profile_columns_match_headers_in_other_case_or_with_spaces(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path)
+    frame.columns = ["timestamp", " J2_ActPos ", "J2_CURRENT"]
+    frame.to_csv(path, index=False)
+    capture = aw.read_capture(path, profile=PROFILE)  # before: "no time column"
+    assert capture.names == ("position", "torque")
+    assert capture.rates_hz["torque"] == pytest.approx(250.0)
+
+
 def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
     path = tmp_path / "axis.toml"
     path.write_text(

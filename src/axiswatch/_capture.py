@@ -311,6 +311,42 @@ def _read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     return frame, metadata
 
 
+def _tidy_headers(frame: pd.DataFrame, profile: AxisProfile | None, path: Path) -> pd.DataFrame:
+    """Column names without surrounding spaces, and in the case the reader looks for: a
+    profile's column names, else ``time`` and :data:`DEFAULT_SIGNALS` (``TORQUE``, ``Position ``
+    from a spreadsheet); a name that already matches exactly is left alone.
+
+    Examples
+    --------
+    >>> frame = pd.DataFrame(columns=["Time", "Position ", "TORQUE", "Note"])
+    >>> list(_tidy_headers(frame, None, Path("c.csv")).columns)
+    ['time', 'position', 'torque', 'Note']
+    """
+    names = [str(c).strip() for c in frame.columns]
+    mapped = dict(profile.columns) if profile is not None else {}
+    keys = {key.strip().lower(): key for key in mapped}
+    roles = {role.lower(): role for role in ("time", *DEFAULT_SIGNALS)}
+    taken = set(names) | set(mapped.values())
+    tidy: list[str] = []
+    for name in names:
+        folded = name.lower()
+        if name in mapped:
+            tidy.append(name)
+        elif folded in keys and keys[folded] not in names:
+            tidy.append(keys[folded])
+        elif folded in roles and roles[folded] not in taken:
+            tidy.append(roles[folded])
+        else:
+            tidy.append(name)
+    repeated = sorted({name for name in tidy if tidy.count(name) > 1})
+    if repeated:
+        raise CaptureError(
+            f"{path}: columns {[str(c) for c in frame.columns]} name {repeated} more than once "
+            "(up to case and spaces); expected one column per name."
+        )
+    return frame.set_axis(tidy, axis=1)
+
+
 def _numeric_column(frame: pd.DataFrame, name: str, path: Path) -> NDArray[np.float64]:
     column = frame[name]
     if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
@@ -432,6 +468,7 @@ def read_capture(
     repeated = (frame.eq(previous) | (frame.isna() & previous.isna())).all(axis=1).to_numpy()
     if repeated[1:].any():
         frame = frame.loc[~repeated].reset_index(drop=True)
+    frame = _tidy_headers(frame, profile, path)
     if profile is not None:
         frame = profile.standardise(frame, path)
     elif "time" in frame.columns:
