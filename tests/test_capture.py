@@ -194,6 +194,19 @@ def test_headers_in_other_case_or_with_spaces_are_the_same_columns(tmp_path: Pat
         aw.read_capture(_write(tmp_path, frame))
 
 
+def test_text_and_blank_columns_beside_the_signals_are_not_signals(tmp_path: Path) -> None:
+    # Before: "column 'mode' must be numeric; found non-numeric value 'AUTO'" for a position and
+    # torque export with the controller's mode beside them.
+    frame = _frame().rename(columns={"speed": "position"}).assign(mode="AUTO", spare=np.nan)
+    assert aw.read_capture(_write(tmp_path, frame)).names == ("position", "torque")
+    frame.loc[3, "mode"] = "7"  # a number among the text: a signal, refused by name
+    with pytest.raises(CaptureError, match=r"column 'mode' must be numeric; found non-numeric"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame = _frame().assign(position=np.nan)  # a blank signal of its own name
+    with pytest.raises(CaptureError, match=r"column 'position' is blank \(no value in any row\)"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
 def test_rate_differs_from_expected(tmp_path: Path) -> None:
     path = _write(tmp_path, _frame())
     with pytest.raises(CaptureError, match=r"'speed' is sampled at 2000 Hz; expected 1000 Hz"):

@@ -370,6 +370,10 @@ def _signal_from_column(
         )
     present = ~np.isnan(column)
     count = int(present.sum())
+    if count == 0:
+        raise CaptureError(
+            f"{path}: column '{name}' is blank (no value in any row); expected the signal's values."
+        )
     if count < 2:
         raise CaptureError(
             f"{path}: column '{name}' has {count} value(s); a signal needs at least 2 to have a rate."
@@ -498,7 +502,14 @@ def read_capture(
         if all(name in available for name in DEFAULT_SIGNALS):
             names: list[str] = list(DEFAULT_SIGNALS)
         else:
-            names = available
+            # A column without a single number (a controller's mode text, a blank spare) is not
+            # a signal; one with numbers and text is, and is refused below.
+            names = [
+                name
+                for name in available
+                if name in DEFAULT_SIGNALS
+                or bool(pd.to_numeric(frame[name], errors="coerce").notna().any())
+            ]
             if not names:
                 raise CaptureError(f"{path}: no signal column besides 'time'.")
     else:
