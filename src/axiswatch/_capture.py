@@ -11,6 +11,7 @@ at its own instants and is blank (NaN) elsewhere. Rates are inferred from the ti
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from collections.abc import Mapping, Sequence
@@ -22,7 +23,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from axiswatch._formats import capture_format
+from axiswatch._formats import UNITS_ROW_KEY, capture_format
 from axiswatch.exceptions import CaptureError
 
 if TYPE_CHECKING:
@@ -466,6 +467,11 @@ def read_capture(
     """
     path = Path(path)
     frame, metadata = _read_frame(path)
+    units_row = metadata.pop(UNITS_ROW_KEY, None)
+    if units_row is not None:
+        from axiswatch._profiles import AxisProfile  # here: _profiles imports this module
+
+        (profile or AxisProfile()).check_units_row(json.loads(units_row), path)
     # A row written twice (a logger's double write: the same stamp and the same values) carries
     # nothing new; a repeated stamp with other values is an error below.
     previous = frame.shift()

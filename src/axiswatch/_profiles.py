@@ -53,6 +53,19 @@ POSITION_UNITS: dict[str, float] = {
     "m": 1.0,
     "mm": 1e-3,
 }
+#: Unit words of a CSV units row that name a unit of :data:`TIME_UNITS` or
+#: :data:`POSITION_UNITS` (others, such as ``Nm``, ``A`` or ``inc``, are not checked).
+UNIT_WORDS: dict[str, str] = {
+    **{unit: unit for unit in (*TIME_UNITS, *POSITION_UNITS)},
+    "sec": "s",
+    "msec": "ms",
+    "µs": "us",
+    "°": "deg",
+    "degree": "deg",
+    "degrees": "deg",
+    "radian": "rad",
+    "radians": "rad",
+}
 #: Names of the profile files, most specific first (:func:`find_profile`).
 PROFILE_FILES: tuple[str, ...] = ("axis.toml", "robot.toml")
 FLEET_PROFILE = "axiswatch.toml"
@@ -230,6 +243,43 @@ class AxisProfile:
     def role_of(self, column: str) -> str:
         """The role a file column plays (the column's own name when the profile does not map it)."""
         return self.columns.get(column, column)
+
+    def check_units_row(self, units: Mapping[str, str], path: Path) -> None:
+        """Refuse a file whose units row names another time or position unit than the one the
+        capture is read in (``deg`` under the position while the profile, or its absence, says
+        ``rad``): the readings would be in wrong units, silently.
+
+        Examples
+        --------
+        >>> AxisProfile().check_units_row({"time": "s", "position": "deg"}, Path("c.csv"))
+        Traceback (most recent call last):
+        ...
+        axiswatch.exceptions.CaptureError: c.csv: the units row gives 'deg' for column ...
+        """
+        for column, text in units.items():
+            role = self.role_of(column.strip())
+            if role.lower() in ROLES and role not in self.columns.values():
+                role = role.lower()
+            word = text.strip().strip("[]()").lower()
+            if role == "speed":
+                word = word.removesuffix("/s")
+            elif role not in ("time", "position"):
+                continue
+            if word not in UNIT_WORDS:
+                continue
+            key = "time" if role == "time" else "position"
+            declared = self.time_unit if role == "time" else self.position_unit
+            if UNIT_WORDS[word] != declared:
+                origin = (
+                    "the default, without an axis profile"
+                    if self.source == "<memory>"
+                    else f"axis profile {self.source}"
+                )
+                raise CaptureError(
+                    f"{path}: the units row gives {text!r} for column {column!r} ({role}), but "
+                    f"the capture is read in {declared} ({origin}); declare "
+                    f'[units] {key} = "{UNIT_WORDS[word]}" in the axis profile.'
+                )
 
     def kinematics(self) -> dict[str, Any]:
         """Keyword arguments of :func:`~axiswatch.read_indicators`."""
