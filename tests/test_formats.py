@@ -159,3 +159,15 @@ def test_a_units_row_is_not_read_as_values_and_is_checked(tmp_path: Path) -> Non
         aw.read_capture(path)
     path.write_text(_spreadsheet_text(",", ".", "sec,inc,A"), encoding="utf-8")  # not checked
     assert aw.read_capture(path).names == ("position", "torque")
+
+
+def test_a_parquet_file_indexed_by_its_time_stamps_is_read(tmp_path: Path) -> None:
+    # Before: "missing column 'time'; found columns ['speed', 'torque']".
+    t = np.arange(40) / 100.0
+    frame = pd.DataFrame({"time": t, "speed": np.sin(t), "torque": np.cos(t)})
+    path = tmp_path / "c.parquet"
+    frame.set_index("time").to_parquet(path)
+    assert aw.read_capture(path).rates_hz["speed"] == pytest.approx(100.0)
+    dated = frame.set_index(pd.Timestamp("2026-03-01") + pd.to_timedelta(frame.pop("time"), "s"))
+    dated.rename_axis("time").to_parquet(path)
+    assert aw.read_capture(path).rates_hz["torque"] == pytest.approx(100.0)

@@ -138,7 +138,12 @@ def _read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     table = pq.read_table(path)
     raw = (table.schema.metadata or {}).get(_METADATA_KEY)
     metadata = {str(k): str(v) for k, v in json.loads(raw).items()} if raw else {}
-    return table.to_pandas(), metadata
+    frame = table.to_pandas()
+    if not isinstance(frame.index, pd.RangeIndex):
+        # Written from a DataFrame indexed by its time stamps (df.set_index("time").to_parquet()):
+        # the index is a column of the file, not a row number.
+        frame = frame.reset_index()
+    return frame, metadata
 
 
 def _write_parquet(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:
