@@ -186,22 +186,27 @@ def test_headers_in_other_case_or_with_spaces_are_the_same_columns(tmp_path: Pat
     capture = aw.read_capture(_write(tmp_path, frame))
     assert capture.names == ("speed", "torque")
     assert capture.signals["torque"].tolist() == _frame()["torque"].tolist()
-    frame["torque"] = frame["TORQUE"]  # 'torque' and 'TORQUE': which one is meant?
-    assert aw.read_capture(_write(tmp_path, frame)).names == ("speed", "TORQUE", "torque")
+    frame["torque"] = frame["TORQUE"]  # an exact 'torque' is the signal, 'TORQUE' an extra
+    assert aw.read_capture(_write(tmp_path, frame)).names == ("speed", "torque")
     frame = frame.drop(columns="torque")
     frame[" Speed"] = 1.0
     with pytest.raises(CaptureError, match=r"name \['speed'\] more than once \(up to case and"):
         aw.read_capture(_write(tmp_path, frame))
 
 
-def test_text_and_blank_columns_beside_the_signals_are_not_signals(tmp_path: Path) -> None:
-    # Before: "column 'mode' must be numeric; found non-numeric value 'AUTO'" for a position and
-    # torque export with the controller's mode beside them.
-    frame = _frame().rename(columns={"speed": "position"}).assign(mode="AUTO", spare=np.nan)
+def test_columns_beside_the_signals_are_extras(tmp_path: Path) -> None:
+    # Before: a position and torque export was refused for its other columns: "column 'mode'
+    # must be numeric; found non-numeric value 'AUTO'", and the monitor stored a constant axis
+    # number as bad data ("flat/stuck signal: 'axis_id' is 4 throughout").
+    frame = _frame().rename(columns={"speed": "position"})
+    frame = frame.assign(mode="AUTO", spare=np.nan, axis_id=4, row=np.arange(len(frame)) * 1e7)
     assert aw.read_capture(_write(tmp_path, frame)).names == ("position", "torque")
-    frame.loc[3, "mode"] = "7"  # a number among the text: a signal, refused by name
+    # Without any of position, speed and torque, every column holding numbers is a signal.
+    named = frame.rename(columns={"position": "v", "torque": "i"}).drop(columns=["axis_id", "row"])
+    assert aw.read_capture(_write(tmp_path, named)).names == ("v", "i")
+    named.loc[3, "mode"] = "7"  # a number among the text: a signal, refused by name
     with pytest.raises(CaptureError, match=r"column 'mode' must be numeric; found non-numeric"):
-        aw.read_capture(_write(tmp_path, frame))
+        aw.read_capture(_write(tmp_path, named))
     frame = _frame().assign(position=np.nan)  # a blank signal of its own name
     with pytest.raises(CaptureError, match=r"column 'position' is blank \(no value in any row\)"):
         aw.read_capture(_write(tmp_path, frame))

@@ -436,8 +436,9 @@ def read_capture(
         A ``.parquet``, ``.csv`` or ``.npz`` file in the project's capture format (or a
         format added with :func:`~axiswatch.register_format`).
     signals : sequence of str, optional
-        Signal columns to read, in this order. Default: :data:`DEFAULT_SIGNALS` when the file
-        has them all, otherwise every column except ``time`` (each must be numeric).
+        Signal columns to read, in this order. Default: those of :data:`DEFAULT_SIGNALS` the file
+        has (other columns are extras: a controller's mode, an axis number, a row index), or,
+        with none of them, every column except ``time`` that holds numbers.
     expected_rates_hz : mapping of str to float, optional
         Rates the signals must have (for instance the baseline's); a mismatch beyond 0.1 % is an
         error.
@@ -505,16 +506,14 @@ def read_capture(
         )
     available = [str(c) for c in frame.columns if c != "time"]
     if signals is None:
-        if all(name in available for name in DEFAULT_SIGNALS):
-            names: list[str] = list(DEFAULT_SIGNALS)
-        else:
+        names = [name for name in DEFAULT_SIGNALS if name in available]
+        if not names:
             # A column without a single number (a controller's mode text, a blank spare) is not
             # a signal; one with numbers and text is, and is refused below.
             names = [
                 name
                 for name in available
-                if name in DEFAULT_SIGNALS
-                or bool(pd.to_numeric(frame[name], errors="coerce").notna().any())
+                if bool(pd.to_numeric(frame[name], errors="coerce").notna().any())
             ]
             if not names:
                 raise CaptureError(f"{path}: no signal column besides 'time'.")
