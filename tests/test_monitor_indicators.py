@@ -21,7 +21,11 @@ from axiswatch.datasets import Fault, draw_robot
 from axiswatch.monitor import MonitorConfig, SQLiteStore
 from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._fleet import FleetFile
-from axiswatch.monitor._indicators import IndicatorBaseline, fit_indicator_baseline
+from axiswatch.monitor._indicators import (
+    IndicatorBaseline,
+    check_monitor_rate,
+    fit_indicator_baseline,
+)
 from axiswatch.monitor._methods import MethodPreset
 from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._monitor import monitor_fleet
@@ -328,6 +332,8 @@ def test_stamps_in_milliseconds_read_as_seconds_are_not_scored(tmp_path: Path) -
         "more (stamps in milliseconds read as seconds? declare the unit in the axis profile: "
         '[units] time = "ms").'
     )
+    just = aw.as_capture({"torque": [0.0, 1.0, 0.0]}, 20.0 * (1 - 1e-9))  # a 20 Hz log's stamps
+    check_monitor_rate(just)
 
 
 def test_a_faulty_first_capture_is_reported(tmp_path: Path) -> None:
