@@ -113,6 +113,27 @@ def test_profile_columns_match_headers_in_other_case_or_with_spaces(tmp_path: Pa
     assert capture.rates_hz["torque"] == pytest.approx(250.0)
 
 
+def test_a_plc_logging_at_irregular_steps_is_resampled_on_the_baselines_grid(
+    tmp_path: Path,
+) -> None:
+    # Steps of 39-55 ms: each capture's own rate moves by ~2 %; before, every capture after the
+    # baseline was refused for "another rate than the baseline's".
+    lenient = AxisProfile(resample_irregular=True)
+    rng = np.random.default_rng(0)
+    rates = []
+    for k in range(4):
+        t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.039, 0.055, 100))])
+        path = tmp_path / f"c{k}.csv"
+        pd.DataFrame({"time": t, "position": np.sin(t), "torque": np.cos(t)}).to_csv(path)
+        expected = None if not rates else {"position": rates[0], "torque": rates[0]}
+        capture = aw.read_capture(path, expected_rates_hz=expected, profile=lenient)
+        rates.append(capture.rates_hz["position"])
+        assert capture.signals["position"] == pytest.approx(
+            np.sin(np.arange(capture.signals["position"].size) / rates[-1]), abs=2e-3
+        )
+    assert rates[1:] == pytest.approx([rates[0]] * 3, rel=1e-9)
+
+
 def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
     path = tmp_path / "axis.toml"
     path.write_text(

@@ -289,9 +289,13 @@ class AxisProfile:
             "bearing_orders": dict(self.bearing_orders),
         }
 
-    def standardise(self, frame: pd.DataFrame, path: Path) -> pd.DataFrame:
+    def standardise(
+        self, frame: pd.DataFrame, path: Path, *, step_s: float | None = None
+    ) -> pd.DataFrame:
         """The file's table in the project's format: roles as column names, time in seconds from
-        the first stamp, position in rad (or m) and speed per second."""
+        the first stamp, position in rad (or m) and speed per second; with
+        ``resample_irregular``, on a uniform grid every ``step_s`` seconds (default: the rows'
+        own :func:`~axiswatch._capture.sampling_period`)."""
         renamed = frame.rename(columns={c: self.role_of(str(c)) for c in frame.columns})
         duplicated = renamed.columns[renamed.columns.duplicated()].tolist()
         if duplicated:
@@ -330,11 +334,11 @@ class AxisProfile:
             if role in renamed.columns and scale != 1.0:
                 renamed[role] = pd.to_numeric(renamed[role], errors="coerce") * scale
         if self.resample_irregular and len(relative) > 2:
-            renamed = _uniform(renamed, path)
+            renamed = _uniform(renamed, path, step_s)
         return renamed
 
 
-def _uniform(frame: pd.DataFrame, path: Path) -> pd.DataFrame:
+def _uniform(frame: pd.DataFrame, path: Path, step_s: float | None) -> pd.DataFrame:
     time_s = frame["time"].to_numpy(dtype=np.float64)
     steps = np.diff(time_s)
     if (steps <= 0).any():
@@ -346,7 +350,7 @@ def _uniform(frame: pd.DataFrame, path: Path) -> pd.DataFrame:
     # Not the median step: it moves from capture to capture by a share of the jitter, and every
     # capture's rate is checked against the baseline's to 0.1 % (6 of 7 captures of a 100 Hz
     # logger jittering by 20 % of its period were refused and its axis waited for ever).
-    step = sampling_period(time_s)
+    step = sampling_period(time_s) if step_s is None else step_s
     grid = np.arange(0.0, time_s[-1] + 0.5 * step, step)
     grid = grid[grid <= time_s[-1]]
     uniform = {"time": grid}
