@@ -728,3 +728,13 @@ def friction_standard_errors_naive(
     sigma2 = float(residual @ residual) / (len(y) - x.shape[1])
     coulomb = math.sqrt(sigma2 * gram_inverse[0, 0])
     return coulomb, math.sqrt(sigma2 * gram_inverse[1, 1]) if viscous else math.nan
+
+
+def sampling_period_naive(stamps: list[float]) -> float:
+    """Least-squares slope of the stamps on the sample index, sums written out."""
+    n = len(stamps)
+    mean_index = sum(range(n)) / n
+    mean_stamp = sum(stamps) / n
+    covariance = sum((i - mean_index) * (t - mean_stamp) for i, t in enumerate(stamps))
+    variance = sum((i - mean_index) ** 2 for i in range(n))
+    return covariance / variance

@@ -11,6 +11,8 @@ import pytest
 import axiswatch as aw
 import axiswatch._capture
 from axiswatch import CaptureError
+from axiswatch._capture import sampling_period
+from tests.naive import sampling_period_naive
 
 
 @pytest.mark.parametrize("suffix", [".parquet", ".csv"])
@@ -84,6 +86,129 @@ def test_non_increasing_time(tmp_path: Path) -> None:
     frame = _frame()
     frame.loc[7, "time"] = frame.loc[6, "time"]
     with pytest.raises(CaptureError, match=r"'time' must be strictly increasing; row 7"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_time_going_back_is_named_in_plain_numbers(tmp_path: Path) -> None:
+    # Before: "row 7 has t=np.float64(0.0025) after t=np.float64(0.003)" (NumPy 2's repr).
+    frame = _frame()
+    frame.loc[7, "time"] = frame.loc[5, "time"]
+    with pytest.raises(
+        CaptureError, match=r"row 7 goes back in time: t=0\.0025 s after t=0\.003 s\.$"
+    ):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_a_row_written_twice_is_read_once_a_repeated_stamp_is_named(tmp_path: Path) -> None:
+    frame = _frame()
+    doubled = pd.concat([frame.iloc[:11], frame.iloc[10:]], ignore_index=True)
+    capture = aw.read_capture(_write(tmp_path, doubled))  # before: "must be strictly increasing"
+    assert capture.signals["speed"].tolist() == frame["speed"].tolist()
+    assert capture.rates_hz["speed"] == pytest.approx(2000.0, rel=1e-12)
+    doubled.loc[11, "speed"] += 1.0  # the same stamp with another value: which one is true?
+    with pytest.raises(CaptureError, match=r"row 11 repeats the time stamp t=0\.005 s after"):
+        aw.read_capture(_write(tmp_path, doubled))
+
+
+def test_jittered_stamps_give_the_rate_of_their_least_squares_slope(tmp_path: Path) -> None:
+    # A logger's clock jittering 1 % of the period: before, the rate was the median step's,
+    # 0.08 % off, and the capture was rejected against the baseline's rate (0.1 %).
+    n = 400
+    t = np.arange(n) / 100.0 + np.random.default_rng(3).normal(0.0, 1e-4, n)
+    frame = pd.DataFrame({"time": t, "speed": np.sin(t), "torque": np.cos(t)})
+    capture = aw.read_capture(_write(tmp_path, frame), expected_rates_hz={"speed": 100.0})
+    assert capture.rates_hz["speed"] == pytest.approx(1 / sampling_period_naive(list(t)), rel=1e-12)
+    assert capture.rates_hz["speed"] == pytest.approx(100.0, rel=1e-4)
+
+
+def test_sampling_period_is_the_naive_least_squares_slope_or_the_exact_step() -> None:
+    rng = np.random.default_rng(7)
+    jittered = np.arange(500) * 0.01 + rng.uniform(-0.002, 0.002, 500)
+    assert sampling_period(jittered) == pytest.approx(
+        sampling_period_naive(jittered.tolist()), rel=1e-12
+    )
+    exact = np.arange(500) / 2000.0
+    assert sampling_period(exact) == float(np.median(np.diff(exact)))
+
+
+def test_iso_8601_and_datetime_stamps_are_read_as_seconds_from_the_first(tmp_path: Path) -> None:
+    # Before: "column 'time' must be numeric; found non-numeric value '2026-01-01T06:00:00'" and,
+    # for a Parquet datetime column, "found non-numeric value None (dtype datetime64[ns])".
+    frame = _frame()
+    start = pd.Timestamp("2026-01-01T06:00:00")
+    dated = frame.assign(time=start + pd.to_timedelta(frame["time"], unit="s"))
+    iso = dated.assign(time=dated["time"].map(lambda t: t.isoformat() + "+01:00"))
+    for path in (
+        _write(tmp_path, iso, "iso.csv"),
+        _write(tmp_path, dated.assign(time=dated["time"].astype(str)), "text.csv"),
+    ):
+        capture = aw.read_capture(path)
+        assert capture.rates_hz["speed"] == pytest.approx(2000.0, rel=1e-9)
+        assert capture.start_s == 0.0
+    parquet = tmp_path / "dated.parquet"
+    dated.to_parquet(parquet, index=False)
+    assert aw.read_capture(parquet).rates_hz["torque"] == pytest.approx(2000.0, rel=1e-9)
+    iso.loc[5, "time"] = "soon"
+    with pytest.raises(CaptureError, match=r"starts with the ISO-8601 date-time .* but not every"):
+        aw.read_capture(_write(tmp_path, iso, "bad.csv"))
+
+
+def test_unix_milliseconds_read_as_seconds_are_refused_naming_the_unit(tmp_path: Path) -> None:
+    # Before: read as seconds, a 2 kHz capture had a rate of 2 Hz and was scored, silently.
+    frame = _frame()
+    frame["time"] = 1_767_225_600_000 + np.arange(len(frame)) / 2.0
+    with pytest.raises(CaptureError, match=r"starts at 1\.767e\+12 s .* are the stamps in ms\?"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame["time"] = 1_767_225_600 + np.arange(len(frame)) / 2000.0  # Unix seconds are fine
+    assert aw.read_capture(_write(tmp_path, frame)).rates_hz["speed"] == pytest.approx(
+        2000.0, rel=1e-6
+    )
+
+
+def test_a_column_blank_inside_a_gap_and_irregular_steps_are_told_apart(tmp_path: Path) -> None:
+    frame = _frame()
+    frame.loc[10:12, "speed"] = np.nan
+    with pytest.raises(CaptureError, match=r"'speed' .* blank \(NaN\) at t=0\.005 s \(3 row"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame = _frame()
+    frame.loc[20:, "time"] += 3.0
+    with pytest.raises(CaptureError, match=r"'speed' .* step of 3\.0005 s .*\(a gap in time\)"):
+        aw.read_capture(_write(tmp_path, frame))
+    frame = _frame()
+    frame.loc[20:, "time"] += 0.0002  # a step of 1.4 periods
+    with pytest.raises(CaptureError, match=r"irregular stamps\? resample_irregular = true"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_headers_in_other_case_or_with_spaces_are_the_same_columns(tmp_path: Path) -> None:
+    # Before: "missing column 'time' ...; found columns ['Time', 'Speed ', 'TORQUE']".
+    frame = _frame().rename(columns={"time": "Time", "speed": "Speed ", "torque": "TORQUE"})
+    capture = aw.read_capture(_write(tmp_path, frame))
+    assert capture.names == ("speed", "torque")
+    assert capture.signals["torque"].tolist() == _frame()["torque"].tolist()
+    frame["torque"] = frame["TORQUE"]  # an exact 'torque' is the signal, 'TORQUE' an extra
+    assert aw.read_capture(_write(tmp_path, frame)).names == ("speed", "torque")
+    frame = frame.drop(columns="torque")
+    frame[" Speed"] = 1.0
+    with pytest.raises(CaptureError, match=r"name \['speed'\] more than once \(up to case and"):
+        aw.read_capture(_write(tmp_path, frame))
+
+
+def test_columns_beside_the_signals_are_extras(tmp_path: Path) -> None:
+    # Before: a position and torque export was refused for its other columns: "column 'mode'
+    # must be numeric; found non-numeric value 'AUTO'", and the monitor stored a constant axis
+    # number as bad data ("flat/stuck signal: 'axis_id' is 4 throughout").
+    frame = _frame().rename(columns={"speed": "position"})
+    frame = frame.assign(mode="AUTO", spare=np.nan, axis_id=4, row=np.arange(len(frame)) * 1e7)
+    assert aw.read_capture(_write(tmp_path, frame)).names == ("position", "torque")
+    # Without any of position, speed and torque, every column holding numbers is a signal.
+    named = frame.rename(columns={"position": "v", "torque": "i"}).drop(columns=["axis_id", "row"])
+    assert aw.read_capture(_write(tmp_path, named)).names == ("v", "i")
+    named.loc[3, "mode"] = "7"  # a number among the text: a signal, refused by name
+    with pytest.raises(CaptureError, match=r"column 'mode' must be numeric; found non-numeric"):
+        aw.read_capture(_write(tmp_path, named))
+    frame = _frame().assign(position=np.nan)  # a blank signal of its own name
+    with pytest.raises(CaptureError, match=r"column 'position' is blank \(no value in any row\)"):
         aw.read_capture(_write(tmp_path, frame))
 
 

@@ -117,3 +117,57 @@ def test_register_format_needs_a_suffix_with_its_dot(suffix: object) -> None:
             read=lambda path: (pd.DataFrame(), {}),
             write=lambda *args: None,
         )
+
+
+def _spreadsheet_text(separator: str, decimal: str, units: str | None = None) -> str:
+    t = np.arange(40) / 100.0
+    frame = pd.DataFrame({"time": t, "position": np.degrees(np.sin(t)), "torque": np.cos(t)})
+    lines = frame.to_csv(index=False, sep=separator, decimal=decimal).splitlines()
+    if units is not None:
+        lines.insert(1, units)
+    return "\ufeff" + "\n".join(lines) + "\n"  # a spreadsheet's byte order mark
+
+
+@pytest.mark.parametrize(("separator", "decimal"), [(";", ","), (";", "."), ("\t", ",")])
+def test_csv_separator_and_decimal_comma_are_taken_from_the_file(
+    tmp_path: Path, separator: str, decimal: str
+) -> None:
+    # Before: "missing column 'time'; found columns ['time;position;torque']".
+    path = tmp_path / "c.csv"
+    path.write_text(_spreadsheet_text(separator, decimal), encoding="utf-8")
+    capture = aw.read_capture(path)
+    assert capture.rates_hz["position"] == pytest.approx(100.0)
+    assert capture.signals["torque"][1] == pytest.approx(np.cos(0.01), rel=1e-12)
+
+
+def test_a_units_row_is_not_read_as_values_and_is_checked(tmp_path: Path) -> None:
+    # Before: "column 'time' must be numeric; found non-numeric value 's'".
+    path = tmp_path / "c.csv"
+    path.write_text(_spreadsheet_text(";", ",", "s;deg;Nm"), encoding="utf-8")
+    with pytest.raises(
+        CaptureError,
+        match=r"units row gives 'deg' for column 'position' \(position\), but the capture is "
+        r"read in rad \(the default, without an axis profile\); declare \[units\] position",
+    ):
+        aw.read_capture(path)
+    profile = aw.AxisProfile(position_unit="deg")
+    capture = aw.read_capture(path, profile=profile)
+    assert capture.signals["position"][1] == pytest.approx(np.sin(0.01), rel=1e-9)  # rad
+    assert capture.metadata == {}
+    path.write_text(_spreadsheet_text(",", ".", "[s],[°],[Nm]"), encoding="utf-8")
+    with pytest.raises(CaptureError, match=r"units row gives '\[°\]' for column 'position'"):
+        aw.read_capture(path)
+    path.write_text(_spreadsheet_text(",", ".", "sec,inc,A"), encoding="utf-8")  # not checked
+    assert aw.read_capture(path).names == ("position", "torque")
+
+
+def test_a_parquet_file_indexed_by_its_time_stamps_is_read(tmp_path: Path) -> None:
+    # Before: "missing column 'time'; found columns ['speed', 'torque']".
+    t = np.arange(40) / 100.0
+    frame = pd.DataFrame({"time": t, "speed": np.sin(t), "torque": np.cos(t)})
+    path = tmp_path / "c.parquet"
+    frame.set_index("time").to_parquet(path)
+    assert aw.read_capture(path).rates_hz["speed"] == pytest.approx(100.0)
+    dated = frame.set_index(pd.Timestamp("2026-03-01") + pd.to_timedelta(frame.pop("time"), "s"))
+    dated.rename_axis("time").to_parquet(path)
+    assert aw.read_capture(path).rates_hz["torque"] == pytest.approx(100.0)

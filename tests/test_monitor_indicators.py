@@ -14,13 +14,18 @@ import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
+from axiswatch._capture import capture_to_frame
 from axiswatch._readings import Readings, read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import Fault, draw_robot
 from axiswatch.monitor import MonitorConfig, SQLiteStore
 from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._fleet import FleetFile
-from axiswatch.monitor._indicators import IndicatorBaseline, fit_indicator_baseline
+from axiswatch.monitor._indicators import (
+    IndicatorBaseline,
+    check_monitor_rate,
+    fit_indicator_baseline,
+)
 from axiswatch.monitor._methods import MethodPreset
 from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._monitor import monitor_fleet
@@ -283,6 +288,52 @@ def test_an_axis_short_of_calibration_captures_waits(tmp_path: Path) -> None:
     assert summary.calibrating == []
     assert summary.new_baselines == 1
     assert summary.scored == 6
+
+
+def test_an_axis_whose_later_captures_cannot_be_used_says_why_it_waits(tmp_path: Path) -> None:
+    # Before: "calibrating, 0 of 5 captures ... give a reading" and nothing else, run after run,
+    # while six later captures sat in the folder at another rate than the baseline's.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    _write(robot.capture(0, seed=0), root, "r1", "a1", 0)
+    for day in range(1, 7):
+        capture = robot.capture(0, seed=day)
+        halved = {name: values[::2] for name, values in capture.signals.items()}
+        rates = {name: rate / 2 for name, rate in capture.rates_hz.items()}
+        _write(aw.Capture(halved, rates), root, "r1", "a1", day)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    rate = robot.capture(0, seed=0).rates_hz["position"]
+    assert summary.calibrating == [
+        "r1/a1: calibrating, 0 of 5 captures after the baseline r1/a1/2026-03-01.parquet give "
+        "a reading; the indicators baseline is set once all have arrived (6 could not be used; "
+        f"the first: r1/a1/2026-03-02.parquet: column 'position' is sampled at {rate / 2:.6g} Hz; "
+        f"expected {rate:.6g} Hz (the baseline's rate))"
+    ]
+
+
+def test_stamps_in_milliseconds_read_as_seconds_are_not_scored(tmp_path: Path) -> None:
+    # Before: a 50 Hz log stamped 0, 20, 40 ... ms became a 0.05 Hz capture, and its friction
+    # and drive loads were read and scored in wrong units, without a word.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for day in range(7):
+        frame = capture_to_frame(robot.capture(0, seed=day))
+        frame["time"] = (frame["time"] * 1000).round()
+        folder = root / "r1" / "a1"
+        folder.mkdir(parents=True, exist_ok=True)
+        frame.to_csv(folder / f"2026-03-{day + 1:02d}.csv", index=False)
+    settle(root)
+    summary = monitor_fleet(root, MemoryStore(), MonitorConfig(method="indicators"), settle_s=0)
+    assert summary.scored == 0
+    assert summary.new_baselines == 0
+    assert summary.rejected[0] == (
+        "r1/a1/2026-03-01.csv: signals sampled at 0.05 Hz at most; the indicators need 20 Hz or "
+        "more (stamps in milliseconds read as seconds? declare the unit in the axis profile: "
+        '[units] time = "ms").'
+    )
+    just = aw.as_capture({"torque": [0.0, 1.0, 0.0]}, 20.0 * (1 - 1e-9))  # a 20 Hz log's stamps
+    check_monitor_rate(just)
 
 
 def test_a_faulty_first_capture_is_reported(tmp_path: Path) -> None:

@@ -107,6 +107,34 @@ def test_unreadable_capture_is_rejected_others_go_on_and_it_is_retried(
     assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
 
 
+def test_malformed_robot_profile_rejects_its_robot_only_and_is_retried_once_fixed(
+    tmp_path: Path,
+) -> None:
+    # Before: the profile's ValueError escaped the job and stopped the whole run (exit 1, one
+    # line, no axis scored); and a rejection kept for the unchanged capture files would not have
+    # been tried again after the profile was fixed.
+    root = tmp_path / "fleet"
+    awd.simulate_fleet(
+        root, n_robots=2, n_axes=1, n_days=5, task_change_days=(), faults=[], duration_s=0.5
+    )
+    profile = root / "robot02" / "robot.toml"
+    profile.write_text('resample_irregular = "no"\n')
+    settle(root)
+    store = tmp_path / "s.db"
+    first = _monitor(root, store, "--settle", "0")
+    assert first.returncode == 8, first.stdout + first.stderr
+    assert "1 new baseline(s), 4 capture(s) scored" in first.stdout  # robot01's
+    assert (
+        f"robot02/axis1/2026-03-01.parquet: {profile}: 'resample_irregular' must be true or "
+        "false (unquoted); got 'no' (str)."
+    ) in first.stdout
+    profile.write_text("resample_irregular = false\n")
+    second = _monitor(root, store, "--settle", "0")
+    assert second.returncode == 0, second.stdout
+    assert "1 new baseline(s), 4 capture(s) scored" in second.stdout  # robot02's
+    assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
+
+
 # --- rows 2, 9 and 11: options, rejections that depend on them, acknowledging ---------------
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._profiles import AxisProfile, find_profile
+from axiswatch.exceptions import ProfileError
 
 
 def _controller_csv(path: Path, *, irregular: bool = False) -> Path:
@@ -69,6 +71,69 @@ def test_irregular_stamps_need_the_option(tmp_path: Path) -> None:
     assert capture.rates_hz["torque"] == pytest.approx(250.0, rel=0.05)
 
 
+def test_resampled_captures_of_one_jittering_clock_share_its_rate(tmp_path: Path) -> None:
+    # A 100 Hz logger whose stamps jitter by up to 20 % of the period: before, each capture was
+    # put on a grid at its median step, which moved by ~0.2 % from capture to capture, and the
+    # captures after the baseline were refused for another rate than the baseline's.
+    lenient = AxisProfile(resample_irregular=True)
+    rng = np.random.default_rng(11)
+    rates = []
+    for k in range(4):
+        t = np.arange(400) / 100.0 + rng.uniform(-0.002, 0.002, 400)
+        path = tmp_path / f"c{k}.csv"
+        pd.DataFrame({"time": t, "position": np.sin(t), "torque": np.cos(t)}).to_csv(path)
+        expected = None if not rates else {"position": rates[0]}
+        capture = aw.read_capture(path, expected_rates_hz=expected, profile=lenient)
+        rates.append(capture.rates_hz["position"])
+    assert rates == pytest.approx([100.0] * 4, rel=2e-4)
+
+
+def test_profile_reads_iso_stamps_and_refuses_a_unit_too_large(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path)
+    iso = frame.assign(
+        Timestamp=pd.to_datetime(frame["Timestamp"], unit="ms").dt.strftime("%Y-%m-%dT%H:%M:%S.%f")
+    )
+    iso.to_csv(path, index=False)
+    capture = aw.read_capture(path, profile=PROFILE)  # before: "must hold numbers in ms"
+    assert capture.rates_hz["position"] == pytest.approx(250.0)
+    frame.to_csv(path, index=False)
+    seconds = AxisProfile(columns=dict(PROFILE.columns), position_unit="deg")
+    with pytest.raises(aw.CaptureError, match=r"when read in s; are the stamps in ms\?"):
+        aw.read_capture(path, profile=seconds)
+
+
+def test_profile_columns_match_headers_in_other_case_or_with_spaces(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path)
+    frame.columns = ["timestamp", " J2_ActPos ", "J2_CURRENT"]
+    frame.to_csv(path, index=False)
+    capture = aw.read_capture(path, profile=PROFILE)  # before: "no time column"
+    assert capture.names == ("position", "torque")
+    assert capture.rates_hz["torque"] == pytest.approx(250.0)
+
+
+def test_a_plc_logging_at_irregular_steps_is_resampled_on_the_baselines_grid(
+    tmp_path: Path,
+) -> None:
+    # Steps of 39-55 ms: each capture's own rate moves by ~2 %; before, every capture after the
+    # baseline was refused for "another rate than the baseline's".
+    lenient = AxisProfile(resample_irregular=True)
+    rng = np.random.default_rng(0)
+    rates = []
+    for k in range(4):
+        t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.039, 0.055, 100))])
+        path = tmp_path / f"c{k}.csv"
+        pd.DataFrame({"time": t, "position": np.sin(t), "torque": np.cos(t)}).to_csv(path)
+        expected = None if not rates else {"position": rates[0], "torque": rates[0]}
+        capture = aw.read_capture(path, expected_rates_hz=expected, profile=lenient)
+        rates.append(capture.rates_hz["position"])
+        assert capture.signals["position"] == pytest.approx(
+            np.sin(np.arange(capture.signals["position"].size) / rates[-1]), abs=2e-3
+        )
+    assert rates[1:] == pytest.approx([rates[0]] * 3, rel=1e-9)
+
+
 def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
     path = tmp_path / "axis.toml"
     path.write_text(
@@ -87,7 +152,7 @@ def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("data", "message"),
     [
-        ({"colums": {}}, r"Unknown key\(s\) \['colums'\]"),
+        ({"colums": {}}, r"unknown key\(s\) \['colums'\]"),
         ({"columns": {"x": "angle"}}, "maps to role 'angle'"),
         ({"units": {"time": "min"}}, "time unit must be one of"),
         ({"units": {"position": "grad"}}, "position unit must be one of"),
@@ -98,6 +163,43 @@ def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
 def test_bad_profiles_are_named(data: dict[str, object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         AxisProfile.from_dict(data)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('columns = "time"', r"'columns' must be a table \(\[columns\].*got 'time' \(str\)"),
+        ("[columns]\nt = 1", r"\[columns\]: 't' must map to a quoted role.*got 1 \(int\)"),
+        ("[units]\nposition = 3", r"\[units\]: 'position' must be a quoted string; got 3"),
+        ("[units]\ntorque = 5", r"\[units\]: 'torque' must be a quoted string; got 5"),
+        ('resample_irregular = "no"', r"'resample_irregular' must be true or false.*'no' \(str\)"),
+        ("name = 3", r"'name' must be a quoted string; got 3 \(int\)"),
+        (
+            '[kinematics]\ngear_ratio = "abc"',
+            r"\[kinematics\]: 'gear_ratio' must be a number > 0; got 'abc' \(str\)",
+        ),
+        ('[kinematics]\ngear_stages = "x"', r"\[kinematics\]: 'gear_stages' must be a table"),
+        ("[kinematics.bearing_orders]\nb = true", r"bearing_orders\.b must be a number > 0"),
+        ("[colums]\nt = 'time'", r"unknown key\(s\) \['colums'\]; expected some of"),
+    ],
+)
+def test_wrong_types_in_a_profile_file_name_the_file_and_key(
+    tmp_path: Path, text: str, message: str
+) -> None:
+    # Before: 'columns = "time"' raised "dictionary update sequence element #0 ...", a string
+    # gear ratio "could not convert string to float", and "no", 3 or a quoted ratio were
+    # silently taken (resample_irregular = "no" turned resampling on).
+    path = tmp_path / "robot.toml"
+    path.write_text(text + "\n")
+    with pytest.raises(ProfileError, match=f"{re.escape(str(path))}.*{message}"):
+        AxisProfile.from_toml(path)
+
+
+def test_a_profile_that_is_not_utf8_text_names_the_file(tmp_path: Path) -> None:
+    path = tmp_path / "axis.toml"
+    path.write_bytes(b"name = '\xff\xfe'\n")
+    with pytest.raises(ProfileError, match="axis profile must be UTF-8 text"):
+        AxisProfile.from_toml(path)
 
 
 def test_unreadable_toml_names_the_file(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ optional JSON ``meta``; every channel at one rate, the start time not kept).
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from collections.abc import Callable, Mapping
@@ -29,6 +30,7 @@ from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "NOMINAL_RATE_HZ",
+    "UNITS_ROW_KEY",
     "CaptureFormat",
     "NpzRecording",
     "capture_format",
@@ -136,7 +138,12 @@ def _read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     table = pq.read_table(path)
     raw = (table.schema.metadata or {}).get(_METADATA_KEY)
     metadata = {str(k): str(v) for k, v in json.loads(raw).items()} if raw else {}
-    return table.to_pandas(), metadata
+    frame = table.to_pandas()
+    if not isinstance(frame.index, pd.RangeIndex):
+        # Written from a DataFrame indexed by its time stamps (df.set_index("time").to_parquet()):
+        # the index is a column of the file, not a row number.
+        frame = frame.reset_index()
+    return frame, metadata
 
 
 def _write_parquet(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:
@@ -149,8 +156,44 @@ def _write_parquet(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path)
     pq.write_table(table.replace_schema_metadata(meta), path)
 
 
+#: Metadata key of a CSV file's units row (JSON: column -> unit), checked by ``read_capture``
+#: against the units the capture is read in.
+UNITS_ROW_KEY = "units_row"
+
+
+def _is_number(cell: str, decimal: str) -> bool:
+    try:
+        float(cell.strip().replace(decimal, "."))
+    except ValueError:
+        return False
+    return True
+
+
 def _read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
-    return pd.read_csv(path), {}
+    """A CSV capture: separator ``,``, ``;`` or tab and decimal point or comma (a European
+    spreadsheet's ``;`` with ``0,5``) taken from the header and the first data line, a UTF-8 byte
+    order mark ignored, and a units row under the header (every cell text, such as ``s;deg;A``)
+    kept as metadata (:data:`UNITS_ROW_KEY`) instead of read as values."""
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as stream:
+        lines = [stream.readline() for _ in range(3)]
+    header = lines[0]
+    separator = max((",", ";", "\t"), key=header.count)
+    first = next(csv.reader([lines[1]], delimiter=separator), [])
+    cells = [cell for cell in first if cell.strip()]
+    units_row = bool(cells) and not any(_is_number(c, ".") or _is_number(c, ",") for c in cells)
+    data = lines[2] if units_row else lines[1]
+    decimal = "," if separator != "," and "," in data else "."
+    frame = pd.read_csv(
+        path,
+        sep=separator,
+        decimal=decimal,
+        encoding="utf-8-sig",
+        skiprows=[1] if units_row else None,
+    )
+    if not units_row:
+        return frame, {}
+    units = {str(c): u.strip() for c, u in zip(frame.columns, first, strict=False) if u.strip()}
+    return frame, {UNITS_ROW_KEY: json.dumps(units)}
 
 
 def _write_csv(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:

@@ -11,6 +11,7 @@ __all__ = [
     "CalibrationError",
     "CaptureError",
     "DataNotFoundError",
+    "ProfileError",
     "StoreError",
 ]
 
@@ -21,6 +22,13 @@ class AxiswatchError(Exception):
 
 class CaptureError(AxiswatchError, ValueError):
     """A capture (file or arrays) is malformed: missing column, NaN, wrong rate, too short, ..."""
+
+
+class ProfileError(CaptureError):
+    """An axis profile (TOML) is malformed: unknown key, wrong type, unknown unit or role.
+
+    A :class:`CaptureError` too: the captures it describes cannot be read until it is fixed.
+    """
 
 
 class CalibrationError(AxiswatchError, ValueError):

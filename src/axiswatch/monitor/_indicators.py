@@ -49,11 +49,14 @@ from axiswatch._indicator_model import (
 )
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import Readings, read_indicators
-from axiswatch.exceptions import CalibrationError
+from axiswatch._ringing import MIN_RINGING_RATE_HZ
+from axiswatch.exceptions import CalibrationError, CaptureError
 
 __all__ = [
+    "MIN_MONITOR_RATE_HZ",
     "IndicatorBaseline",
     "assess_capture",
+    "check_monitor_rate",
     "fit_indicator_baseline",
     "fleet_key",
     "indicator_details",
@@ -87,6 +90,40 @@ class IndicatorBaseline:
         the indicators without their own (None without a prior)."""
         fleet = self.model.fleet
         return None if fleet is None else fleet.allowance(self.model.percentile)
+
+
+#: The lowest rate the monitor reads indicators at (README: "any rate from 20 Hz"): that of
+#: ``gap_ringing``, the indicator that needs the least.
+MIN_MONITOR_RATE_HZ = MIN_RINGING_RATE_HZ
+
+
+def check_monitor_rate(capture: Capture) -> None:
+    """Refuse a capture whose fastest signal is slower than :data:`MIN_MONITOR_RATE_HZ`.
+
+    Friction and drive loads can be read at any rate, so such a capture was scored: a 100 Hz log
+    stamped in milliseconds, read as seconds, gave 0.1 Hz and distances in wrong units, silently.
+
+    Raises
+    ------
+    CaptureError
+        Naming the capture, its fastest rate and the likely cause.
+
+    Examples
+    --------
+    >>> from axiswatch import as_capture
+    >>> check_monitor_rate(as_capture({"torque": [0.0, 1.0, 0.0]}, 0.1, source="c.csv"))
+    Traceback (most recent call last):
+    ...
+    axiswatch.exceptions.CaptureError: c.csv: signals sampled at 0.1 Hz at most; ...
+    """
+    fastest = max(capture.rates_hz.values())
+    # Within the 0.1 % a rate is checked to: a 20 Hz log's stamps give 19.99999... Hz.
+    if fastest < MIN_MONITOR_RATE_HZ * (1 - 1e-3):
+        raise CaptureError(
+            f"{capture.source}: signals sampled at {fastest:.3g} Hz at most; the indicators need "
+            f"{MIN_MONITOR_RATE_HZ:g} Hz or more (stamps in milliseconds read as seconds? "
+            'declare the unit in the axis profile: [units] time = "ms").'
+        )
 
 
 def read_axis_indicators(

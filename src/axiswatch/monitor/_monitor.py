@@ -44,7 +44,7 @@ from typing import Any
 
 from axiswatch._features import FeatureSpec
 from axiswatch._profiles import AxisProfile
-from axiswatch.exceptions import StoreError
+from axiswatch.exceptions import ProfileError, StoreError
 from axiswatch.monitor._fleet import (
     FleetFile,
     LayoutProblem,
@@ -546,7 +546,10 @@ def _stored_indicator_models(
             continue
         stored = resolve_model(ModelRef(saved.model_hash, source))
         if isinstance(stored, IndicatorBaseline):
-            profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
+            try:
+                profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
+            except ProfileError:
+                continue  # its captures are rejected with the profile's error until it is fixed
             groups[fleet_key(profile)].append(
                 _StoredIndicators(robot, axis, baseline.id, saved, stored)
             )
@@ -1003,7 +1006,7 @@ def _check_signals(root: Path, config: MonitorConfig) -> None:
         return False
 
     files, _ = discover_fleet(root, skip=beyond_checked)
-    files = [f for f in files if not _maps_columns(profile_for(f, config.profile))]
+    files = [f for f in files if not _maps_columns(f, config.profile)]
     firsts = list({(f.robot, f.axis): f for f in reversed(files)}.values())[-_AXES_CHECKED:]
     seen: dict[str, list[str]] = {}
     for file in firsts:
@@ -1022,7 +1025,13 @@ def _check_signals(root: Path, config: MonitorConfig) -> None:
         )
 
 
-def _maps_columns(profile: AxisProfile | None) -> bool:
+def _maps_columns(file: FleetFile, given: AxisProfile | None) -> bool:
+    """Whether the file's profile renames its columns (a malformed profile is not looked at
+    here: the file's jobs reject it with the profile's error)."""
+    try:
+        profile = profile_for(file, given)
+    except ProfileError:
+        return True
     return profile is not None and bool(profile.columns)
 
 

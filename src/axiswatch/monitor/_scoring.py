@@ -25,12 +25,13 @@ from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
-from axiswatch.exceptions import CalibrationError, CaptureError
+from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._indicators import (
     IndicatorBaseline,
     assess_capture,
+    check_monitor_rate,
     fit_indicator_baseline,
     indicator_details,
     read_axis_indicators,
@@ -347,10 +348,12 @@ def _one_line(exc: BaseException, path: Path, relative: str) -> str:
 
 def _failure_kind(exc: BaseException) -> tuple[str, bool]:
     """Kind of a job's failure and whether it is transient: an operating-system error reading
-    the file (permission, I/O error on a share) may pass; a malformed capture does not."""
+    the file (permission, I/O error on a share) may pass; a malformed capture does not. A
+    malformed axis profile is transient too: the capture is read again once the profile is
+    fixed, though the capture file itself does not change."""
     if isinstance(exc, OSError) and not isinstance(exc, CaptureError):
         return "unreadable", True
-    return "invalid", False
+    return "invalid", isinstance(exc, ProfileError)
 
 
 def _bad_data(relative: str, problem: str) -> str:
@@ -437,10 +440,11 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
     """The baseline and the next readable captures, read and fitted as one IndicatorModel; an
     outcome ``waiting`` while fewer than ``calibration_size`` captures give a reading."""
     path = job.file.path
-    profile = profile_for(job.file, job.profile)
     try:
+        profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
         capture = read_capture(path, profile=profile)
+        check_monitor_rate(capture)
         problem = data_quality_problem(capture)
         if problem is not None:
             error = _bad_data(job.relative, problem)
@@ -458,6 +462,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
         return FitOutcome(job, "", None, None, {}, digest, "", error, "not scored")
     reference = QualityReference.of(capture)
     readings, hashes, paths = [baseline], [digest], [job.relative]
+    unusable: list[str] = []  # why, for the axis's line while it waits
     for file, relative in zip(job.calibration, job.relatives, strict=True):
         if len(readings) > job.calibration_size:
             break
@@ -466,7 +471,9 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             calibration = read_capture(
                 file.path, expected_rates_hz=capture.rates_hz, profile=profile
             )
-            if data_quality_problem(calibration, reference) is not None:
+            problem = data_quality_problem(calibration, reference)
+            if problem is not None:
+                unusable.append(_bad_data(relative, problem))
                 continue
             read = read_axis_indicators(
                 calibration,
@@ -478,7 +485,10 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
                 readings.append(read)
                 hashes.append(file_hash(file.path))
                 paths.append(relative)
-        except _DATA_ERRORS:
+            else:
+                unusable.append(f"{relative}: no indicator can be read")
+        except _DATA_ERRORS as exc:
+            unusable.append(_one_line(exc, file.path, relative))
             continue
     if len(readings) <= job.calibration_size:
         waiting = (
@@ -486,6 +496,11 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             f"{job.calibration_size} captures after the baseline {job.relative} give a reading; "
             "the indicators baseline is set once all have arrived"
         )
+        if unusable:
+            # Otherwise an axis whose later captures all fail (another rate than the baseline's)
+            # waits for ever without a word of why.
+            first = unusable[0].removesuffix(".")
+            waiting += f" ({len(unusable)} could not be used; the first: {first})"
         return FitOutcome(job, "", None, None, {}, digest, "", None, waiting=waiting)
     try:
         fitted = fit_indicator_baseline(
