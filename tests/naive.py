@@ -645,7 +645,8 @@ def gap_ringing_naive(
     residual = filtered(sos, torque - np.asarray(whole))
     near, away = [], []
     for i in range(n):
-        if moving[i] and any(time_s[k] - 0.05 <= time_s[i] <= time_s[k] + 0.3 for k in crossings):
+        before, after = round(0.05 * rate_hz), round(0.3 * rate_hz)  # whole samples
+        if moving[i] and any(k - before <= i <= k + after for k in crossings):
             near.append(float(residual[i]) ** 2)
         elif moving[i]:
             away.append(float(residual[i]) ** 2)

@@ -359,8 +359,20 @@ def _product_models(fits: dict[int, list[Readings]]) -> dict[int, IndicatorModel
     return models
 
 
-@pytest.mark.parametrize("seed", [DEVELOPMENT_ROBOTS[2], DEVELOPMENT_ROBOTS[4]])
-def test_the_option_scores_as_the_lab_variant(seed: int) -> None:
+def test_the_option_scores_as_the_lab_variant() -> None:
+    compared = loosened = 0
+    for seed in (DEVELOPMENT_ROBOTS[2], DEVELOPMENT_ROBOTS[4]):
+        on_robot, widened = _option_against_lab(seed)
+        assert on_robot >= 48
+        compared, loosened = compared + on_robot, loosened + widened
+    # The factor changed some distances, so the equality is not vacuous (robot 4's; on robot 2
+    # none since gap_ringing's windows are whole samples).
+    assert loosened > 0
+
+
+def _option_against_lab(seed: int) -> tuple[int, int]:
+    """The option's distances equal the lab variant's on one robot; how many were compared and
+    how many the friction error factor changed."""
     robot = draw_robot(seed)
     fits = {t: [_both(robot.capture(t, seed=f"fit{k}")) for k in range(4)] for t in range(4)}
     tests = [
@@ -394,8 +406,7 @@ def test_the_option_scores_as_the_lab_variant(seed: int) -> None:
             assert verdict.distance / verdict.threshold == pytest.approx(expected, rel=1e-9)
             compared += 1
             loosened += error_distance(lab_models[b], reference, lab, "whole moves") != expected
-    assert compared >= 48
-    assert loosened > 0  # the factor changed some distances: the equality is not vacuous
+    return compared, loosened
 
 
 # --- the default is unchanged ---------------------------------------------------------------

@@ -31,11 +31,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_SIGNALS",
+    "RATE_TOLERANCE",
     "Capture",
     "as_capture",
     "capture_to_frame",
     "check_stamp_unit",
     "date_stamps",
+    "rate_at_least",
     "read_capture",
     "sampling_period",
     "write_capture",
@@ -51,6 +53,25 @@ _SPACING_RTOL = 0.25
 #: Stamps read as seconds beyond this (the year 5138) are in a smaller unit than the one read:
 #: Unix milliseconds read as seconds start in the year 57,000.
 LATEST_STAMP_S = 1e11
+
+#: Relative tolerance of a rate read from time stamps: a capture's rate must match its
+#: baseline's within it, and a rate within it of a floor (20 Hz, 100 Hz) reaches the floor.
+RATE_TOLERANCE = 1e-3
+
+
+def rate_at_least(rate_hz: float, floor_hz: float) -> bool:
+    """Whether a rate read from time stamps reaches ``floor_hz``, within :data:`RATE_TOLERANCE`.
+
+    A 100 Hz log's stamps give 99.9999999... Hz as often as 100.0000...1 Hz: compared exactly,
+    an indicator that needs 100 Hz was read on one export of a capture and not on another.
+
+    Examples
+    --------
+    >>> rate_at_least(100.0 * (1 - 1e-12), 100.0), rate_at_least(99.0, 100.0)
+    (True, False)
+    """
+    return rate_hz >= floor_hz * (1.0 - RATE_TOLERANCE)
+
 
 _ISO_DATE = re.compile(r"\s*\d{4}-\d{2}-\d{2}[T ]\d")
 
@@ -539,7 +560,7 @@ def read_capture(
         starts.append(start)
         if expected_rates_hz is not None and name in expected_rates_hz:
             expected = float(expected_rates_hz[name])
-            if abs(rates[name] - expected) > 1e-3 * expected:
+            if abs(rates[name] - expected) > RATE_TOLERANCE * expected:
                 raise CaptureError(
                     f"{path}: column '{name}' is sampled at {rates[name]:.6g} Hz; "
                     f"expected {expected:.6g} Hz (the baseline's rate)."

@@ -45,6 +45,7 @@ only upwards (a quieter task lowers them).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from functools import lru_cache
 
@@ -76,6 +77,7 @@ __all__ = [
     "reversal_bursts",
     "running_rms",
     "viscous_friction",
+    "whole_samples",
 ]
 
 #: The indicators, in the order of :meth:`MechanicsStage.indicators` and of ``MECHANICS_SCALES``.
@@ -561,7 +563,7 @@ def _bursts(
     crossings = crossings[where[crossings]]
     if crossings.size == 0:
         return float("nan")
-    half = max(1, round(window_s * rate_hz))
+    half = max(1, whole_samples(window_s, rate_hz))
     slope = np.abs(np.gradient(smooth, 1.0 / rate_hz))
     magnitude = np.abs(band)
     bursts = [
@@ -589,6 +591,26 @@ def butter_sos(
     """
     btype = "bandpass" if isinstance(cutoff_hz, tuple) else "lowpass"
     return np.asarray(butter(order, cutoff_hz, btype=btype, fs=rate_hz, output="sos"))
+
+
+def whole_samples(seconds: float, rate_hz: float) -> int:
+    """The nearest whole number of samples to ``seconds`` at ``rate_hz``, halves up.
+
+    Immune to the last bits of the rate: a rate read from time stamps is exact only to about
+    1e-12 (stamps written as text or as Unix seconds), and Python's ``round`` of a product that
+    should be a whole number or a half (0.05 s at 50 Hz: 2.5 samples) flipped between two
+    window lengths with it. The product is rounded down after adding ``0.5 + 1e-6``: a product
+    within 1e-6 of a sample below a half counts as the half (a rate 1e-9 off moves 0.05 s at
+    50 Hz by 2.5e-9 samples), and no other value changes its count.
+
+    Examples
+    --------
+    >>> whole_samples(0.05, 50.0), whole_samples(0.05, 50.0 * (1 - 1e-12)), round(0.05 * 50.0)
+    (3, 3, 2)
+    >>> whole_samples(0.3, 100.0), whole_samples(0.3, 100.0 * (1 - 1e-12))
+    (30, 30)
+    """
+    return math.floor(seconds * rate_hz + 0.5 + 1e-6)
 
 
 def running_rms(values: NDArray[np.float64], width: int) -> NDArray[np.float64]:
@@ -730,7 +752,7 @@ class MechanicsStage(FeatureStage):
                 f"{signals.shape[0]} samples at {rate:g} Hz, expected at least {4 * rate / low:g}."
             )
         band = sosfiltfilt(butter_sos(4, (low, high), rate), torque)
-        envelope = running_rms(band, round(self.envelope_s * rate))
+        envelope = running_rms(band, whole_samples(self.envelope_s, rate))
         normalised = band / np.where(envelope > 0, envelope, 1.0)
         angle = self.gear_ratio * position
         sign = np.sign(speed)

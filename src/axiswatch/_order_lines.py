@@ -47,6 +47,7 @@ from scipy.fft import next_fast_len, rfft
 from scipy.ndimage import median_filter
 from scipy.signal import detrend, get_window
 
+from axiswatch._capture import rate_at_least
 from axiswatch._mechanics import bearing_orders
 
 __all__ = [
@@ -179,7 +180,7 @@ def order_spectrum(
     >>> order_spectrum(q[::20], v[::20], torque[::20], 50.0)
     'needs a torque rate >= 100 Hz (got 50 Hz)'
     """
-    if rate_hz < MIN_RATE_HZ:
+    if not rate_at_least(rate_hz, MIN_RATE_HZ):
         return f"needs a torque rate >= {MIN_RATE_HZ:g} Hz (got {rate_hz:g} Hz)"
     runs = _steady_runs(speed)
     if not runs:

@@ -67,13 +67,14 @@ from numpy.typing import NDArray
 from scipy.interpolate import PchipInterpolator
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
-from axiswatch._capture import Capture
+from axiswatch._capture import Capture, rate_at_least
 from axiswatch._mechanics import (
     bearing_lines,
     bearing_orders,
     line_ratio,
     pearson_kurtosis,
     running_rms,
+    whole_samples,
 )
 from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
 from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
@@ -285,7 +286,7 @@ def motion(capture: Capture) -> Motion:
         for n in names & {"position", "speed", "torque"}
     )
     keep = times <= end + 1e-12
-    window = max(5, round(0.05 * rate) | 1)
+    window = max(5, whole_samples(0.05, rate) | 1)
     speed_kept = speed[keep]
     if speed_kept.size > window:
         acceleration = savgol_filter(speed_kept, window, 2, deriv=1, delta=1.0 / rate)
@@ -674,10 +675,11 @@ def read_indicators(
     if why is not None:
         reasons["gap_ringing"] = why
     seconds_moving = float(moving.sum()) / m.rate_hz
-    if m.rate_hz < MIN_BAND_RATE_HZ or seconds_moving < MIN_BAND_MOTION_S:
+    fast_enough = rate_at_least(m.rate_hz, MIN_BAND_RATE_HZ)
+    if not fast_enough or seconds_moving < MIN_BAND_MOTION_S:
         reasons["impulsiveness"] = (
             f"needs a torque rate >= {MIN_BAND_RATE_HZ:g} Hz (got {m.rate_hz:g} Hz)"
-            if m.rate_hz < MIN_BAND_RATE_HZ
+            if not fast_enough
             else f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
         )
         return Readings(values, reasons, capture.source, signature, profile, errors)

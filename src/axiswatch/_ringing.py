@@ -39,7 +39,8 @@ import scipy.linalg
 from numpy.typing import NDArray
 from scipy.signal import sosfiltfilt
 
-from axiswatch._mechanics import butter_sos
+from axiswatch._capture import rate_at_least
+from axiswatch._mechanics import butter_sos, whole_samples
 
 __all__ = [
     "CROSSING_HYSTERESIS",
@@ -65,7 +66,8 @@ NYQUIST_MARGIN = 0.45
 #: reading is then that of a healthy axis, not an alarm.
 MIN_RINGING_RATE_HZ = 20.0
 #: Window around each estimated gap crossing (s before, s after): the estimate's uncertainty
-#: before, a few periods of a 10-20 Hz ring decaying within 0.05-0.3 s after.
+#: before, a few periods of a 10-20 Hz ring decaying within 0.05-0.3 s after. Taken as the
+#: nearest whole number of samples, both ends included.
 RINGING_WINDOW_S: tuple[float, float] = (0.05, 0.3)
 #: Low-pass of the commanded torque whose sign changes are the second crossing estimate (Hz),
 #: as ``reversal_bursts``' smoothing (at most a quarter of the rate).
@@ -215,7 +217,7 @@ def gap_ringing(
     >>> bool(quiet < 3), bool(loud > 10 * quiet)
     (True, True)
     """
-    if rate_hz < MIN_RINGING_RATE_HZ:
+    if not rate_at_least(rate_hz, MIN_RINGING_RATE_HZ):
         return math.nan, f"needs a torque rate >= {MIN_RINGING_RATE_HZ:g} Hz (got {rate_hz:g} Hz)"
     peak = float(np.max(np.abs(speed))) if speed.size else 0.0
     moving = np.abs(speed) > moving_fraction * peak
@@ -225,9 +227,13 @@ def gap_ringing(
     low, high = RINGING_BAND_HZ[0], min(RINGING_BAND_HZ[1], NYQUIST_MARGIN * rate_hz)
     residual = _filtered(butter_sos(4, (low, high), rate_hz), torque - whole)
     near = np.zeros(time_s.size, dtype=bool)
-    before, after = RINGING_WINDOW_S
+    # The window in whole samples (both ends included): compared as times, its ends fall on a
+    # sample whenever the rate x the window is whole (100 Hz: 5 and 30 samples), and whether
+    # that sample counted turned on the last bit of the rate (a capture's stamps written as
+    # text or as Unix seconds moved the reading by 10-17 %).
+    before, after = (whole_samples(seconds, rate_hz) for seconds in RINGING_WINDOW_S)
     for i in gap_crossings(rigid, torque, rate_hz, hysteresis).tolist():
-        near |= (time_s >= time_s[i] - before) & (time_s <= time_s[i] + after)
+        near[max(i - before, 0) : i + after + 1] = True
     near &= moving
     if int(near.sum()) < MIN_SAMPLES:
         return (

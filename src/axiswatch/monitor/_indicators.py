@@ -38,7 +38,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from axiswatch._capture import Capture
+from axiswatch._capture import Capture, rate_at_least
 from axiswatch._indicator_model import (
     LEAVE_SELF_OUT_MAX_AXES,
     FleetPrior,
@@ -118,7 +118,7 @@ def check_monitor_rate(capture: Capture) -> None:
     """
     fastest = max(capture.rates_hz.values())
     # Within the 0.1 % a rate is checked to: a 20 Hz log's stamps give 19.99999... Hz.
-    if fastest < MIN_MONITOR_RATE_HZ * (1 - 1e-3):
+    if not rate_at_least(fastest, MIN_MONITOR_RATE_HZ):
         raise CaptureError(
             f"{capture.source}: signals sampled at {fastest:.3g} Hz at most; the indicators need "
             f"{MIN_MONITOR_RATE_HZ:g} Hz or more (stamps in milliseconds read as seconds? "

@@ -60,8 +60,12 @@ __all__ = [
 #: default). 9: a fleet prior's scales are medians over the ordered pairs of its axes, each read
 #: in its baseline's spreads (:func:`~axiswatch._indicator_model.fleet_pair_shifts`), and its
 #: ``n_pairs`` counts them; a format-8 model keeps a prior that depends on the order its fleet
-#: was listed in (and counts the pairs one way), so it is refitted and pooled again.
-PERSIST_FORMAT = 9
+#: was listed in (and counts the pairs one way), so it is refitted and pooled again. 10:
+#: ``gap_ringing``'s windows and the rate floors of the indicators are counted in whole samples
+#: and compared within the rate's tolerance (:func:`~axiswatch._mechanics.whole_samples`,
+#: :func:`~axiswatch._capture.rate_at_least`), so a format-9 model's centre and spreads of
+#: ``gap_ringing`` were read with windows a sample longer or shorter: it is refitted.
+PERSIST_FORMAT = 10
 
 #: Classes a stored model may contain, by the path they are imported from. A new stage or
 #: detector whose fitted state should be stored is added here (a test saves and loads each).
