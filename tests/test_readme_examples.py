@@ -534,3 +534,50 @@ def test_delivering_capture_files(
     assert found.path == Path("fleet") / Path(final).relative_to("fleet")
     assert problems == []
     assert aw.read_capture(final).rates_hz == aw.read_capture(source).rates_hz
+
+
+#: Dotted names of the prose that are no Python attributes: a file name, an entry-point group.
+NOT_ATTRIBUTES = {"axiswatch.toml", "axiswatch.methods"}
+
+
+def _lookup(name: str) -> Any:
+    """A name the prose uses bare or dotted: from ``aw``, ``axiswatch.monitor`` or datasets."""
+    import axiswatch.datasets as awd
+
+    dotted = name.removeprefix("aw.").removeprefix("axiswatch.").split(".")
+    for space in (aw, awm, awd):
+        found: Any = space
+        for part in dotted:
+            found = getattr(found, part, None)
+        if found is not None:
+            return found
+    return None
+
+
+def test_api_names_and_keywords_in_the_prose_exist() -> None:
+    """`aw.X`, `axiswatch.monitor.X`, `IndicatorModel(order_lines=True)`: each name exists and
+    each keyword is a parameter of the call it is given to."""
+    import inspect
+
+    checked = 0
+    for _, span in _spans():
+        dotted = re.fullmatch(r"((?:aw|axiswatch)(?:\.\w+)+)(\(.*\))?", span)
+        if dotted and dotted.group(1) not in NOT_ATTRIBUTES:
+            assert _lookup(dotted.group(1)) is not None, span
+            checked += 1
+        text, call = span, re.compile(r"([\w.]+)\(([^()]*)\)")  # innermost calls first
+        while call.search(text):
+            for name, arguments in call.findall(text):
+                target = _lookup(name)
+                if target is None:
+                    assert not name[0].isupper(), f"{span!r}: no {name} in axiswatch"
+                    continue  # max(...), prctl(...), a method such as reason()
+                parameters = inspect.signature(target).parameters
+                for keyword in re.findall(r"(?<![\w.])(\w+)=", arguments):
+                    assert keyword in parameters, f"{span!r}: {name} has no parameter {keyword}"
+                    checked += 1
+            text = call.sub("_", text)
+    assert checked >= 20
+    for detector in (aw.PCADetector, aw.LRADetector):  # fit(X_baseline), distance, transform
+        assert all(callable(getattr(detector, m, None)) for m in ("fit", "distance", "transform"))
+    assert "solver" in inspect.signature(aw.lra_embedding).parameters  # `solver="dense"`
