@@ -156,3 +156,30 @@ def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: 
     assert taken.returncode == 0, taken.stderr[-2000:]
     assert shot.stat().st_size > 10_000  # a rendered page, not a blank image
     print(f"screenshot of the report's first screen: {shot}")
+
+
+@pytest.mark.slow
+def test_readme_quotes_the_demo(demo_report: Path) -> None:
+    """README.md quotes the demo's stored reasons ("The store") and the alarm line `monitor`
+    prints ("Rejected captures and exit status"): they are what the demo gives."""
+    from typer.testing import CliRunner
+
+    from axiswatch.cli import app
+    from axiswatch.monitor._results import fleet_results
+    from axiswatch.monitor._store import Store
+
+    readme = " ".join((ARTIFACTS.parent / "README.md").read_text(encoding="utf-8").split())
+    out = demo_report.parent.parent
+    with Store(out / "fleet.db", read_only=True) as store:
+        reasons = fleet_results(store)["reason"].dropna().tolist()
+    quoted = re.findall(r"`(distance [\d.]+ [^`]*)`", readme)
+    assert len(quoted) == 2
+    for reason in quoted:
+        assert any(r.startswith(reason.removesuffix(" ...")) for r in reasons), reason
+    (line,) = re.findall(r"`(robot02/axis1: ALARM since [^`]*)`", readme)
+    shown = CliRunner().invoke(
+        app,
+        ["monitor", str(out / "fleet"), "--store", str(out / "fleet.db"), "--settle", "0"],
+    )
+    assert shown.exit_code == 4, shown.output
+    assert f"  {line}\n" in shown.output
