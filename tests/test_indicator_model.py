@@ -467,18 +467,22 @@ def test_fleet_pair_shifts_match_the_loop_twin() -> None:
     )
 
 
+def _task_fleet(robot: aw.datasets.SimulatedRobot, n_tasks: int) -> list[IndicatorModel]:
+    """One model per task of ``robot``: baseline seed 0, calibration seeds 1-5."""
+    return [
+        IndicatorModel().fit(
+            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
+        )
+        for t in range(n_tasks)
+    ]
+
+
 def test_the_fleet_prior_does_not_depend_on_the_order_of_the_axes() -> None:
     """Fails before i17a: each pair ``i < j`` was read one way, in axis ``i``'s spreads (and a
     one-sided indicator counted only ``i``'s growth), so listing the axes in another order
     changed ``allowance_scale`` and the indicators' scales (on main a3707e2 this test fails at
     the first order: ``allowance_scale`` 1.566 against 1.840 in the listed order)."""
-    robot = aw.datasets.draw_robot(2)
-    fleet = [
-        IndicatorModel().fit(
-            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
-        )
-        for t in range(6)
-    ]
+    fleet = _task_fleet(aw.datasets.draw_robot(2), 6)
     prior = pool_fleet(fleet)
     rng = np.random.default_rng(3)
     for _ in range(5):
@@ -503,13 +507,7 @@ def test_the_fleet_prior_does_not_depend_on_the_order_of_the_axes() -> None:
 def test_pool_fleet_takes_its_scales_from_the_pairs_of_the_loop_twin() -> None:
     from axiswatch._indicator_model import _declared
 
-    robot = aw.datasets.draw_robot(2)
-    fleet = [
-        IndicatorModel().fit(
-            robot.capture(t, seed=0), [robot.capture(t, seed=k) for k in range(1, 6)]
-        )
-        for t in range(5)
-    ]
+    fleet = _task_fleet(aw.datasets.draw_robot(2), 5)
     prior = pool_fleet(fleet)
     names = [n for n, s in prior.task_spreads.items() if math.isfinite(s) and s > 0]
     distances, shifts = naive.fleet_pair_shifts_naive(

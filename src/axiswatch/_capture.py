@@ -35,6 +35,7 @@ __all__ = [
     "Capture",
     "as_capture",
     "capture_to_frame",
+    "check_increasing",
     "check_stamp_unit",
     "date_stamps",
     "rate_at_least",
@@ -126,6 +127,26 @@ def check_stamp_unit(first_s: float, unit: str, path: Path) -> None:
         f"{unit}; are the stamps in {smaller}? Declare the unit in the axis profile "
         f'([units] time = "{smaller}").'
     )
+
+
+def check_increasing(time_s: NDArray[np.float64], path: Path) -> None:
+    """Refuse time stamps that repeat or go back, naming the first such row in plain seconds.
+
+    Examples
+    --------
+    >>> check_increasing(np.array([0.0, 0.01, 0.01]), Path("c.csv"))
+    Traceback (most recent call last):
+    ...
+    axiswatch.exceptions.CaptureError: c.csv: column 'time' must be strictly increasing; row 2 ...
+    """
+    steps = np.diff(time_s)
+    if (steps <= 0).any():
+        k = int(np.flatnonzero(steps <= 0)[0])
+        what = "repeats the time stamp" if steps[k] == 0 else "goes back in time:"
+        raise CaptureError(
+            f"{path}: column 'time' must be strictly increasing; row {k + 1} {what} "
+            f"t={time_s[k + 1]:.9g} s after t={time_s[k]:.9g} s."
+        )
 
 
 def sampling_period(stamps: NDArray[np.float64]) -> float:
@@ -523,14 +544,7 @@ def read_capture(
     time_s = _numeric_column(frame, "time", path)
     if not np.isfinite(time_s).all():
         raise CaptureError(f"{path}: column 'time' has NaN or inf; expected finite seconds.")
-    steps = np.diff(time_s)
-    if (steps <= 0).any():
-        k = int(np.flatnonzero(steps <= 0)[0])
-        what = "repeats the time stamp" if steps[k] == 0 else "goes back in time:"
-        raise CaptureError(
-            f"{path}: column 'time' must be strictly increasing; row {k + 1} {what} "
-            f"t={time_s[k + 1]:.9g} s after t={time_s[k]:.9g} s."
-        )
+    check_increasing(time_s, path)
     available = [str(c) for c in frame.columns if c != "time"]
     if signals is None:
         names = [name for name in DEFAULT_SIGNALS if name in available]

@@ -39,7 +39,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._capture import check_stamp_unit, date_stamps, sampling_period
+from axiswatch._capture import (
+    check_increasing,
+    check_stamp_unit,
+    date_stamps,
+    sampling_period,
+)
 from axiswatch.exceptions import CaptureError, ProfileError
 
 __all__ = ["AxisProfile", "find_profile"]
@@ -340,13 +345,7 @@ class AxisProfile:
 
 def _uniform(frame: pd.DataFrame, path: Path, step_s: float | None) -> pd.DataFrame:
     time_s = frame["time"].to_numpy(dtype=np.float64)
-    steps = np.diff(time_s)
-    if (steps <= 0).any():
-        k = int(np.flatnonzero(steps <= 0)[0])
-        raise CaptureError(
-            f"{path}: column 'time' must be strictly increasing; row {k + 1} has "
-            f"t={time_s[k + 1]:.9g} s after t={time_s[k]:.9g} s."
-        )
+    check_increasing(time_s, path)
     # Not the median step: it moves from capture to capture by a share of the jitter, and every
     # capture's rate is checked against the baseline's to 0.1 % (6 of 7 captures of a 100 Hz
     # logger jittering by 20 % of its period were refused and its axis waited for ever).

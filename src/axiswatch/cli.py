@@ -15,12 +15,15 @@ from contextlib import contextmanager
 from datetime import timedelta
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import typer
 
 from axiswatch.monitor._methods import DEFAULT_METHOD, methods
 from axiswatch.monitor._scoring import MonitorConfig
+
+if TYPE_CHECKING:  # imported where used: the CLI starts without pandas
+    import pandas as pd
 
 #: The monitor's defaults: every option of ``monitor`` defaults from these fields.
 DEFAULTS = MonitorConfig()
@@ -123,13 +126,14 @@ class Format(StrEnum):
     json = "json"
 
 
-def _echo_summary(store: Any, stale_after: timedelta | None) -> None:
+def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
+    """Print the fleet's summary (the columns that fit a terminal); return it whole."""
     from axiswatch.monitor._results import fleet_summary
 
     summary = fleet_summary(store, stale_after=stale_after)
     if summary.empty:
         typer.echo("No axis has a baseline yet.")
-        return
+        return summary
     # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
     columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
                "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip
@@ -140,20 +144,20 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> None:
     origins = summary.threshold_origin.dropna().unique()
     if len(origins) == 1:
         typer.echo(f"threshold of every axis: {origins[0]}.")
+    return summary
 
 
 def _alarm_reasons(
-    store: Any, method: str, axes: list[tuple[str, str]], stale_after: timedelta | None
+    store: Any, summary: pd.DataFrame, method: str, axes: list[tuple[str, str]]
 ) -> list[str]:
     """One line per axis in alarm: why (the report's first-screen line), read from the store."""
     import pandas as pd
 
     from axiswatch.monitor._attention import triage
-    from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+    from axiswatch.monitor._results import fleet_rejections, fleet_results
 
     if not axes:
         return []
-    summary = fleet_summary(store, stale_after=stale_after)
     results = pd.concat([fleet_results(store, robot=r, axis=a) for r, a in axes])
     listed = triage(summary, results, fleet_rejections(store), store.changed_file_table(),
                     store.alarms(method), method=method)  # fmt: skip
@@ -299,8 +303,8 @@ def monitor(
                     f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
                     "in this run."
                 )
-                _echo_summary(opened, silence)
-                reasons = _alarm_reasons(opened, result.method, list(result.alarms), silence)
+                summary = _echo_summary(opened, silence)
+                reasons = _alarm_reasons(opened, summary, result.method, list(result.alarms))
         finally:
             if client is not None:
                 client.close()
