@@ -171,3 +171,20 @@ def test_a_parquet_file_indexed_by_its_time_stamps_is_read(tmp_path: Path) -> No
     dated = frame.set_index(pd.Timestamp("2026-03-01") + pd.to_timedelta(frame.pop("time"), "s"))
     dated.rename_axis("time").to_parquet(path)
     assert aw.read_capture(path).rates_hz["torque"] == pytest.approx(100.0)
+
+
+@pytest.mark.parametrize("separator", [",", ";"])
+def test_a_csv_file_cut_off_in_a_row_is_a_capture_error(tmp_path: Path, separator: str) -> None:
+    # A logger that died mid-write, or a copy cut short, leaves a file that ends inside a row.
+    # Before: read as a shorter capture, which a monitor scored (an ALARM on its drive load).
+    path = tmp_path / "c.csv"
+    text = _spreadsheet_text(separator, ".")
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    cut = text[: len(text) - 1 - len(last) + last.index(separator) + 3]  # inside the last row
+    path.write_text(cut, encoding="utf-8")
+    with pytest.raises(CaptureError, match=r"ends inside a row .* cut off"):
+        aw.read_capture(path)
+    path.write_text(text, encoding="utf-8")  # complete now
+    assert len(aw.read_capture(path).signals["torque"]) == len(text.splitlines()) - 1
+    path.write_text(text.rstrip("\n"), encoding="utf-8")  # whole, but without a final line break
+    assert len(aw.read_capture(path).signals["torque"]) == len(text.splitlines()) - 1

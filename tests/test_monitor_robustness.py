@@ -352,6 +352,31 @@ def test_capture_still_being_written_waits_and_temporary_names_are_ignored(
     assert "1 capture(s) scored" in second.stdout
 
 
+def test_csv_capture_cut_off_in_a_row_is_rejected_never_scored_and_scored_once_whole(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # A logger that died mid-write leaves a file that settles but ends inside a row. Before:
+    # scored as a shorter capture (seen as an ALARM on a simulated fleet's drive load).
+    capture = aw.read_capture(fleet / AXIS / "2026-03-04.parquet")
+    whole = aw.write_capture(capture, tmp_path / "whole.csv").read_text()
+    target = fleet / AXIS / "2026-03-06.csv"
+    row = whole.index("\n", len(whole) // 2) + 1  # a row's start, half-way through the file
+    target.write_text(whole[: row + 5])  # five characters of its time stamp, no other field
+    settle(target.parent)
+    store = tmp_path / "s.db"
+    first = _monitor(fleet, store)
+    assert first.returncode == 8, first.stdout + first.stderr
+    assert f"{AXIS}/2026-03-06.csv: ends inside a row" in first.stdout
+    assert "ALARM" not in first.stdout
+    assert _query(store, "SELECT count(*) FROM scores WHERE capture = '2026-03-06.csv'") == [(0,)]
+    target.write_text(whole)  # the logger's next attempt delivers the whole file
+    settle(target.parent)
+    second = _monitor(fleet, store)
+    assert second.returncode == 0, second.stdout
+    assert "1 capture(s) scored" in second.stdout
+    assert _query(store, "SELECT count(*) FROM scores WHERE capture = '2026-03-06.csv'") == [(1,)]
+
+
 # --- row 6: workers end with the driver ------------------------------------------------------
 
 

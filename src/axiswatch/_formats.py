@@ -169,6 +169,33 @@ def _is_number(cell: str, decimal: str) -> bool:
     return True
 
 
+#: Bytes read from a CSV file's end to find its last row (rows are far shorter).
+_TAIL_BYTES = 65536
+
+
+def _check_last_row(path: Path, header: str, separator: str) -> None:
+    """Raise :class:`CaptureError` when the file ends inside a row: no final line break, and its
+    last line has fewer fields than the header. A logger that died mid-write or a copy cut short
+    leaves such a file; read, it would be a shorter capture, scored as if whole. A whole file
+    without a final line break passes (its last row has every field)."""
+    with path.open("rb") as stream:
+        stream.seek(max(0, path.stat().st_size - _TAIL_BYTES))
+        tail = stream.read()
+    if tail.endswith((b"\n", b"\r")):
+        return
+    last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+
+    def fields(line: str) -> int:
+        return len(next(csv.reader([line], delimiter=separator), []))
+
+    if fields(last) < fields(header):
+        raise CaptureError(
+            f"{path}: ends inside a row (its last line has {fields(last)} of the header's "
+            f"{fields(header)} fields): the file was cut off, still being written or its copy "
+            "cut short"
+        )
+
+
 def _read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     """A CSV capture: separator ``,``, ``;`` or tab and decimal point or comma (a European
     spreadsheet's ``;`` with ``0,5``) taken from the header and the first data line, a UTF-8 byte
@@ -183,6 +210,7 @@ def _read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     units_row = bool(cells) and not any(_is_number(c, ".") or _is_number(c, ",") for c in cells)
     data = lines[2] if units_row else lines[1]
     decimal = "," if separator != "," and "," in data else "."
+    _check_last_row(path, header, separator)
     frame = pd.read_csv(
         path,
         sep=separator,
