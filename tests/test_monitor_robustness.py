@@ -426,6 +426,43 @@ def test_workers_end_with_the_driver(fleet: Path, tmp_path: Path, sig: signal.Si
     assert not [pid for pid in workers if _alive(pid)]
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
+    fleet: Path, tmp_path: Path, workers: int
+) -> None:
+    for day in range(10, 30):  # more captures, so that the run is still scoring when stopped
+        shutil.copy2(fleet / AXIS / "2026-03-04.parquet", fleet / AXIS / f"2026-03-{day}.parquet")
+    reference = tmp_path / "reference.db"
+    assert _monitor(fleet, reference).returncode == 0
+    store = tmp_path / "s.db"
+    command = [sys.executable, "-m", "axiswatch", "monitor", str(fleet), "--store", str(store)]
+    driver = subprocess.Popen(
+        [*command, *FAST, "--workers", str(workers)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    deadline = time.monotonic() + 120
+    while driver.poll() is None and time.monotonic() < deadline:
+        try:
+            if store.exists() and _query(store, "SELECT count(*) FROM scores") > [(1,)]:
+                break  # scoring: past start-up, imports and the baseline's fit
+        except sqlite3.OperationalError:
+            pass  # the store is being created
+        time.sleep(0.01)
+    os.killpg(driver.pid, signal.SIGINT)  # Ctrl-C reaches the driver and its workers
+    _, stderr = driver.communicate(timeout=60)
+    assert driver.returncode == 130, stderr
+    assert stderr.startswith("interrupted: "), stderr
+    assert len(stderr.splitlines()) == 1, stderr  # no worker's traceback either
+    assert _monitor(fleet, store).returncode == 0
+    columns = "robot, axis, capture, role, distance, threshold, over, alarm, reason, details"
+    rows = f"SELECT {columns} FROM scores ORDER BY robot, axis, capture"
+    assert _query(store, rows) == _query(reference, rows)
+    assert _query(store, "PRAGMA integrity_check") == [("ok",)]
+
+
 # --- row 7: a wrong Dask address -------------------------------------------------------------
 
 

@@ -46,13 +46,23 @@ StorePath = Annotated[
 
 @contextmanager
 def _failures(debug: bool) -> Iterator[None]:
-    """Turn expected failures into one line on stderr and exit status 1 (unless ``--debug``)."""
+    """Turn expected failures into one line on stderr and exit status 1 (unless ``--debug``);
+    Ctrl-C into one line and exit status 130 (128 + SIGINT), as a shell reports it."""
     from axiswatch.exceptions import AxiswatchError
 
     try:
         yield
     except BrokenPipeError:
         raise  # the reader went away (`| head`): Click exits quietly, nothing failed
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        typer.echo(
+            "interrupted: stopped before the end; a monitor store keeps every capture committed "
+            "so far (run monitor again to go on)",
+            err=True,
+        )
+        raise typer.Exit(130) from None
     except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
         if debug:
             raise

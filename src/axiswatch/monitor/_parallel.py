@@ -83,8 +83,12 @@ def _end_with_parent(parent: int) -> None:
 
 
 def _start_worker(parent: int) -> None:
-    """Worker initializer: end with the driver (:func:`_end_with_parent`), one BLAS thread."""
+    """Worker initializer: end with the driver (:func:`_end_with_parent`), one BLAS thread, and
+    Ctrl-C left to the driver: a terminal sends SIGINT to the whole process group, and a worker
+    interrupted while it waits for work would print a traceback; the driver stops the run, its
+    pool cancels what has not started and the workers end with it."""
     global _limited
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _end_with_parent(parent)
     # A forked worker inherits the driver's flag but not necessarily its limits (a serial map
     # in the driver sets both, and its ``threadpool_limits`` context restores the limits).
