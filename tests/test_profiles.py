@@ -228,3 +228,30 @@ def test_fleet_lookup_takes_the_most_specific_file(tmp_path: Path) -> None:
     (tmp_path / "r1" / "a1" / "axis.toml").write_text('name = "model-1-wrist"')
     assert find_profile(tmp_path, "r1", "a1").name == "model-1-wrist"  # type: ignore[union-attr]
     assert find_profile(tmp_path, "r2", "a1").name == "fleet"  # type: ignore[union-attr]
+
+
+def test_a_mapped_torque_the_file_lacks_names_the_profile_line_and_the_file(
+    tmp_path: Path,
+) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path).rename(columns={"J2_Current": "J2_Torque"})
+    frame.to_csv(path, index=False)
+    with pytest.raises(ProfileError) as caught:
+        aw.read_capture(path, profile=PROFILE)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert str(path) in message
+    assert "'J2_Current' = 'torque'" in message
+    assert "J2_Torque" in message  # what the file has instead
+
+
+def test_a_mapped_speed_the_file_lacks_is_derived_as_before(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    profile = AxisProfile.from_dict(
+        {
+            "columns": {**PROFILE.columns, "J2_ActVel": "speed"},
+            "units": {"time": "ms", "position": "deg"},
+        }
+    )
+    capture = aw.read_capture(path, profile=profile)
+    assert capture.names == ("position", "torque")

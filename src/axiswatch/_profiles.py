@@ -50,6 +50,8 @@ from axiswatch.exceptions import CaptureError, ProfileError
 __all__ = ["AxisProfile", "find_profile"]
 
 ROLES: tuple[str, ...] = ("time", "position", "speed", "torque")
+#: Roles a capture must have when a profile maps them (speed is derived from the position).
+REQUIRED_ROLES: tuple[str, ...] = ("position", "torque")
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 POSITION_UNITS: dict[str, float] = {
     "rad": 1.0,
@@ -318,6 +320,16 @@ class AxisProfile:
                 f"{path}: no time column; the axis profile {self.source} maps "
                 f"{dict(self.columns)} and the file has {found}."
             )
+        for column, role in self.columns.items():
+            # A mapped position or torque the file lacks: say which profile line points where,
+            # not only that the indicators miss a torque. An optional signal (speed) may be
+            # absent: it is derived from the position.
+            if role in REQUIRED_ROLES and column not in frame.columns and role not in renamed:
+                raise ProfileError(
+                    f"{path}: the axis profile {self.source} maps [columns] {column!r} = "
+                    f"{role!r}, but the file has no column {column!r}; found columns "
+                    f"{list(map(str, frame.columns))}."
+                )
         stamps = renamed["time"]
         dates = date_stamps(stamps, path)
         if dates is not None:  # date-times carry their own unit
