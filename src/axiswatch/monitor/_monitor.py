@@ -293,6 +293,26 @@ def _from_capture(files: Sequence[FleetFile], capture: str) -> list[FleetFile]:
 
 def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> None:
     for problem in problems:
+        if not problem.capture and problem.files:
+            # A misnamed folder: one rejection for all its files, transient (forgotten once the
+            # folder is renamed and its files are scored under the new name); its axis folders
+            # are listed again next run.
+            run.problem_axes |= set(problem.axes)
+            folder = run.relative(problem.path) + "/"
+            # A store from before kept one rejection per file of the folder: now the folder's.
+            earlier = [
+                r.path
+                for r in run.store.rejections(run.method)
+                if r.capture and r.kind == "layout" and r.path.startswith(folder)
+            ]
+            if earlier:
+                run.store.retry_rejections(earlier, run.method)
+            reject(
+                run.store, run.method, problem.robot, problem.axis, "",
+                folder, "", problem.reason, kind="layout",
+                transient=True,
+            )  # fmt: skip
+            continue
         if not problem.capture:  # a folder: reported every run while it lasts, not stored
             run.summary.axis_problems.append(problem.reason)
             continue
@@ -823,7 +843,7 @@ def monitor_fleet(
             progress,
             MonitorSummary(
                 method=config.method,
-                n_files=len(discovered) + len(problems),
+                n_files=len(discovered) + sum(max(p.files, 1) for p in problems),
                 unchanged_folders=len(skipped),
             ),
             params,
