@@ -255,3 +255,69 @@ def test_a_mapped_speed_the_file_lacks_is_derived_as_before(tmp_path: Path) -> N
     )
     capture = aw.read_capture(path, profile=profile)
     assert capture.names == ("position", "torque")
+
+
+def test_encoder_counts_read_as_the_same_capture_in_rad(tmp_path: Path) -> None:
+    from axiswatch._capture import capture_to_frame
+    from axiswatch.datasets import draw_robot
+
+    capture = draw_robot(2).capture(0, seed=3)
+    frame = capture_to_frame(capture)
+    frame.to_parquet(tmp_path / "rad.parquet", index=False)
+    per_turn = 16384.0  # a 14-bit encoder
+    counts = frame.copy()
+    for role in ("position", "speed"):
+        if role in counts.columns:
+            counts[role] = counts[role] * (per_turn / (2 * np.pi))
+    counts.to_parquet(tmp_path / "counts.parquet", index=False)
+    kinematics = {"gear_ratio": 101.0}
+    in_rad = AxisProfile.from_dict({"kinematics": kinematics})
+    in_counts = AxisProfile.from_dict(
+        {
+            "units": {"position": "counts", "counts_per_revolution": per_turn},
+            "kinematics": kinematics,
+        }
+    )
+    assert in_counts == AxisProfile(
+        position_unit="counts",
+        counts_per_revolution=per_turn,
+        gear_ratio=101.0,
+        source=in_counts.source,
+    )
+    read_rad = aw.read_capture(tmp_path / "rad.parquet", profile=in_rad)
+    read_counts = aw.read_capture(tmp_path / "counts.parquet", profile=in_counts)
+    np.testing.assert_allclose(
+        read_counts.signals["position"], read_rad.signals["position"], rtol=1e-12
+    )
+    from axiswatch._readings import read_indicators
+
+    expected = read_indicators(read_rad, **in_rad.kinematics())
+    got = read_indicators(read_counts, **in_counts.kinematics())
+    assert set(got.values) == set(expected.values)
+    assert sum(np.isfinite(v) for v in expected.values.values()) >= 5
+    for name, value in expected.values.items():
+        np.testing.assert_allclose(got.values[name], value, rtol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize(
+    ("units", "message"),
+    [
+        ({"position": "counts"}, r'position unit "counts" needs counts_per_revolution'),
+        ({"position": "counts", "counts_per_revolution": 0}, "must be a number > 0"),
+        ({"position": "counts", "counts_per_revolution": "16384"}, "must be a number > 0"),
+        ({"position": "deg", "counts_per_revolution": 16384}, 'is for position unit "counts"'),
+    ],
+)
+def test_counts_need_a_positive_counts_per_revolution(
+    units: dict[str, object], message: str, tmp_path: Path
+) -> None:
+    path = tmp_path / "axis.toml"
+    lines = [
+        f"{key} = {value!r}".replace("'", '"') if isinstance(value, str) else f"{key} = {value}"
+        for key, value in units.items()
+    ]
+    path.write_text("[units]\n" + "\n".join(lines) + "\n")
+    with pytest.raises(ProfileError, match=message) as caught:
+        AxisProfile.from_toml(path)
+    assert str(path) in str(caught.value)
+    assert "\n" not in str(caught.value)

@@ -3,7 +3,8 @@
 Pipeline stage 0b (issue 13). Every field is optional: a profile maps a controller's column names
 to the roles ``time``, ``position``, ``speed`` and ``torque``, declares units (time stamps in
 ``s``, ``ms``, ``us`` or ``ns``, relative or absolute such as Unix time; position in ``rad``,
-``deg``, ``rev``, ``m`` or ``mm``, speed in the same unit per second; the torque is read as
+``deg``, ``rev``, ``m``, ``mm`` or raw encoder ``counts`` with ``counts_per_revolution``, speed in
+the same unit per second; the torque is read as
 given, it may be a current) and the axis's kinematics (gear ratio, the gear stages whose teeth
 and the bearings whose races the indicators watch). It is a TOML file::
 
@@ -60,6 +61,8 @@ POSITION_UNITS: dict[str, float] = {
     "m": 1.0,
     "mm": 1e-3,
 }
+#: Position unit of raw encoder counts; needs ``counts_per_revolution`` (read in rad).
+COUNTS = "counts"
 #: Unit words of a CSV units row that name a unit of :data:`TIME_UNITS` or
 #: :data:`POSITION_UNITS` (others, such as ``Nm``, ``A`` or ``inc``, are not checked).
 UNIT_WORDS: dict[str, str] = {
@@ -126,8 +129,12 @@ class AxisProfile:
         File column -> role (``time``, ``position``, ``speed``, ``torque``).
     time_unit : {"s", "ms", "us", "ns"}, default="s"
         Absolute stamps (Unix time) are allowed: the capture starts at its first stamp.
-    position_unit : {"rad", "deg", "rev", "m", "mm"}, default="rad"
-        Speed is read in the same unit per second.
+    position_unit : {"rad", "deg", "rev", "m", "mm", "counts"}, default="rad"
+        Speed is read in the same unit per second. ``counts`` (raw encoder counts) needs
+        ``counts_per_revolution`` and is read in rad.
+    counts_per_revolution : float, optional
+        Encoder counts per turn of the position (16384 for a 14-bit encoder); required with
+        ``position_unit="counts"`` and only then.
     resample_irregular : bool, default=False
         Put irregularly stamped rows (a PLC logging every 39-55 ms) on a uniform grid at their
         step (:func:`~axiswatch._capture.sampling_period`), by linear interpolation, instead of
@@ -152,6 +159,7 @@ class AxisProfile:
     columns: Mapping[str, str] = field(default_factory=dict)
     time_unit: str = "s"
     position_unit: str = "rad"
+    counts_per_revolution: float | None = None
     resample_irregular: bool = False
     gear_ratio: float | None = None
     gear_stages: Mapping[str, float] = field(default_factory=dict)
@@ -169,10 +177,29 @@ class AxisProfile:
             raise ProfileError(
                 f"{where}: time unit must be one of {list(TIME_UNITS)}. Got {self.time_unit!r} instead."
             )
-        if self.position_unit not in POSITION_UNITS:
+        if self.position_unit not in (*POSITION_UNITS, COUNTS):
             raise ProfileError(
-                f"{where}: position unit must be one of {list(POSITION_UNITS)}. "
+                f"{where}: position unit must be one of {[*POSITION_UNITS, COUNTS]}. "
                 f"Got {self.position_unit!r} instead."
+            )
+        counts = self.counts_per_revolution
+        if self.position_unit == COUNTS and counts is None:
+            raise ProfileError(
+                f'{where}: position unit "counts" needs counts_per_revolution (a number > 0, '
+                "encoder counts per turn, such as 16384 for 14 bits) in [units]; got none."
+            )
+        if counts is not None and self.position_unit != COUNTS:
+            raise ProfileError(
+                f'{where}: counts_per_revolution is for position unit "counts"; the position '
+                f"unit is {self.position_unit!r}."
+            )
+        if counts is not None and (
+            isinstance(counts, bool)
+            or not isinstance(counts, int | float)
+            or not (math.isfinite(counts) and counts > 0)
+        ):
+            raise ProfileError(
+                f"{where}: counts_per_revolution must be a number > 0. Got {counts!r} instead."
             )
         if self.gear_ratio is not None and not self.gear_ratio > 0:
             raise ProfileError(f"{where}: gear_ratio must be > 0. Got {self.gear_ratio!r} instead.")
@@ -199,9 +226,11 @@ class AxisProfile:
                     f"{list(ROLES)}; got {_got(role)}."
                 )
         units = _table(data, "units", source)
-        _check(units, {"time", "position", "torque"}, f"{source} [units]")
+        _check(units, {"time", "position", "torque", "counts_per_revolution"}, f"{source} [units]")
         for key in units:
-            _text(units, key, f"{source} [units]", None)
+            if key != "counts_per_revolution":
+                _text(units, key, f"{source} [units]", None)
+        counts = units.get("counts_per_revolution")
         resample = data.get("resample_irregular", False)
         if not isinstance(resample, bool):
             raise ProfileError(
@@ -219,6 +248,11 @@ class AxisProfile:
             columns=columns,
             time_unit=units.get("time", "s"),
             position_unit=units.get("position", "rad"),
+            counts_per_revolution=(
+                None
+                if counts is None
+                else _number(counts, "counts_per_revolution", f"{source} [units]")
+            ),
             resample_irregular=resample,
             gear_ratio=None if ratio is None else _number(ratio, "gear_ratio", where),
             gear_stages=_table(kinematics, "gear_stages", where),
@@ -288,6 +322,19 @@ class AxisProfile:
                     f'[units] {key} = "{UNIT_WORDS[word]}" in the axis profile.'
                 )
 
+    def position_scale(self) -> float:
+        """Radians (or metres) per unit of the position as the file gives it.
+
+        Examples
+        --------
+        >>> AxisProfile(position_unit="counts", counts_per_revolution=4.0).position_scale()
+        1.5707963267948966
+        """
+        if self.position_unit == COUNTS:
+            assert self.counts_per_revolution is not None  # checked on construction
+            return 2.0 * math.pi / self.counts_per_revolution
+        return POSITION_UNITS[self.position_unit]
+
     def kinematics(self) -> dict[str, Any]:
         """Keyword arguments of :func:`~axiswatch.read_indicators`."""
         return {
@@ -346,7 +393,7 @@ class AxisProfile:
             check_stamp_unit(float(first) * TIME_UNITS[self.time_unit], self.time_unit, path)
             relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
         renamed["time"] = relative
-        scale = POSITION_UNITS[self.position_unit]
+        scale = self.position_scale()
         for role in ("position", "speed"):
             if role in renamed.columns and scale != 1.0:
                 renamed[role] = pd.to_numeric(renamed[role], errors="coerce") * scale
