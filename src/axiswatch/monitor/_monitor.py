@@ -59,7 +59,12 @@ from axiswatch.monitor._index import (
     unchanged_axes,
     verify_budget,
 )
-from axiswatch.monitor._indicators import IndicatorBaseline, fleet_key, with_fleet
+from axiswatch.monitor._indicators import (
+    IndicatorBaseline,
+    fleet_key,
+    slow_baseline_note,
+    with_fleet,
+)
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._parallel import WorkerPool
@@ -387,6 +392,11 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         state.model, state.rates_hz = ModelRef(saved.model_hash, source), saved.rates_hz
         state.reference = QualityReference(dict(saved.reference))
         run.stored_models.append(state)
+        slow = slow_baseline_note(saved.rates_hz) if run.config.preset.indicator_model else None
+        if slow is not None:
+            # Kept and scored as before, reported on every run (its folder listed again).
+            run.summary.baseline_checks.append(f"{baseline.path}: {slow}")
+            run.problem_axes.add((state.robot, state.axis))
         return None
     following = [f for f in state.files if _key(f) > _key(stored) and run.usable(f)]
     return run.fit_job(stored, following)
