@@ -321,3 +321,19 @@ def test_counts_need_a_positive_counts_per_revolution(
         AxisProfile.from_toml(path)
     assert str(path) in str(caught.value)
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    "misplaced", ["r1/a1/robot.toml", "r1/a1/axiswatch.toml", "r1/axis.toml", "r1/axiswatch.toml"]
+)
+def test_a_profile_under_a_name_the_lookup_does_not_read_there_is_named(
+    misplaced: str, tmp_path: Path
+) -> None:
+    (tmp_path / "r1" / "a1").mkdir(parents=True)
+    (tmp_path / misplaced).write_text('name = "model-1"')
+    with pytest.raises(ProfileError) as caught:
+        find_profile(tmp_path, "r1", "a1")
+    message = str(caught.value)
+    assert message.startswith(f"{tmp_path / misplaced}: an axis profile is not read")
+    assert str(tmp_path / "r1" / "a1" / "axis.toml") in message
+    assert "\n" not in message

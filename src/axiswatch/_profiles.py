@@ -435,11 +435,25 @@ def find_profile(root: str | Path, robot: str, axis: str) -> AxisProfile | None:
     'r1-model'
     """
     root = Path(root)
-    for candidate in (
+    places = (
         root / robot / axis / PROFILE_FILES[0],
         root / robot / PROFILE_FILES[1],
         root / FLEET_PROFILE,
+    )
+    # A profile under a name the lookup does not read where it lies (robot.toml in the axis
+    # folder, axis.toml in the robot's) was silently ignored: the captures were then refused
+    # for columns the profile maps.
+    for misplaced in (
+        *(root / robot / axis / name for name in (PROFILE_FILES[1], FLEET_PROFILE)),
+        *(root / robot / name for name in (PROFILE_FILES[0], FLEET_PROFILE)),
     ):
+        if misplaced.is_file():
+            raise ProfileError(
+                f"{misplaced}: an axis profile is not read under this name here; expected "
+                f"{places[0]} (this axis), {places[1]} (the robot's axes) or {places[2]} (the "
+                "fleet)."
+            )
+    for candidate in places:
         if candidate.is_file():
             return AxisProfile.from_toml(candidate)
     return None
