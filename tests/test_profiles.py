@@ -180,7 +180,10 @@ def test_bad_profiles_are_named(data: dict[str, object], message: str) -> None:
         ),
         ('[kinematics]\ngear_stages = "x"', r"\[kinematics\]: 'gear_stages' must be a table"),
         ("[kinematics.bearing_orders]\nb = true", r"bearing_orders\.b must be a number > 0"),
-        ("[colums]\nt = 'time'", r"unknown key\(s\) \['colums'\]; expected some of"),
+        (
+            "[colums]\nt = 'time'",
+            r"unknown key\(s\) \['colums'\] \('colums': did you mean 'columns'\?\); expected some of",
+        ),
     ],
 )
 def test_wrong_types_in_a_profile_file_name_the_file_and_key(
@@ -337,3 +340,18 @@ def test_a_profile_under_a_name_the_lookup_does_not_read_there_is_named(
     assert message.startswith(f"{tmp_path / misplaced}: an axis profile is not read")
     assert str(tmp_path / "r1" / "a1" / "axis.toml") in message
     assert "\n" not in message
+
+
+def test_a_typo_in_a_profile_key_names_the_key_it_likely_meant(tmp_path: Path) -> None:
+    path = tmp_path / "axiswatch.toml"
+    path.write_text('[unit]\ntime = "ms"\n')
+    with pytest.raises(ProfileError, match=r"\['unit'\] \('unit': did you mean 'units'\?\)"):
+        AxisProfile.from_toml(path)
+    path.write_text('[units]\npositon = "deg"\n')
+    with pytest.raises(ProfileError, match=r"'positon': did you mean 'position'\?"):
+        AxisProfile.from_toml(path)
+
+
+def test_a_profile_path_that_is_a_folder_is_a_profile_error(tmp_path: Path) -> None:
+    with pytest.raises(ProfileError, match=r"is a folder; expected an axis profile file"):
+        AxisProfile.from_toml(tmp_path)

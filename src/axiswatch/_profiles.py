@@ -30,6 +30,7 @@ profile (no merging: a file says all there is to say about the axes it covers).
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from collections.abc import Mapping
@@ -84,8 +85,15 @@ FLEET_PROFILE = "axiswatch.toml"
 def _check(mapping: Mapping[str, Any], allowed: set[str], where: str) -> None:
     unknown = sorted(set(mapping) - allowed)
     if unknown:
+        # A typo ([unit], positon) is the usual cause: name the key it likely meant.
+        likely = {
+            key: close[0]
+            for key in unknown
+            if (close := difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6))
+        }
+        hint = "".join(f" ({key!r}: did you mean {meant!r}?)" for key, meant in likely.items())
         raise ProfileError(
-            f"{where}: unknown key(s) {unknown}; expected some of {sorted(allowed)}."
+            f"{where}: unknown key(s) {unknown}{hint}; expected some of {sorted(allowed)}."
         )
 
 
@@ -268,6 +276,14 @@ class AxisProfile:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise ProfileError(f"{path}: no such axis profile file.") from None
+        except IsADirectoryError:
+            raise ProfileError(
+                f"{path}: is a folder; expected an axis profile file (TOML)."
+            ) from None
+        except OSError as exc:
+            raise ProfileError(
+                f"{path}: the axis profile cannot be read ({exc.strerror or exc})."
+            ) from exc
         except UnicodeDecodeError as exc:
             raise ProfileError(
                 f"{path}: an axis profile must be UTF-8 text (TOML); {exc}."
