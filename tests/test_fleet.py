@@ -70,6 +70,7 @@ def test_discover_ignores_non_captures_and_reports_layout_problems(tmp_path: Pat
         "r1/2026-03-01.csv",
         "r1/a1/deep/2026-03-01.csv",
         "bad robot/a1/2026-03-01.csv",
+        "bad robot/a2/2026-03-01.csv",
         "r1/-axis/2026-03-01.csv",
         "r1/a1/monday.csv",
     )
@@ -77,10 +78,12 @@ def test_discover_ignores_non_captures_and_reports_layout_problems(tmp_path: Pat
     assert [f.path.relative_to(tmp_path).as_posix() for f in files] == ["r1/a1/2026-03-01.csv"]
     reasons = sorted(p.reason for p in problems)
     assert reasons == [
-        "bad robot/a1/2026-03-01.csv: robot folder name 'bad robot' is not an identifier (1-64 "
-        "letters, digits, '_', '-' or '.', starting with a letter or digit).",
-        "r1/-axis/2026-03-01.csv: axis folder name '-axis' is not an identifier (1-64 letters, "
-        "digits, '_', '-' or '.', starting with a letter or digit).",
+        "bad robot/: robot folder name 'bad robot' is not an identifier (1-64 ASCII letters, "
+        "digits, '_', '-' or '.', starting with a letter or digit); its 2 capture file(s) are "
+        "not scored until the folder is renamed.",
+        "r1/-axis/: axis folder name '-axis' is not an identifier (1-64 ASCII letters, "
+        "digits, '_', '-' or '.', starting with a letter or digit); its 1 capture file(s) are "
+        "not scored until the folder is renamed.",
         "r1/2026-03-01.csv: capture file at the wrong depth; expected "
         "ROOT/<robot>/<axis>/<capture>.<ext>.",
         "r1/a1/deep/2026-03-01.csv: capture file at the wrong depth; expected "

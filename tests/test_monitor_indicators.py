@@ -651,3 +651,46 @@ def test_a_store_of_an_older_model_format_is_refitted_not_a_crash(
         summary = monitor_fleet(root, store, config, settle_s=0)
     assert summary.new_baselines == 0  # refitted, the same baselines
     assert summary.scored == 3
+
+
+def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A store from before the 20 Hz floor of new baselines: its axis was fitted on stamps in
+    # milliseconds read as seconds (0.05 Hz). Its model is kept; every run says to rebaseline.
+    import axiswatch.monitor._indicators as indicators
+
+    root = tmp_path / "fleet"
+    folder = root / "r1" / "a1"
+    folder.mkdir(parents=True)
+    robot = draw_robot(ROBOT_SEED)
+
+    def day(k: int) -> None:
+        frame = capture_to_frame(robot.capture(0, seed=k))
+        frame["time"] = (frame["time"] * 1000).round()
+        frame.to_csv(folder / f"2026-03-{k + 1:02d}.csv", index=False)
+        settle(root)
+
+    for k in range(7):
+        day(k)
+    config = MonitorConfig(method="indicators")
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        with monkeypatch.context() as before:
+            before.setattr(indicators, "MIN_MONITOR_RATE_HZ", 0.01)  # no floor yet
+            first = monitor_fleet(root, store, config, settle_s=0)
+        assert first.new_baselines == 1
+        assert first.baseline_checks == []
+        day(7)
+        note = (
+            "r1/a1/2026-03-01.csv: baseline at 0.05 Hz, below the 20 Hz the indicators need: "
+            "rebaseline"
+        )
+        second = monitor_fleet(root, store, config, settle_s=0)
+        assert second.scored == 1  # the stored model is kept
+        assert second.baseline_checks == [note]
+        assert second.alarms == []
+        third = monitor_fleet(root, store, config, settle_s=0)  # nothing new: said again, once
+        assert third.baseline_checks == [note]
+        items = _triage(store)
+    assert [i.kind for i in items] != ["alarm"]
+    assert "Baseline to check: baseline at 0.05 Hz, below the 20 Hz" in items[0].line

@@ -583,3 +583,41 @@ def test_report_page_is_replaced_atomically(fleet: Path, tmp_path: Path) -> None
     assert (tmp_path / "reader.html").read_text() == "the previous page"  # never overwritten
     assert "axiswatch fleet report" in (out / "index.html").read_text()
     assert not list(out.glob(".*.tmp"))
+
+
+def test_a_misnamed_folder_is_one_rejection_and_scored_once_renamed(
+    fleet: Path, tmp_path: Path
+) -> None:
+    bad = fleet / "robot 2"
+    shutil.copytree(fleet / "robot01", bad)
+    settle(bad / "axis1")
+    store = tmp_path / "s.db"
+    first = _monitor(fleet, store)
+    assert first.returncode == 8, first.stdout + first.stderr
+    rows = _query(store, "SELECT path, error FROM rejections")
+    assert len(rows) == 1, rows  # one line for the folder, not one per file
+    path, error = rows[0]
+    assert path == "robot 2/"
+    assert str(error).startswith("robot 2/: robot folder name 'robot 2' is not an identifier")
+    assert "its 5 capture file(s)" in str(error)
+    assert first.stdout.count("robot 2/") == 1, first.stdout
+    listed = _run("rejections", "--store", store)
+    assert listed.stdout.count("is not an identifier") == 1, listed.stdout
+    # A store from before kept one rejection per file of the folder: the folder's replaces them.
+    connection = sqlite3.connect(store)
+    with connection:
+        connection.execute(
+            "INSERT INTO rejections (robot, axis, method, capture, path, file_hash, error, "
+            "rejected_at, kind, params_hash, transient) VALUES ('robot 2', 'axis1', 'pca', "
+            "'2026-03-01.parquet', 'robot 2/axis1/2026-03-01.parquet', 'x', 'old', "
+            "'2026-03-01T00:00:00', 'layout', NULL, 0)"
+        )
+    connection.close()
+    again = _monitor(fleet, store)
+    assert again.returncode == 8  # still misnamed: still reported, still once
+    assert _query(store, "SELECT count(*) FROM rejections") == [(1,)]
+    bad.rename(fleet / "robot02")
+    fixed = _monitor(fleet, store)
+    assert fixed.returncode == 0, fixed.stdout
+    assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
+    assert _query(store, "SELECT count(*) FROM scores WHERE robot = 'robot02'") == [(5,)]

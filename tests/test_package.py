@@ -154,3 +154,20 @@ def test_reprs_show_public_paths() -> None:
                 # a pickle refers to the class by this path: it must lead back to the class
                 module = importlib.import_module(public.__module__)
                 assert getattr(module, public.__qualname__) is public
+
+
+def test_every_error_is_reachable_where_the_readme_says() -> None:
+    # The top namespace is capped (above): an error it leaves out lives in axiswatch.exceptions,
+    # and the README names it there, not as axiswatch.<Error> (which would not import).
+    import axiswatch.exceptions as errors
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    for name in errors.__all__:
+        assert issubclass(getattr(errors, name), errors.AxiswatchError), name
+        if name not in aw.__all__:
+            assert f"axiswatch.{name}" not in readme, name
+    assert "ProfileError" not in aw.__all__
+    assert "`axiswatch.exceptions.ProfileError`" in readme
+    assert issubclass(errors.ProfileError, aw.CaptureError)
+    with pytest.raises(aw.CaptureError):
+        aw.AxisProfile.from_dict({"units": {"time": "minutes"}})

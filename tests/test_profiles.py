@@ -180,7 +180,10 @@ def test_bad_profiles_are_named(data: dict[str, object], message: str) -> None:
         ),
         ('[kinematics]\ngear_stages = "x"', r"\[kinematics\]: 'gear_stages' must be a table"),
         ("[kinematics.bearing_orders]\nb = true", r"bearing_orders\.b must be a number > 0"),
-        ("[colums]\nt = 'time'", r"unknown key\(s\) \['colums'\]; expected some of"),
+        (
+            "[colums]\nt = 'time'",
+            r"unknown key\(s\) \['colums'\] \('colums': did you mean 'columns'\?\); expected some of",
+        ),
     ],
 )
 def test_wrong_types_in_a_profile_file_name_the_file_and_key(
@@ -228,3 +231,127 @@ def test_fleet_lookup_takes_the_most_specific_file(tmp_path: Path) -> None:
     (tmp_path / "r1" / "a1" / "axis.toml").write_text('name = "model-1-wrist"')
     assert find_profile(tmp_path, "r1", "a1").name == "model-1-wrist"  # type: ignore[union-attr]
     assert find_profile(tmp_path, "r2", "a1").name == "fleet"  # type: ignore[union-attr]
+
+
+def test_a_mapped_torque_the_file_lacks_names_the_profile_line_and_the_file(
+    tmp_path: Path,
+) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path).rename(columns={"J2_Current": "J2_Torque"})
+    frame.to_csv(path, index=False)
+    with pytest.raises(ProfileError) as caught:
+        aw.read_capture(path, profile=PROFILE)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert str(path) in message
+    assert "'J2_Current' = 'torque'" in message
+    assert "J2_Torque" in message  # what the file has instead
+
+
+def test_a_mapped_speed_the_file_lacks_is_derived_as_before(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    profile = AxisProfile.from_dict(
+        {
+            "columns": {**PROFILE.columns, "J2_ActVel": "speed"},
+            "units": {"time": "ms", "position": "deg"},
+        }
+    )
+    capture = aw.read_capture(path, profile=profile)
+    assert capture.names == ("position", "torque")
+
+
+def test_encoder_counts_read_as_the_same_capture_in_rad(tmp_path: Path) -> None:
+    from axiswatch._capture import capture_to_frame
+    from axiswatch.datasets import draw_robot
+
+    capture = draw_robot(2).capture(0, seed=3)
+    frame = capture_to_frame(capture)
+    frame.to_parquet(tmp_path / "rad.parquet", index=False)
+    per_turn = 16384.0  # a 14-bit encoder
+    counts = frame.copy()
+    for role in ("position", "speed"):
+        if role in counts.columns:
+            counts[role] = counts[role] * (per_turn / (2 * np.pi))
+    counts.to_parquet(tmp_path / "counts.parquet", index=False)
+    kinematics = {"gear_ratio": 101.0}
+    in_rad = AxisProfile.from_dict({"kinematics": kinematics})
+    in_counts = AxisProfile.from_dict(
+        {
+            "units": {"position": "counts", "counts_per_revolution": per_turn},
+            "kinematics": kinematics,
+        }
+    )
+    assert in_counts == AxisProfile(
+        position_unit="counts",
+        counts_per_revolution=per_turn,
+        gear_ratio=101.0,
+        source=in_counts.source,
+    )
+    read_rad = aw.read_capture(tmp_path / "rad.parquet", profile=in_rad)
+    read_counts = aw.read_capture(tmp_path / "counts.parquet", profile=in_counts)
+    np.testing.assert_allclose(
+        read_counts.signals["position"], read_rad.signals["position"], rtol=1e-12
+    )
+    from axiswatch._readings import read_indicators
+
+    expected = read_indicators(read_rad, **in_rad.kinematics())
+    got = read_indicators(read_counts, **in_counts.kinematics())
+    assert set(got.values) == set(expected.values)
+    assert sum(np.isfinite(v) for v in expected.values.values()) >= 5
+    for name, value in expected.values.items():
+        np.testing.assert_allclose(got.values[name], value, rtol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize(
+    ("units", "message"),
+    [
+        ({"position": "counts"}, r'position unit "counts" needs counts_per_revolution'),
+        ({"position": "counts", "counts_per_revolution": 0}, "must be a number > 0"),
+        ({"position": "counts", "counts_per_revolution": "16384"}, "must be a number > 0"),
+        ({"position": "deg", "counts_per_revolution": 16384}, 'is for position unit "counts"'),
+    ],
+)
+def test_counts_need_a_positive_counts_per_revolution(
+    units: dict[str, object], message: str, tmp_path: Path
+) -> None:
+    path = tmp_path / "axis.toml"
+    lines = [
+        f"{key} = {value!r}".replace("'", '"') if isinstance(value, str) else f"{key} = {value}"
+        for key, value in units.items()
+    ]
+    path.write_text("[units]\n" + "\n".join(lines) + "\n")
+    with pytest.raises(ProfileError, match=message) as caught:
+        AxisProfile.from_toml(path)
+    assert str(path) in str(caught.value)
+    assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    "misplaced", ["r1/a1/robot.toml", "r1/a1/axiswatch.toml", "r1/axis.toml", "r1/axiswatch.toml"]
+)
+def test_a_profile_under_a_name_the_lookup_does_not_read_there_is_named(
+    misplaced: str, tmp_path: Path
+) -> None:
+    (tmp_path / "r1" / "a1").mkdir(parents=True)
+    (tmp_path / misplaced).write_text('name = "model-1"')
+    with pytest.raises(ProfileError) as caught:
+        find_profile(tmp_path, "r1", "a1")
+    message = str(caught.value)
+    assert message.startswith(f"{tmp_path / misplaced}: an axis profile is not read")
+    assert str(tmp_path / "r1" / "a1" / "axis.toml") in message
+    assert "\n" not in message
+
+
+def test_a_typo_in_a_profile_key_names_the_key_it_likely_meant(tmp_path: Path) -> None:
+    path = tmp_path / "axiswatch.toml"
+    path.write_text('[unit]\ntime = "ms"\n')
+    with pytest.raises(ProfileError, match=r"\['unit'\] \('unit': did you mean 'units'\?\)"):
+        AxisProfile.from_toml(path)
+    path.write_text('[units]\npositon = "deg"\n')
+    with pytest.raises(ProfileError, match=r"'positon': did you mean 'position'\?"):
+        AxisProfile.from_toml(path)
+
+
+def test_a_profile_path_that_is_a_folder_is_a_profile_error(tmp_path: Path) -> None:
+    with pytest.raises(ProfileError, match=r"is a folder; expected an axis profile file"):
+        AxisProfile.from_toml(tmp_path)

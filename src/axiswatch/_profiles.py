@@ -3,7 +3,8 @@
 Pipeline stage 0b (issue 13). Every field is optional: a profile maps a controller's column names
 to the roles ``time``, ``position``, ``speed`` and ``torque``, declares units (time stamps in
 ``s``, ``ms``, ``us`` or ``ns``, relative or absolute such as Unix time; position in ``rad``,
-``deg``, ``rev``, ``m`` or ``mm``, speed in the same unit per second; the torque is read as
+``deg``, ``rev``, ``m``, ``mm`` or raw encoder ``counts`` with ``counts_per_revolution``, speed in
+the same unit per second; the torque is read as
 given, it may be a current) and the axis's kinematics (gear ratio, the gear stages whose teeth
 and the bearings whose races the indicators watch). It is a TOML file::
 
@@ -29,6 +30,7 @@ profile (no merging: a file says all there is to say about the axes it covers).
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from collections.abc import Mapping
@@ -50,6 +52,8 @@ from axiswatch.exceptions import CaptureError, ProfileError
 __all__ = ["AxisProfile", "find_profile"]
 
 ROLES: tuple[str, ...] = ("time", "position", "speed", "torque")
+#: Roles a capture must have when a profile maps them (speed is derived from the position).
+REQUIRED_ROLES: tuple[str, ...] = ("position", "torque")
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 POSITION_UNITS: dict[str, float] = {
     "rad": 1.0,
@@ -58,6 +62,8 @@ POSITION_UNITS: dict[str, float] = {
     "m": 1.0,
     "mm": 1e-3,
 }
+#: Position unit of raw encoder counts; needs ``counts_per_revolution`` (read in rad).
+COUNTS = "counts"
 #: Unit words of a CSV units row that name a unit of :data:`TIME_UNITS` or
 #: :data:`POSITION_UNITS` (others, such as ``Nm``, ``A`` or ``inc``, are not checked).
 UNIT_WORDS: dict[str, str] = {
@@ -79,8 +85,15 @@ FLEET_PROFILE = "axiswatch.toml"
 def _check(mapping: Mapping[str, Any], allowed: set[str], where: str) -> None:
     unknown = sorted(set(mapping) - allowed)
     if unknown:
+        # A typo ([unit], positon) is the usual cause: name the key it likely meant.
+        likely = {
+            key: close[0]
+            for key in unknown
+            if (close := difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6))
+        }
+        hint = "".join(f" ({key!r}: did you mean {meant!r}?)" for key, meant in likely.items())
         raise ProfileError(
-            f"{where}: unknown key(s) {unknown}; expected some of {sorted(allowed)}."
+            f"{where}: unknown key(s) {unknown}{hint}; expected some of {sorted(allowed)}."
         )
 
 
@@ -124,8 +137,12 @@ class AxisProfile:
         File column -> role (``time``, ``position``, ``speed``, ``torque``).
     time_unit : {"s", "ms", "us", "ns"}, default="s"
         Absolute stamps (Unix time) are allowed: the capture starts at its first stamp.
-    position_unit : {"rad", "deg", "rev", "m", "mm"}, default="rad"
-        Speed is read in the same unit per second.
+    position_unit : {"rad", "deg", "rev", "m", "mm", "counts"}, default="rad"
+        Speed is read in the same unit per second. ``counts`` (raw encoder counts) needs
+        ``counts_per_revolution`` and is read in rad.
+    counts_per_revolution : float, optional
+        Encoder counts per turn of the position (16384 for a 14-bit encoder); required with
+        ``position_unit="counts"`` and only then.
     resample_irregular : bool, default=False
         Put irregularly stamped rows (a PLC logging every 39-55 ms) on a uniform grid at their
         step (:func:`~axiswatch._capture.sampling_period`), by linear interpolation, instead of
@@ -150,6 +167,7 @@ class AxisProfile:
     columns: Mapping[str, str] = field(default_factory=dict)
     time_unit: str = "s"
     position_unit: str = "rad"
+    counts_per_revolution: float | None = None
     resample_irregular: bool = False
     gear_ratio: float | None = None
     gear_stages: Mapping[str, float] = field(default_factory=dict)
@@ -167,10 +185,29 @@ class AxisProfile:
             raise ProfileError(
                 f"{where}: time unit must be one of {list(TIME_UNITS)}. Got {self.time_unit!r} instead."
             )
-        if self.position_unit not in POSITION_UNITS:
+        if self.position_unit not in (*POSITION_UNITS, COUNTS):
             raise ProfileError(
-                f"{where}: position unit must be one of {list(POSITION_UNITS)}. "
+                f"{where}: position unit must be one of {[*POSITION_UNITS, COUNTS]}. "
                 f"Got {self.position_unit!r} instead."
+            )
+        counts = self.counts_per_revolution
+        if self.position_unit == COUNTS and counts is None:
+            raise ProfileError(
+                f'{where}: position unit "counts" needs counts_per_revolution (a number > 0, '
+                "encoder counts per turn, such as 16384 for 14 bits) in [units]; got none."
+            )
+        if counts is not None and self.position_unit != COUNTS:
+            raise ProfileError(
+                f'{where}: counts_per_revolution is for position unit "counts"; the position '
+                f"unit is {self.position_unit!r}."
+            )
+        if counts is not None and (
+            isinstance(counts, bool)
+            or not isinstance(counts, int | float)
+            or not (math.isfinite(counts) and counts > 0)
+        ):
+            raise ProfileError(
+                f"{where}: counts_per_revolution must be a number > 0. Got {counts!r} instead."
             )
         if self.gear_ratio is not None and not self.gear_ratio > 0:
             raise ProfileError(f"{where}: gear_ratio must be > 0. Got {self.gear_ratio!r} instead.")
@@ -197,9 +234,11 @@ class AxisProfile:
                     f"{list(ROLES)}; got {_got(role)}."
                 )
         units = _table(data, "units", source)
-        _check(units, {"time", "position", "torque"}, f"{source} [units]")
+        _check(units, {"time", "position", "torque", "counts_per_revolution"}, f"{source} [units]")
         for key in units:
-            _text(units, key, f"{source} [units]", None)
+            if key != "counts_per_revolution":
+                _text(units, key, f"{source} [units]", None)
+        counts = units.get("counts_per_revolution")
         resample = data.get("resample_irregular", False)
         if not isinstance(resample, bool):
             raise ProfileError(
@@ -217,6 +256,11 @@ class AxisProfile:
             columns=columns,
             time_unit=units.get("time", "s"),
             position_unit=units.get("position", "rad"),
+            counts_per_revolution=(
+                None
+                if counts is None
+                else _number(counts, "counts_per_revolution", f"{source} [units]")
+            ),
             resample_irregular=resample,
             gear_ratio=None if ratio is None else _number(ratio, "gear_ratio", where),
             gear_stages=_table(kinematics, "gear_stages", where),
@@ -232,6 +276,14 @@ class AxisProfile:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise ProfileError(f"{path}: no such axis profile file.") from None
+        except IsADirectoryError:
+            raise ProfileError(
+                f"{path}: is a folder; expected an axis profile file (TOML)."
+            ) from None
+        except OSError as exc:
+            raise ProfileError(
+                f"{path}: the axis profile cannot be read ({exc.strerror or exc})."
+            ) from exc
         except UnicodeDecodeError as exc:
             raise ProfileError(
                 f"{path}: an axis profile must be UTF-8 text (TOML); {exc}."
@@ -286,6 +338,19 @@ class AxisProfile:
                     f'[units] {key} = "{UNIT_WORDS[word]}" in the axis profile.'
                 )
 
+    def position_scale(self) -> float:
+        """Radians (or metres) per unit of the position as the file gives it.
+
+        Examples
+        --------
+        >>> AxisProfile(position_unit="counts", counts_per_revolution=4.0).position_scale()
+        1.5707963267948966
+        """
+        if self.position_unit == COUNTS:
+            assert self.counts_per_revolution is not None  # checked on construction
+            return 2.0 * math.pi / self.counts_per_revolution
+        return POSITION_UNITS[self.position_unit]
+
     def kinematics(self) -> dict[str, Any]:
         """Keyword arguments of :func:`~axiswatch.read_indicators`."""
         return {
@@ -318,6 +383,16 @@ class AxisProfile:
                 f"{path}: no time column; the axis profile {self.source} maps "
                 f"{dict(self.columns)} and the file has {found}."
             )
+        for column, role in self.columns.items():
+            # A mapped position or torque the file lacks: say which profile line points where,
+            # not only that the indicators miss a torque. An optional signal (speed) may be
+            # absent: it is derived from the position.
+            if role in REQUIRED_ROLES and column not in frame.columns and role not in renamed:
+                raise ProfileError(
+                    f"{path}: the axis profile {self.source} maps [columns] {column!r} = "
+                    f"{role!r}, but the file has no column {column!r}; found columns "
+                    f"{list(map(str, frame.columns))}."
+                )
         stamps = renamed["time"]
         dates = date_stamps(stamps, path)
         if dates is not None:  # date-times carry their own unit
@@ -334,7 +409,7 @@ class AxisProfile:
             check_stamp_unit(float(first) * TIME_UNITS[self.time_unit], self.time_unit, path)
             relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
         renamed["time"] = relative
-        scale = POSITION_UNITS[self.position_unit]
+        scale = self.position_scale()
         for role in ("position", "speed"):
             if role in renamed.columns and scale != 1.0:
                 renamed[role] = pd.to_numeric(renamed[role], errors="coerce") * scale
@@ -376,11 +451,25 @@ def find_profile(root: str | Path, robot: str, axis: str) -> AxisProfile | None:
     'r1-model'
     """
     root = Path(root)
-    for candidate in (
+    places = (
         root / robot / axis / PROFILE_FILES[0],
         root / robot / PROFILE_FILES[1],
         root / FLEET_PROFILE,
+    )
+    # A profile under a name the lookup does not read where it lies (robot.toml in the axis
+    # folder, axis.toml in the robot's) was silently ignored: the captures were then refused
+    # for columns the profile maps.
+    for misplaced in (
+        *(root / robot / axis / name for name in (PROFILE_FILES[1], FLEET_PROFILE)),
+        *(root / robot / name for name in (PROFILE_FILES[0], FLEET_PROFILE)),
     ):
+        if misplaced.is_file():
+            raise ProfileError(
+                f"{misplaced}: an axis profile is not read under this name here; expected "
+                f"{places[0]} (this axis), {places[1]} (the robot's axes) or {places[2]} (the "
+                "fleet)."
+            )
+    for candidate in places:
         if candidate.is_file():
             return AxisProfile.from_toml(candidate)
     return None

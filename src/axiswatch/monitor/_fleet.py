@@ -14,7 +14,9 @@ Rules (documented in the README):
   (``:`` or nothing also accepted between hours, minutes and seconds; ``T``, ``_`` or a space
   before the time); anything after it (``_run2``) is free;
 * a capture file at another depth, or with a name breaking these rules, is a *layout problem*:
-  the monitor stores it as rejected, with the reason, and goes on;
+  the monitor stores it as rejected, with the reason, and goes on; a robot or axis folder whose
+  name is not an identifier is one problem (naming the folder and how many capture files it
+  holds), stored until the folder is renamed;
 * symbolic links to folders are followed (a link back to a folder already read, a loop, is
   reported and not read twice); a folder that cannot be listed and a link whose target is
   missing (an unmounted share) are *folder problems* (``capture == ""``), reported every run;
@@ -120,13 +122,17 @@ class FleetFile:
 
 @dataclass(frozen=True)
 class LayoutProblem:
-    """A capture file the layout rules reject, and why (one sentence naming the file)."""
+    """A capture file the layout rules reject, and why (one sentence naming the file); or a
+    folder (``capture == ""``): one that cannot be read, or, with ``files`` > 0, a robot or axis
+    folder whose name is not an identifier, holding ``files`` capture files of ``axes``."""
 
     robot: str
     axis: str
     capture: str
     path: Path
     reason: str
+    files: int = 0
+    axes: tuple[tuple[str, str], ...] = ()
 
 
 def _problem(root: Path, path: Path, reason: str) -> LayoutProblem:
@@ -178,6 +184,8 @@ def discover_fleet(
         raise NotADirectoryError(f"fleet folder '{root}' does not exist or is not a folder.")
     files: list[FleetFile] = []
     problems: list[LayoutProblem] = []
+    # Folders whose name is not an identifier: one problem each, not one per file it holds.
+    misnamed: dict[tuple[str, ...], tuple[str, list[tuple[str, str]]]] = {}
     for path, relative in _candidates(root, problems, skip):
         if len(relative) != 3:
             problems.append(
@@ -190,13 +198,18 @@ def discover_fleet(
             continue
         robot, axis, name = relative
         bad = [
-            f"{kind} folder name '{value}' is not an identifier (1-64 letters, digits, '_', '-' "
-            "or '.', starting with a letter or digit)"
+            (kind, value)
             for kind, value in (("robot", robot), ("axis", axis))
             if _IDENTIFIER.fullmatch(value) is None
         ]
         if bad:
-            problems.append(_problem(root, path, "; ".join(bad) + "."))
+            kind, value = bad[0]
+            folder: tuple[str, ...] = (robot,) if kind == "robot" else (robot, axis)
+            why = (
+                f"{kind} folder name '{value}' is not an identifier (1-64 ASCII letters, digits, "
+                "'_', '-' or '.', starting with a letter or digit)"
+            )
+            misnamed.setdefault(folder, (why, []))[1].append((robot, axis))
             continue
         try:
             captured_at = parse_capture_time(name)
@@ -204,6 +217,20 @@ def discover_fleet(
             problems.append(_problem(root, path, str(exc)))
             continue
         files.append(FleetFile(robot, axis, name, path, captured_at))
+    for folder, (why, axes) in sorted(misnamed.items()):
+        shown = "/".join(folder)
+        problems.append(
+            LayoutProblem(
+                folder[0],
+                folder[1] if len(folder) > 1 else "",
+                "",
+                root.joinpath(*folder),
+                f"{shown}/: {why}; its {len(axes)} capture file(s) are not scored until the "
+                "folder is renamed.",
+                files=len(axes),
+                axes=tuple(sorted(set(axes))),
+            )
+        )
     files.sort(key=lambda f: (f.robot, f.axis, f.captured_at, f.capture))
     return files, problems
 

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,6 +60,7 @@ __all__ = [
     "fit_indicator_baseline",
     "fleet_key",
     "indicator_details",
+    "slow_baseline_note",
     "read_axis_indicators",
     "threshold_units",
     "with_fleet",
@@ -124,6 +125,29 @@ def check_monitor_rate(capture: Capture) -> None:
             f"{MIN_MONITOR_RATE_HZ:g} Hz or more (stamps in milliseconds read as seconds? "
             'declare the unit in the axis profile: [units] time = "ms").'
         )
+
+
+def slow_baseline_note(rates_hz: Mapping[str, float]) -> str | None:
+    """A note for a stored baseline slower than :data:`MIN_MONITOR_RATE_HZ` (fitted before
+    new baselines were held to it: Unix milliseconds read as seconds), else None. Its model is
+    kept and scored as before; the note asks for a rebaseline and is never an alarm.
+
+    Examples
+    --------
+    >>> slow_baseline_note({"position": 0.1, "torque": 0.1})
+    'baseline at 0.1 Hz, below the 20 Hz the indicators need: rebaseline'
+    >>> slow_baseline_note({"torque": 100.0}) is None
+    True
+    """
+    if not rates_hz:
+        return None
+    fastest = max(rates_hz.values())
+    if rate_at_least(fastest, MIN_MONITOR_RATE_HZ):
+        return None
+    return (
+        f"baseline at {fastest:.3g} Hz, below the {MIN_MONITOR_RATE_HZ:g} Hz the indicators "
+        "need: rebaseline"
+    )
 
 
 def read_axis_indicators(

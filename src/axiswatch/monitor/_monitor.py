@@ -59,7 +59,12 @@ from axiswatch.monitor._index import (
     unchanged_axes,
     verify_budget,
 )
-from axiswatch.monitor._indicators import IndicatorBaseline, fleet_key, with_fleet
+from axiswatch.monitor._indicators import (
+    IndicatorBaseline,
+    fleet_key,
+    slow_baseline_note,
+    with_fleet,
+)
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._parallel import WorkerPool
@@ -293,6 +298,26 @@ def _from_capture(files: Sequence[FleetFile], capture: str) -> list[FleetFile]:
 
 def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> None:
     for problem in problems:
+        if not problem.capture and problem.files:
+            # A misnamed folder: one rejection for all its files, transient (forgotten once the
+            # folder is renamed and its files are scored under the new name); its axis folders
+            # are listed again next run.
+            run.problem_axes |= set(problem.axes)
+            folder = run.relative(problem.path) + "/"
+            # A store from before kept one rejection per file of the folder: now the folder's.
+            earlier = [
+                r.path
+                for r in run.store.rejections(run.method)
+                if r.capture and r.kind == "layout" and r.path.startswith(folder)
+            ]
+            if earlier:
+                run.store.retry_rejections(earlier, run.method)
+            reject(
+                run.store, run.method, problem.robot, problem.axis, "",
+                folder, "", problem.reason, kind="layout",
+                transient=True,
+            )  # fmt: skip
+            continue
         if not problem.capture:  # a folder: reported every run while it lasts, not stored
             run.summary.axis_problems.append(problem.reason)
             continue
@@ -367,6 +392,11 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         state.model, state.rates_hz = ModelRef(saved.model_hash, source), saved.rates_hz
         state.reference = QualityReference(dict(saved.reference))
         run.stored_models.append(state)
+        slow = slow_baseline_note(saved.rates_hz) if run.config.preset.indicator_model else None
+        if slow is not None:
+            # Kept and scored as before, reported on every run (its folder listed again).
+            run.summary.baseline_checks.append(f"{baseline.path}: {slow}")
+            run.problem_axes.add((state.robot, state.axis))
         return None
     following = [f for f in state.files if _key(f) > _key(stored) and run.usable(f)]
     return run.fit_job(stored, following)
@@ -823,7 +853,7 @@ def monitor_fleet(
             progress,
             MonitorSummary(
                 method=config.method,
-                n_files=len(discovered) + len(problems),
+                n_files=len(discovered) + sum(max(p.files, 1) for p in problems),
                 unchanged_folders=len(skipped),
             ),
             params,

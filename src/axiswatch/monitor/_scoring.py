@@ -35,6 +35,7 @@ from axiswatch.monitor._indicators import (
     fit_indicator_baseline,
     indicator_details,
     read_axis_indicators,
+    slow_baseline_note,
     threshold_units,
 )
 from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
@@ -608,5 +609,8 @@ def _score_indicators(
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "not scored")
     left_out = digest in model.file_hashes
     details = indicator_details(model, assessment, left_out=left_out)
+    slow = slow_baseline_note(capture.rates_hz)  # the baseline's rate, to 0.1 %
+    if slow is not None and not details.get("baseline_check"):
+        details["baseline_check"] = slow
     distance = threshold_units(assessment)
     return ScoreOutcome(job, digest, size, mtime, distance, details, None)
