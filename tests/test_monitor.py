@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -115,6 +116,38 @@ def test_rerun_scores_only_new_captures_and_both_methods_share_a_store(
         ["axis2", "lra"],
         ["axis2", "pca"],
     ]
+
+
+def test_a_run_counts_only_the_baselines_it_added_itself(
+    fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two runs on one store fit the same baselines; the one that adds them second (it waited
+    for the store) is told the same capture is there. Before: both printed "2 new
+    baseline(s)"; the store was right, the second run's count was not."""
+    import axiswatch.monitor._monitor as driver
+
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        with monkeypatch.context() as other:
+            insert = driver.insert_baseline
+
+            def after_the_other_process(*args: Any) -> Any:
+                insert(*args)  # the other run's insert of the same baseline, first
+                return insert(*args)
+
+            other.setattr(driver, "insert_baseline", after_the_other_process)
+            second = monitor_fleet(fleet, store, config)
+        assert second.new_baselines == 0
+        assert second.axis_problems == []
+        assert second.scored == 16  # it still scores every capture under the stored baselines
+        results = fleet_results(store)
+    assert (results.role == "baseline").sum() == 2  # once per axis, as the store keeps them
+    reference = tmp_path / "reference.db"
+    with Store(reference) as store:
+        assert monitor_fleet(fleet, store, config).new_baselines == 2
+        expected = fleet_results(store)
+    columns = ["robot", "axis", "capture", "role", "distance", "threshold", "alarm"]
+    assert results[columns].equals(expected[columns])
 
 
 def test_changed_file_is_reported_not_rescored(fleet: Path, tmp_path: Path) -> None:

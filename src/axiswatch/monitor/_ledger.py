@@ -16,7 +16,13 @@ from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
-from axiswatch.monitor._store import NewBaseline, NewScore, Rejection, StoreBackend
+from axiswatch.monitor._store import (
+    AddedBaseline,
+    NewBaseline,
+    NewScore,
+    Rejection,
+    StoreBackend,
+)
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 
@@ -51,9 +57,9 @@ def reject(
 
 def insert_baseline(
     store: StoreBackend, outcome: FitOutcome, epoch: int, config: MonitorConfig
-) -> int | None:
-    """Insert the baseline of ``epoch`` unless another process did; return its id (None: the
-    other process chose another capture)."""
+) -> AddedBaseline | None:
+    """Insert the baseline of ``epoch`` unless another process did; return its id and whether
+    this call added it (None: the other process chose another capture)."""
     file = outcome.job.file
     stat = file.path.stat()
     details: dict[str, Any] = {"rates_hz": outcome.rates_hz}

@@ -503,21 +503,22 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
         if state.epoch == 1 and file.capture == run.config.baseline:
             state.candidates = []  # the chosen baseline is unusable: no other one
         return run.fit_job(state.candidates[0], state.candidates[1:]) if state.candidates else None
-    baseline_id = insert_baseline(run.store, outcome, state.epoch, run.config)
-    if baseline_id is None:
+    inserted = insert_baseline(run.store, outcome, state.epoch, run.config)
+    if inserted is None:
         run.problem(
             state,
             f"{state.robot}/{state.axis}: another process chose a different baseline "
             "at the same time; run monitor again",
         )
         return None
-    run.summary.new_baselines += 1
-    fitted = outcome.summary or {}
-    for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
-        if check:
-            run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
-    state.baseline = run.store.baseline(baseline_id)
-    state.model = run.persist(outcome, baseline_id)
+    if inserted.added:  # not when another run on the store added the same one first
+        run.summary.new_baselines += 1
+        fitted = outcome.summary or {}
+        for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
+            if check:
+                run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
+    state.baseline = run.store.baseline(inserted.id)
+    state.model = run.persist(outcome, inserted.id)
     state.rates_hz = outcome.rates_hz
     state.reference = outcome.reference
     return None

@@ -76,6 +76,7 @@ from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, sto
 
 __all__ = [
     "SCHEMA_VERSION",
+    "AddedBaseline",
     "AlarmState",
     "Baseline",
     "ChangedFile",
@@ -144,6 +145,16 @@ class NewBaseline:
     file_mtime_ns: int
     reason: str
     details: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class AddedBaseline:
+    """The epoch's baseline after :meth:`StoreBackend.add_baseline`: its id, and whether this
+    call added it (False: another process had added the same capture first, so that two runs
+    on one store do not both count it as new)."""
+
+    id: int
+    added: bool
 
 
 @dataclass(frozen=True)
@@ -287,11 +298,12 @@ class StoreBackend(Protocol):
 
     # writes
 
-    def add_baseline(self, baseline: NewBaseline) -> int | None:
-        """Add the baseline of an epoch and its capture's score row; return the baseline's id.
+    def add_baseline(self, baseline: NewBaseline) -> AddedBaseline | None:
+        """Add the baseline of an epoch and its capture's score row; return the baseline's id,
+        ``added``.
 
-        If the epoch already has a baseline (another process added it), return its id when it
-        is the same capture, None when it is another one.
+        If the epoch already has a baseline (another process added it), return its id, not
+        added, when it is the same capture, None when it is another one.
         """
         ...
 
@@ -1176,7 +1188,7 @@ class SQLiteStore:
 
     # --- writes --------------------------------------------------------------------------------
 
-    def add_baseline(self, baseline: NewBaseline) -> int | None:
+    def add_baseline(self, baseline: NewBaseline) -> AddedBaseline | None:
         b = baseline
         with self._write() as db:
             row = db.execute(
@@ -1185,7 +1197,7 @@ class SQLiteStore:
                 (b.robot, b.axis, b.method, b.epoch),
             ).fetchone()
             if row is not None:
-                return int(row["id"]) if row["capture"] == b.capture else None
+                return AddedBaseline(int(row["id"]), False) if row["capture"] == b.capture else None
             cursor = db.execute(
                 "INSERT INTO baselines (robot, axis, method, epoch, capture, captured_at, path, "
                 "file_hash, features_hash, params, library_version, created_at) "
@@ -1204,7 +1216,7 @@ class SQLiteStore:
                     0, 0, b.reason, json.dumps(b.details), now(),
                 ),
             )  # fmt: skip
-        return baseline_id
+        return AddedBaseline(baseline_id, True)
 
     def record_score(
         self, score: NewScore, decide: Callable[[AxisHistory], Decision], *, window: int
