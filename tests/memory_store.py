@@ -213,7 +213,8 @@ class MemoryStore:
                 return False
             for index, (old, _) in enumerate(self._rejections):
                 if (old.method, old.path, old.file_hash) == (r.method, r.path, r.file_hash):
-                    seen = old.acknowledged_at if old.error == r.error else None
+                    same = (old.reason_key or old.error) == (r.reason_key or r.error)
+                    seen = old.acknowledged_at if same else None
                     self._rejections[index] = (
                         dataclasses.replace(r, acknowledged_at=seen),
                         now_us(),

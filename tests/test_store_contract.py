@@ -332,6 +332,34 @@ def test_rejections_are_recorded_once_per_content(store: StoreBackend) -> None:
     ]
 
 
+def test_an_acknowledged_rejection_is_news_again_only_when_its_reason_key_changes(
+    store: StoreBackend,
+) -> None:
+    """A misnamed folder's line carries its file count; its acknowledgement is of the reason
+    without it (before: a new file in the folder changed the line and cleared the
+    acknowledgement)."""
+
+    def folder(error: str, key: str | None) -> Rejection:
+        return Rejection(
+            "r 1", "", "pca", "", "r 1/", "", error, "layout", transient=True, reason_key=key
+        )
+
+    key = "r 1/: robot folder name 'r 1' is not an identifier"
+    store.reject_capture(folder(f"{key}; its 5 capture file(s) are not scored", key))
+    assert store.acknowledge_problems(["r 1/"], "2026-03-02T00:00:00") == 1
+    store.reject_capture(folder(f"{key}; its 6 capture file(s) are not scored", key))
+    (kept,) = store.rejections("pca")
+    assert kept.error == f"{key}; its 6 capture file(s) are not scored"  # the count as it is now
+    assert kept.acknowledged_at is not None
+    store.reject_capture(folder("r 1/: another reason", "r 1/: another reason"))
+    assert store.rejections("pca")[0].acknowledged_at is None  # news again
+    plain = Rejection("r1", "a1", "pca", "c.csv", "r1/a1/c.csv", "x", "r1/a1/c.csv: bad")
+    store.reject_capture(plain)
+    assert store.acknowledge_problems(["r1/a1/c.csv"], "2026-03-02T00:00:00") == 1
+    store.reject_capture(dataclasses.replace(plain, error="r1/a1/c.csv: worse"))
+    assert store.rejections("pca")[1].acknowledged_at is None  # no key: the whole line
+
+
 def test_a_rejection_under_a_baseline_needs_it_active_and_the_capture_unscored(
     store: StoreBackend,
 ) -> None:

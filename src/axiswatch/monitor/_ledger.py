@@ -45,14 +45,17 @@ def reject(
     kind: str = "invalid",
     params_hash: str | None = None,
     transient: bool = False,
+    reason_key: str | None = None,
 ) -> None:
     """Record a capture file of ``method`` that cannot be used (once per content; ``kind``,
-    ``params_hash`` and ``transient`` as in :class:`~axiswatch.monitor.Rejection`)."""
+    ``params_hash``, ``transient`` and ``reason_key`` as in
+    :class:`~axiswatch.monitor.Rejection`)."""
     store.reject_capture(
         Rejection(
-            robot, axis, method, capture, relative, digest, error, kind, params_hash, transient
+            robot, axis, method, capture, relative, digest, error, kind, params_hash, transient,
+            reason_key=reason_key,
         )
-    )
+    )  # fmt: skip
 
 
 def insert_baseline(

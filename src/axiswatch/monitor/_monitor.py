@@ -319,7 +319,7 @@ def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> Non
             reject(
                 run.store, run.method, problem.robot, problem.axis, "",
                 folder, "", problem.reason, kind="layout",
-                transient=True,
+                transient=True, reason_key=problem.reason_key,
             )  # fmt: skip
             continue
         if not problem.capture:  # a folder: reported every run while it lasts, not stored

@@ -193,6 +193,9 @@ class Rejection:
     #: Re-checked every run (an unreadable file, a future date); forgotten once resolved.
     transient: bool = False
     acknowledged_at: str | None = None
+    #: What an acknowledgement of it is of, where ``error`` also says something that changes
+    #: without being news (a misnamed folder's file count); None: the whole ``error``.
+    reason_key: str | None = None
 
 
 @dataclass(frozen=True)
@@ -702,15 +705,17 @@ _INSERT_SCORE = (
     "file_hash, file_size, file_mtime_ns, role, distance, threshold, over, alarm, "
     "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
-#: A rejection, or a refreshed one: a rejection whose reason changed loses its acknowledgement
-#: (it is news again).
+#: A rejection, or a refreshed one: a rejection whose reason changed (its ``reason_key``, else
+#: its error line) loses its acknowledgement (it is news again). The right-hand sides read the
+#: row as it was before the update.
 _INSERT_REJECTION = (
     "INSERT INTO rejections (robot, axis, method, capture, path, file_hash, error, rejected_at, "
-    "kind, params_hash, transient) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+    "kind, params_hash, transient, reason_key) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
     "ON CONFLICT (method, path, file_hash) DO UPDATE SET error=excluded.error, "
     "rejected_at=excluded.rejected_at, kind=excluded.kind, params_hash=excluded.params_hash, "
-    "transient=excluded.transient, acknowledged_at=CASE WHEN error=excluded.error "
-    "THEN acknowledged_at END"
+    "transient=excluded.transient, reason_key=excluded.reason_key, "
+    "acknowledged_at=CASE WHEN coalesce(reason_key, error)="
+    "coalesce(excluded.reason_key, excluded.error) THEN acknowledged_at END"
 )
 
 #: Additive upgrades applied on open, each (table, column, declaration): older readers ignore
@@ -721,6 +726,7 @@ _ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("rejections", "transient", "INTEGER NOT NULL DEFAULT 0"),
     ("rejections", "acknowledged_at", "TEXT"),
     ("changed_files", "acknowledged_at", "TEXT"),
+    ("rejections", "reason_key", "TEXT"),
 )
 _AXIS_ACTIVITY = """
 CREATE TABLE IF NOT EXISTS axis_activity (
@@ -1309,7 +1315,7 @@ class SQLiteStore:
                 _INSERT_REJECTION,
                 (
                     r.robot, r.axis, r.method, r.capture, r.path, r.file_hash, r.error, now_us(),
-                    r.kind, r.params_hash, int(r.transient),
+                    r.kind, r.params_hash, int(r.transient), r.reason_key,
                 ),
             )  # fmt: skip
         return existed is None
@@ -1414,8 +1420,8 @@ class SQLiteStore:
     def rejections(self, method: str) -> list[Rejection]:
         rows = self._rows(
             "SELECT robot, axis, method, capture, path, file_hash, error, "
-            "coalesce(kind, 'invalid') AS kind, params_hash, transient, acknowledged_at "
-            "FROM rejections WHERE method=? ORDER BY id",
+            "coalesce(kind, 'invalid') AS kind, params_hash, transient, acknowledged_at, "
+            "reason_key FROM rejections WHERE method=? ORDER BY id",
             (method,),
         )
         return [Rejection(**{**dict(r), "transient": bool(r["transient"])}) for r in rows]
