@@ -23,6 +23,7 @@ import pandas as pd
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision
 from axiswatch.monitor._store import (
+    AddedBaseline,
     AlarmState,
     Baseline,
     ChangedFile,
@@ -101,7 +102,7 @@ class MemoryStore:
 
     # --- writes ----------------------------------------------------------------------------
 
-    def add_baseline(self, baseline: NewBaseline) -> int | None:
+    def add_baseline(self, baseline: NewBaseline) -> AddedBaseline | None:
         b = baseline
         with self._lock:
             for old in self._baselines:
@@ -111,7 +112,7 @@ class MemoryStore:
                     b.method,
                     b.epoch,
                 ):
-                    return old.id if old.capture == b.capture else None
+                    return AddedBaseline(old.id, False) if old.capture == b.capture else None
             new = Baseline(
                 len(self._baselines) + 1, b.robot, b.axis, b.method, b.epoch, b.capture,
                 b.captured_at, b.path, b.file_hash, b.features_hash, b.params, None, None, False,
@@ -138,7 +139,7 @@ class MemoryStore:
                 dict(b.details),
             )
             self._scores.append(row)
-            return new.id
+            return AddedBaseline(new.id, True)
 
     def record_score(
         self, score: NewScore, decide: Callable[[AxisHistory], Decision], *, window: int
@@ -212,7 +213,8 @@ class MemoryStore:
                 return False
             for index, (old, _) in enumerate(self._rejections):
                 if (old.method, old.path, old.file_hash) == (r.method, r.path, r.file_hash):
-                    seen = old.acknowledged_at if old.error == r.error else None
+                    same = (old.reason_key or old.error) == (r.reason_key or r.error)
+                    seen = old.acknowledged_at if same else None
                     self._rejections[index] = (
                         dataclasses.replace(r, acknowledged_at=seen),
                         now_us(),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -157,8 +158,56 @@ def test_a_units_row_is_not_read_as_values_and_is_checked(tmp_path: Path) -> Non
     path.write_text(_spreadsheet_text(",", ".", "[s],[°],[Nm]"), encoding="utf-8")
     with pytest.raises(CaptureError, match=r"units row gives '\[°\]' for column 'position'"):
         aw.read_capture(path)
-    path.write_text(_spreadsheet_text(",", ".", "sec,inc,A"), encoding="utf-8")  # not checked
+    path.write_text(_spreadsheet_text(",", ".", "sec,rad,%"), encoding="utf-8")  # torque: a label
     assert aw.read_capture(path).names == ("position", "torque")
+
+
+@pytest.mark.parametrize("word", ["counts", "inc", "[Incr]"])
+def test_encoder_counts_in_the_units_row_need_a_profile_with_counts(
+    tmp_path: Path, word: str
+) -> None:
+    # Before: read as rad, silently (a 14-bit encoder's counts: 2608 times too large).
+    path = tmp_path / "c.csv"
+    path.write_text(_spreadsheet_text(";", ",", f"s;{word};Nm"), encoding="utf-8")
+    with pytest.raises(
+        CaptureError,
+        match=rf"c\.csv: the units row gives '{re.escape(word)}' for column 'position' "
+        r"\(position\), but the capture is read in rad \(the default, without an axis profile\); "
+        r'declare \[units\] position = "counts" and counts_per_revolution \(encoder counts',
+    ):
+        aw.read_capture(path)
+    profile = aw.AxisProfile(position_unit="counts", counts_per_revolution=360.0)
+    capture = aw.read_capture(path, profile=profile)  # the file's values are degrees: 360 a turn
+    assert capture.signals["position"][1] == pytest.approx(np.sin(0.01), rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("units", "column", "expected"),
+    [
+        (
+            "s;grad;Nm",
+            "position",
+            r"not a position unit axiswatch reads; expected one of \[.*'deg'",
+        ),
+        ("s;deg;Nm", "time", r"not a time unit axiswatch reads; expected one of \['ms', 'msec'"),
+        ("s;rpm;Nm", "speed", r"not a speed unit axiswatch reads; expected one of \[.*'deg/s'"),
+    ],
+)
+def test_an_unknown_unit_word_for_time_position_or_speed_is_an_error(
+    tmp_path: Path, units: str, column: str, expected: str
+) -> None:
+    # Before: an unknown word was not checked and the column read in rad (or s), silently.
+    text = _spreadsheet_text(";", ",", units)
+    if column == "time":
+        text = text.replace("s;deg;Nm", "deg;rad;Nm")
+    elif column == "speed":
+        text = text.replace("time;position;torque", "time;speed;torque")
+    path = tmp_path / "c.csv"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(
+        CaptureError, match=rf"c\.csv: the units row gives .* for column '{column}' .*{expected}"
+    ):
+        aw.read_capture(path)
 
 
 def test_a_parquet_file_indexed_by_its_time_stamps_is_read(tmp_path: Path) -> None:

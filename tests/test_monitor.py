@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import Store, now
 from tests.conftest import settle
 from tests.naive import alarm_states_naive
 
@@ -115,6 +116,65 @@ def test_rerun_scores_only_new_captures_and_both_methods_share_a_store(
         ["axis2", "lra"],
         ["axis2", "pca"],
     ]
+
+
+def test_a_run_counts_only_the_baselines_it_added_itself(
+    fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two runs on one store fit the same baselines; the one that adds them second (it waited
+    for the store) is told the same capture is there. Before: both printed "2 new
+    baseline(s)"; the store was right, the second run's count was not."""
+    import axiswatch.monitor._monitor as driver
+
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        with monkeypatch.context() as other:
+            insert = driver.insert_baseline
+
+            def after_the_other_process(*args: Any) -> Any:
+                insert(*args)  # the other run's insert of the same baseline, first
+                return insert(*args)
+
+            other.setattr(driver, "insert_baseline", after_the_other_process)
+            second = monitor_fleet(fleet, store, config)
+        assert second.new_baselines == 0
+        assert second.axis_problems == []
+        assert second.scored == 16  # it still scores every capture under the stored baselines
+        results = fleet_results(store)
+    assert (results.role == "baseline").sum() == 2  # once per axis, as the store keeps them
+    reference = tmp_path / "reference.db"
+    with Store(reference) as store:
+        assert monitor_fleet(fleet, store, config).new_baselines == 2
+        expected = fleet_results(store)
+    columns = ["robot", "axis", "capture", "role", "distance", "threshold", "alarm"]
+    assert results[columns].equals(expected[columns])
+
+
+def test_an_acknowledged_misnamed_folder_stays_acknowledged_when_a_file_arrives(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # Before: the folder's line says how many files it holds, so a new file changed the line,
+    # cleared the acknowledgement and made the run exit 8 again for a problem already seen.
+    bad = fleet / "robot 2"
+    shutil.copytree(fleet / "robot01", bad)
+    settle(fleet)
+    config = MonitorConfig(method="pca")
+    with Store(tmp_path / "s.db") as store:
+        first = monitor_fleet(fleet, store, config)
+        assert [line for line in first.rejected if "robot 2/" in line] == [
+            "robot 2/: robot folder name 'robot 2' is not an identifier (1-64 ASCII letters, "
+            "digits, '_', '-' or '.', starting with a letter or digit); its 18 capture file(s) "
+            "are not scored until the folder is renamed."
+        ]
+        assert store.acknowledge_problems(["robot 2/"], now(), "pca") == 1
+        seen = monitor_fleet(fleet, store, config)
+        assert (seen.rejected, seen.acknowledged, seen.exit_code) == ([], 1, 0)
+        shutil.copy(bad / "axis1/2026-03-05.parquet", bad / "axis1/2026-03-10.parquet")
+        settle(fleet)
+        grown = monitor_fleet(fleet, store, config)
+        assert (grown.rejected, grown.acknowledged, grown.exit_code) == ([], 1, 0)
+        (stored,) = store.rejections("pca")
+    assert "its 19 capture file(s)" in stored.error  # the count is kept in the message
 
 
 def test_changed_file_is_reported_not_rescored(fleet: Path, tmp_path: Path) -> None:

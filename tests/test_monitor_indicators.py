@@ -694,3 +694,50 @@ def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
         items = _triage(store)
     assert [i.kind for i in items] != ["alarm"]
     assert "Baseline to check: baseline at 0.05 Hz, below the 20 Hz" in items[0].line
+
+
+def test_a_stored_baseline_below_20_hz_is_refitted_after_an_upgrade_and_still_only_noted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Before: an upgrade that bumps the stored model format refits every baseline, and the refit
+    # of a slow one met the 20 Hz floor of new baselines: "...; the stored baseline cannot be
+    # refitted", an axis not scored, instead of the rebaseline note of a kept slow baseline.
+    import axiswatch.monitor._indicators as indicators
+    import axiswatch.monitor._models
+    import axiswatch.monitor._persist
+
+    root = tmp_path / "fleet"
+    folder = root / "r1" / "a1"
+    folder.mkdir(parents=True)
+    robot = draw_robot(ROBOT_SEED)
+
+    def day(k: int) -> None:
+        frame = capture_to_frame(robot.capture(0, seed=k))
+        frame["time"] = (frame["time"] * 1000).round()  # milliseconds read as seconds: 0.05 Hz
+        frame.to_csv(folder / f"2026-03-{k + 1:02d}.csv", index=False)
+        settle(root)
+
+    for k in range(7):
+        day(k)
+    config = MonitorConfig(method="indicators")
+    current = axiswatch.monitor._persist.PERSIST_FORMAT
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        with monkeypatch.context() as before:
+            before.setattr(indicators, "MIN_MONITOR_RATE_HZ", 0.01)  # no floor yet
+            before.setattr(axiswatch.monitor._persist, "PERSIST_FORMAT", current - 1)
+            assert monitor_fleet(root, store, config, settle_s=0).new_baselines == 1
+        axiswatch.monitor._models._cache.clear()  # the upgraded version runs in a new process
+        day(7)
+        upgraded = monitor_fleet(root, store, config, settle_s=0)
+        assert upgraded.axis_problems == []
+        assert upgraded.new_baselines == 0  # refitted: the same baseline
+        assert upgraded.scored == 1
+        assert upgraded.baseline_checks == [
+            "r1/a1/2026-03-01.csv: baseline at 0.05 Hz, below the 20 Hz the indicators need: "
+            "rebaseline"
+        ]
+        assert upgraded.alarms == []
+        assert upgraded.exit_code == 8  # a baseline to check, never an alarm
+        assert monitor_fleet(root, store, config, settle_s=0).baseline_checks == (
+            upgraded.baseline_checks
+        )  # the refitted model is stored and still noted on the next run

@@ -150,7 +150,7 @@ def test_worker_reads_a_missing_model_from_the_store_once(tmp_path: Path) -> Non
     blob = dump_model(model)
     key = model_digest(blob)
     with Store(tmp_path / "s.db") as store:
-        baseline_id = store.add_baseline(
+        added = store.add_baseline(
             NewBaseline(
                 robot="r", axis="a", method="mechanics", epoch=1, capture="c.csv",
                 captured_at=datetime(2026, 3, 1), path="r/a/c.csv", file_hash="h",
@@ -158,7 +158,8 @@ def test_worker_reads_a_missing_model_from_the_store_once(tmp_path: Path) -> Non
                 file_mtime_ns=1, reason="baseline", details={},
             )
         )  # fmt: skip
-        assert baseline_id is not None
+        assert added is not None
+        baseline_id = added.id
         store.save_model(baseline_id, SavedModel("h", "{}", "v", key, {}), blob)
         assert store.saved_model(baseline_id) == SavedModel("h", "{}", "v", key, {})
     ref = ModelRef(key, str(tmp_path / "s.db"))

@@ -24,7 +24,7 @@ from axiswatch.exceptions import StoreError
 from axiswatch.monitor import MonitorConfig, SQLiteStore, StoreBackend, fleet_results
 from axiswatch.monitor._decision import AxisHistory, Decision
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._store import ChangedFile, NewBaseline, NewScore, Rejection
+from axiswatch.monitor._store import AddedBaseline, ChangedFile, NewBaseline, NewScore, Rejection
 from tests.memory_store import MemoryStore
 
 BACKENDS: dict[str, Callable[[Path], StoreBackend]] = {
@@ -42,6 +42,14 @@ def store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[StoreBacke
 
 def day(n: int) -> datetime:
     return datetime(2026, 3, n)
+
+
+def add(store: StoreBackend, baseline: NewBaseline) -> int:
+    """The id of a baseline this call adds."""
+    added = store.add_baseline(baseline)
+    assert added is not None
+    assert added.added
+    return added.id
 
 
 def new_baseline(
@@ -81,9 +89,13 @@ CALIBRATING = Decision("calibration", None, False, False, "calibrating")
 
 
 def test_a_baseline_is_added_once_per_epoch(store: StoreBackend) -> None:
-    first = store.add_baseline(new_baseline())
-    assert first is not None
-    assert store.add_baseline(new_baseline()) == first  # another process, same choice
+    added = store.add_baseline(new_baseline())
+    assert added is not None
+    assert added.added
+    first = added.id
+    # Another process, same choice: its id, not added by this call (before: only the id, so
+    # that two runs on one store both counted the baseline as new).
+    assert store.add_baseline(new_baseline()) == AddedBaseline(first, added=False)
     assert store.add_baseline(new_baseline("2026-03-02.csv")) is None  # a different choice
     baseline = store.baseline(first)
     assert (baseline.robot, baseline.axis, baseline.method, baseline.epoch) == (
@@ -112,8 +124,7 @@ def test_an_unknown_baseline_is_an_error(store: StoreBackend) -> None:
 def test_decide_gets_the_calibration_history_and_the_fit_is_given_to_every_capture(
     store: StoreBackend,
 ) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     seen: list[AxisHistory] = []
     for n, distance in ((2, 1.0), (3, 2.0)):
         assert store.record_score(
@@ -133,8 +144,7 @@ def test_decide_gets_the_calibration_history_and_the_fit_is_given_to_every_captu
 
 
 def test_decide_gets_the_recent_monitored_captures_oldest_first(store: StoreBackend) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     threshold = alarm_threshold([1.0, 2.0])
     store.record_score(
         new_score(baseline_id, 2),
@@ -156,8 +166,7 @@ def test_decide_gets_the_recent_monitored_captures_oldest_first(store: StoreBack
 def test_a_capture_is_written_once_and_never_under_a_retired_baseline(
     store: StoreBackend,
 ) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     assert store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING), window=1)
     calls: list[AxisHistory] = []
     assert not store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING, calls), window=1)
@@ -168,8 +177,7 @@ def test_a_capture_is_written_once_and_never_under_a_retired_baseline(
 
 
 def test_a_failed_decision_writes_nothing(store: StoreBackend) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
 
     def failing(history: AxisHistory) -> Decision:
         raise RuntimeError("boom")
@@ -181,8 +189,7 @@ def test_a_failed_decision_writes_nothing(store: StoreBackend) -> None:
 
 
 def test_a_batch_keeps_all_its_writes_or_none(store: StoreBackend) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     with store.batch():
         assert store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING), window=1)
         # A write that fails inside a batch changes nothing, and the batch goes on.
@@ -221,8 +228,7 @@ def _boom(history: AxisHistory) -> Decision:
 
 
 def test_alarmed_captures_and_axes_in_alarm(store: StoreBackend) -> None:
-    old = store.add_baseline(new_baseline())
-    assert old is not None
+    old = add(store, new_baseline())
     threshold = alarm_threshold([1.0, 2.0])
     store.record_score(
         new_score(old, 2),
@@ -241,8 +247,7 @@ def test_alarmed_captures_and_axes_in_alarm(store: StoreBackend) -> None:
     store.retire_baselines("r1", "a1", from_capture="2026-03-02.csv")
     assert store.axes_in_alarm("pca") == []
     assert store.summary_table().empty
-    new = store.add_baseline(new_baseline("2026-03-02.csv", epoch=2))
-    assert new is not None
+    new = add(store, new_baseline("2026-03-02.csv", epoch=2))
     seen: list[AxisHistory] = []
     store.record_score(new_score(new, 3), fixed(CALIBRATING, seen), window=1)
     store.record_score(new_score(new, 4), fixed(CALIBRATING, seen), window=1)
@@ -252,8 +257,8 @@ def test_alarmed_captures_and_axes_in_alarm(store: StoreBackend) -> None:
 
 def test_retiring_a_baseline(store: StoreBackend) -> None:
     for method in ("pca", "lra"):
-        store.add_baseline(new_baseline(method=method))
-    store.add_baseline(new_baseline(axis="a2"))
+        add(store, new_baseline(method=method))
+    add(store, new_baseline(axis="a2"))
     with pytest.raises(
         StoreError,
         match=r"robot 'r1' axis 'a9' method 'pca' has no active baseline in store '.*'; axes "
@@ -274,8 +279,7 @@ def test_retiring_a_baseline(store: StoreBackend) -> None:
 
 
 def test_an_alarmed_capture_cannot_be_the_next_baseline(store: StoreBackend) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     store.record_score(
         new_score(baseline_id, 2), fixed(Decision("monitor", 1.0, True, True, "")), window=1
     )
@@ -285,8 +289,7 @@ def test_an_alarmed_capture_cannot_be_the_next_baseline(store: StoreBackend) -> 
 
 
 def test_scored_files_and_times(store: StoreBackend) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     assert store.last_captured_at("r1", "a1", "pca") == day(1)
     store.record_score(new_score(baseline_id, 3), fixed(CALIBRATING), window=1)
     assert store.last_captured_at("r1", "a1", "pca") == day(3)
@@ -329,11 +332,38 @@ def test_rejections_are_recorded_once_per_content(store: StoreBackend) -> None:
     ]
 
 
+def test_an_acknowledged_rejection_is_news_again_only_when_its_reason_key_changes(
+    store: StoreBackend,
+) -> None:
+    """A misnamed folder's line carries its file count; its acknowledgement is of the reason
+    without it (before: a new file in the folder changed the line and cleared the
+    acknowledgement)."""
+
+    def folder(error: str, key: str | None) -> Rejection:
+        return Rejection(
+            "r 1", "", "pca", "", "r 1/", "", error, "layout", transient=True, reason_key=key
+        )
+
+    key = "r 1/: robot folder name 'r 1' is not an identifier"
+    store.reject_capture(folder(f"{key}; its 5 capture file(s) are not scored", key))
+    assert store.acknowledge_problems(["r 1/"], "2026-03-02T00:00:00") == 1
+    store.reject_capture(folder(f"{key}; its 6 capture file(s) are not scored", key))
+    (kept,) = store.rejections("pca")
+    assert kept.error == f"{key}; its 6 capture file(s) are not scored"  # the count as it is now
+    assert kept.acknowledged_at is not None
+    store.reject_capture(folder("r 1/: another reason", "r 1/: another reason"))
+    assert store.rejections("pca")[0].acknowledged_at is None  # news again
+    plain = Rejection("r1", "a1", "pca", "c.csv", "r1/a1/c.csv", "x", "r1/a1/c.csv: bad")
+    store.reject_capture(plain)
+    assert store.acknowledge_problems(["r1/a1/c.csv"], "2026-03-02T00:00:00") == 1
+    store.reject_capture(dataclasses.replace(plain, error="r1/a1/c.csv: worse"))
+    assert store.rejections("pca")[1].acknowledged_at is None  # no key: the whole line
+
+
 def test_a_rejection_under_a_baseline_needs_it_active_and_the_capture_unscored(
     store: StoreBackend,
 ) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING), window=1)
     scored = Rejection("r1", "a1", "pca", "2026-03-02.csv", "r1/a1/2026-03-02.csv", "z", "bad")
     assert not store.reject_capture(scored, baseline_id=baseline_id)
@@ -345,8 +375,7 @@ def test_a_rejection_under_a_baseline_needs_it_active_and_the_capture_unscored(
 
 
 def test_alarms_are_acknowledged_until_raised_again(store: StoreBackend) -> None:
-    baseline_id = store.add_baseline(new_baseline())
-    assert baseline_id is not None
+    baseline_id = add(store, new_baseline())
     threshold = alarm_threshold([1.0, 2.0])
     store.record_score(
         new_score(baseline_id, 2),

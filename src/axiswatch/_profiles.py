@@ -64,18 +64,29 @@ POSITION_UNITS: dict[str, float] = {
 }
 #: Position unit of raw encoder counts; needs ``counts_per_revolution`` (read in rad).
 COUNTS = "counts"
-#: Unit words of a CSV units row that name a unit of :data:`TIME_UNITS` or
-#: :data:`POSITION_UNITS` (others, such as ``Nm``, ``A`` or ``inc``, are not checked).
-UNIT_WORDS: dict[str, str] = {
-    **{unit: unit for unit in (*TIME_UNITS, *POSITION_UNITS)},
+#: Words of a CSV units row for the time column -> the unit of :data:`TIME_UNITS` they name.
+TIME_WORDS: dict[str, str] = {
+    **{unit: unit for unit in TIME_UNITS},
     "sec": "s",
     "msec": "ms",
     "µs": "us",
+}
+#: Words of a CSV units row for the position (and, with ``/s``, the speed) -> the unit of
+#: :data:`POSITION_UNITS` or :data:`COUNTS` they name. Encoder increments are counts: read as
+#: rad they would be off by counts_per_revolution / 2 pi.
+POSITION_WORDS: dict[str, str] = {
+    **{unit: unit for unit in (*POSITION_UNITS, COUNTS)},
     "°": "deg",
     "degree": "deg",
     "degrees": "deg",
     "radian": "rad",
     "radians": "rad",
+    "count": COUNTS,
+    "cnt": COUNTS,
+    "cts": COUNTS,
+    "inc": COUNTS,
+    "incr": COUNTS,
+    "increments": COUNTS,
 }
 #: Names of the profile files, most specific first (:func:`find_profile`).
 PROFILE_FILES: tuple[str, ...] = ("axis.toml", "robot.toml")
@@ -302,9 +313,10 @@ class AxisProfile:
         return self.columns.get(column, column)
 
     def check_units_row(self, units: Mapping[str, str], path: Path) -> None:
-        """Refuse a file whose units row names another time or position unit than the one the
-        capture is read in (``deg`` under the position while the profile, or its absence, says
-        ``rad``): the readings would be in wrong units, silently.
+        """Refuse a file whose units row names another time, position or speed unit than the one
+        the capture is read in (``deg`` or encoder ``counts`` under the position while the
+        profile, or its absence, says ``rad``), or a word that is none of those units (``rpm``):
+        the readings would be in wrong units, silently. The torque's unit is not checked.
 
         Examples
         --------
@@ -319,23 +331,37 @@ class AxisProfile:
                 role = role.lower()
             word = text.strip().strip("[]()").lower()
             if role == "speed":
-                word = word.removesuffix("/s")
+                word = word.removesuffix("/s").removesuffix("/sec")
             elif role not in ("time", "position"):
-                continue
-            if word not in UNIT_WORDS:
-                continue
+                continue  # the torque is read as given (Nm, A, %): its unit is only a label
             key = "time" if role == "time" else "position"
+            words = TIME_WORDS if role == "time" else POSITION_WORDS
             declared = self.time_unit if role == "time" else self.position_unit
-            if UNIT_WORDS[word] != declared:
-                origin = (
-                    "the default, without an axis profile"
-                    if self.source == "<memory>"
-                    else f"axis profile {self.source}"
-                )
+            origin = (
+                "the default, without an axis profile"
+                if self.source == "<memory>"
+                else f"axis profile {self.source}"
+            )
+            said = f"{path}: the units row gives {text!r} for column {column!r} ({role})"
+            if word not in words:
+                # Read anyway, the values would be in a unit nobody declared: refused, naming
+                # the words that are read, so that a typo or a foreign unit (rpm) shows.
+                accepted = sorted(words) if role != "speed" else sorted(f"{w}/s" for w in words)
                 raise CaptureError(
-                    f"{path}: the units row gives {text!r} for column {column!r} ({role}), but "
-                    f"the capture is read in {declared} ({origin}); declare "
-                    f'[units] {key} = "{UNIT_WORDS[word]}" in the axis profile.'
+                    f"{said}, not a {role} unit axiswatch reads; expected one of {accepted} "
+                    f"(the capture is read in {declared}{'/s' if role == 'speed' else ''}, "
+                    f"{origin})."
+                )
+            if words[word] != declared:
+                declare = f'[units] {key} = "{words[word]}"'
+                if words[word] == COUNTS:
+                    declare += (
+                        " and counts_per_revolution (encoder counts per turn of the position, "
+                        "such as 16384 for 14 bits)"
+                    )
+                raise CaptureError(
+                    f"{said}, but the capture is read in {declared} ({origin}); declare "
+                    f"{declare} in the axis profile."
                 )
 
     def position_scale(self) -> float:

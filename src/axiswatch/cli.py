@@ -21,6 +21,7 @@ import typer
 
 from axiswatch.monitor._methods import DEFAULT_METHOD, methods
 from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch_launcher import INTERRUPTED, INTERRUPTED_STATUS
 
 if TYPE_CHECKING:  # imported where used: the CLI starts without pandas
     import pandas as pd
@@ -57,12 +58,8 @@ def _failures(debug: bool) -> Iterator[None]:
     except KeyboardInterrupt:
         if debug:
             raise
-        typer.echo(
-            "interrupted: stopped before the end; a monitor store keeps every capture committed "
-            "so far (run monitor again to go on)",
-            err=True,
-        )
-        raise typer.Exit(130) from None
+        typer.echo(INTERRUPTED, err=True)
+        raise typer.Exit(INTERRUPTED_STATUS) from None
     except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
         if debug:
             raise

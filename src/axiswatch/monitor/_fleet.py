@@ -124,7 +124,8 @@ class FleetFile:
 class LayoutProblem:
     """A capture file the layout rules reject, and why (one sentence naming the file); or a
     folder (``capture == ""``): one that cannot be read, or, with ``files`` > 0, a robot or axis
-    folder whose name is not an identifier, holding ``files`` capture files of ``axes``."""
+    folder whose name is not an identifier, holding ``files`` capture files of ``axes``
+    (``reason_key``: its reason without that count, which changes as files arrive)."""
 
     robot: str
     axis: str
@@ -133,6 +134,7 @@ class LayoutProblem:
     reason: str
     files: int = 0
     axes: tuple[tuple[str, str], ...] = ()
+    reason_key: str | None = None
 
 
 def _problem(root: Path, path: Path, reason: str) -> LayoutProblem:
@@ -229,6 +231,7 @@ def discover_fleet(
                 "folder is renamed.",
                 files=len(axes),
                 axes=tuple(sorted(set(axes))),
+                reason_key=f"{shown}/: {why}",
             )
         )
     files.sort(key=lambda f: (f.robot, f.axis, f.captured_at, f.capture))

@@ -16,7 +16,13 @@ from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
-from axiswatch.monitor._store import NewBaseline, NewScore, Rejection, StoreBackend
+from axiswatch.monitor._store import (
+    AddedBaseline,
+    NewBaseline,
+    NewScore,
+    Rejection,
+    StoreBackend,
+)
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 
@@ -39,21 +45,24 @@ def reject(
     kind: str = "invalid",
     params_hash: str | None = None,
     transient: bool = False,
+    reason_key: str | None = None,
 ) -> None:
     """Record a capture file of ``method`` that cannot be used (once per content; ``kind``,
-    ``params_hash`` and ``transient`` as in :class:`~axiswatch.monitor.Rejection`)."""
+    ``params_hash``, ``transient`` and ``reason_key`` as in
+    :class:`~axiswatch.monitor.Rejection`)."""
     store.reject_capture(
         Rejection(
-            robot, axis, method, capture, relative, digest, error, kind, params_hash, transient
+            robot, axis, method, capture, relative, digest, error, kind, params_hash, transient,
+            reason_key=reason_key,
         )
-    )
+    )  # fmt: skip
 
 
 def insert_baseline(
     store: StoreBackend, outcome: FitOutcome, epoch: int, config: MonitorConfig
-) -> int | None:
-    """Insert the baseline of ``epoch`` unless another process did; return its id (None: the
-    other process chose another capture)."""
+) -> AddedBaseline | None:
+    """Insert the baseline of ``epoch`` unless another process did; return its id and whether
+    this call added it (None: the other process chose another capture)."""
     file = outcome.job.file
     stat = file.path.stat()
     details: dict[str, Any] = {"rates_hz": outcome.rates_hz}

@@ -265,9 +265,12 @@ class _Run:
             (file.robot, file.axis, file.capture) not in self.alarmed
         )
 
-    def fit_job(self, file: FleetFile, following: Sequence[FleetFile] = ()) -> FitJob:
+    def fit_job(
+        self, file: FleetFile, following: Sequence[FleetFile] = (), *, refit: bool = False
+    ) -> FitJob:
         """The fit job of a baseline candidate; ``following``: the usable captures after it (an
-        IndicatorModel is fitted on the first that give a reading, too)."""
+        IndicatorModel is fitted on the first that give a reading, too); ``refit``: of a stored
+        baseline (:attr:`FitJob.refit`)."""
         relative = self.relative(file.path)
         if not self.config.preset.indicator_model:
             return FitJob(file, relative, self.config.model(), self.config.profile)
@@ -276,6 +279,7 @@ class _Run:
             calibration=tuple(following),
             relatives=tuple(self.relative(f.path) for f in following),
             calibration_size=self.config.calibration_size,
+            refit=refit,
         )  # fmt: skip
 
     def report(self, stage: str, done: int, total: int) -> None:
@@ -315,7 +319,7 @@ def _record_layout_problems(run: _Run, problems: Iterable[LayoutProblem]) -> Non
             reject(
                 run.store, run.method, problem.robot, problem.axis, "",
                 folder, "", problem.reason, kind="layout",
-                transient=True,
+                transient=True, reason_key=problem.reason_key,
             )  # fmt: skip
             continue
         if not problem.capture:  # a folder: reported every run while it lasts, not stored
@@ -392,14 +396,22 @@ def _plan_active(run: _Run, state: _Axis, baseline: Baseline) -> FitJob | None:
         state.model, state.rates_hz = ModelRef(saved.model_hash, source), saved.rates_hz
         state.reference = QualityReference(dict(saved.reference))
         run.stored_models.append(state)
-        slow = slow_baseline_note(saved.rates_hz) if run.config.preset.indicator_model else None
-        if slow is not None:
-            # Kept and scored as before, reported on every run (its folder listed again).
-            run.summary.baseline_checks.append(f"{baseline.path}: {slow}")
-            run.problem_axes.add((state.robot, state.axis))
+        _note_slow_baseline(run, state, baseline, saved.rates_hz)
         return None
     following = [f for f in state.files if _key(f) > _key(stored) and run.usable(f)]
-    return run.fit_job(stored, following)
+    return run.fit_job(stored, following, refit=True)
+
+
+def _note_slow_baseline(
+    run: _Run, state: _Axis, baseline: Baseline, rates_hz: Mapping[str, float]
+) -> None:
+    """List a stored indicators baseline slower than 20 Hz under *Baselines to check*: kept and
+    scored as before (also when refitted after an upgrade), reported on every run (its folder
+    listed again) until it is rebaselined; never an alarm."""
+    slow = slow_baseline_note(rates_hz) if run.config.preset.indicator_model else None
+    if slow is not None:
+        run.summary.baseline_checks.append(f"{baseline.path}: {slow}")
+        run.problem_axes.add((state.robot, state.axis))
 
 
 def _still_valid(run: _Run, saved: SavedModel, baseline: Baseline) -> bool:
@@ -467,6 +479,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             state.model = run.persist(outcome, state.baseline.id)
             state.rates_hz = outcome.rates_hz
             state.reference = outcome.reference
+            _note_slow_baseline(run, state, state.baseline, outcome.rates_hz)
         return None
     if outcome.error is not None:
         digest = run.digest(file.path) or ""
@@ -490,21 +503,22 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
         if state.epoch == 1 and file.capture == run.config.baseline:
             state.candidates = []  # the chosen baseline is unusable: no other one
         return run.fit_job(state.candidates[0], state.candidates[1:]) if state.candidates else None
-    baseline_id = insert_baseline(run.store, outcome, state.epoch, run.config)
-    if baseline_id is None:
+    inserted = insert_baseline(run.store, outcome, state.epoch, run.config)
+    if inserted is None:
         run.problem(
             state,
             f"{state.robot}/{state.axis}: another process chose a different baseline "
             "at the same time; run monitor again",
         )
         return None
-    run.summary.new_baselines += 1
-    fitted = outcome.summary or {}
-    for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
-        if check:
-            run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
-    state.baseline = run.store.baseline(baseline_id)
-    state.model = run.persist(outcome, baseline_id)
+    if inserted.added:  # not when another run on the store added the same one first
+        run.summary.new_baselines += 1
+        fitted = outcome.summary or {}
+        for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
+            if check:
+                run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
+    state.baseline = run.store.baseline(inserted.id)
+    state.model = run.persist(outcome, inserted.id)
     state.rates_hz = outcome.rates_hz
     state.reference = outcome.reference
     return None

@@ -386,6 +386,9 @@ class FitJob:
     calibration: tuple[FleetFile, ...] = ()
     relatives: tuple[str, ...] = ()
     calibration_size: int = 0
+    #: Of a stored baseline (after an upgrade, new options of the library): the 20 Hz floor of
+    #: new baselines is not applied, a slower one is kept and noted (``slow_baseline_note``).
+    refit: bool = False
 
 
 @dataclass(frozen=True)
@@ -445,7 +448,8 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
         profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
         capture = read_capture(path, profile=profile)
-        check_monitor_rate(capture)
+        if not job.refit:
+            check_monitor_rate(capture)
         problem = data_quality_problem(capture)
         if problem is not None:
             error = _bad_data(job.relative, problem)

@@ -76,6 +76,7 @@ from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, sto
 
 __all__ = [
     "SCHEMA_VERSION",
+    "AddedBaseline",
     "AlarmState",
     "Baseline",
     "ChangedFile",
@@ -147,6 +148,16 @@ class NewBaseline:
 
 
 @dataclass(frozen=True)
+class AddedBaseline:
+    """The epoch's baseline after :meth:`StoreBackend.add_baseline`: its id, and whether this
+    call added it (False: another process had added the same capture first, so that two runs
+    on one store do not both count it as new)."""
+
+    id: int
+    added: bool
+
+
+@dataclass(frozen=True)
 class NewScore:
     """A scored capture of one baseline, before its decision (role, threshold, alarm)."""
 
@@ -182,6 +193,9 @@ class Rejection:
     #: Re-checked every run (an unreadable file, a future date); forgotten once resolved.
     transient: bool = False
     acknowledged_at: str | None = None
+    #: What an acknowledgement of it is of, where ``error`` also says something that changes
+    #: without being news (a misnamed folder's file count); None: the whole ``error``.
+    reason_key: str | None = None
 
 
 @dataclass(frozen=True)
@@ -287,11 +301,12 @@ class StoreBackend(Protocol):
 
     # writes
 
-    def add_baseline(self, baseline: NewBaseline) -> int | None:
-        """Add the baseline of an epoch and its capture's score row; return the baseline's id.
+    def add_baseline(self, baseline: NewBaseline) -> AddedBaseline | None:
+        """Add the baseline of an epoch and its capture's score row; return the baseline's id,
+        ``added``.
 
-        If the epoch already has a baseline (another process added it), return its id when it
-        is the same capture, None when it is another one.
+        If the epoch already has a baseline (another process added it), return its id, not
+        added, when it is the same capture, None when it is another one.
         """
         ...
 
@@ -690,15 +705,17 @@ _INSERT_SCORE = (
     "file_hash, file_size, file_mtime_ns, role, distance, threshold, over, alarm, "
     "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
-#: A rejection, or a refreshed one: a rejection whose reason changed loses its acknowledgement
-#: (it is news again).
+#: A rejection, or a refreshed one: a rejection whose reason changed (its ``reason_key``, else
+#: its error line) loses its acknowledgement (it is news again). The right-hand sides read the
+#: row as it was before the update.
 _INSERT_REJECTION = (
     "INSERT INTO rejections (robot, axis, method, capture, path, file_hash, error, rejected_at, "
-    "kind, params_hash, transient) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+    "kind, params_hash, transient, reason_key) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
     "ON CONFLICT (method, path, file_hash) DO UPDATE SET error=excluded.error, "
     "rejected_at=excluded.rejected_at, kind=excluded.kind, params_hash=excluded.params_hash, "
-    "transient=excluded.transient, acknowledged_at=CASE WHEN error=excluded.error "
-    "THEN acknowledged_at END"
+    "transient=excluded.transient, reason_key=excluded.reason_key, "
+    "acknowledged_at=CASE WHEN coalesce(reason_key, error)="
+    "coalesce(excluded.reason_key, excluded.error) THEN acknowledged_at END"
 )
 
 #: Additive upgrades applied on open, each (table, column, declaration): older readers ignore
@@ -709,6 +726,7 @@ _ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("rejections", "transient", "INTEGER NOT NULL DEFAULT 0"),
     ("rejections", "acknowledged_at", "TEXT"),
     ("changed_files", "acknowledged_at", "TEXT"),
+    ("rejections", "reason_key", "TEXT"),
 )
 _AXIS_ACTIVITY = """
 CREATE TABLE IF NOT EXISTS axis_activity (
@@ -1176,7 +1194,7 @@ class SQLiteStore:
 
     # --- writes --------------------------------------------------------------------------------
 
-    def add_baseline(self, baseline: NewBaseline) -> int | None:
+    def add_baseline(self, baseline: NewBaseline) -> AddedBaseline | None:
         b = baseline
         with self._write() as db:
             row = db.execute(
@@ -1185,7 +1203,7 @@ class SQLiteStore:
                 (b.robot, b.axis, b.method, b.epoch),
             ).fetchone()
             if row is not None:
-                return int(row["id"]) if row["capture"] == b.capture else None
+                return AddedBaseline(int(row["id"]), False) if row["capture"] == b.capture else None
             cursor = db.execute(
                 "INSERT INTO baselines (robot, axis, method, epoch, capture, captured_at, path, "
                 "file_hash, features_hash, params, library_version, created_at) "
@@ -1204,7 +1222,7 @@ class SQLiteStore:
                     0, 0, b.reason, json.dumps(b.details), now(),
                 ),
             )  # fmt: skip
-        return baseline_id
+        return AddedBaseline(baseline_id, True)
 
     def record_score(
         self, score: NewScore, decide: Callable[[AxisHistory], Decision], *, window: int
@@ -1297,7 +1315,7 @@ class SQLiteStore:
                 _INSERT_REJECTION,
                 (
                     r.robot, r.axis, r.method, r.capture, r.path, r.file_hash, r.error, now_us(),
-                    r.kind, r.params_hash, int(r.transient),
+                    r.kind, r.params_hash, int(r.transient), r.reason_key,
                 ),
             )  # fmt: skip
         return existed is None
@@ -1402,8 +1420,8 @@ class SQLiteStore:
     def rejections(self, method: str) -> list[Rejection]:
         rows = self._rows(
             "SELECT robot, axis, method, capture, path, file_hash, error, "
-            "coalesce(kind, 'invalid') AS kind, params_hash, transient, acknowledged_at "
-            "FROM rejections WHERE method=? ORDER BY id",
+            "coalesce(kind, 'invalid') AS kind, params_hash, transient, acknowledged_at, "
+            "reason_key FROM rejections WHERE method=? ORDER BY id",
             (method,),
         )
         return [Rejection(**{**dict(r), "transient": bool(r["transient"])}) for r in rows]

@@ -1,0 +1,71 @@
+"""Console-script entry points of ``axiswatch`` and ``axiswatch-lab``.
+
+A module of its own, outside the ``axiswatch`` package, on purpose: importing anything inside the
+package first runs ``axiswatch/__init__.py``, which imports NumPy, SciPy and pandas (1-2 s). A
+script whose entry point were ``axiswatch.cli:main`` would do that import in the script wrapper
+itself, where a Ctrl-C ends in a Python traceback. Here the import happens inside the handler,
+so a Ctrl-C at any time is one line on stderr and exit status 130 (128 + SIGINT), as the
+commands report it once they run. ``import axiswatch`` is unchanged.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from importlib import import_module
+from types import ModuleType
+
+#: The one line a Ctrl-C prints (the commands' own handler prints it too). True at any moment:
+#: the monitor commits each capture on its own.
+INTERRUPTED = (
+    "interrupted: stopped before the end; a monitor store keeps every capture committed so far "
+    "(run monitor again to go on)"
+)
+
+#: Exit status after a Ctrl-C: 128 + SIGINT, as a shell reports a process it interrupted.
+INTERRUPTED_STATUS = 130
+
+
+def launch(target: str, importer: Callable[[str], ModuleType] = import_module) -> None:
+    """Import ``module:function`` and call it, turning a Ctrl-C at any moment into one line.
+
+    Parameters
+    ----------
+    target : str
+        The command's entry function, ``"package.module:function"``.
+    importer : callable, default importlib.import_module
+        Imports a module by name (a test passes one that is interrupted).
+
+    Raises
+    ------
+    SystemExit
+        With status 130 after a Ctrl-C (the traceback only with ``--debug`` on the command
+        line), else whatever the command exits with.
+
+    Examples
+    --------
+    >>> def interrupted_import(name):
+    ...     raise KeyboardInterrupt
+    >>> launch("axiswatch.cli:main", importer=interrupted_import)
+    Traceback (most recent call last):
+    SystemExit: 130
+    """
+    module_name, _, function_name = target.partition(":")
+    try:
+        entry = getattr(importer(module_name), function_name)
+        entry()
+    except KeyboardInterrupt:
+        if "--debug" in sys.argv[1:]:
+            raise
+        print(INTERRUPTED, file=sys.stderr)
+        raise SystemExit(INTERRUPTED_STATUS) from None
+
+
+def axiswatch() -> None:
+    """Entry point of the ``axiswatch`` script: :func:`axiswatch.cli.main`."""
+    launch("axiswatch.cli:main")
+
+
+def axiswatch_lab() -> None:
+    """Entry point of the ``axiswatch-lab`` script: :func:`axiswatch_lab.cli.main`."""
+    launch("axiswatch_lab.cli:main")
