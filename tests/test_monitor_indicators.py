@@ -650,7 +650,9 @@ def test_axes_fitted_before_their_fleet_had_three_get_its_prior_later(tmp_path: 
     assert axes[("a0", "09")] == axes[("a1", "09")] == axes[("a2", "08")] == 3
 
 
-def test_a_fleet_check_given_with_a_later_prior_is_stored_with_it(tmp_path: Path) -> None:
+def test_a_fleet_check_given_with_a_later_prior_is_stored_with_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # a0 (worn from its first capture) and a1 are fitted without a fleet; a2 and a3 make it 4
     # axes, and a0's stored model gets the prior and its fleet check. The prior is stored once:
     # before, its check was listed by that run only and lost when the run was killed after it.
@@ -673,7 +675,15 @@ def test_a_fleet_check_given_with_a_later_prior_is_stored_with_it(tmp_path: Path
     for a in range(2, 4):
         axis(a)
     settle(root)
-    given = run()
+
+    def killed(*_: object) -> None:
+        raise RuntimeError("killed")
+
+    with monkeypatch.context() as kill:  # between the prior's and its check's write
+        kill.setattr(SQLiteStore, "record_baseline_check", killed)
+        with pytest.raises(RuntimeError, match="killed"):
+            run()
+    given = run()  # the prior was not stored without its check: given now, with it
     assert [line.split(":")[0] for line in given.fleet_priors] == ["r1/a0", "r1/a1"]
     assert len(given.baseline_checks) == 1
     later = run()
