@@ -26,6 +26,7 @@ from axiswatch.monitor._store import (
     AddedBaseline,
     AlarmState,
     Baseline,
+    BaselineCheck,
     ChangedFile,
     NewBaseline,
     NewScore,
@@ -76,6 +77,8 @@ class MemoryStore:
         self._activity: dict[tuple[str, str], tuple[int, str, str]] = {}
         self._request_times: list[str] = []
         self._acks: list[dict[str, Any]] = []
+        #: (baseline id, kind) -> (note, detected_at, acknowledged_at)
+        self._checks: dict[tuple[int, str], tuple[str, str, str | None]] = {}
 
     @property
     def location(self) -> str:
@@ -139,6 +142,8 @@ class MemoryStore:
                 dict(b.details),
             )
             self._scores.append(row)
+            for kind, note in b.checks.items():
+                self._checks[(new.id, kind)] = (note, now(), None)
             return AddedBaseline(new.id, True)
 
     def record_score(
@@ -229,6 +234,12 @@ class MemoryStore:
         with self._lock:
             if all((o.path, o.scored_hash, o.current_hash) != key for o, _ in self._changed):
                 self._changed.append((c, now()))
+
+    def record_baseline_check(self, baseline_id: int, kind: str, note: str) -> None:
+        with self._lock:
+            old = self._checks.get((baseline_id, kind))
+            if old is None or old[0] != note:
+                self._checks[(baseline_id, kind)] = (note, now(), None)
 
     def retire_baselines(
         self,
@@ -561,7 +572,28 @@ class MemoryStore:
                 if key not in self._seen_changes and (not paths or c.path in paths):
                     self._seen_changes[key] = at
                     count += 1
+            for check in self._active_checks(method):
+                if check.acknowledged_at is None and (not paths or check.path in paths):
+                    key = (check.baseline_id, check.kind)
+                    self._checks[key] = (check.note, check.detected_at, at)
+                    count += 1
         return count
+
+    def _active_checks(self, method: str | None) -> list[BaselineCheck]:
+        checks = []
+        for (baseline_id, kind), (note, detected_at, acknowledged_at) in self._checks.items():
+            b = self._baseline(baseline_id)
+            if not b.retired and method in (None, b.method):
+                checks.append(
+                    BaselineCheck(
+                        baseline_id, b.robot, b.axis, b.method, b.path, kind, note, detected_at,
+                        acknowledged_at,
+                    )
+                )  # fmt: skip
+        return sorted(checks, key=lambda c: (c.robot, c.axis, c.method, c.kind))
+
+    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
+        return self._active_checks(method)
 
     def changed_file_acknowledged(self, change: ChangedFile) -> bool:
         return (change.path, change.scored_hash, change.current_hash) in self._seen_changes
@@ -603,6 +635,9 @@ class MemoryStore:
                 self._seen_changes.get((c.path, c.scored_hash, c.current_hash)),
             )
             for c, at in self._changed
+        ] + [
+            ("baseline check", c.method, c.path, c.note, c.detected_at, c.acknowledged_at)
+            for c in self._active_checks(method)
         ]  # fmt: skip
         columns = ["kind", "method", "path", "error", "since", "acknowledged_at"]
         return pd.DataFrame(sorted(rows, key=lambda r: (r[2], r[0], r[1])), columns=columns)

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import math
+import sqlite3
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +28,10 @@ from axiswatch.monitor._indicators import (
     check_monitor_rate,
     fit_indicator_baseline,
 )
+from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._methods import MethodPreset
 from axiswatch.monitor._models import ModelRef
-from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._monitor import MonitorSummary, monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
 from axiswatch.monitor._report import write_report
@@ -349,6 +352,105 @@ def test_a_faulty_first_capture_is_reported(tmp_path: Path) -> None:
     assert summary.exit_code & 8
 
 
+def _faulty_first(tmp_path: Path, days: int = 8) -> Path:
+    """A fleet folder of one axis whose first capture (the baseline) has a friction fault."""
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+    for day in range(days):
+        fault = Fault("friction", 1.0) if day == 0 else None
+        _write(robot.capture(0, seed=day, fault=fault), root, "r1", "a1", day)
+    settle(root)
+    return root
+
+
+def test_a_baseline_check_lasts_until_acknowledged_also_after_a_killed_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Before: the check was listed once, from the memory of the run that fitted the baseline;
+    # a run killed right after the baseline's commit lost its exit status 8 for good.
+    import axiswatch.monitor._monitor as monitor_module
+
+    root = _faulty_first(tmp_path)
+    path = tmp_path / "s.sqlite"
+    config = MonitorConfig(method="indicators")
+
+    def killed(*_: object) -> None:
+        raise RuntimeError("killed after the baseline's commit")
+
+    with monkeypatch.context() as kill, SQLiteStore(path) as store:
+        kill.setattr(monitor_module._Run, "persist", killed)  # the step after insert_baseline
+        with pytest.raises(RuntimeError, match="killed"):
+            monitor_fleet(root, store, config, settle_s=0)
+        assert store.latest_baseline("r1", "a1", "indicators") is not None  # committed
+    with SQLiteStore(path) as store:
+        again = monitor_fleet(root, store, config, settle_s=0)
+        assert again.new_baselines == 0
+        assert len(again.baseline_checks) == 1
+        assert again.baseline_checks[0].startswith("r1/a1/2026-03-01.parquet: the baseline capture")
+        assert again.exit_code == 8
+        assert again.alarms == []
+        # Every run, not once: also one that lists no folder (nothing new).
+        third = monitor_fleet(root, store, config, settle_s=0)
+        assert third.baseline_checks == again.baseline_checks
+        assert third.unchanged_folders == 1
+    listed = runner.invoke(app, ["rejections", "--store", str(path)])
+    assert listed.exit_code == 0, listed.output
+    (row,) = [line for line in listed.output.splitlines() if "r1/a1/2026-03-01.parquet" in line]
+    assert row.split()[:2] == ["baseline", "check"]
+    acked = runner.invoke(
+        app, ["rejections", "--store", str(path), "--ack", "r1/a1/2026-03-01.parquet"]
+    )
+    assert acked.exit_code == 0, acked.output
+    assert acked.output.startswith("1 problem(s) acknowledged")
+    code, output = _monitor(root, path, "indicators")
+    assert code == 0, output
+    assert "Baselines to check" not in output
+    assert "1 acknowledged problem(s) not shown" in output
+    with SQLiteStore(path) as store:
+        seen = monitor_fleet(root, store, config, settle_s=0)
+        assert (seen.baseline_checks, seen.acknowledged, seen.exit_code) == ([], 1, 0)
+        (check,) = store.baseline_checks("indicators")
+        assert check.acknowledged_at is not None  # still listed by `rejections`, as seen
+
+
+def test_a_rebaseline_clears_its_baseline_check(tmp_path: Path) -> None:
+    root = _faulty_first(tmp_path)
+    store = MemoryStore()
+    config = MonitorConfig(method="indicators")
+    first = monitor_fleet(root, store, config, settle_s=0)
+    assert first.new_baselines == 1
+    again = monitor_fleet(root, store, config, settle_s=0)  # before: listed by the first only
+    assert again.baseline_checks == first.baseline_checks != []
+    assert again.exit_code == 8
+    rebaseline(store, "r1", "a1")
+    after = monitor_fleet(root, store, config, settle_s=0)
+    assert (after.baseline_checks, after.acknowledged, after.exit_code) == ([], 0, 0)
+
+
+def test_a_store_from_before_the_baseline_checks_opens_and_lists_none(tmp_path: Path) -> None:
+    root = _faulty_first(tmp_path)
+    path = tmp_path / "s.sqlite"
+    config = MonitorConfig(method="indicators")
+    with SQLiteStore(path) as store:
+        monitor_fleet(root, store, config, settle_s=0)
+        before = store.score_table()
+    with contextlib.closing(sqlite3.connect(path)) as db:
+        db.execute("DROP TABLE baseline_checks")  # as a store made before the table
+        db.commit()
+    _write(draw_robot(ROBOT_SEED).capture(0, seed=8), root, "r1", "a1", 8)
+    settle(root)
+    with SQLiteStore(path) as store:
+        summary = monitor_fleet(root, store, config, settle_s=0)
+        # Its baseline's check was listed by the run that fitted it; none is stored for it.
+        assert summary.baseline_checks == []
+        assert (summary.new_baselines, summary.scored, summary.exit_code) == (0, 1, 0)
+        assert store.baseline_checks() == []
+        assert store.problem_table().empty
+        after = store.score_table()
+    pd.testing.assert_frame_equal(after.iloc[: len(before)], before)  # nothing stored is lost
+    assert len(after) == len(before) + 1
+
+
 def test_indicators_has_no_detector_or_stage() -> None:
     with pytest.raises(ValueError, match="do not apply to the method 'indicators'"):
         MonitorConfig(method="indicators", detector=aw.PCADetector())
@@ -546,6 +648,52 @@ def test_axes_fitted_before_their_fleet_had_three_get_its_prior_later(tmp_path: 
     # a0's capture of the second run was scored before a2 was fitted: kept as it was.
     assert axes[("a0", "08")] == 0
     assert axes[("a0", "09")] == axes[("a1", "09")] == axes[("a2", "08")] == 3
+
+
+def test_a_fleet_check_given_with_a_later_prior_is_stored_with_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a0 (worn from its first capture) and a1 are fitted without a fleet; a2 and a3 make it 4
+    # axes, and a0's stored model gets the prior and its fleet check. The prior is stored once:
+    # before, its check was listed by that run only and lost when the run was killed after it.
+    root = tmp_path / "fleet"
+    robot = draw_robot(ROBOT_SEED)
+
+    def axis(a: int) -> None:
+        fault = Fault("friction", 1.0) if a == 0 else None
+        for day in range(7):
+            _write(robot.capture(0, seed=f"{a}/{day}", fault=fault), root, "r1", f"a{a}", day)
+
+    def run() -> MonitorSummary:
+        with SQLiteStore(tmp_path / "s.sqlite") as store:
+            return monitor_fleet(root, store, MonitorConfig(), settle_s=0)
+
+    for a in range(2):
+        axis(a)
+    settle(root)
+    assert run().baseline_checks == []
+    for a in range(2, 4):
+        axis(a)
+    settle(root)
+
+    def killed(*_: object) -> None:
+        raise RuntimeError("killed")
+
+    with monkeypatch.context() as kill:  # between the prior's and its check's write
+        kill.setattr(SQLiteStore, "record_baseline_check", killed)
+        with pytest.raises(RuntimeError, match="killed"):
+            run()
+    given = run()  # the prior was not stored without its check: given now, with it
+    assert [line.split(":")[0] for line in given.fleet_priors] == ["r1/a0", "r1/a1"]
+    assert len(given.baseline_checks) == 1
+    later = run()
+    assert later.fleet_priors == []  # given once
+    assert later.baseline_checks == given.baseline_checks  # before: []
+    assert later.exit_code == 8
+    # Named by its baseline's path, as every stored check (before: "r1/a0: ...").
+    assert given.baseline_checks[0].startswith(
+        "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
+    )
 
 
 def test_an_axis_without_a_fleet_does_not_compare_another_task(tmp_path: Path) -> None:

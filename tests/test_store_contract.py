@@ -24,7 +24,14 @@ from axiswatch.exceptions import StoreError
 from axiswatch.monitor import MonitorConfig, SQLiteStore, StoreBackend, fleet_results
 from axiswatch.monitor._decision import AxisHistory, Decision
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._store import AddedBaseline, ChangedFile, NewBaseline, NewScore, Rejection
+from axiswatch.monitor._store import (
+    AddedBaseline,
+    BaselineCheck,
+    ChangedFile,
+    NewBaseline,
+    NewScore,
+    Rejection,
+)
 from tests.memory_store import MemoryStore
 
 BACKENDS: dict[str, Callable[[Path], StoreBackend]] = {
@@ -436,6 +443,60 @@ def test_alarms_are_acknowledged_until_raised_again(store: StoreBackend) -> None
     assert requests[["robot", "axis", "method", "retired_epoch"]].values.tolist() == [
         ["r1", "a1", "pca", 1]
     ]
+
+
+def test_baseline_checks_last_until_acknowledged_or_retired(store: StoreBackend) -> None:
+    """A baseline's checks are stored with it (one transaction) and stay until someone
+    acknowledges them by the baseline's path or the axis is re-baselined (before: the monitor
+    reported them once, from the memory of the run that fitted the baseline)."""
+    faulty = "the baseline capture disagrees with the 5 calibration captures after it"
+    checked = dataclasses.replace(new_baseline(method="indicators"), checks={"baseline": faulty})
+    first = add(store, checked)
+    assert store.add_baseline(checked) == AddedBaseline(first, added=False)  # not twice
+    add(store, new_baseline(axis="a2", method="indicators"))  # no check
+    path = "r1/a1/2026-03-01.csv"
+
+    def listed(method: str | None = "indicators") -> list[tuple[str, str, str | None]]:
+        return [(c.kind, c.note, c.acknowledged_at) for c in store.baseline_checks(method)]
+
+    (stored,) = store.baseline_checks("indicators")
+    assert stored == BaselineCheck(
+        first, "r1", "a1", "indicators", path, "baseline", faulty, stored.detected_at
+    )
+    assert store.baseline_checks("pca") == []
+    store.record_baseline_check(first, "fleet", "differs from its fleet's")
+    store.record_baseline_check(first, "fleet", "differs from its fleet's")  # the same again
+    assert (
+        listed()
+        == listed(None)
+        == [
+            ("baseline", faulty, None),
+            ("fleet", "differs from its fleet's", None),
+        ]
+    )
+    table = store.problem_table("indicators")
+    assert table[["kind", "method", "path", "error"]].values.tolist() == [
+        ["baseline check", "indicators", path, faulty],
+        ["baseline check", "indicators", path, "differs from its fleet's"],
+    ]
+    assert store.problem_table("pca").empty
+    assert store.acknowledge_problems([path], "2026-03-09T00:00:00", "pca") == 0
+    assert store.acknowledge_problems([path], "2026-03-09T00:00:00") == 2
+    assert store.acknowledge_problems([path], "2026-03-10T00:00:00") == 0  # seen already
+    assert listed() == [
+        ("baseline", faulty, "2026-03-09T00:00:00"),
+        ("fleet", "differs from its fleet's", "2026-03-09T00:00:00"),
+    ]
+    assert store.problem_table().acknowledged_at.tolist() == ["2026-03-09T00:00:00"] * 2
+    store.record_baseline_check(first, "fleet", "differs from its fleet's")  # kept as seen
+    assert listed()[1][2] == "2026-03-09T00:00:00"
+    store.record_baseline_check(first, "fleet", "differs more from its fleet's")  # news again
+    assert listed()[1:] == [("fleet", "differs more from its fleet's", None)]
+    assert listed()[0][2] == "2026-03-09T00:00:00"
+    store.retire_baselines("r1", "a1")
+    assert listed() == []
+    assert store.problem_table().empty
+    assert store.acknowledge_problems([], "2026-03-11T00:00:00") == 0
 
 
 def test_changed_files_are_recorded_once(store: StoreBackend) -> None:

@@ -2,8 +2,8 @@
 
 Exit codes: 0 success; 1 a command failed (message on stderr; traceback only with ``--debug``);
 2 usage error (unknown option, a value out of range). ``monitor`` adds 4 when an axis is in alarm
-and 8 when a capture was rejected, a scored file changed, an axis cannot be scored or is stale
-(so 4, 8 or 12; acknowledged problems do not count).
+and 8 when a capture was rejected, a scored file changed, an axis cannot be scored or is stale,
+a baseline needs checking (so 4, 8 or 12; acknowledged problems do not count).
 """
 
 from __future__ import annotations
@@ -257,8 +257,8 @@ def monitor(
     """Score every capture not scored yet; print the fleet's state.
 
     Exit status: 0 nothing to report; 4 an axis is in alarm; 8 a capture was rejected, a scored
-    file changed, an axis cannot be scored or is stale (acknowledged ones aside: see
-    'axiswatch rejections'); 12 both; 1 failure; 2 usage error.
+    file changed, an axis cannot be scored or is stale, a baseline needs checking
+    (acknowledged ones aside: see 'axiswatch rejections'); 12 both; 1 failure; 2 usage error.
     """
     import dataclasses
 
@@ -479,7 +479,10 @@ def rejections(
     store: StorePath,
     paths: Annotated[
         list[str] | None,
-        typer.Argument(help="Capture paths as listed (ROOT-relative); default: every one."),
+        typer.Argument(
+            help="Paths as listed (ROOT-relative; a baseline check by its baseline capture's); "
+            "default: every one."
+        ),
     ] = None,
     method: str | None = typer.Option(
         None, help="Only this method (default: all).", callback=_registered_method
@@ -490,7 +493,8 @@ def rejections(
     ),
     debug: bool = DEBUG,
 ) -> None:
-    """List rejected captures and changed files; retry or acknowledge them."""
+    """List rejected captures, changed files and baselines to check; retry (rejections) or
+    acknowledge them."""
     from axiswatch.monitor._store import Store, now
 
     with _failures(debug):
@@ -512,7 +516,7 @@ def rejections(
                 return
             frame = opened.problem_table(chosen)
         if frame.empty:
-            typer.echo("No rejected captures and no changed files.")
+            typer.echo("No rejected captures, changed files or baselines to check.")
             return
         frame["acknowledged"] = frame.pop("acknowledged_at").fillna("")
         typer.echo(frame.to_string(index=False))

@@ -62,12 +62,21 @@ def insert_baseline(
     store: StoreBackend, outcome: FitOutcome, epoch: int, config: MonitorConfig
 ) -> AddedBaseline | None:
     """Insert the baseline of ``epoch`` unless another process did; return its id and whether
-    this call added it (None: the other process chose another capture)."""
+    this call added it (None: the other process chose another capture).
+
+    The fit's checks (an IndicatorModel's ``baseline_check``, ``fleet_check``) are stored with
+    it in the same transaction: every later run reports them until acknowledged, also when the
+    run that fitted it is killed right after this commit."""
     file = outcome.job.file
     stat = file.path.stat()
     details: dict[str, Any] = {"rates_hz": outcome.rates_hz}
+    checks: dict[str, str] = {}
     if outcome.summary is not None:  # an IndicatorModel: what it estimated, from what
         details["indicator_model"] = outcome.summary
+        for kind in ("baseline", "fleet"):
+            note = outcome.summary.get(f"{kind}_check")
+            if note:
+                checks[kind] = str(note)
     return store.add_baseline(
         NewBaseline(
             robot=file.robot,
@@ -86,6 +95,7 @@ def insert_baseline(
             reason=f"baseline of epoch {epoch}: the healthy reference every later capture is "
             "compared with",
             details=details,
+            checks=checks,
         )
     )
 

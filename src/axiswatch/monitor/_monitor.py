@@ -121,14 +121,17 @@ class MonitorSummary:
 
     Exit status of ``axiswatch monitor`` (:attr:`exit_code`): 0 when nothing needs attention;
     otherwise the sum of 4 (at least one axis is in an alarm nobody acknowledged) and 8 (a
-    capture is rejected, a scored file changed, an axis cannot be scored or is stale;
-    acknowledged rejections and changes, counted in ``acknowledged``, do not count); so 4, 8 or
-    12. ``alarms`` lists the axes in unacknowledged alarm, ``acknowledged_alarms`` the alarms
+    capture is rejected, a scored file changed, an axis cannot be scored or is stale, a baseline
+    needs checking; acknowledged rejections, changes and baseline checks, counted in
+    ``acknowledged``, do not count); so 4, 8 or 12. ``alarms`` lists the axes in unacknowledged alarm, ``acknowledged_alarms`` the alarms
     someone saw (``Store.acknowledge``) that have not cleared and been raised again since.
     ``waiting``: capture files not settled yet (scored by a later run; no attention needed).
     ``calibrating`` (method ``indicators``): axes whose baseline waits for its calibration
-    captures (no attention needed); ``baseline_checks``: new baselines whose capture disagrees
-    with the calibration captures after it (a faulty first capture?), which need attention;
+    captures (no attention needed); ``baseline_checks``: active baselines whose capture
+    disagrees with the calibration captures after it (a faulty first capture?) or with their
+    fleet's, stored with the baseline and listed on every run until acknowledged
+    (``rejections --ack``) or re-baselined, and stored baselines slower than 20 Hz (noted every
+    run until re-baselined), which need attention;
     ``fleet_priors``: axes fitted before their fleet had 3 axes that got its task-change
     allowances in this run (their later captures are scored with them; no attention needed).
 
@@ -513,10 +516,6 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
         return None
     if inserted.added:  # not when another run on the store added the same one first
         run.summary.new_baselines += 1
-        fitted = outcome.summary or {}
-        for check in (fitted.get("baseline_check"), fitted.get("fleet_check")):
-            if check:
-                run.summary.baseline_checks.append(f"{outcome.job.relative}: {check}")
     state.baseline = run.store.baseline(inserted.id)
     state.model = run.persist(outcome, inserted.id)
     state.rates_hz = outcome.rates_hz
@@ -615,17 +614,20 @@ def _give_prior(
         model_key, blob = keep_model(upgraded)
         if blob is None:
             continue
-        run.caches.save_model(
-            entry.baseline_id, dataclasses.replace(entry.saved, model_hash=model_key), blob
-        )
+        check = upgraded.model.fleet_check_
+        # The prior and its check in one transaction: once the prior is stored the axis is
+        # never pooled again, so a check left for later would be lost with a killed run.
+        with run.store.batch():
+            run.caches.save_model(
+                entry.baseline_id, dataclasses.replace(entry.saved, model_hash=model_key), blob
+            )
+            if check is not None:
+                run.store.record_baseline_check(entry.baseline_id, "fleet", check)
         line = (
             f"{entry.robot}/{entry.axis}: task-change allowances from "
             f"{upgraded.model.fleet.n_axes} axes of its fleet, from its next run's captures on"
         )
-        check = upgraded.model.fleet_check_
         run.summary.fleet_priors.append(line if check is None else f"{line}; {check}")
-        if check is not None:
-            run.summary.baseline_checks.append(f"{entry.robot}/{entry.axis}: {check}")
 
 
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
@@ -776,6 +778,19 @@ def _standing_rejections(run: _Run) -> list[str]:
             run.summary.acknowledged += 1
         else:
             standing.append(rejection.error)
+    return standing
+
+
+def _standing_checks(run: _Run) -> list[str]:
+    """The stored checks of the method's active baselines not acknowledged (those are counted),
+    one line each: every run reports them, whichever run fitted the baseline, until they are
+    acknowledged or the axis is re-baselined."""
+    standing = []
+    for check in run.store.baseline_checks(run.method):
+        if check.acknowledged_at is not None:
+            run.summary.acknowledged += 1
+        else:
+            standing.append(f"{check.path}: {check.note}")
     return standing
 
 
@@ -940,6 +955,7 @@ def monitor_fleet(
                 caches.finish_axis_folder(*robot_axis, config.method, params, mtime_ns)
     store.resolve_transient(run.method, seen_at)
     run.summary.rejected = _standing_rejections(run)
+    run.summary.baseline_checks += _standing_checks(run)
     for alarm in store.alarms(run.method):
         if alarm.acknowledged:
             run.summary.acknowledged_alarms.append(alarm)

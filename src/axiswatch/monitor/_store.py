@@ -33,6 +33,12 @@ Tables (schema version 2):
     repaired file is tried again.
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
+``baseline_checks``
+    per baseline and kind (``baseline``: its capture disagrees with the calibration captures
+    after it; ``fleet``: it differs from its fleet's) the note a person must see, written in the
+    transaction that adds the baseline (or gives it its fleet's prior), and when someone
+    acknowledged it. A store made before the table gains it, empty, when it is opened: its
+    baselines have no stored checks.
 
 Caches (created when missing, so a store made before them gains them when opened; deleting
 their rows loses no result, only time):
@@ -62,7 +68,7 @@ import json
 import sqlite3
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager, suppress
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
@@ -79,6 +85,7 @@ __all__ = [
     "AddedBaseline",
     "AlarmState",
     "Baseline",
+    "BaselineCheck",
     "ChangedFile",
     "IndexedFile",
     "NewBaseline",
@@ -145,6 +152,29 @@ class NewBaseline:
     file_mtime_ns: int
     reason: str
     details: dict[str, Any]
+    #: The checks of the baseline that need a person (kind -> note, as in
+    #: :class:`BaselineCheck`), stored with it in one transaction.
+    checks: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class BaselineCheck:
+    """A note on an active baseline that needs a person until acknowledged or re-baselined.
+
+    ``kind``: ``baseline`` (its capture disagrees with the calibration captures after it: a
+    faulty first capture?) or ``fleet`` (it differs from its fleet's by more than a task-change
+    allowance: worn already, or another task).
+    """
+
+    baseline_id: int
+    robot: str
+    axis: str
+    method: str
+    path: str
+    kind: str
+    note: str
+    detected_at: str
+    acknowledged_at: str | None = None
 
 
 @dataclass(frozen=True)
@@ -302,8 +332,8 @@ class StoreBackend(Protocol):
     # writes
 
     def add_baseline(self, baseline: NewBaseline) -> AddedBaseline | None:
-        """Add the baseline of an epoch and its capture's score row; return the baseline's id,
-        ``added``.
+        """Add the baseline of an epoch, its capture's score row and its checks; return the
+        baseline's id, ``added``.
 
         If the epoch already has a baseline (another process added it), return its id, not
         added, when it is the same capture, None when it is another one.
@@ -334,6 +364,11 @@ class StoreBackend(Protocol):
 
     def record_changed_file(self, change: ChangedFile) -> None:
         """Record that a scored file's content changed (once per path and pair of hashes)."""
+        ...
+
+    def record_baseline_check(self, baseline_id: int, kind: str, note: str) -> None:
+        """Record a check of a baseline (one per baseline and kind): the same note again
+        changes nothing; another note replaces it and is news again (not acknowledged)."""
         ...
 
     def retire_baselines(
@@ -407,7 +442,13 @@ class StoreBackend(Protocol):
         ...
 
     def acknowledge_problems(self, paths: Sequence[str], at: str, method: str | None = None) -> int:
-        """Mark the rejections and changed files of ``paths`` (all when empty) as seen."""
+        """Mark the rejections, changed files and checks of active baselines (by the baseline
+        capture's path) of ``paths`` (all when empty) as seen; how many were not seen before."""
+        ...
+
+    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
+        """The checks of the active baselines (of ``method``), acknowledged or not; ordered by
+        robot, axis, method and kind."""
         ...
 
     def changed_file_acknowledged(self, change: ChangedFile) -> bool:
@@ -428,7 +469,8 @@ class StoreBackend(Protocol):
         ...
 
     def problem_table(self, method: str | None = None) -> pd.DataFrame:
-        """Rejections and changed files: kind, method, path, error, since, acknowledged_at."""
+        """Rejections, changed files and checks of active baselines (kind ``baseline check``):
+        kind, method, path, error, since, acknowledged_at; ordered by path, kind, method."""
         ...
 
     # acknowledgements (who saw an alarm)
@@ -728,6 +770,31 @@ _ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("changed_files", "acknowledged_at", "TEXT"),
     ("rejections", "reason_key", "TEXT"),
 )
+#: Tables added on open to a store made before them (empty: nothing before is lost).
+_BASELINE_CHECKS = """
+CREATE TABLE IF NOT EXISTS baseline_checks (
+    id INTEGER PRIMARY KEY,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    kind TEXT NOT NULL,
+    note TEXT NOT NULL,
+    detected_at TEXT NOT NULL,
+    acknowledged_at TEXT,
+    UNIQUE (baseline_id, kind)
+)
+"""
+#: A check, or the same check again (kept as it is), or another note of its kind (news again).
+_INSERT_CHECK = (
+    "INSERT INTO baseline_checks (baseline_id, kind, note, detected_at) VALUES (?, ?, ?, ?) "
+    "ON CONFLICT (baseline_id, kind) DO UPDATE SET note=excluded.note, "
+    "detected_at=CASE WHEN note=excluded.note THEN detected_at ELSE excluded.detected_at END, "
+    "acknowledged_at=CASE WHEN note=excluded.note THEN acknowledged_at END"
+)
+#: The checks of active baselines, with the baseline's axis, method and path.
+_ACTIVE_CHECKS = (
+    "SELECT c.baseline_id, b.robot, b.axis, b.method, b.path, c.kind, c.note, c.detected_at, "
+    "c.acknowledged_at FROM baseline_checks c JOIN baselines b ON b.id=c.baseline_id "
+    "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
+)
 _AXIS_ACTIVITY = """
 CREATE TABLE IF NOT EXISTS axis_activity (
     robot TEXT NOT NULL,
@@ -931,6 +998,7 @@ class SQLiteStore:
                 if column not in present:
                     connection.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
             connection.execute(_AXIS_ACTIVITY)
+            connection.execute(_BASELINE_CHECKS)
 
     @contextmanager
     def _errors(self) -> Iterator[None]:
@@ -1222,6 +1290,8 @@ class SQLiteStore:
                     0, 0, b.reason, json.dumps(b.details), now(),
                 ),
             )  # fmt: skip
+            for kind, note in sorted(b.checks.items()):
+                db.execute(_INSERT_CHECK, (baseline_id, kind, note, now()))
         return AddedBaseline(baseline_id, True)
 
     def record_score(
@@ -1328,6 +1398,10 @@ class SQLiteStore:
                 "current_hash, detected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
                 (c.robot, c.axis, c.capture, c.path, c.scored_hash, c.current_hash, now()),
             )
+
+    def record_baseline_check(self, baseline_id: int, kind: str, note: str) -> None:
+        with self._write() as db:
+            db.execute(_INSERT_CHECK, (baseline_id, kind, note, now()))
 
     def retire_baselines(
         self,
@@ -1640,7 +1714,22 @@ class SQLiteStore:
                 (at,),
                 paths,
             )
-        return rejections + changed
+            checks = _each_path(
+                db,
+                "UPDATE baseline_checks SET acknowledged_at=? WHERE acknowledged_at IS NULL "
+                "AND baseline_id IN (SELECT id FROM baselines WHERE retired_at IS NULL "
+                "AND (? IS NULL OR method=?)",
+                (at, method, method),
+                paths,
+                end=")",
+            )
+        return rejections + changed + checks
+
+    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
+        rows = self._rows(
+            _ACTIVE_CHECKS + " ORDER BY b.robot, b.axis, b.method, c.kind", (method, method)
+        )
+        return [BaselineCheck(**dict(r)) for r in rows]
 
     def changed_file_acknowledged(self, change: ChangedFile) -> bool:
         return bool(
@@ -1682,18 +1771,26 @@ class SQLiteStore:
             "acknowledged_at FROM rejections WHERE (? IS NULL OR method=?) "
             "UNION ALL SELECT 'changed', '', path, 'content changed after it was scored', "
             "detected_at, acknowledged_at FROM changed_files "
+            "UNION ALL SELECT 'baseline check', method, path, note, detected_at, "
+            f"acknowledged_at FROM ({_ACTIVE_CHECKS}) "
             "ORDER BY path, kind, method",
-            (method, method),
+            (method, method, method, method),
         )
 
 
 def _each_path(
-    db: sqlite3.Connection, sql: str, parameters: tuple[Any, ...], paths: Sequence[str]
+    db: sqlite3.Connection,
+    sql: str,
+    parameters: tuple[Any, ...],
+    paths: Sequence[str],
+    *,
+    end: str = "",
 ) -> int:
-    """Run ``sql`` once (no paths) or once per path (``AND path=?``); rows changed."""
+    """Run ``sql`` + ``end`` once (no paths) or once per path (``sql AND path=? end``: ``end``
+    closes a subquery the path is of); rows changed."""
     if not paths:
-        return int(db.execute(sql, parameters).rowcount)
-    return sum(int(db.execute(sql + " AND path=?", (*parameters, p)).rowcount) for p in paths)
+        return int(db.execute(sql + end, parameters).rowcount)
+    return sum(int(db.execute(f"{sql} AND path=?{end}", (*parameters, p)).rowcount) for p in paths)
 
 
 #: The name users open a store by (``aw.Store("fleet.db")``): the product's SQLite backend.
