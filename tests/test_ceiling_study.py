@@ -129,12 +129,14 @@ def test_the_captures_are_the_paired_designs() -> None:
 
 
 @pytest.mark.slow
-def test_the_command_writes_every_table(tmp_path: object) -> None:
+@pytest.mark.parametrize("permuted", [[], ["--permuted-labels"]])
+def test_the_command_writes_every_table(tmp_path: object, permuted: list[str]) -> None:
     from pathlib import Path
 
     out = Path(str(tmp_path)) / "ceiling"
     result = CliRunner().invoke(
-        experiment_app, ["ceiling", "--out", str(out), "--robots", "5", "--per-cell", "2"]
+        experiment_app,
+        ["ceiling", "--out", str(out), "--robots", "5", "--per-cell", "2", *permuted],
     )
     assert result.exit_code == 0, result.output
     import pandas as pd
@@ -146,6 +148,7 @@ def test_the_command_writes_every_table(tmp_path: object) -> None:
     assert set(summary.comparison) == set(COMPARISONS)
     top = pd.read_csv(out / "top_features.csv")
     assert set(top.feature_set) == set(FEATURE_SETS)
+    assert set(top.method) == {"logistic coef", "boosting permutation"}
 
 
 def test_the_command_refuses_unreadable_robots(tmp_path: object) -> None:

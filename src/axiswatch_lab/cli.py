@@ -304,6 +304,10 @@ def experiment_ceiling(
     per_cell: Annotated[int, typer.Option(help="Captures per (task, health) cell.")] = 10,
     severity: Annotated[float, typer.Option(help="The faults' severity (the study's: 0.6).")] = 0.6,
     workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
+    permuted_labels: Annotated[
+        bool,
+        typer.Option(help="Shuffle the health labels within each task: the ceiling of no signal."),
+    ] = False,
 ) -> None:
     """A supervised ceiling (issue 13): cross-validated classifiers, faulty vs healthy captures."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS
@@ -322,7 +326,7 @@ def experiment_ceiling(
             )
             raise typer.Exit(2) from None
     design = TransferDesign(n_per_cell=per_cell, severity=severity)
-    aurocs, top = ceiling_study(seeds, design, workers=workers)
+    aurocs, top = ceiling_study(seeds, design, workers=workers, permuted=permuted_labels)
     summary = ceiling_summary(aurocs)
     out.mkdir(parents=True, exist_ok=True)
     aurocs.to_csv(out / "aurocs.csv", index=False)
