@@ -129,14 +129,14 @@ def test_the_captures_are_the_paired_designs() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("permuted", [[], ["--permuted-labels"]])
-def test_the_command_writes_every_table(tmp_path: object, permuted: list[str]) -> None:
+@pytest.mark.parametrize("options", [[], ["--permuted-labels", "--top", "0"]])
+def test_the_command_writes_every_table(tmp_path: object, options: list[str]) -> None:
     from pathlib import Path
 
     out = Path(str(tmp_path)) / "ceiling"
     result = CliRunner().invoke(
         experiment_app,
-        ["ceiling", "--out", str(out), "--robots", "5", "--per-cell", "2", *permuted],
+        ["ceiling", "--out", str(out), "--robots", "5", "--per-cell", "2", *options],
     )
     assert result.exit_code == 0, result.output
     import pandas as pd
@@ -146,6 +146,9 @@ def test_the_command_writes_every_table(tmp_path: object, permuted: list[str]) -
     assert aurocs.auroc.between(0, 1).all()
     summary = pd.read_csv(out / "summary.csv")
     assert set(summary.comparison) == set(COMPARISONS)
+    if options:  # --top 0: no importances computed
+        assert (out / "top_features.csv").read_text().strip() in ("", '""')
+        return
     top = pd.read_csv(out / "top_features.csv")
     assert set(top.feature_set) == set(FEATURE_SETS)
     assert set(top.method) == {"logistic coef", "boosting permutation"}

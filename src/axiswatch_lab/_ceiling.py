@@ -390,7 +390,7 @@ def robot_ceiling(
     top : DataFrame
         Columns robot, fault, feature_set, method, rank, feature, importance: the ``n_top``
         most important features of the all-tasks fit by each method of
-        :func:`_top_features`.
+        :func:`_top_features` (none with ``n_top=0``, which saves the permutations' time).
     """
     robot = draw_robot(seed)
     taken = capture_features(robot, design)
@@ -441,7 +441,7 @@ def robot_ceiling(
                             "auroc": values[comparison],
                         }
                     )
-            ranked = _top_features(features, labels, groups, names, n_top)
+            ranked = _top_features(features, labels, groups, names, n_top) if n_top else []
             for k, (method, name, importance) in enumerate(ranked):
                 top.append(
                     {
@@ -457,25 +457,32 @@ def robot_ceiling(
     return pd.DataFrame(rows), pd.DataFrame(top)
 
 
-def _one(args: tuple[int, TransferDesign, bool]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    seed, design, permuted = args
+def _one(args: tuple[int, TransferDesign, bool, int]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    seed, design, permuted, n_top = args
     with threadpool_limits(1):
-        return robot_ceiling(seed, design, permuted=permuted)
+        return robot_ceiling(seed, design, permuted=permuted, n_top=n_top)
 
 
 def ceiling_study(
-    seeds: Sequence[int], design: TransferDesign, *, workers: int = 1, permuted: bool = False
+    seeds: Sequence[int],
+    design: TransferDesign,
+    *,
+    workers: int = 1,
+    permuted: bool = False,
+    n_top: int = 5,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """:func:`robot_ceiling` on every seed (in ``workers`` processes), tables concatenated in
     the seeds' order."""
     done: dict[int, tuple[pd.DataFrame, pd.DataFrame]] = {}
-    items = [(s, design, permuted) for s in seeds]
+    items = [(s, design, permuted, n_top) for s in seeds]
     for index, result in parallel_map(_one, items, workers=workers):
         done[index] = result
     ordered = [done[i] for i in sorted(done)]
     return (
         pd.concat([a for a, _ in ordered], ignore_index=True),
-        pd.concat([t for _, t in ordered], ignore_index=True),
+        pd.concat([t for _, t in ordered if len(t)], ignore_index=True)
+        if n_top
+        else pd.DataFrame(),
     )
 
 

@@ -308,6 +308,10 @@ def experiment_ceiling(
         bool,
         typer.Option(help="Shuffle the health labels within each task: the ceiling of no signal."),
     ] = False,
+    top: Annotated[
+        int,
+        typer.Option(help="Most important features listed per fault and set (0: none, faster)."),
+    ] = 5,
 ) -> None:
     """A supervised ceiling (issue 13): cross-validated classifiers, faulty vs healthy captures."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS
@@ -326,11 +330,13 @@ def experiment_ceiling(
             )
             raise typer.Exit(2) from None
     design = TransferDesign(n_per_cell=per_cell, severity=severity)
-    aurocs, top = ceiling_study(seeds, design, workers=workers, permuted=permuted_labels)
+    aurocs, features = ceiling_study(
+        seeds, design, workers=workers, permuted=permuted_labels, n_top=top
+    )
     summary = ceiling_summary(aurocs)
     out.mkdir(parents=True, exist_ok=True)
     aurocs.to_csv(out / "aurocs.csv", index=False)
-    top.to_csv(out / "top_features.csv", index=False)
+    features.to_csv(out / "top_features.csv", index=False)
     summary.to_csv(out / "summary.csv", index=False)
     typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     typer.echo(f"\nwrote {out / 'aurocs.csv'}, {out / 'top_features.csv'}, {out / 'summary.csv'}")
