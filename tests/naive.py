@@ -739,3 +739,35 @@ def sampling_period_naive(stamps: list[float]) -> float:
     covariance = sum((i - mean_index) * (t - mean_stamp) for i, t in enumerate(stamps))
     variance = sum((i - mean_index) ** 2 for i in range(n))
     return covariance / variance
+
+
+def relative_band_powers_naive(
+    freqs: list[float], psd: list[float], rate_hz: float, edges: list[float]
+) -> list[float]:
+    """log10 of the PSD summed over the bins of each band ``[low, high)`` of ``edges`` x rate
+    (the last band closed), times the bin width, one bin at a time; NaN for an empty band."""
+    step = freqs[1] - freqs[0]
+    out = []
+    for k in range(len(edges) - 1):
+        total, hits = 0.0, 0
+        for f, p in zip(freqs, psd, strict=True):
+            r = f / rate_hz
+            last = k == len(edges) - 2
+            if edges[k] <= r and (r <= edges[k + 1] if last else r < edges[k + 1]):
+                total += p * step
+                hits += 1
+        out.append(math.log10(total) if hits and total > 0 else math.nan)
+    return out
+
+
+def order_bands_naive(first_cell: int, values: list[float], cells_per_band: int) -> list[float]:
+    """The largest finite value per band of ``cells_per_band`` grid cells, in band order, one
+    cell at a time (NaN for a band of unread cells)."""
+    bands: dict[int, list[float]] = {}
+    for offset, v in enumerate(values):
+        bands.setdefault((first_cell + offset) // cells_per_band, []).append(v)
+    out = []
+    for b in sorted(bands):
+        finite = [v for v in bands[b] if v == v]
+        out.append(max(finite) if finite else math.nan)
+    return out

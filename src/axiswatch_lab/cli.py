@@ -294,6 +294,54 @@ def experiment_transfer(
     typer.echo(f"\nwrote {out / 'robots.csv'}, {out / 'real.csv'}")
 
 
+@experiment_app.command("ceiling")
+def experiment_ceiling(
+    out: Annotated[Path, typer.Option("--out", help="Folder for the tables (CSV).")],
+    robots: Annotated[
+        str,
+        typer.Option(help="'development' (robots 0-7, the only ones for choices) or seeds 1,2."),
+    ] = "development",
+    per_cell: Annotated[int, typer.Option(help="Captures per (task, health) cell.")] = 10,
+    severity: Annotated[float, typer.Option(help="The faults' severity (the study's: 0.6).")] = 0.6,
+    workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
+    permuted_labels: Annotated[
+        bool,
+        typer.Option(help="Shuffle the health labels within each task: the ceiling of no signal."),
+    ] = False,
+    top: Annotated[
+        int,
+        typer.Option(help="Most important features listed per fault and set (0: none, faster)."),
+    ] = 5,
+) -> None:
+    """A supervised ceiling (issue 13): cross-validated classifiers, faulty vs healthy captures."""
+    from axiswatch.datasets import DEVELOPMENT_ROBOTS
+    from axiswatch_lab._ceiling import ceiling_study, ceiling_summary
+    from axiswatch_lab._transfer import TransferDesign
+
+    if robots == "development":
+        seeds: tuple[int, ...] = DEVELOPMENT_ROBOTS
+    else:
+        try:
+            seeds = tuple(int(s) for s in robots.split(","))
+        except ValueError:
+            typer.echo(
+                f"error: --robots must be 'development' or seeds such as 1,2; got {robots!r}.",
+                err=True,
+            )
+            raise typer.Exit(2) from None
+    design = TransferDesign(n_per_cell=per_cell, severity=severity)
+    aurocs, features = ceiling_study(
+        seeds, design, workers=workers, permuted=permuted_labels, n_top=top
+    )
+    summary = ceiling_summary(aurocs)
+    out.mkdir(parents=True, exist_ok=True)
+    aurocs.to_csv(out / "aurocs.csv", index=False)
+    features.to_csv(out / "top_features.csv", index=False)
+    summary.to_csv(out / "summary.csv", index=False)
+    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'aurocs.csv'}, {out / 'top_features.csv'}, {out / 'summary.csv'}")
+
+
 @experiment_app.command("gearbox")
 def experiment_gearbox(
     data: Annotated[
