@@ -677,7 +677,10 @@ def test_a_worn_axis_is_reported_against_its_fleet(tmp_path: Path, n_axes: int) 
         assert summary.baseline_checks[0].startswith(
             "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
         )
-        lines = {i.axis: i.line for i in _triage(store)}
+        items = _triage(store)
+    lines = {i.axis: i.line for i in items}
+    assert items[0].axis == "a0"  # ranked first, its report line under Needs attention now
+    assert (items[0].kind, items[0].needs_attention) == ("baseline check", True)
     assert "Baseline to check: this axis's baseline differs from its fleet's" in lines["a0"]
     assert f"checked against the {n_axes - 1} other axes of its profile" in lines["a0"]
     assert not any("Baseline to check" in lines[f"a{a}"] for a in range(1, n_axes))

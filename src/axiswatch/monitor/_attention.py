@@ -137,7 +137,7 @@ def triage(
     alarms: Sequence[AlarmState],
     *,
     method: str,
-    checks: Sequence[BaselineCheck] = (),
+    checks: Sequence[BaselineCheck],
     stale_factor: float = 3.0,
 ) -> list[AxisAttention]:
     """Every axis of ``method``, the ones needing attention first, ranked by :data:`KINDS`.
@@ -155,7 +155,7 @@ def triage(
     alarms : sequence of AlarmState
         ``StoreBackend.alarms()``.
     method : str
-    checks : sequence of BaselineCheck, default=()
+    checks : sequence of BaselineCheck
         ``StoreBackend.baseline_checks()``: the checks of the active baselines, acknowledged or
         not (those of other methods are left out here).
     stale_factor : float, default=3.0
