@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import math
+import re
 import sqlite3
 from pathlib import Path
 from typing import Any
@@ -451,6 +452,88 @@ def test_a_store_from_before_the_baseline_checks_opens_and_lists_none(tmp_path: 
     assert len(after) == len(before) + 1
 
 
+def test_the_report_shows_a_baseline_check_until_acknowledged_or_rebaselined(
+    tmp_path: Path,
+) -> None:
+    # Before: the report read the check from the last score's details only: it never made the
+    # axis need attention, and still said "to check" after `rejections --ack`.
+    root = _faulty_first(tmp_path)
+    path = tmp_path / "s.sqlite"
+    config = MonitorConfig(method="indicators")
+    with SQLiteStore(path) as store:
+        assert monitor_fleet(root, store, config, settle_s=0).exit_code == 8
+        (item,) = _triage(store)
+        page = write_report(store, tmp_path / "first").read_text(encoding="utf-8")
+    assert (item.kind, item.needs_attention) == ("baseline check", True)
+    assert item.line.startswith("ok: last capture 2026-03-08, distance ")
+    assert "Baseline to check: the baseline capture " in item.line
+    assert item.line.count("Baseline to check") == 1  # from the store, not again from the details
+    urgent = _attention_list(page)
+    assert "data-axis='r1/a1' data-kind='baseline check'" in urgent
+    assert "Baseline to check: the baseline capture " in urgent
+    assert "Needs attention now (1)" in page
+
+    acked = runner.invoke(
+        app, ["rejections", "--store", str(path), "--ack", "r1/a1/2026-03-01.parquet"]
+    )
+    assert acked.output.startswith("1 problem(s) acknowledged"), acked.output
+    with SQLiteStore(path) as store:
+        (item,) = _triage(store)
+        page = write_report(store, tmp_path / "seen").read_text(encoding="utf-8")
+    assert (item.kind, item.needs_attention) == ("ok", False)
+    assert re.search(
+        r"Baseline to check, seen on \d{4}-\d\d-\d\d: the baseline capture ", item.line
+    )
+    assert "Baseline to check:" not in item.line
+    assert "Needs attention now (0)" in page
+    assert "r1/a1" not in _attention_list(page)
+    assert "Baseline to check, seen on " in page.split("<details id='healthy'>")[1]
+    history = page.split("<section class='axis' id='r1-a1'>")[1]
+    assert "baseline to check (indicators)</td><td class='text'>r1/a1/2026-03-01.parquet: " in (
+        history
+    )
+    assert "baseline check acknowledged (indicators)" in history
+
+    rebased = runner.invoke(
+        app,
+        ["rebaseline", "--store", str(path), "--robot", "r1", "--axis", "a1",
+         "--from", "2026-03-02.parquet"],
+    )  # fmt: skip
+    assert rebased.exit_code == 0, rebased.output
+    with SQLiteStore(path) as store:
+        assert monitor_fleet(root, store, config, settle_s=0).exit_code == 0
+        (item,) = _triage(store)
+        page = write_report(store, tmp_path / "rebased").read_text(encoding="utf-8")
+    assert (item.kind, item.needs_attention) == ("ok", False), item.line
+    assert "Baseline to check" not in page
+
+
+def test_the_report_of_a_store_from_before_the_baseline_checks_keeps_their_notes(
+    tmp_path: Path,
+) -> None:
+    # Its baselines have no stored check: the note in the scores' details is shown as it was
+    # before the table (on the axis's line; nothing can mark it seen, so it is not an attention).
+    root = _faulty_first(tmp_path)
+    path = tmp_path / "s.sqlite"
+    with SQLiteStore(path) as store:
+        monitor_fleet(root, store, MonitorConfig(method="indicators"), settle_s=0)
+    with contextlib.closing(sqlite3.connect(path)) as db:
+        db.execute("DROP TABLE baseline_checks")
+        db.commit()
+    with SQLiteStore(path) as store:
+        (item,) = _triage(store)
+        page = write_report(store, tmp_path / "r").read_text(encoding="utf-8")
+    assert item.kind == "ok"
+    assert "Baseline to check: the baseline capture " in item.line
+    assert "Baseline to check: the baseline capture " in page
+
+
+def _attention_list(page: str) -> str:
+    """The report's *Needs attention now* list (empty when no axis needs attention)."""
+    section = page.split("<section id='attention'>")[1].split("<details id='healthy'>")[0]
+    return section if "<ol class='attention'>" in section else ""
+
+
 def test_indicators_has_no_detector_or_stage() -> None:
     with pytest.raises(ValueError, match="do not apply to the method 'indicators'"):
         MonitorConfig(method="indicators", detector=aw.PCADetector())
@@ -594,7 +677,10 @@ def test_a_worn_axis_is_reported_against_its_fleet(tmp_path: Path, n_axes: int) 
         assert summary.baseline_checks[0].startswith(
             "r1/a0/2026-03-01.parquet: this axis's baseline differs from its fleet's: "
         )
-        lines = {i.axis: i.line for i in _triage(store)}
+        items = _triage(store)
+    lines = {i.axis: i.line for i in items}
+    assert items[0].axis == "a0"  # ranked first, its report line under Needs attention now
+    assert (items[0].kind, items[0].needs_attention) == ("baseline check", True)
     assert "Baseline to check: this axis's baseline differs from its fleet's" in lines["a0"]
     assert f"checked against the {n_axes - 1} other axes of its profile" in lines["a0"]
     assert not any("Baseline to check" in lines[f"a{a}"] for a in range(1, n_axes))
@@ -608,6 +694,7 @@ def _triage(store: SQLiteStore) -> list[AxisAttention]:
         store.changed_file_table(),
         store.alarms(),
         method="indicators",
+        checks=store.baseline_checks(),
     )
 
 

@@ -28,6 +28,7 @@ def _triage(store: Store, method: str = "pca") -> dict[str, AxisAttention]:
         store.changed_file_table(),
         store.alarms(),
         method=method,
+        checks=store.baseline_checks(),
     )
     return {f"{i.robot}/{i.axis}": i for i in items}
 

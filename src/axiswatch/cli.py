@@ -167,7 +167,8 @@ def _alarm_reasons(
         return []
     results = pd.concat([fleet_results(store, robot=r, axis=a) for r, a in axes])
     listed = triage(summary, results, fleet_rejections(store), store.changed_file_table(),
-                    store.alarms(method), method=method)  # fmt: skip
+                    store.alarms(method), method=method,
+                    checks=store.baseline_checks(method))  # fmt: skip
     wanted = set(axes)
     return [f"{i.robot}/{i.axis}: {i.line}" for i in listed if (i.robot, i.axis) in wanted]
 

@@ -6,13 +6,21 @@ For one method (the product default when the store has it) every axis gets a kin
 0. ``alarm``: in alarm and nobody acknowledged it, the strongest (distance over threshold) first;
 1. ``bad data``: captures rejected and not replaced by a scored file of the same path, files
    changed after they were scored, or no baseline at all;
-2. ``stale``: its last capture lies more than ``stale_factor`` of its usual capture interval
+2. ``baseline check``: a stored check of its active baseline (``StoreBackend.baseline_checks``:
+   the capture disagrees with its calibration captures, or the baseline with its fleet's) that
+   nobody acknowledged (``axiswatch rejections --ack PATH``). Like bad data it says the axis's
+   scores may not mean what they seem until a person looks; an acknowledged check stays on the
+   axis's line ("seen on ...") but no longer needs attention, as in the monitor's exit status;
+3. ``stale``: its last capture lies more than ``stale_factor`` of its usual capture interval
    (the median gap between its captures) behind the newest capture of the fleet. Measured
    against the fleet, not the wall clock, so that an archive read later is not all stale;
-3. ``acknowledged``: in alarm, seen by someone (``axiswatch ack``) and not raised again since;
+4. ``acknowledged``: in alarm, seen by someone (``axiswatch ack``) and not raised again since;
 
 and ``ok`` or ``calibrating`` (nothing to do) otherwise. An axis with several problems is listed
-once under its most urgent kind, its line naming all of them.
+once under its most urgent kind, its line naming all of them. A check in the last score's
+details that the store does not hold (a baseline stored before the table ``baseline_checks``,
+or the slow-baseline note, computed on every run) is named on the line as before, without
+changing the kind: nothing in the store could mark it seen.
 """
 
 from __future__ import annotations
@@ -25,12 +33,20 @@ from typing import Any
 import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
-from axiswatch.monitor._store import AlarmState
+from axiswatch.monitor._store import AlarmState, BaselineCheck
 
 __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 
-#: Kinds in order of urgency; the first four need attention.
-KINDS: tuple[str, ...] = ("alarm", "bad data", "stale", "acknowledged", "calibrating", "ok")
+#: Kinds in order of urgency; all but the last two need attention.
+KINDS: tuple[str, ...] = (
+    "alarm",
+    "bad data",
+    "baseline check",
+    "stale",
+    "acknowledged",
+    "calibrating",
+    "ok",
+)
 
 #: The method that leads the report when the store holds it: the product default first.
 METHOD_ORDER: tuple[str, ...] = ("indicators", "mechanics", "lra", "pca")
@@ -66,8 +82,8 @@ class AxisAttention:
 
     @property
     def needs_attention(self) -> bool:
-        """Alarm, bad data, stale or acknowledged alarm."""
-        return self.kind in KINDS[:4]
+        """Alarm, bad data, baseline check, stale or acknowledged alarm."""
+        return self.kind in KINDS[:-2]
 
     @property
     def anchor(self) -> str:
@@ -121,6 +137,7 @@ def triage(
     alarms: Sequence[AlarmState],
     *,
     method: str,
+    checks: Sequence[BaselineCheck],
     stale_factor: float = 3.0,
 ) -> list[AxisAttention]:
     """Every axis of ``method``, the ones needing attention first, ranked by :data:`KINDS`.
@@ -138,6 +155,9 @@ def triage(
     alarms : sequence of AlarmState
         ``StoreBackend.alarms()``.
     method : str
+    checks : sequence of BaselineCheck
+        ``StoreBackend.baseline_checks()``: the checks of the active baselines, acknowledged or
+        not (those of other methods are left out here).
     stale_factor : float, default=3.0
         An axis is stale when its last capture is more than this many of its usual capture
         intervals behind the fleet's newest capture (three missed captures in a row).
@@ -158,6 +178,10 @@ def triage(
     )
     newest = pd.to_datetime(own.captured_at).max() if not own.empty else None
     alarm_of = {(a.robot, a.axis): a for a in alarms if a.method == method}
+    checks_of: dict[tuple[str, str], list[BaselineCheck]] = {}
+    for check in checks:
+        if check.method == method:
+            checks_of.setdefault((check.robot, check.axis), []).append(check)
     ranked = []
     for robot, axis in axes:
         row = rows[(rows.robot == robot) & (rows.axis == axis)]
@@ -221,18 +245,24 @@ def triage(
             # --stale-after, by the wall clock, whatever the dates of the captures say.
             problems.append("stale")
             lines.append(f"Stale: no new capture file since {_day(str(info['last_seen']))}.")
-        if problems:
+        stored = checks_of.get((robot, axis), [])
+        if any(c.acknowledged_at is None for c in stored):
+            problems.append("baseline check")
+        if set(problems) - {"baseline check"}:
             kind = min(problems, key=KINDS.index)
         else:
-            kind = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
+            calm = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
+            kind = "baseline check" if problems else calm
             lines.append(_healthy_line(info, last, history))
+        lines += [_check_line(c) for c in stored]
         if last is not None:
-            # Method ``indicators``: a baseline its calibration captures or its fleet disagree with.
+            # Checks in the scores' details that the store does not hold (see the module's doc).
             details = json.loads(last["details"])
+            held = {c.note for c in stored}
             lines += [
                 f"Baseline to check: {details[key]}."
                 for key in ("baseline_check", "fleet_check")
-                if details.get(key)
+                if details.get(key) and details[key] not in held
             ]
         ranked.append(
             AxisAttention(robot, axis, method, kind, " ".join(lines), severity, last_at, problems)
@@ -246,6 +276,13 @@ def triage(
             a.axis,
         ),
     )
+
+
+def _check_line(check: BaselineCheck) -> str:
+    """The axis's line on a stored check: to check, or seen (``rejections --ack``) and when."""
+    if check.acknowledged_at is None:
+        return f"Baseline to check: {check.note}."
+    return f"Baseline to check, seen on {_day(check.acknowledged_at)}: {check.note}."
 
 
 def _healthy_line(info: Any, last: Any, history: pd.DataFrame) -> str:

@@ -4,7 +4,8 @@ Pipeline side-stage (reads the store, writes one file). ``index.html`` is self-c
 charts' library (plotly.js) is embedded once, inline, so the page opens from a file share with no
 server and no network. From top to bottom:
 
-1. **Needs attention now**: the axes in alarm, with bad data, stale or with an acknowledged alarm
+1. **Needs attention now**: the axes in alarm, with bad data, with a baseline to check (a stored
+   check nobody acknowledged), stale or with an acknowledged alarm
    (:func:`axiswatch.monitor._attention.triage`), ranked, one engineer's line each (what moved, by how
    much against its healthy spread, since when, what it likely means), each a link to its axis;
    the healthy axes folded underneath with their last capture. The product default (mechanics)
@@ -12,7 +13,8 @@ server and no network. From top to bottom:
 2. **Axes**: per axis its line, an interactive trend of the distance and of each indicator
    (healthy band, threshold, baseline and calibration periods, task changes where known, alarms;
    zoom, and hover for capture, value and reason), and a short history of events (baseline,
-   threshold, alarms raised and cleared, acknowledgements, re-baselines).
+   threshold, alarms raised and cleared, acknowledgements, baselines to check and their
+   acknowledgement, re-baselines).
 3. Rejected captures and files changed after scoring.
 """
 
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import html
 import os
+from collections.abc import Sequence
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -30,7 +33,7 @@ from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_metho
 from axiswatch.monitor._charts import distance_chart, plotly_library
 from axiswatch.monitor._methods import DEFAULT_METHOD
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._store import StoreBackend
+from axiswatch.monitor._store import BaselineCheck, StoreBackend
 
 __all__ = ["write_report"]
 
@@ -46,6 +49,7 @@ ol.attention { padding-left: 1.5em; }
 ol.attention li { margin: 0.4em 0; padding: 0.3em 0.5em; border-left: 5px solid #999; }
 li.alarm { border-color: #c00 !important; background: #fbe3e3; }
 li.bad-data { border-color: #d80 !important; background: #fdf0d8; }
+li.baseline-check { border-color: #b60 !important; background: #fbeedd; }
 li.stale { border-color: #a70 !important; background: #f6f0e0; }
 li.acknowledged { border-color: #888 !important; background: #eee; }
 .kind { font-weight: bold; text-transform: uppercase; font-size: 0.8em; margin-right: 0.5em; }
@@ -153,7 +157,7 @@ def _first_screen(items: list[AxisAttention], method: str) -> list[str]:
     else:
         parts.append(
             f"<p class='all-clear'>No axis needs attention ({_esc(method)}): no alarm, no bad "
-            "data, no stale axis.</p>"
+            "data, no baseline to check, no stale axis.</p>"
         )
     parts.append(
         f"<details id='healthy'><summary>No action needed ({len(calm)} axes)</summary>"
@@ -170,9 +174,14 @@ def _first_screen(items: list[AxisAttention], method: str) -> list[str]:
 
 
 def _events(
-    rows: pd.DataFrame, acks: pd.DataFrame, rebaselines: pd.DataFrame, limit: int = 15
+    rows: pd.DataFrame,
+    acks: pd.DataFrame,
+    rebaselines: pd.DataFrame,
+    checks: Sequence[BaselineCheck],
+    limit: int = 15,
 ) -> pd.DataFrame:
-    """The axis's history (lead method rows, every method's acknowledgements), newest last."""
+    """The axis's history (lead method rows, every method's acknowledgements and checks of its
+    active baselines), newest last."""
     events: list[tuple[str, str, str, str]] = []
     previous = False
     for row in rows.itertuples(index=False):
@@ -202,6 +211,16 @@ def _events(
                 f"by {ack.acknowledged_by}: {ack.note}{seen}",
             )
         )
+    for check in checks:
+        events.append(
+            (check.detected_at, "", f"baseline to check ({check.method})",
+             f"{check.path}: {check.note}")
+        )  # fmt: skip
+        if check.acknowledged_at is not None:
+            events.append(
+                (check.acknowledged_at, "", f"baseline check acknowledged ({check.method})",
+                 check.path)
+            )  # fmt: skip
     for request in rebaselines.itertuples(index=False):
         start = str(request.from_capture or "the next capture")
         events.append(
@@ -255,6 +274,7 @@ def write_report(
     rejections = fleet_rejections(store)
     changed = store.changed_file_table()
     alarms = store.alarms()
+    checks = store.baseline_checks()
     acks = store.acknowledgements()
     rebaselines = store.rebaseline_requests()
     methods = sorted(
@@ -280,7 +300,7 @@ def write_report(
         page = out / "index.html"
         _replace(page, "\n".join(parts).encode("utf-8"))
         return page
-    items = triage(summary, results, rejections, changed, alarms, method=lead,
+    items = triage(summary, results, rejections, changed, alarms, method=lead, checks=checks,
                    stale_factor=stale_factor)  # fmt: skip
     parts += _first_screen(items, lead)
     others = [m for m in methods if m != lead]
@@ -292,7 +312,7 @@ def write_report(
         )
         for method in others:
             listed = triage(summary, results, rejections, changed, alarms, method=method,
-                            stale_factor=stale_factor)  # fmt: skip
+                            checks=checks, stale_factor=stale_factor)  # fmt: skip
             frame = pd.DataFrame(
                 [(f"{i.robot}/{i.axis}", i.kind, i.line) for i in listed],
                 columns=["axis", "state", "line"],
@@ -328,6 +348,7 @@ def write_report(
             lead_rows,
             acks[(acks.robot == robot) & (acks.axis == axis)],
             rebaselines[(rebaselines.robot == robot) & (rebaselines.axis == axis)],
+            [c for c in checks if (c.robot, c.axis) == (robot, axis)],
         )
         if not history.empty:
             parts += [
