@@ -2,10 +2,20 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
-from axiswatch.datasets._family import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, draw_robot
+from axiswatch.datasets._family import (
+    DEVELOPMENT_ROBOTS,
+    HELD_OUT_ROBOTS,
+    UNIT_FIELDS,
+    draw_robot,
+    draw_unit,
+    unit_factors,
+)
 from axiswatch.datasets._robot import (
     AxisSpec,
     Fault,
@@ -86,3 +96,47 @@ def test_unknown_task_and_bad_rate_are_rejected() -> None:
         draw_robot(1).capture("nope")
     with pytest.raises(ValueError, match=r"must divide 4000 Hz\. Got 3000\.0"):
         simulate_capture("light", spec=AxisSpec(fast_rate_hz=3000.0))
+
+
+def test_units_differ_only_in_the_unit_fields_reproducibly() -> None:
+    robot = draw_robot(2)
+    assert all(draw_unit(robot, k, 0.0) == robot for k in range(7))
+    unit = draw_unit(robot, 3, 0.1)
+    assert unit == draw_unit(draw_robot(2), 3, 0.1)  # reproducible
+    assert unit != draw_unit(robot, 4, 0.1)  # another unit
+    assert (unit.seed, unit.kind, unit.tasks, unit.friction_fault) == (
+        robot.seed,
+        robot.kind,
+        robot.tasks,
+        robot.friction_fault,
+    )
+    changed = {
+        f.name
+        for f in dataclasses.fields(robot.spec)
+        if getattr(unit.spec, f.name) != getattr(robot.spec, f.name)
+    }
+    assert changed == set(UNIT_FIELDS) | {"stribeck_peak"}
+    factors = unit_factors(2, 3, 0.1)
+    for name in UNIT_FIELDS:
+        assert getattr(unit.spec, name) == getattr(robot.spec, name) * factors[name]
+    # The Stribeck peak keeps its share of the Coulomb friction.
+    assert unit.spec.stribeck_peak / unit.spec.coulomb == pytest.approx(
+        robot.spec.stribeck_peak / robot.spec.coulomb, rel=1e-12
+    )
+    # Same capture seed: the same phase, temperature and noise, another physics.
+    a, b = robot.capture(1, seed="x"), unit.capture(1, seed="x")
+    assert a.signals["torque"].shape == b.signals["torque"].shape
+    assert not np.array_equal(a.signals["torque"], b.signals["torque"])
+
+
+def test_unit_factors_are_lognormal_with_the_spread() -> None:
+    spread = 0.2
+    logs = np.log(
+        [[unit_factors(s, k, spread)[n] for n in UNIT_FIELDS] for s in range(20) for k in range(50)]
+    )
+    # 1000 draws per field: median and log-sd within about 4 standard errors.
+    assert np.all(np.abs(np.median(logs, axis=0)) < 4 * 1.2533 * spread / math.sqrt(1000))
+    assert np.all(np.abs(logs.std(axis=0, ddof=1) / spread - 1) < 4 / math.sqrt(2 * 999))
+    assert abs(np.corrcoef(logs.T)[0, 1]) < 0.15  # independent fields
+    with pytest.raises(ValueError, match="'spread' of unit_factors must be a float >= 0"):
+        unit_factors(0, 0, -0.1)

@@ -6,11 +6,22 @@ import dataclasses
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
 
+from axiswatch._capture import Capture
+from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
-from axiswatch_lab._transfer import TransferDesign, real_data_transfer, robot_transfer
+from axiswatch.datasets._family import draw_robot
+from axiswatch_lab._transfer import (
+    FAST_DESIGN,
+    TransferDesign,
+    fleet_readings,
+    fleet_units,
+    real_data_transfer,
+    robot_transfer,
+)
 from tests.conftest import SHARED_DATA
 
 TINY = TransferDesign(n_per_cell=1, n_calibration=2, robot_a_days=8, degradation_days=3)
@@ -33,11 +44,39 @@ def test_robot_record_has_every_measure() -> None:
     assert not math.isnan(float(record["far99"]))  # type: ignore[arg-type]
 
 
+def test_no_unit_spread_is_the_one_unit_study() -> None:
+    robot = draw_robot(DEVELOPMENT_ROBOTS[1])
+    units = fleet_units(robot, FAST_DESIGN)
+    assert len(units) == 7
+    assert all(u == robot for u in units)
+
+    def read(capture: Capture) -> Readings:  # the raw torque stands in for the readings
+        return capture.signals["torque"]  # type: ignore[return-value]
+
+    same = fleet_readings(robot, read, FAST_DESIGN, units=units)
+    before = fleet_readings(robot, read, FAST_DESIGN)
+    for t in before:
+        for x, y in zip(same[t], before[t], strict=True):
+            np.testing.assert_array_equal(x, y)
+    spread = dataclasses.replace(FAST_DESIGN, unit_spread=0.1)
+    apart = fleet_readings(robot, read, spread, units=fleet_units(robot, spread))
+    assert not np.array_equal(apart[0][0], before[0][0])
+
+
+@pytest.mark.slow
+def test_unit_spread_changes_the_record_not_its_layout() -> None:
+    with threadpool_limits(1):
+        one = robot_transfer(DEVELOPMENT_ROBOTS[1], TINY)
+        many = robot_transfer(DEVELOPMENT_ROBOTS[1], dataclasses.replace(TINY, unit_spread=0.2))
+    assert one.keys() == many.keys()
+    assert one["robot"] == many["robot"]
+    assert one["robot_a_test_days"] == many["robot_a_test_days"]
+    assert any(one[k] != many[k] for k in one if k.startswith(("auroc", "oracle")))
+
+
 @pytest.mark.slow
 def test_every_capture_goes_through_the_given_read() -> None:
     from axiswatch import IndicatorModel
-    from axiswatch._capture import Capture
-    from axiswatch._readings import Readings
 
     model = IndicatorModel()
     sources: list[str] = []

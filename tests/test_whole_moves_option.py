@@ -605,6 +605,9 @@ def test_the_transfer_command_gives_the_option_to_the_design(
     asked.clear()
     assert runner.invoke(experiment_app, [*held_out, "--no-real-data"]).exit_code == 0
     assert "real" not in asked
+    assert runner.invoke(experiment_app, [*args, "--unit-spread", "0.1"]).exit_code == 0
+    assert asked["design"] == dataclasses.replace(_transfer.FAST_DESIGN, unit_spread=0.1)
+    assert runner.invoke(experiment_app, [*args, "--unit-spread", "-0.1"]).exit_code == 2
 
 
 def test_the_transfer_design_fits_its_models_with_the_option(

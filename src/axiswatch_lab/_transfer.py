@@ -20,7 +20,15 @@ Research code (``axiswatch experiment transfer``). Per simulated robot of
   ``1/n, 2/n, ..., (n - 1)/n`` before the breakdown at 1 (``n = degradation_days``);
   ``ramp_alarmed_<fault>`` is the share of those runs with an alarm before the breakdown,
   ``ramp_severity_<fault>`` the median severity of their first alarm (NaN when none alarmed);
-* ``share_scored``: the share of all test captures that got a distance.
+* ``share_scored``: the share of all test captures that got a distance;
+* ``fleet_checks``: the fleet's (healthy) axes whose fleet check notes them as unlike the
+  others, ``robot_a_fleet_check`` 1 when Robot A's does.
+
+By default (``unit_spread=0``) the fleet's six axes, Robot A and every paired test capture come
+from one simulated unit of the robot model: the fleet differs only by task. With
+``unit_spread > 0`` each is a unit of its own (:func:`~axiswatch.datasets._family.draw_unit`):
+fleet axis ``k`` is unit ``k`` (its calibration, its paired test captures at every task, its
+oracle and its degradation runs), Robot A is unit ``6``, none of the fleet's.
 
 Real data (:func:`real_data_transfer`): the hydraulic actuators and the linear axis of
 ``../shared/data`` with the same model, no parameter changed for them.
@@ -43,7 +51,7 @@ from axiswatch._capture import Capture
 from axiswatch._indicator_model import IndicatorModel, pool_fleet, pool_fleet_without
 from axiswatch._profiles import AxisProfile
 from axiswatch._readings import Readings
-from axiswatch.datasets._family import SimulatedRobot, draw_robot
+from axiswatch.datasets._family import SimulatedRobot, draw_robot, draw_unit
 from axiswatch.datasets._robot import FAULT_KINDS, Fault
 from axiswatch.exceptions import CalibrationError
 from axiswatch.monitor._parallel import parallel_map
@@ -51,6 +59,7 @@ from axiswatch.monitor._parallel import parallel_map
 __all__ = [
     "TransferDesign",
     "fleet_readings",
+    "fleet_units",
     "paired_measures",
     "real_data_transfer",
     "robot_a_readings",
@@ -81,6 +90,10 @@ class TransferDesign:
         from whole moves, loose friction readings widened).
     degradation_days : int, default=12
         Days from a healthy axis to the breakdown in each degradation run (below 2: no runs).
+    unit_spread : float, default=0.0
+        Log standard deviation of the unit-to-unit factors of friction, backlash, stiffness,
+        damping and motor inertia (:func:`~axiswatch.datasets._family.draw_unit`); 0: one unit
+        for the whole study (the study before 2026-11-23, bit for bit).
     """
 
     n_per_cell: int = 4
@@ -91,6 +104,7 @@ class TransferDesign:
     order_lines: bool = False
     whole_moves: bool = False
     degradation_days: int = 12
+    unit_spread: float = 0.0
 
 
 #: A configuration of a few seconds per robot, for tests.
@@ -117,13 +131,27 @@ def _auroc(healthy: Sequence[float], faulty: Sequence[float]) -> float:
     return float(roc_auc_score(labels, np.concatenate([h, f])))
 
 
+def fleet_units(robot: SimulatedRobot, design: TransferDesign) -> list[SimulatedRobot]:
+    """The units of the study: one per fleet axis (task), then Robot A's; all ``robot`` itself
+    when ``design.unit_spread`` is 0."""
+    return [draw_unit(robot, k, design.unit_spread) for k in range(len(robot.tasks) + 1)]
+
+
 def fleet_readings(
-    robot: SimulatedRobot, read: Callable[[Capture], Readings], design: TransferDesign
+    robot: SimulatedRobot,
+    read: Callable[[Capture], Readings],
+    design: TransferDesign,
+    *,
+    units: Sequence[SimulatedRobot] | None = None,
 ) -> dict[int, list[Readings]]:
     """Per task, the readings (by ``read``) of the baseline and the ``design.n_calibration``
-    calibration captures of the fleet's axis on that task."""
+    calibration captures of the fleet's axis on that task (unit ``t`` of ``units`` for task
+    ``t`` when given, else ``robot``)."""
     return {
-        t: [read(robot.capture(t, seed=f"fleet{k}")) for k in range(design.n_calibration + 1)]
+        t: [
+            read((units[t] if units else robot).capture(t, seed=f"fleet{k}"))
+            for k in range(design.n_calibration + 1)
+        ]
         for t in range(len(robot.tasks))
     }
 
@@ -190,9 +218,10 @@ def robot_transfer(
 
     read = read or new_model().readings
     n_tasks = len(robot.tasks)
+    units = fleet_units(robot, design)
     fleet: dict[int, IndicatorModel] = {}
     unfitted = []
-    for t, fitting in fleet_readings(robot, read, design).items():
+    for t, fitting in fleet_readings(robot, read, design, units=units).items():
         try:
             fleet[t] = new_model().fit_readings(fitting)
         except CalibrationError:
@@ -201,12 +230,17 @@ def robot_transfer(
     prior = pool_fleet(pool)
     for k, model in enumerate(pool):
         model.use_fleet(prior, check_against=pool_fleet_without(pool, k))
-    tests = paired_readings(robot, read, design)
     bases = sorted(fleet)
+    # Per baseline axis, its own unit's test captures; equal units (no spread) share one set.
+    by_unit: dict[SimulatedRobot, dict[tuple[int, str], list[Readings]]] = {}
+    for b in bases:
+        if units[b] not in by_unit:
+            by_unit[units[b]] = paired_readings(units[b], read, design)
+    tests_of = {b: by_unit[units[b]] for b in bases}
     distances = {
         (b, key): [fleet[b].assess_readings(r).distance for r in taken]
         for b in bases
-        for key, taken in tests.items()
+        for key, taken in tests_of[b].items()
     }
     record: dict[str, object] = {
         "robot": robot.name,
@@ -215,6 +249,8 @@ def robot_transfer(
         "position_rate_hz": robot.spec.position_rate_hz,
         "friction_fault": robot.friction_fault,
         "axes_not_fitted": ";".join(unfitted),
+        # Healthy axes the fleet check sets apart from the others (a note, not an alarm).
+        "fleet_checks": int(sum(m.fleet_check_ is not None for m in pool)),
     }
     all_d = [d for v in distances.values() for d in v]
     record["share_scored"] = float(np.mean([math.isfinite(d) for d in all_d]))
@@ -237,8 +273,8 @@ def robot_transfer(
         ]
         oracle = [
             _auroc(
-                [oracle_models[t].assess_readings(r).distance for r in tests[(t, "healthy")]],
-                [oracle_models[t].assess_readings(r).distance for r in tests[(t, fault)]],
+                [oracle_models[t].assess_readings(r).distance for r in tests_of[t][(t, "healthy")]],
+                [oracle_models[t].assess_readings(r).distance for r in tests_of[t][(t, fault)]],
             )
             for t in bases
         ]
@@ -254,19 +290,19 @@ def robot_transfer(
                 ]
             )
         )
-    record.update(_degradation(robot, fleet, design, read))
-    record.update(_robot_a(robot, profile, prior, design, read))
+    record.update(_degradation(units, fleet, design, read))
+    record.update(_robot_a(units[n_tasks], profile, prior, design, read))
     return record
 
 
 def _degradation(
-    robot: SimulatedRobot,
+    units: Sequence[SimulatedRobot],
     fleet: Mapping[int, IndicatorModel],
     design: TransferDesign,
     read: Callable[[Capture], Readings],
 ) -> dict[str, object]:
     """Per fault: the share of the fleet's axes whose degradation run alarms before the
-    breakdown, and the median severity of the first alarm."""
+    breakdown, and the median severity of the first alarm (fleet axis ``t`` is ``units[t]``)."""
     days = design.degradation_days
     if days < 2:
         return {}
@@ -277,7 +313,7 @@ def _degradation(
         for t, model in sorted(fleet.items()):
             for severity in severities[:-1]:  # the last capture is the breakdown itself
                 fault_now = Fault(fault, severity)  # type: ignore[arg-type]
-                capture = robot.capture(t, fault=fault_now, seed=f"ramp{fault}{severity:.6f}")
+                capture = units[t].capture(t, fault=fault_now, seed=f"ramp{fault}{severity:.6f}")
                 if model.assess_readings(read(capture)).alarm:
                     first.append(severity)
                     break
@@ -308,6 +344,7 @@ def _robot_a(
     model.fit_readings(taken[: design.n_calibration + 1]).use_fleet(prior)  # type: ignore[arg-type]
     verdicts = [model.assess_readings(r) for r in taken[design.n_calibration + 1 :]]
     return {
+        "robot_a_fleet_check": int(model.fleet_check_ is not None),
         "robot_a_false_alarms": int(sum(v.alarm for v in verdicts)),
         "robot_a_days_scored": int(sum(v.scored for v in verdicts)),
         "robot_a_test_days": len(verdicts),

@@ -249,6 +249,15 @@ def experiment_transfer(
             "a development run never reads them).",
         ),
     ] = None,
+    unit_spread: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="Each fleet axis, Robot A and each baseline's test captures a unit of its own, "
+            "friction, backlash, stiffness, damping and motor inertia varying by this log "
+            "standard deviation (0: one unit, docs/evaluation.md 'A fleet of distinct units').",
+        ),
+    ] = 0.0,
 ) -> None:
     """Transfer study (issue 13): held-out simulated robots and the real data sets."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
@@ -278,6 +287,7 @@ def experiment_transfer(
         kinematics=kinematics,
         order_lines=order_lines,
         whole_moves=whole_moves,
+        unit_spread=unit_spread,
     )
     table = transfer_study(seeds, design, workers=workers)
     out.mkdir(parents=True, exist_ok=True)

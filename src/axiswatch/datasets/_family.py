@@ -14,6 +14,7 @@ choice of a method is made on them) and :data:`HELD_OUT_ROBOTS` (only reported).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import zlib
 from collections.abc import Mapping
@@ -35,8 +36,11 @@ from axiswatch.datasets._robot import (
 __all__ = [
     "DEVELOPMENT_ROBOTS",
     "HELD_OUT_ROBOTS",
+    "UNIT_FIELDS",
     "SimulatedRobot",
     "draw_robot",
+    "draw_unit",
+    "unit_factors",
 ]
 
 #: Seeds of the robots on which every parameter of a method is chosen.
@@ -50,6 +54,9 @@ FAST_RATES_HZ: tuple[float, ...] = (20.0, 50.0, 100.0, 250.0, 500.0, 1000.0, 200
 
 #: Capture length of every task but the strokes (s): longer than the longest drawn cycle (3.6 s).
 CAPTURE_S = 4.0
+
+#: The AxisSpec fields in which units of one robot model differ (:func:`draw_unit`).
+UNIT_FIELDS: tuple[str, ...] = ("coulomb", "viscous", "backlash", "stiffness", "damping", "j_motor")
 
 FrictionFault = Literal["coulomb", "viscous", "both"]
 _FRICTION_FAULTS: tuple[FrictionFault, ...] = ("coulomb", "viscous", "both")
@@ -231,3 +238,60 @@ def draw_robot(seed: int) -> SimulatedRobot:
         backlash_growth=float(rng.uniform(3e-3, 8e-3)),
     )
     return SimulatedRobot(seed, kind, spec, _tasks(rng, kind, size), friction_fault)
+
+
+def unit_factors(robot_seed: int, unit: int, spread: float) -> dict[str, float]:
+    """Lognormal factors ``exp(spread * z)``, ``z ~ N(0, 1)``, one per field of
+    :data:`UNIT_FIELDS`, for unit ``unit`` of the robot model ``robot_seed``.
+
+    ``z`` is drawn from a seed mixed from (``robot_seed``, ``unit``) only, so a unit keeps its
+    deviations' directions at every ``spread`` (a sensitivity study compares like with like);
+    ``spread`` is the factors' log standard deviation (0.1: about 10 % between units); at 0
+    every factor is exactly 1.
+
+    Examples
+    --------
+    >>> unit_factors(3, 0, 0.0)["coulomb"]
+    1.0
+    >>> a, b = unit_factors(3, 0, 0.1), unit_factors(3, 0, 0.2)
+    >>> bool(abs(math.log(b["stiffness"]) - 2 * math.log(a["stiffness"])) < 1e-12)
+    True
+    """
+    if not (math.isfinite(spread) and spread >= 0.0):
+        raise ValueError(f"The 'spread' of unit_factors must be a float >= 0. Got {spread!r}.")
+    rng = np.random.default_rng(zlib.crc32(f"axiswatch unit/{robot_seed}/{unit}".encode()))
+    z = rng.standard_normal(len(UNIT_FIELDS))
+    return {name: math.exp(spread * float(zk)) for name, zk in zip(UNIT_FIELDS, z, strict=True)}
+
+
+def draw_unit(robot: SimulatedRobot, unit: int, spread: float) -> SimulatedRobot:
+    """One unit of ``robot``'s model: its :class:`~axiswatch.AxisSpec` with the fields of
+    :data:`UNIT_FIELDS` multiplied by :func:`unit_factors` (log standard deviation ``spread``).
+
+    What differs between units of one robot model, by manufacturing tolerance and wear-in:
+    motor-side Coulomb friction (the Stribeck peak, drawn as a share of it, scales with it, so
+    the friction law keeps its shape) and viscous friction, the gearbox's backlash, stiffness
+    and damping, and the motor's inertia (rotor and brake tolerances). What a model shares and
+    is left alone: the kinematics (gear ratio, mesh order, tooth stage and count, bearing
+    order), the link (inertia, lever, gravity moment: one casting and one payload), the
+    lubricant's Stribeck speed and temperature coefficient, the ripple, the controller's gains,
+    logging rates, quantisation and noise, and how faults grow and strike. The unit keeps the
+    robot's seed and tasks, so :meth:`SimulatedRobot.capture` with the same task and ``seed``
+    draws the same phase, temperature and noise on every unit: units differ in their physics
+    only, not in their random draws. The simulator's feed-forward uses the spec it is given, so
+    each unit's controller knows its own friction and inertia (as if identified at
+    commissioning).
+
+    Examples
+    --------
+    >>> robot = draw_robot(3)
+    >>> draw_unit(robot, 0, 0.0) == robot
+    True
+    >>> unit = draw_unit(robot, 0, 0.1)
+    >>> unit.spec.gear_ratio == robot.spec.gear_ratio, unit.spec.coulomb != robot.spec.coulomb
+    (True, True)
+    """
+    factors = unit_factors(robot.seed, unit, spread)
+    changed = {name: getattr(robot.spec, name) * f for name, f in factors.items()}
+    changed["stribeck_peak"] = robot.spec.stribeck_peak * factors["coulomb"]
+    return dataclasses.replace(robot, spec=dataclasses.replace(robot.spec, **changed))
