@@ -7,6 +7,7 @@ checks that no Python traceback reaches the user.
 
 from __future__ import annotations
 
+import itertools
 import os
 import resource
 import shutil
@@ -430,8 +431,12 @@ def test_workers_end_with_the_driver(fleet: Path, tmp_path: Path, sig: signal.Si
 def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
     fleet: Path, tmp_path: Path, workers: int
 ) -> None:
-    for day in range(10, 30):  # more captures, so that the run is still scoring when stopped
-        shutil.copy2(fleet / AXIS / "2026-03-04.parquet", fleet / AXIS / f"2026-03-{day}.parquet")
+    # Many more captures, so that the run is still scoring when stopped: on a loaded machine the
+    # polling below can be descheduled long enough for 20 PCA captures to be scored (the signal
+    # then met a run already shutting down).
+    for month, day in itertools.product(range(3, 7), range(10, 30)):
+        name = f"2026-{month:02d}-{day}.parquet"
+        shutil.copy2(fleet / AXIS / "2026-03-04.parquet", fleet / AXIS / name)
     reference = tmp_path / "reference.db"
     assert _monitor(fleet, reference).returncode == 0
     store = tmp_path / "s.db"
@@ -451,6 +456,7 @@ def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
         except sqlite3.OperationalError:
             pass  # the store is being created
         time.sleep(0.01)
+    assert driver.poll() is None, "the run ended before it could be interrupted"
     os.killpg(driver.pid, signal.SIGINT)  # Ctrl-C reaches the driver and its workers
     _, stderr = driver.communicate(timeout=60)
     assert driver.returncode == 130, stderr
