@@ -8,6 +8,7 @@ import json
 import math
 import re
 import sqlite3
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -888,14 +889,9 @@ def test_a_store_of_an_older_model_format_is_refitted_not_a_crash(
     assert summary.scored == 3
 
 
-def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    # A store from before the 20 Hz floor of new baselines: its axis was fitted on stamps in
-    # milliseconds read as seconds (0.05 Hz). Its model is kept; every run says to rebaseline.
-    import axiswatch.monitor._indicators as indicators
-
-    root = tmp_path / "fleet"
+def _slow_capture_writer(root: Path) -> Callable[[int], None]:
+    """Writes day ``k``'s capture of ``r1/a1`` with its stamps in milliseconds, read as seconds
+    (0.05 Hz): a baseline fitted before the 20 Hz floor of new baselines."""
     folder = root / "r1" / "a1"
     folder.mkdir(parents=True)
     robot = draw_robot(ROBOT_SEED)
@@ -906,6 +902,18 @@ def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
         frame.to_csv(folder / f"2026-03-{k + 1:02d}.csv", index=False)
         settle(root)
 
+    return day
+
+
+def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A store from before the 20 Hz floor of new baselines: its axis was fitted on stamps in
+    # milliseconds read as seconds (0.05 Hz). Its model is kept; every run says to rebaseline.
+    import axiswatch.monitor._indicators as indicators
+
+    root = tmp_path / "fleet"
+    day = _slow_capture_writer(root)
     for k in range(7):
         day(k)
     config = MonitorConfig(method="indicators")
@@ -942,16 +950,7 @@ def test_a_stored_baseline_below_20_hz_is_refitted_after_an_upgrade_and_still_on
     import axiswatch.monitor._persist
 
     root = tmp_path / "fleet"
-    folder = root / "r1" / "a1"
-    folder.mkdir(parents=True)
-    robot = draw_robot(ROBOT_SEED)
-
-    def day(k: int) -> None:
-        frame = capture_to_frame(robot.capture(0, seed=k))
-        frame["time"] = (frame["time"] * 1000).round()  # milliseconds read as seconds: 0.05 Hz
-        frame.to_csv(folder / f"2026-03-{k + 1:02d}.csv", index=False)
-        settle(root)
-
+    day = _slow_capture_writer(root)
     for k in range(7):
         day(k)
     config = MonitorConfig(method="indicators")
