@@ -441,13 +441,20 @@ def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
     assert _monitor(fleet, reference).returncode == 0
     store = tmp_path / "s.db"
     command = [sys.executable, "-m", "axiswatch", "monitor", str(fleet), "--store", str(store)]
-    driver = subprocess.Popen(
-        [*command, *FAST, "--workers", str(workers)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,  # its own process group, as a terminal's foreground job
-    )
+    # A shell starts a background job with Ctrl-C ignored, and an ignored signal stays ignored
+    # across exec: a suite run in the background would start a driver deaf to it. A handled
+    # signal is reset to its default by exec, so the driver sees Ctrl-C as a foreground job does.
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        driver = subprocess.Popen(
+            [*command, *FAST, "--workers", str(workers)],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,  # its own process group, as a terminal's foreground job
+        )
+    finally:
+        signal.signal(signal.SIGINT, inherited)
     deadline = time.monotonic() + 120
     while driver.poll() is None and time.monotonic() < deadline:
         try:
