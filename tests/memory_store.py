@@ -526,11 +526,13 @@ class MemoryStore:
 
     def rejection_table(self) -> pd.DataFrame:
         rows = [
-            (r.robot, r.axis, r.capture, r.method, r.path, r.error, stamp)
+            (r.robot, r.axis, r.capture, r.method, r.path, r.error, stamp, r.acknowledged_at)
             for r, stamp in self._rejections
         ]
         rows.sort(key=lambda row: (row[0], row[1], row[4], row[3]))
-        columns = ["robot", "axis", "capture", "method", "path", "error", "rejected_at"]
+        columns = [
+            "robot", "axis", "capture", "method", "path", "error", "rejected_at", "acknowledged_at",
+        ]  # fmt: skip
         return pd.DataFrame(rows, columns=columns)
 
     def changed_file_table(self) -> pd.DataFrame:

@@ -7,14 +7,17 @@ import shutil
 from pathlib import Path
 
 import pytest
+from typer.testing import CliRunner
 
 import axiswatch as aw
+from axiswatch.cli import app
 from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._report import write_report
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor._store import Store
+from tests.conftest import settle
 from tests.test_monitor import faulty_copy
 
 PCA = MonitorConfig(method="pca")
@@ -66,6 +69,67 @@ def test_stale_and_bad_data_axes_need_attention_until_repaired(fleet: Path, tmp_
         second = _triage(store)
     assert [i.kind for i in second.values()] == ["ok", "ok"]
     assert not any(i.needs_attention for i in second.values())
+
+
+def acknowledged_rejections(fleet: Path, tmp_path: Path) -> Path:
+    """A store of ``fleet`` (:func:`small_fleet`) with three rejections, two of them then
+    acknowledged with ``rejections --ack``: an empty capture of robot01/axis1 and the misnamed
+    folder ``robot 2/`` (no baseline); robot01/axis2's empty capture is not."""
+    (fleet / "robot01/axis1/2026-03-09T12-00-00.csv").write_bytes(b"")
+    (fleet / "robot01/axis2/2026-03-09T12-00-00.csv").write_bytes(b"")
+    shutil.copytree(fleet / "robot01", fleet / "robot 2")
+    settle(fleet)
+    store = tmp_path / "acked.db"
+    with Store(store) as opened:
+        assert monitor_fleet(fleet, opened, PCA, settle_s=0).exit_code == 8
+        before = _triage(opened)
+    assert [before[a].kind for a in ("robot01/axis1", "robot01/axis2", "robot 2/")] == (
+        ["bad data"] * 3
+    )
+    acked = CliRunner().invoke(
+        app,
+        ["rejections", "--store", str(store), "--ack", "robot01/axis1/2026-03-09T12-00-00.csv",
+         "robot 2/"],
+    )  # fmt: skip
+    assert acked.output.startswith("2 problem(s) acknowledged"), acked.output
+    return store
+
+
+def test_an_acknowledged_rejection_stays_on_the_line_but_needs_no_attention(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # Before: `rejections --ack` made the monitor stop counting a rejection, but the report read
+    # no acknowledgement and kept the axis under "Needs attention now" as bad data.
+    store = acknowledged_rejections(fleet, tmp_path)
+    with Store(store) as opened:
+        after = _triage(opened)
+        page = write_report(opened, tmp_path / "r").read_text(encoding="utf-8")
+        again = monitor_fleet(fleet, opened, PCA, settle_s=0)
+    assert (again.acknowledged, len(again.rejected), again.exit_code) == (2, 1, 8)
+    seen = after["robot01/axis1"]
+    assert (seen.kind, seen.needs_attention) == ("ok", False)
+    assert re.search(
+        r"^ok: last capture 2026-03-09, .* 1 capture file\(s\) rejected, seen on "
+        r"\d{4}-\d\d-\d\d, latest: robot01/axis1/2026-03-09T12-00-00.csv: ",
+        seen.line,
+    ), seen.line
+    folder = after["robot 2/"]
+    assert (folder.kind, folder.needs_attention) == ("calibrating", False)
+    assert folder.line.startswith("No baseline yet. 1 capture file(s) rejected, seen on ")
+    assert "robot folder name 'robot 2' is not an identifier" in folder.line
+    unseen = after["robot01/axis2"]  # not acknowledged: still bad data
+    assert (unseen.kind, unseen.needs_attention) == ("bad data", True)
+    assert unseen.line.startswith("1 capture file(s) rejected, latest: robot01/axis2/")
+    attention = page.split("<section id='attention'>")[1].split("<details id='healthy'>")[0]
+    assert "Needs attention now (1)" in attention
+    assert "data-axis='robot01/axis2' data-kind='bad data'" in attention
+    assert "robot01/axis1" not in attention
+    assert "robot 2" not in attention
+    healthy = page.split("<details id='healthy'>")[1].split("</details>")[0]
+    assert "1 capture file(s) rejected, seen on " in healthy
+    table = page.split("<h2 id='rejected'>Rejected captures</h2>")[1]
+    assert "<th>seen</th>" in table
+    assert re.search(r"robot 2/: robot .*?</td><td class='text'>\d{4}-\d\d-\d\d \d\d:", table)
 
 
 def test_alarms_rank_first_and_an_acknowledged_one_last(fleet: Path, tmp_path: Path) -> None:

@@ -183,3 +183,26 @@ def test_readme_quotes_the_demo(demo_report: Path) -> None:
     )
     assert shown.exit_code == 4, shown.output
     assert f"  {line}\n" in shown.output
+
+
+def test_an_acknowledged_rejection_leaves_the_first_screen(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # Before: the page read no acknowledgement of a rejection and listed both acknowledged
+    # axes (robot01/axis1, the misnamed folder robot 2/) as bad data.
+    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor._store import Store
+    from tests.test_report import acknowledged_rejections
+
+    _chromium()
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    with Store(acknowledged_rejections(fleet, tmp_path)) as store:
+        page = write_report(store, tmp_path / "report")
+    loaded = _browse("--virtual-time-budget=5000", "--dump-dom", page.as_uri())
+    assert loaded.returncode == 0, loaded.stderr[-2000:]
+    assert _console(loaded) == []
+    screen = _FirstScreen()
+    screen.feed(loaded.stdout)
+    assert screen.kinds == {"robot01/axis2": "bad data"}, screen.items
+    assert "Needs attention now (1)" in loaded.stdout
+    assert "1 capture file(s) rejected, seen on " in loaded.stdout.split('id="healthy"')[1]

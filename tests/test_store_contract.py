@@ -329,7 +329,7 @@ def test_rejections_are_recorded_once_per_content(store: StoreBackend) -> None:
     ]
     table = store.rejection_table()
     assert list(table.columns) == [
-        "robot", "axis", "capture", "method", "path", "error", "rejected_at",
+        "robot", "axis", "capture", "method", "path", "error", "rejected_at", "acknowledged_at",
     ]  # fmt: skip
     assert table[["path", "method"]].values.tolist() == [
         ["r1/a1/2026-03-02.csv", "lra"],
@@ -337,6 +337,12 @@ def test_rejections_are_recorded_once_per_content(store: StoreBackend) -> None:
         ["r1/a1/2026-03-09.csv", "pca"],
         ["r1/a1/2026-03-09.csv", "pca"],
     ]
+    assert table.acknowledged_at.isna().all()
+    # What the report reads to tell an acknowledged rejection from a new one.
+    assert store.acknowledge_problems(["r1/a1/2026-03-02.csv"], "2026-03-10T08:00:00", "lra") == 1
+    seen = store.rejection_table()
+    assert seen.acknowledged_at.iloc[0] == "2026-03-10T08:00:00"
+    assert seen.acknowledged_at.notna().tolist() == [True, False, False, False]
 
 
 def test_an_acknowledged_rejection_is_news_again_only_when_its_reason_key_changes(

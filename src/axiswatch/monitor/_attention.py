@@ -4,8 +4,11 @@ Pipeline side-stage of the report; pure functions of what the store holds (no SQ
 For one method (the product default when the store has it) every axis gets a kind, ranked:
 
 0. ``alarm``: in alarm and nobody acknowledged it, the strongest (distance over threshold) first;
-1. ``bad data``: captures rejected and not replaced by a scored file of the same path, files
-   changed after they were scored, or no baseline at all;
+1. ``bad data``: captures rejected, not replaced by a scored file of the same path and not
+   acknowledged (``axiswatch rejections --ack PATH``: an acknowledged rejection stays on the
+   axis's line, "seen on ...", but no longer needs attention, as in the monitor's exit status),
+   files changed after they were scored, or no baseline at all (an axis whose only rejections
+   are acknowledged, such as a misnamed folder's, is ``calibrating``);
 2. ``baseline check``: a stored check of its active baseline (``StoreBackend.baseline_checks``:
    the capture disagrees with its calibration captures, or the baseline with its fleet's) that
    nobody acknowledged (``axiswatch rejections --ack PATH``). Like bad data it says the axis's
@@ -209,9 +212,13 @@ def triage(
             else:
                 problems.append("alarm")
             lines.append(line)
-        bad = rejected[(rejected.robot == robot) & (rejected.axis == axis)]
-        bad = bad[[p not in scored_paths for p in bad.path]]
-        if info is None:
+        everything = rejected[(rejected.robot == robot) & (rejected.axis == axis)]
+        everything = everything[~everything.path.isin(scored_paths)]
+        # Acknowledged (`rejections --ack`): on the line as seen, no longer a problem, as in the
+        # monitor's exit status.
+        seen = everything[everything.acknowledged_at.notna()]
+        bad = everything[everything.acknowledged_at.isna()]
+        if info is None and (not bad.empty or seen.empty):
             problems.append("bad data")
             lines.append(
                 f"No baseline: {len(bad)} capture file(s) rejected, latest "
@@ -254,6 +261,11 @@ def triage(
             calm = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
             kind = "baseline check" if problems else calm
             lines.append(_healthy_line(info, last, history))
+        if not seen.empty:
+            lines.append(
+                f"{len(seen)} capture file(s) rejected, seen on "
+                f"{_day(seen.acknowledged_at.max())}, latest: {seen.error.iloc[-1]}"
+            )
         lines += [_check_line(c) for c in stored]
         if last is not None:
             # Checks in the scores' details that the store does not hold (see the module's doc).
@@ -286,7 +298,9 @@ def _check_line(check: BaselineCheck) -> str:
 
 
 def _healthy_line(info: Any, last: Any, history: pd.DataFrame) -> str:
-    if info is None or last is None:
+    if info is None:  # only acknowledged rejections (`rejections --ack`)
+        return "No baseline yet."
+    if last is None:
         return "Baseline set; no capture scored yet."
     if pd.isna(info["threshold"]):
         return (

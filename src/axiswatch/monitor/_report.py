@@ -15,7 +15,8 @@ server and no network. From top to bottom:
    zoom, and hover for capture, value and reason), and a short history of events (baseline,
    threshold, alarms raised and cleared, acknowledgements, baselines to check and their
    acknowledgement, re-baselines).
-3. Rejected captures and files changed after scoring.
+3. Rejected captures (with when they were acknowledged, ``rejections --ack``) and files changed
+   after scoring.
 """
 
 from __future__ import annotations
@@ -370,7 +371,12 @@ def write_report(
     if not rejections.empty:
         parts += [
             "<h2 id='rejected'>Rejected captures</h2>",
-            _table(rejections[["method", "path", "error"]], text=("method", "path", "error")),
+            _table(
+                rejections[["method", "path", "error"]].assign(
+                    seen=["" if pd.isna(at) else _when(at) for at in rejections.acknowledged_at]
+                ),
+                text=("method", "path", "error", "seen"),
+            ),
         ]
     if not changed.empty:
         parts += [

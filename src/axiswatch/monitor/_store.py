@@ -548,8 +548,9 @@ class StoreBackend(Protocol):
         ...
 
     def rejection_table(self) -> pd.DataFrame:
-        """Rejections: robot, axis, capture, method, path, error, rejected_at; ordered by robot,
-        axis, path, method and then as recorded."""
+        """Rejections: robot, axis, capture, method, path, error, rejected_at, acknowledged_at
+        (None until ``rejections --ack``); ordered by robot, axis, path, method and then as
+        recorded."""
         ...
 
     def changed_file_table(self) -> pd.DataFrame:
@@ -1675,8 +1676,8 @@ class SQLiteStore:
 
     def rejection_table(self) -> pd.DataFrame:
         return self._frame(
-            "SELECT robot, axis, capture, method, path, error, rejected_at FROM rejections "
-            "ORDER BY robot, axis, path, method, id"
+            "SELECT robot, axis, capture, method, path, error, rejected_at, acknowledged_at "
+            "FROM rejections ORDER BY robot, axis, path, method, id"
         )
 
     def changed_file_table(self) -> pd.DataFrame:
