@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from axiswatch.monitor._fleet import discover_fleet, parse_capture_time
+from axiswatch.monitor._fleet import discover_fleet, misnamed_folder_key, parse_capture_time
 
 
 def _touch(root: Path, *names: str) -> None:
@@ -91,6 +91,10 @@ def test_discover_ignores_non_captures_and_reports_layout_problems(tmp_path: Pat
         "r1/a1/monday.csv: capture name 'monday.csv' does not start with an ISO date such as "
         "2026-03-01 or 2026-03-01T06-00-00.",
     ]
+    # A store's line from before reason_key gets the key a run stores now (its reason without
+    # the count); no other line has one.
+    assert [misnamed_folder_key(p.reason) for p in problems] == [p.reason_key for p in problems]
+    assert sum(p.reason_key is not None for p in problems) == 2
 
 
 def test_discover_needs_a_folder(tmp_path: Path) -> None:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
+import sqlite3
 from pathlib import Path
 from typing import Any
 
@@ -175,6 +177,37 @@ def test_an_acknowledged_misnamed_folder_stays_acknowledged_when_a_file_arrives(
         assert (grown.rejected, grown.acknowledged, grown.exit_code) == ([], 1, 0)
         (stored,) = store.rejections("pca")
     assert "its 19 capture file(s)" in stored.error  # the count is kept in the message
+
+
+def test_an_acknowledged_misnamed_folder_stays_acknowledged_after_the_reason_key_upgrade(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # Before: a store from before the column rejections.reason_key gained it empty; the next run
+    # stored the folder's key, which did not match the old row's line, so the acknowledgement
+    # made before the upgrade was cleared and the folder was news again (exit 8).
+    bad = fleet / "robot 2"
+    shutil.copytree(fleet / "robot01", bad)
+    settle(fleet)
+    config = MonitorConfig(method="pca")
+    path = tmp_path / "s.db"
+    with Store(path) as store:
+        assert monitor_fleet(fleet, store, config).exit_code == 8
+        assert store.acknowledge_problems(["robot 2/"], now(), "pca") == 1
+    with contextlib.closing(sqlite3.connect(path)) as db:  # as a store written before the column
+        db.execute("ALTER TABLE rejections DROP COLUMN reason_key")
+        db.commit()
+    shutil.copy(bad / "axis1/2026-03-05.parquet", bad / "axis1/2026-03-10.parquet")
+    settle(fleet)  # a file arrives too: the count in the line changes, not its reason
+    with Store(path) as store:
+        upgraded = monitor_fleet(fleet, store, config)
+        (stored,) = store.rejections("pca")
+    assert (upgraded.rejected, upgraded.acknowledged, upgraded.exit_code) == ([], 1, 0)
+    assert stored.acknowledged_at is not None
+    assert stored.reason_key == (
+        "robot 2/: robot folder name 'robot 2' is not an identifier (1-64 ASCII letters, "
+        "digits, '_', '-' or '.', starting with a letter or digit)"
+    )
+    assert "its 19 capture file(s)" in stored.error
 
 
 def test_changed_file_is_reported_not_rescored(fleet: Path, tmp_path: Path) -> None:

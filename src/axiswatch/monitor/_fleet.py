@@ -44,11 +44,20 @@ __all__ = [
     "LayoutProblem",
     "check_fleet_root",
     "discover_fleet",
+    "misnamed_folder_key",
     "parse_capture_time",
     "split_settled",
 ]
 
 _IDENTIFIER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+#: The end of a misnamed folder's line: its file count changes as files arrive without being
+#: news, so it is not part of the line's ``reason_key``.
+_MISNAMED_TAIL = "; its {files} capture file(s) are not scored until the folder is renamed."
+_MISNAMED_LINE = re.compile(
+    r"(?P<key>.+/: (?:robot|axis) folder name '.*' is not an identifier \(.*\))"
+    + re.escape(_MISNAMED_TAIL).replace(re.escape("{files}"), r"\d+"),
+    re.DOTALL,
+)
 _STAMP = re.compile(
     r"(?P<date>\d{4}-\d{2}-\d{2})"
     r"(?:[T_ ](?P<hour>\d{2})[-:]?(?P<minute>\d{2})[-:]?(?P<second>\d{2}))?"
@@ -227,8 +236,7 @@ def discover_fleet(
                 folder[1] if len(folder) > 1 else "",
                 "",
                 root.joinpath(*folder),
-                f"{shown}/: {why}; its {len(axes)} capture file(s) are not scored until the "
-                "folder is renamed.",
+                f"{shown}/: {why}" + _MISNAMED_TAIL.format(files=len(axes)),
                 files=len(axes),
                 axes=tuple(sorted(set(axes))),
                 reason_key=f"{shown}/: {why}",
@@ -236,6 +244,33 @@ def discover_fleet(
         )
     files.sort(key=lambda f: (f.robot, f.axis, f.captured_at, f.capture))
     return files, problems
+
+
+def misnamed_folder_key(error: str) -> str | None:
+    """The ``reason_key`` of a misnamed folder's line (its reason without its file count); None
+    for any other line. For the rejections a store kept before it stored the key.
+
+    Parameters
+    ----------
+    error : str
+        A stored rejection's line.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> misnamed_folder_key(
+    ...     "robot 2/: robot folder name 'robot 2' is not an identifier (1-64 ASCII letters); "
+    ...     "its 8 capture file(s) are not scored until the folder is renamed."
+    ... )
+    "robot 2/: robot folder name 'robot 2' is not an identifier (1-64 ASCII letters)"
+    >>> misnamed_folder_key("r1/loose.csv: capture file at the wrong depth") is None
+    True
+    """
+    found = _MISNAMED_LINE.fullmatch(error)
+    return None if found is None else found["key"]
 
 
 def _folder_problem(root: Path, path: Path, reason: str) -> LayoutProblem:

@@ -30,7 +30,8 @@ Tables (schema version 2):
     ...). The row id is the scoring order.
 ``rejections``
     capture files that could not be used, with the error; keyed by file content hash, so a
-    repaired file is tried again.
+    repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
+    folder's row derived from its line) is what an acknowledgement is of.
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
 ``baseline_checks``
@@ -79,6 +80,7 @@ import pandas as pd
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, stored_threshold
+from axiswatch.monitor._fleet import misnamed_folder_key
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -998,6 +1000,18 @@ class SQLiteStore:
                 present = {row[1] for row in connection.execute(f"PRAGMA table_info({table})")}
                 if column not in present:
                     connection.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
+            # A misnamed folder's rejection stored before its reason_key (the column is added
+            # empty): the key from its line, in this transaction, so that an acknowledgement
+            # made before the upgrade still holds when the next run stores the key.
+            for row_id, error in connection.execute(
+                "SELECT id, error FROM rejections WHERE reason_key IS NULL AND kind='layout' "
+                "AND capture=''"
+            ).fetchall():
+                key = misnamed_folder_key(error)
+                if key is not None:
+                    connection.execute(
+                        "UPDATE rejections SET reason_key=? WHERE id=?", (key, row_id)
+                    )
             connection.execute(_AXIS_ACTIVITY)
             connection.execute(_BASELINE_CHECKS)
 
