@@ -905,6 +905,27 @@ def _slow_capture_writer(root: Path) -> Callable[[int], None]:
     return day
 
 
+def _slow_baseline_before_an_upgrade(
+    root: Path, store: SQLiteStore, day: Callable[[int], None], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Store r1/a1's baseline from 7 slow captures (``day``: :func:`_slow_capture_writer`) as a
+    version from before the 20 Hz floor did, in an older model format: the next run refits it
+    (an upgrade, run in a new process)."""
+    import axiswatch.monitor._indicators as indicators
+    import axiswatch.monitor._models
+    import axiswatch.monitor._persist
+
+    for k in range(7):
+        day(k)
+    current = axiswatch.monitor._persist.PERSIST_FORMAT
+    with monkeypatch.context() as before:
+        before.setattr(indicators, "MIN_MONITOR_RATE_HZ", 0.01)  # no floor yet
+        before.setattr(axiswatch.monitor._persist, "PERSIST_FORMAT", current - 1)
+        config = MonitorConfig(method="indicators")
+        assert monitor_fleet(root, store, config, settle_s=0).new_baselines == 1
+    axiswatch.monitor._models._cache.clear()
+
+
 def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -945,22 +966,11 @@ def test_a_stored_baseline_below_20_hz_is_refitted_after_an_upgrade_and_still_on
     # Before: an upgrade that bumps the stored model format refits every baseline, and the refit
     # of a slow one met the 20 Hz floor of new baselines: "...; the stored baseline cannot be
     # refitted", an axis not scored, instead of the rebaseline note of a kept slow baseline.
-    import axiswatch.monitor._indicators as indicators
-    import axiswatch.monitor._models
-    import axiswatch.monitor._persist
-
     root = tmp_path / "fleet"
     day = _slow_capture_writer(root)
-    for k in range(7):
-        day(k)
     config = MonitorConfig(method="indicators")
-    current = axiswatch.monitor._persist.PERSIST_FORMAT
     with SQLiteStore(tmp_path / "s.sqlite") as store:
-        with monkeypatch.context() as before:
-            before.setattr(indicators, "MIN_MONITOR_RATE_HZ", 0.01)  # no floor yet
-            before.setattr(axiswatch.monitor._persist, "PERSIST_FORMAT", current - 1)
-            assert monitor_fleet(root, store, config, settle_s=0).new_baselines == 1
-        axiswatch.monitor._models._cache.clear()  # the upgraded version runs in a new process
+        _slow_baseline_before_an_upgrade(root, store, day, monkeypatch)
         day(7)
         upgraded = monitor_fleet(root, store, config, settle_s=0)
         assert upgraded.axis_problems == []
@@ -975,3 +985,41 @@ def test_a_stored_baseline_below_20_hz_is_refitted_after_an_upgrade_and_still_on
         assert monitor_fleet(root, store, config, settle_s=0).baseline_checks == (
             upgraded.baseline_checks
         )  # the refitted model is stored and still noted on the next run
+
+
+def test_a_stored_baseline_below_20_hz_that_cannot_be_refitted_says_why_and_to_rebaseline(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Before: a slow stored baseline whose refit failed for another reason was one line, "...;
+    # the stored baseline cannot be refitted", without the note that the baseline is below
+    # 20 Hz and to rebaseline: the one thing that mends it (the note came only from a model).
+    root = tmp_path / "fleet"
+    day = _slow_capture_writer(root)
+    config = MonitorConfig(method="indicators")
+    folder = root / "r1" / "a1"
+    slow = "(baseline at 0.05 Hz, below the 20 Hz the indicators need: rebaseline)"
+    with SQLiteStore(tmp_path / "s.sqlite") as store:
+        _slow_baseline_before_an_upgrade(root, store, day, monkeypatch)
+        # A profile that cannot be read: the refit fails before it reads the baseline.
+        (folder / "axis.toml").write_text("[units]\ntime = 3\n")
+        broken = monitor_fleet(root, store, config, settle_s=0)
+        (folder / "axis.toml").unlink()
+        # The logger is fixed (seconds, 50 Hz) and the old calibration captures are archived.
+        for k in range(1, 7):
+            (folder / f"2026-03-{k + 1:02d}.csv").unlink()
+        robot = draw_robot(ROBOT_SEED)
+        for k in (7, 8):
+            frame = capture_to_frame(robot.capture(0, seed=k))
+            frame.to_csv(folder / f"2026-03-{k + 1:02d}.csv", index=False)
+        settle(root)
+        archived = monitor_fleet(root, store, config, settle_s=0)
+    (line,) = broken.axis_problems
+    assert line.startswith("r1/a1/2026-03-01.csv: ")
+    assert "[units]: 'time' must be a quoted string; got 3 (int); the stored baseline " in line
+    assert line.endswith(f"cannot be refitted {slow}")
+    (line,) = archived.axis_problems
+    assert line.startswith("r1/a1: calibrating, 0 of 5 captures after the baseline ")
+    assert "the first: r1/a1/2026-03-08.csv: column 'position' is sampled at 50 Hz" in line
+    assert line.endswith(f"; the stored baseline cannot be refitted {slow}")
+    for run in (broken, archived):  # never an alarm, not scored, exit status 8
+        assert (run.alarms, run.scored, run.baseline_checks, run.exit_code) == ([], 0, [], 8)

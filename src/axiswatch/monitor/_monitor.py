@@ -417,6 +417,21 @@ def _note_slow_baseline(
         run.problem_axes.add((state.robot, state.axis))
 
 
+def _refit_failed(
+    run: _Run, state: _Axis, baseline: Baseline, why: str, rates_hz: Mapping[str, float]
+) -> None:
+    """A stored baseline that cannot be refitted: its axis is not scored, one line says why. A
+    baseline slower than 20 Hz also gets its rebaseline advice on that line: a rebaseline is
+    what mends both, and without a refitted model the note of a kept slow baseline is not made.
+    ``rates_hz``: the baseline capture's, when the refit read it; else the stored model's."""
+    if not rates_hz:
+        saved = run.caches.saved_model(baseline.id)
+        rates_hz = {} if saved is None else saved.rates_hz
+    slow = slow_baseline_note(rates_hz) if run.config.preset.indicator_model else None
+    advice = "" if slow is None else f" ({slow})"
+    run.problem(state, f"{why.removesuffix('.')}; the stored baseline cannot be refitted{advice}")
+
+
 def _still_valid(run: _Run, saved: SavedModel, baseline: Baseline) -> bool:
     """A stored model of the baseline that this run can use as it is: same file, parameters,
     library version and model format. Any other is refitted (and never read: a blob of an
@@ -470,14 +485,14 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
     file = outcome.job.file
     if outcome.waiting is not None:  # an IndicatorModel short of calibration captures
         if state.baseline is not None:
-            run.problem(state, f"{outcome.waiting}; the stored baseline cannot be refitted")
+            _refit_failed(run, state, state.baseline, outcome.waiting, outcome.rates_hz)
         else:
             run.summary.calibrating.append(outcome.waiting)
             run.problem_axes.add((state.robot, state.axis))  # listed again next run
         return None
     if state.baseline is not None:  # an active baseline, refitted
         if outcome.error is not None:
-            run.problem(state, f"{outcome.error}; the stored baseline cannot be refitted")
+            _refit_failed(run, state, state.baseline, outcome.error, outcome.rates_hz)
         else:
             state.model = run.persist(outcome, state.baseline.id)
             state.rates_hz = outcome.rates_hz

@@ -506,7 +506,8 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             # waits for ever without a word of why.
             first = unusable[0].removesuffix(".")
             waiting += f" ({len(unusable)} could not be used; the first: {first})"
-        return FitOutcome(job, "", None, None, {}, digest, "", None, waiting=waiting)
+        rates = dict(capture.rates_hz)  # of the baseline: a stored one's line names them
+        return FitOutcome(job, "", None, None, rates, digest, "", None, waiting=waiting)
     try:
         fitted = fit_indicator_baseline(
             readings,
