@@ -537,10 +537,15 @@ class MemoryStore:
 
     def changed_file_table(self) -> pd.DataFrame:
         rows = sorted(
-            ((c.robot, c.axis, c.path, stamp) for c, stamp in self._changed),
+            (
+                (c.robot, c.axis, c.path, stamp,
+                 self._seen_changes.get((c.path, c.scored_hash, c.current_hash)))
+                for c, stamp in self._changed
+            ),
             key=lambda row: row[2],
-        )
-        return pd.DataFrame(rows, columns=["robot", "axis", "path", "detected_at"])
+        )  # fmt: skip
+        columns = ["robot", "axis", "path", "detected_at", "acknowledged_at"]
+        return pd.DataFrame(rows, columns=columns)
 
     # --- standing problems and axis activity ---------------------------------------------------
 

@@ -16,7 +16,7 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._report import write_report
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import Store
+from axiswatch.monitor._store import Store, now
 from tests.conftest import settle
 from tests.test_monitor import faulty_copy
 
@@ -130,6 +130,39 @@ def test_an_acknowledged_rejection_stays_on_the_line_but_needs_no_attention(
     table = page.split("<h2 id='rejected'>Rejected captures</h2>")[1]
     assert "<th>seen</th>" in table
     assert re.search(r"robot 2/: robot .*?</td><td class='text'>\d{4}-\d\d-\d\d \d\d:", table)
+
+
+def test_an_acknowledged_changed_file_stays_on_the_line_but_needs_no_attention(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # Before: as for rejections, `rejections --ack` of a changed file did not reach the report,
+    # which read no acknowledgement and kept its axis under "Needs attention now".
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        for axis in ("axis1", "axis2"):
+            target = fleet / f"robot01/{axis}/2026-03-08.parquet"
+            faulty_copy(target, target)
+        settle(fleet)
+        assert len(monitor_fleet(fleet, store, PCA, settle_s=0).changed) == 2
+        assert store.acknowledge_problems(["robot01/axis1/2026-03-08.parquet"], now()) == 1
+        items = _triage(store)
+        page = write_report(store, tmp_path / "r").read_text(encoding="utf-8")
+    seen, unseen = items["robot01/axis1"], items["robot01/axis2"]
+    assert (seen.kind, seen.needs_attention) == ("ok", False)
+    assert re.search(
+        r" 1 file\(s\) changed after they were scored \(results kept\), seen on "
+        r"\d{4}-\d\d-\d\d: robot01/axis1/2026-03-08.parquet$",
+        seen.line,
+    ), seen.line
+    assert (unseen.kind, unseen.needs_attention) == ("bad data", True)
+    assert unseen.line.startswith("1 file(s) changed after they were scored (results kept): ")
+    attention = page.split("<section id='attention'>")[1].split("<details id='healthy'>")[0]
+    assert "Needs attention now (1)" in attention
+    assert "data-axis='robot01/axis2' data-kind='bad data'" in attention
+    table = page.split("<h2>Files changed after they were scored</h2>")[1]
+    assert "<th>seen</th>" in table
+    assert re.search(r"axis1/2026-03-08.parquet</td><td class='text'>[^<]+</td><td class='text'>"
+                     r"\d{4}-\d\d-\d\d \d\d:", table)  # fmt: skip
 
 
 def test_alarms_rank_first_and_an_acknowledged_one_last(fleet: Path, tmp_path: Path) -> None:

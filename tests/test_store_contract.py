@@ -513,8 +513,14 @@ def test_changed_files_are_recorded_once(store: StoreBackend) -> None:
         ChangedFile("r1", "a1", "2026-03-01.csv", "r1/a1/2026-03-01.csv", "o", "n")
     )
     table = store.changed_file_table()
-    assert list(table.columns) == ["robot", "axis", "path", "detected_at"]
+    assert list(table.columns) == ["robot", "axis", "path", "detected_at", "acknowledged_at"]
     assert table.path.tolist() == ["r1/a1/2026-03-01.csv", "r1/a1/2026-03-02.csv"]
+    assert table.acknowledged_at.isna().all()
+    # What the report reads to tell an acknowledged change from a new one.
+    assert store.acknowledge_problems(["r1/a1/2026-03-02.csv"], "2026-03-10T08:00:00") == 1
+    seen = store.changed_file_table()
+    assert seen.acknowledged_at.notna().tolist() == [False, True]
+    assert seen.acknowledged_at.iloc[1] == "2026-03-10T08:00:00"
 
 
 def test_the_monitor_reaches_the_same_results_on_any_backend(

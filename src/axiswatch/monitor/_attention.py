@@ -7,8 +7,9 @@ For one method (the product default when the store has it) every axis gets a kin
 1. ``bad data``: captures rejected, not replaced by a scored file of the same path and not
    acknowledged (``axiswatch rejections --ack PATH``: an acknowledged rejection stays on the
    axis's line, "seen on ...", but no longer needs attention, as in the monitor's exit status),
-   files changed after they were scored, or no baseline at all (an axis whose only rejections
-   are acknowledged, such as a misnamed folder's, is ``calibrating``);
+   files changed after they were scored (unless acknowledged, likewise), or no baseline at all
+   (an axis whose only rejections are acknowledged, such as a misnamed folder's, is
+   ``calibrating``);
 2. ``baseline check``: a stored check of its active baseline (``StoreBackend.baseline_checks``:
    the capture disagrees with its calibration captures, or the baseline with its fleet's) that
    nobody acknowledged (``axiswatch rejections --ack PATH``). Like bad data it says the axis's
@@ -230,6 +231,8 @@ def triage(
             problems.append("bad data")
             lines.append(f"{len(bad)} capture file(s) rejected, latest: {bad.error.iloc[-1]}")
         moved = changed[(changed.robot == robot) & (changed.axis == axis)]
+        seen_moved = moved[moved.acknowledged_at.notna()]  # on the line as seen, like `seen`
+        moved = moved[moved.acknowledged_at.isna()]
         if not moved.empty:
             problems.append("bad data")
             lines.append(
@@ -265,6 +268,11 @@ def triage(
             lines.append(
                 f"{len(seen)} capture file(s) rejected, seen on "
                 f"{_day(seen.acknowledged_at.max())}, latest: {seen.error.iloc[-1]}"
+            )
+        if not seen_moved.empty:
+            lines.append(
+                f"{len(seen_moved)} file(s) changed after they were scored (results kept), seen "
+                f"on {_day(seen_moved.acknowledged_at.max())}: " + ", ".join(seen_moved.path)
             )
         lines += [_check_line(c) for c in stored]
         if last is not None:

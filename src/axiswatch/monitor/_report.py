@@ -15,8 +15,8 @@ server and no network. From top to bottom:
    zoom, and hover for capture, value and reason), and a short history of events (baseline,
    threshold, alarms raised and cleared, acknowledgements, baselines to check and their
    acknowledgement, re-baselines).
-3. Rejected captures (with when they were acknowledged, ``rejections --ack``) and files changed
-   after scoring.
+3. Rejected captures and files changed after scoring (with when each was acknowledged,
+   ``rejections --ack``).
 """
 
 from __future__ import annotations
@@ -381,7 +381,12 @@ def write_report(
     if not changed.empty:
         parts += [
             "<h2>Files changed after they were scored</h2>",
-            _table(changed[["path", "detected_at"]], text=("path", "detected_at")),
+            _table(
+                changed[["path", "detected_at"]].assign(
+                    seen=["" if pd.isna(at) else _when(at) for at in changed.acknowledged_at]
+                ),
+                text=("path", "detected_at", "seen"),
+            ),
         ]
     parts.append(f"<script type='text/javascript'>{_SCRIPT}</script></body></html>")
     page = out / "index.html"

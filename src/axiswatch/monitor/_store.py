@@ -556,7 +556,8 @@ class StoreBackend(Protocol):
         ...
 
     def changed_file_table(self) -> pd.DataFrame:
-        """Changed files: robot, axis, path, detected_at; ordered by path, then as recorded."""
+        """Changed files: robot, axis, path, detected_at, acknowledged_at (None until
+        ``rejections --ack``); ordered by path, then as recorded."""
         ...
 
 
@@ -1696,7 +1697,8 @@ class SQLiteStore:
 
     def changed_file_table(self) -> pd.DataFrame:
         return self._frame(
-            "SELECT robot, axis, path, detected_at FROM changed_files ORDER BY path, id"
+            "SELECT robot, axis, path, detected_at, acknowledged_at FROM changed_files "
+            "ORDER BY path, id"
         )
 
     # --- standing problems and axis activity ---------------------------------------------------
