@@ -218,10 +218,10 @@ def unit_change_prior(
 
     Examples
     --------
-    >>> centres = [{"x": 0.0}, {"x": 1.0}, {"x": 10.0}, {"x": 12.0}, {"x": 20.0}, {"x": 23.0}]
-    >>> within = [{"x": 1.0}] * 6
+    >>> centres = [{"coulomb_friction": c} for c in (0.0, 1.0, 10.0, 12.0, 20.0, 23.0)]
+    >>> within = [{"coulomb_friction": 1.0}] * 6
     >>> prior = unit_change_prior(centres, within, [(0, 1), (2, 3), (4, 5)])
-    >>> round(prior.task_spreads["x"], 4), prior.n_pairs  # 1.4826 x median(1, 2, 3)
+    >>> round(prior.task_spreads["coulomb_friction"], 4), prior.n_pairs  # 1.4826 x median(1, 2, 3)
     (2.9652, 6)
     >>> unit_change_prior(centres, within, [(0, 1), (2, 3)]) is None
     True
@@ -301,7 +301,7 @@ def wrong_matches(
     >>> import numpy as np
     >>> reference = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5])
     >>> other = reference * [1.5, 1, 1, 1, 1, 1]
-    >>> captures = [reference, reference * [1.2, 1, 1, 1, 1, 1], other]
+    >>> captures = [reference, reference * [1.25, 1, 1, 1, 1, 1], other]  # 2nd: by axis 1
     >>> wrong_matches(captures, [0, 0, 1], [reference, other], [0.1, 0.2], [0, 1])
     1
     """
