@@ -771,3 +771,48 @@ def order_bands_naive(first_cell: int, values: list[float], cells_per_band: int)
         finite = [v for v in bands[b] if v == v]
         out.append(max(finite) if finite else math.nan)
     return out
+
+
+def unit_change_prior_naive(
+    centres: list[dict[str, float]],
+    within: list[dict[str, float]],
+    pairs: list[tuple[int, int]],
+    one_sided: dict[str, bool],
+) -> tuple[dict[str, float], float, dict[str, float]]:
+    """The nearest-task study's unit-change prior by loops over the same-task pairs: per
+    indicator ``s_u = 1.4826 x median |c_a - c_b|`` (3 pairs at least); every pair both ways,
+    ``z = (c_i - c_j) / sqrt(s_u^2 + s_w,j^2)``; the one allowance scale ``median / ln 2`` of
+    the ordered pairs' largest shift (``max(z, 0)`` one sided, ``|z|`` otherwise), each
+    indicator's ``median / ln 2`` of its ``|z|`` (3 ordered pairs at least)."""
+    nan = float("nan")
+    names = sorted({n for c in centres for n in c})
+    spreads = {}
+    for name in names:
+        differences = [abs(centres[a].get(name, nan) - centres[b].get(name, nan)) for a, b in pairs]
+        finite = [d for d in differences if d == d]
+        spreads[name] = 1.4826 * float(np.median(finite)) if len(finite) >= 3 else nan
+    largest: list[float] = []
+    shifts: dict[str, list[float]] = {n: [] for n in names}
+    for a, b in pairs:
+        for i, j in ((a, b), (b, a)):
+            top = nan
+            for name in names:
+                spread = spreads[name]
+                if not (spread == spread and spread > 0):
+                    continue
+                z = (centres[i].get(name, nan) - centres[j].get(name, nan)) / math.hypot(
+                    spread, within[j].get(name, nan)
+                )
+                if z != z:
+                    continue
+                shifts[name].append(abs(z))
+                shift = max(z, 0.0) if one_sided[name] else abs(z)
+                top = shift if top != top else max(top, shift)
+            if top == top:
+                largest.append(top)
+    scales = {
+        n: float(np.median(v)) / math.log(2.0) if len(v) >= 3 and np.median(v) > 0 else nan
+        for n, v in shifts.items()
+        if spreads[n] == spreads[n] and spreads[n] > 0
+    }
+    return spreads, float(np.median(largest)) / math.log(2.0), scales

@@ -304,6 +304,52 @@ def experiment_transfer(
     typer.echo(f"\nwrote {out / 'robots.csv'}, {out / 'real.csv'}")
 
 
+@experiment_app.command("nearest-task")
+def experiment_nearest_task(
+    out: Annotated[Path, typer.Option("--out", help="Folder for the table (CSV).")],
+    robots: Annotated[
+        str,
+        typer.Option(help="'development' (robots 0-7, the only ones for choices) or seeds 1,2."),
+    ] = "development",
+    unit_spread: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="Log standard deviation between the units (two per task in the fleet; 0: one "
+            "unit, where the variant is the oracle by construction).",
+        ),
+    ] = 0.1,
+    fast: Annotated[bool, typer.Option(help="Small configuration (seconds per robot).")] = False,
+    workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
+) -> None:
+    """Nearest task (lab): a task change scored against the fleet axis that runs that task."""
+    from axiswatch.datasets import DEVELOPMENT_ROBOTS
+    from axiswatch_lab._nearest_task import nearest_task_study
+    from axiswatch_lab._transfer import FAST_DESIGN, TransferDesign
+
+    if robots == "development":
+        seeds: tuple[int, ...] = DEVELOPMENT_ROBOTS
+    else:
+        try:
+            seeds = tuple(int(s) for s in robots.split(","))
+        except ValueError:
+            typer.echo(
+                f"error: --robots must be 'development' or seeds such as 1,2; got {robots!r}.",
+                err=True,
+            )
+            raise typer.Exit(2) from None
+    design = dataclasses.replace(
+        FAST_DESIGN if fast else TransferDesign(robot_a_days=48),
+        degradation_days=0,
+        unit_spread=unit_spread,
+    )
+    table = nearest_task_study(seeds, design, workers=workers)
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "robots.csv", index=False)
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    typer.echo(f"\nwrote {out / 'robots.csv'}")
+
+
 @experiment_app.command("ceiling")
 def experiment_ceiling(
     out: Annotated[Path, typer.Option("--out", help="Folder for the tables (CSV).")],

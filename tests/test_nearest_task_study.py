@@ -1,0 +1,178 @@
+"""The nearest-task study (lab): its unit-change prior, its matching, and its record."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from threadpoolctl import threadpool_limits
+from typer.testing import CliRunner
+
+from axiswatch._indicator_model import IndicatorModel, pool_fleet
+from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch.datasets._family import draw_robot
+from axiswatch_lab._nearest_task import (
+    holding_axes,
+    robot_nearest_task,
+    same_task_pairs,
+    score_nearest,
+    unit_change_prior,
+    wrong_matches,
+)
+from axiswatch_lab._transfer import FAST_DESIGN, TransferDesign
+from axiswatch_lab.cli import experiment_app
+from tests.naive import unit_change_prior_naive
+
+#: A task signature (top speed, moving speed quantiles, position quantiles, share moving).
+REFERENCE = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5])
+
+
+def _faster(factor: float) -> np.ndarray:
+    """REFERENCE with its top speed times ``factor``: ``|factor - 1|`` from it."""
+    return REFERENCE * np.array([factor, 1, 1, 1, 1, 1])
+
+
+def test_unit_change_prior_matches_its_naive_twin() -> None:
+    rng = np.random.default_rng(7)
+    names = ("coulomb_friction", "impulsiveness", "viscous_friction")
+    centres = [
+        {n: float(rng.normal(10.0 * (k // 2), 1.0)) for n in names} for k in range(8)
+    ]  # pairs
+    within = [{n: float(rng.uniform(0.2, 1.5)) for n in names} for _ in range(8)]
+    del centres[2]["viscous_friction"], centres[5]["impulsiveness"]  # not read on every axis
+    pairs = [(0, 1), (2, 3), (4, 5), (6, 7)]
+    prior = unit_change_prior(centres, within, pairs)
+    assert prior is not None
+    spreads, scale, scales = unit_change_prior_naive(
+        centres, within, pairs, {n: n == "impulsiveness" for n in names}
+    )
+    for name in names:
+        assert prior.task_spreads[name] == pytest.approx(spreads[name], rel=1e-12)
+        assert prior.indicator_scales[name] == pytest.approx(scales[name], rel=1e-12)
+    assert prior.allowance_scale == pytest.approx(scale, rel=1e-12)
+    assert (prior.n_axes, prior.centres) == (8, ())
+    # Only the pairs count: two units differ by about sqrt(2), two pairs by 10 or more.
+    assert prior.task_spreads["coulomb_friction"] < 3.0
+
+
+def test_unit_change_prior_needs_three_same_task_pairs() -> None:
+    centres = [{"coulomb_friction": float(k)} for k in range(6)]
+    within = [{"coulomb_friction": 1.0}] * 6
+    assert unit_change_prior(centres, within, [(0, 1), (2, 3)]) is None
+    assert unit_change_prior(centres, within, [(0, 1), (2, 3), (4, 5)]) is not None
+
+
+def test_same_task_pairs_need_each_within_the_other() -> None:
+    # Axis 1 holds axis 0 (0.15 <= 0.2), axis 0 does not hold axis 1 (0.15 > 0.1).
+    pairs = same_task_pairs([REFERENCE, _faster(1.15), _faster(1.16)], [0.1, 0.2, 0.2])
+    assert pairs == [(1, 2)]
+
+
+def test_wrong_match_count_on_a_tiny_constructed_case() -> None:
+    # Axes: task 0 at REFERENCE (envelope 0.1), task 1 at +30 % top speed (envelope 0.2 of its
+    # 2.6: it holds signatures from +4.8 % to +55 %).
+    references = [REFERENCE, _faster(1.3)]
+    envelopes = [0.1, 0.2]
+    signatures = [
+        REFERENCE,  # task 0, held by axis 0 only: right
+        _faster(1.06),  # task 0, held by both: wrong
+        _faster(1.3),  # task 1, held by axis 1 only: right
+        _faster(3.0),  # task 1, held by none: not a wrong match
+        np.full(6, np.nan),  # motion not read: held by none
+    ]
+    tasks = [0, 0, 1, 1, 0]
+    assert wrong_matches(signatures, tasks, references, envelopes, [0, 1]) == 1
+    assert wrong_matches(signatures, tasks, references, envelopes, [1, 1]) == 2
+    assert [k for _, k in holding_axes(_faster(1.06), references, envelopes)] == [0, 1]
+
+
+@pytest.fixture(scope="module")
+def small_fleet() -> tuple[list[IndicatorModel], dict[int, object]]:
+    """Axes of tasks 0, 1 and 2 of one robot (4 captures each), pooled; readings of one more
+    capture of tasks 0, 1 and 3."""
+    robot = draw_robot(DEVELOPMENT_ROBOTS[1])
+    reader = IndicatorModel()
+    with threadpool_limits(1):
+        fleet = [
+            IndicatorModel().fit_readings(
+                [reader.readings(robot.capture(t, seed=k)) for k in range(4)]
+            )
+            for t in range(3)
+        ]
+        prior = pool_fleet(fleet)
+        for model in fleet:
+            model.use_fleet(prior)
+        tests = {t: reader.readings(robot.capture(t, seed=99)) for t in (0, 1, 3)}
+    return fleet, tests  # type: ignore[return-value]
+
+
+def test_variant_is_the_default_when_no_other_axis_matches(
+    small_fleet: tuple[list[IndicatorModel], dict[int, object]],
+) -> None:
+    fleet, tests = small_fleet
+    # Stand-ins for the unit-change models: any models other than the baseline's do.
+    unit_models = [
+        IndicatorModel().fit_readings(m.fit_readings_).use_fleet(pool_fleet(fleet)) for m in fleet
+    ]
+    own = fleet[0]
+    references = [m.task_reference_ for m in fleet]
+    envelopes = [m.task_envelope_ for m in fleet]
+    for task in (0, 3):  # the baseline's own task; a task no axis runs
+        readings = tests[task]
+        assert task == 0 or not holding_axes(readings.signature, references, envelopes)  # type: ignore[attr-defined]
+        default = own.assess_readings(readings)  # type: ignore[arg-type]
+        score = score_nearest(readings, own, 0, fleet, unit_models)  # type: ignore[arg-type]
+        assert score.matched is None
+        assert score.ratio == default.distance / default.threshold
+        assert score.alarm == default.alarm
+    # A capture of task 1 goes to axis 1 (so the test above can fail), unless there is no prior.
+    score = score_nearest(tests[1], own, 0, fleet, unit_models)  # type: ignore[arg-type]
+    scored = unit_models[1].assess_readings(tests[1])  # type: ignore[arg-type]
+    assert score.matched == 1
+    assert score.ratio == scored.distance / scored.threshold
+    assert score_nearest(tests[1], own, 0, fleet, None).matched is None  # type: ignore[arg-type]
+
+
+def test_the_study_takes_no_order_lines() -> None:
+    with pytest.raises(ValueError, match="takes no order lines"):
+        robot_nearest_task(DEVELOPMENT_ROBOTS[0], TransferDesign(order_lines=True))
+
+
+@pytest.mark.slow
+def test_robot_record_has_every_measure() -> None:
+    design = TransferDesign(
+        n_per_cell=1, n_calibration=2, robot_a_days=8, degradation_days=0, unit_spread=0.1
+    )
+    with threadpool_limits(1):
+        record = robot_nearest_task(DEVELOPMENT_ROBOTS[1], design)
+    for variant in ("default", "nearest", "absent"):
+        for fault in ("backlash", "friction", "tooth", "bearing"):
+            assert 0.0 <= float(record[f"{variant}_auroc_{fault}"]) <= 1.0  # type: ignore[arg-type]
+        assert 0.0 <= float(record[f"{variant}_far99"]) <= 1.0  # type: ignore[arg-type]
+    for share in ("share_rerouted", "share_wrong_match", "share_wrong_nearest"):
+        assert 0.0 <= float(record[share]) <= 1.0  # type: ignore[arg-type]
+    assert record["robot_a_test_days"] == 8 - 3
+    assert not math.isnan(float(record["absent_share_rerouted"]))  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_the_command_writes_the_table(tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        experiment_app,
+        ["nearest-task", "--out", str(tmp_path), "--robots", "1", "--fast", "--unit-spread", "0.2"],
+    )
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(tmp_path / "robots.csv")
+    assert list(table.robot) == ["robot1"]
+    assert table.robot_a_test_days.tolist() == [FAST_DESIGN.robot_a_days - 5]
+
+
+def test_the_command_refuses_unreadable_robots(tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        experiment_app, ["nearest-task", "--out", str(tmp_path), "--robots", "some"]
+    )
+    assert result.exit_code == 2
+    assert "--robots must be 'development' or seeds such as 1,2; got 'some'" in result.output
