@@ -142,23 +142,6 @@ def test_the_study_takes_no_order_lines() -> None:
 
 
 @pytest.mark.slow
-def test_robot_record_has_every_measure() -> None:
-    design = TransferDesign(
-        n_per_cell=1, n_calibration=2, robot_a_days=8, degradation_days=0, unit_spread=0.1
-    )
-    with threadpool_limits(1):
-        record = robot_nearest_task(DEVELOPMENT_ROBOTS[1], design)
-    for variant in ("default", "nearest", "absent"):
-        for fault in ("backlash", "friction", "tooth", "bearing"):
-            assert 0.0 <= float(record[f"{variant}_auroc_{fault}"]) <= 1.0  # type: ignore[arg-type]
-        assert 0.0 <= float(record[f"{variant}_far99"]) <= 1.0  # type: ignore[arg-type]
-    for share in ("share_rerouted", "share_wrong_match", "share_wrong_nearest"):
-        assert 0.0 <= float(record[share]) <= 1.0  # type: ignore[arg-type]
-    assert record["robot_a_test_days"] == 8 - 3
-    assert not math.isnan(float(record["absent_share_rerouted"]))  # type: ignore[arg-type]
-
-
-@pytest.mark.slow
 def test_the_command_writes_the_table(tmp_path: Path) -> None:
     result = CliRunner().invoke(
         experiment_app,
@@ -168,6 +151,16 @@ def test_the_command_writes_the_table(tmp_path: Path) -> None:
     table = pd.read_csv(tmp_path / "robots.csv")
     assert list(table.robot) == ["robot1"]
     assert table.robot_a_test_days.tolist() == [FAST_DESIGN.robot_a_days - 5]
+    # Every measure of the record, for each variant, in its range (one robot record is the
+    # slow part of this module: read here, not in a test of its own).
+    record = table.iloc[0]
+    for variant in ("default", "nearest", "absent"):
+        for fault in ("backlash", "friction", "tooth", "bearing"):
+            assert 0.0 <= record[f"{variant}_auroc_{fault}"] <= 1.0
+        assert 0.0 <= record[f"{variant}_far99"] <= 1.0
+    for share in ("share_rerouted", "share_wrong_match", "share_wrong_nearest"):
+        assert 0.0 <= record[share] <= 1.0
+    assert not math.isnan(record["absent_share_rerouted"])
 
 
 def test_the_command_refuses_unreadable_robots(tmp_path: Path) -> None:
