@@ -1,12 +1,16 @@
 # Two entry points for a fresh machine with only Python 3.11 and make:
 #   make demo   creates .venv, installs, runs the main job end to end
-#   make test   creates .venv, installs, runs ruff, mypy and the whole test suite
+#   make test   creates .venv, installs, runs ruff, mypy and the whole test suite (2 processes)
 PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
 LOCK := requirements/dev.lock
+
+# The suite on 2 processes (pytest-xdist), each file's tests in one of them (module fixtures made
+# once), one BLAS thread each (tests/conftest.py); `pytest -q` alone runs it in one process.
+PYTEST_PARALLEL := -n 2 --dist loadfile
 
 .PHONY: demo test lint typecheck bench clean lock test-latest
 
@@ -29,7 +33,7 @@ test-latest:
 	rm -rf .venv-latest
 	$(PYTHON) -m venv .venv-latest
 	.venv-latest/bin/python -m pip install --quiet --upgrade -e ".[dev]"
-	.venv-latest/bin/python -m pytest -q
+	.venv-latest/bin/python -m pytest -q $(PYTEST_PARALLEL)
 
 demo: $(STAMP)
 	$(BIN)/axiswatch demo
@@ -43,7 +47,7 @@ typecheck: $(STAMP)
 	$(BIN)/mypy
 
 test: lint typecheck
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py

@@ -1,14 +1,31 @@
-"""Shared, seeded fixtures."""
+"""Shared, seeded fixtures; and one BLAS/OpenMP thread for the whole suite.
+
+The suite's linear algebra is small (SVDs of a few hundred rows): a multi-threaded BLAS only
+fights for the cores of a 2-core machine, and much harder under ``pytest -n 2``, where two test
+processes share them (``select_default``: 15 s on one thread, 60-250 s on two threads of a
+loaded machine). The variables are set before NumPy is first imported (here, and in every
+subprocess a test starts: ``axiswatch demo``, ``benchmarks/run.py``), and the limit is set once
+more at run time in case a plugin imported NumPy first. Tests that check a thread limit raise
+the driver's limit themselves (tests/test_worker_pool.py), so that they can still fail.
+"""
 
 from __future__ import annotations
 
-from pathlib import Path
+import os
 
-import numpy as np
-import pytest
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_variable] = "1"
 
-import axiswatch as aw
-import axiswatch.datasets as awd
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+import axiswatch as aw  # noqa: E402
+import axiswatch.datasets as awd  # noqa: E402
+
+threadpool_limits(1)
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

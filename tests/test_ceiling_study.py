@@ -112,6 +112,20 @@ def test_order_bands_follow_the_naive_twin() -> None:
     assert order_bands(None) == {}
 
 
+def test_the_permutation_repeats_reach_the_importances() -> None:
+    from axiswatch_lab._ceiling import _top_features
+
+    rng = np.random.default_rng(4)
+    labels = np.repeat([0, 1], 30).astype(np.int64)
+    features = rng.normal(size=(60, 4)) + 1.5 * labels[:, None] * np.eye(4)[0]
+    names = ["a", "b", "c", "d"]
+    once = _top_features(features, labels, np.arange(60), names, 2, n_repeats=1)
+    five = _top_features(features, labels, np.arange(60), names, 2, n_repeats=5)
+    assert once[:2] == five[:2]  # the logistic coefficients take no permutations
+    assert once[2][1] == five[2][1] == "a"
+    assert once[2][2] != five[2][2]
+
+
 @pytest.mark.slow
 def test_the_captures_are_the_paired_designs() -> None:
     robot = draw_robot(DEVELOPMENT_ROBOTS[5])  # 20 Hz: seconds
@@ -129,7 +143,12 @@ def test_the_captures_are_the_paired_designs() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options", [[], ["--permuted-labels", "--top", "0"]])
+@pytest.mark.parametrize(
+    # One permutation per feature and fold: the table's layout does not depend on the repeats
+    # (the study's default is 5).
+    "options",
+    [["--repeats", "1"], ["--permuted-labels", "--top", "0"]],
+)
 def test_the_command_writes_every_table(tmp_path: object, options: list[str]) -> None:
     from pathlib import Path
 
@@ -146,12 +165,20 @@ def test_the_command_writes_every_table(tmp_path: object, options: list[str]) ->
     assert aurocs.auroc.between(0, 1).all()
     summary = pd.read_csv(out / "summary.csv")
     assert set(summary.comparison) == set(COMPARISONS)
-    if options:  # --top 0: no importances computed
+    if "--top" in options:  # --top 0: no importances computed
         assert (out / "top_features.csv").read_text().strip() in ("", '""')
         return
     top = pd.read_csv(out / "top_features.csv")
     assert set(top.feature_set) == set(FEATURE_SETS)
     assert set(top.method) == {"logistic coef", "boosting permutation"}
+
+
+def test_the_command_refuses_no_permutation(tmp_path: object) -> None:
+    result = CliRunner().invoke(
+        experiment_app, ["ceiling", "--out", str(tmp_path), "--robots", "5", "--repeats", "0"]
+    )
+    assert result.exit_code == 2
+    assert "Invalid value for '--repeats'" in result.output
 
 
 def test_the_command_refuses_unreadable_robots(tmp_path: object) -> None:

@@ -27,10 +27,16 @@ from tests.conftest import SHARED_DATA
 TINY = TransferDesign(n_per_cell=1, n_calibration=2, robot_a_days=8, degradation_days=3)
 
 
-@pytest.mark.slow
-def test_robot_record_has_every_measure() -> None:
+@pytest.fixture(scope="module")
+def tiny_record() -> dict[str, object]:
+    """Robot 1's record on the tiny design: computed once for the tests that read it."""
     with threadpool_limits(1):
-        record = robot_transfer(DEVELOPMENT_ROBOTS[1], TINY)
+        return robot_transfer(DEVELOPMENT_ROBOTS[1], TINY)
+
+
+@pytest.mark.slow
+def test_robot_record_has_every_measure(tiny_record: dict[str, object]) -> None:
+    record = tiny_record
     for fault in ("backlash", "friction", "tooth", "bearing"):
         assert 0.0 <= float(record[f"auroc_{fault}"]) <= 1.0  # type: ignore[arg-type]
         assert 0.0 <= float(record[f"oracle_{fault}"]) <= 1.0  # type: ignore[arg-type]
@@ -64,9 +70,9 @@ def test_no_unit_spread_is_the_one_unit_study() -> None:
 
 
 @pytest.mark.slow
-def test_unit_spread_changes_the_record_not_its_layout() -> None:
+def test_unit_spread_changes_the_record_not_its_layout(tiny_record: dict[str, object]) -> None:
+    one = tiny_record
     with threadpool_limits(1):
-        one = robot_transfer(DEVELOPMENT_ROBOTS[1], TINY)
         many = robot_transfer(DEVELOPMENT_ROBOTS[1], dataclasses.replace(TINY, unit_spread=0.2))
     assert one.keys() == many.keys()
     assert one["robot"] == many["robot"]

@@ -94,6 +94,8 @@ WELCH_SEGMENT = 256
 ORDER_BAND_CELLS = CELLS_PER_DECADE // 4
 #: Folds of every cross-validation (fewer when a class has fewer captures).
 N_SPLITS = 5
+#: Permutations per feature and fold of the boosting's permutation importance.
+N_REPEATS = 5
 
 
 @dataclass(frozen=True)
@@ -336,12 +338,13 @@ def _top_features(
     groups: NDArray[np.int64],
     names: list[str],
     n_top: int,
+    n_repeats: int = N_REPEATS,
 ) -> list[tuple[str, str, float]]:
     """(method, feature, importance) of the ``n_top`` most important features by two methods:
     ``"logistic coef"``, the standardised logistic regression fitted on every row (signed:
     positive means higher in faulty captures); ``"boosting permutation"``, the mean fall of the
-    out-of-fold AUROC when the feature is permuted in the test fold (5 repeats), averaged over
-    the folds of :func:`out_of_fold_scores`."""
+    out-of-fold AUROC when the feature is permuted in the test fold (``n_repeats`` repeats),
+    averaged over the folds of :func:`out_of_fold_scores`."""
     used = _varying(features)
     kept = [n for n, u in zip(names, used, strict=True) if u]
     model = make_classifier("logistic")
@@ -360,7 +363,7 @@ def _top_features(
             features[test][:, in_fold],
             labels[test],
             scoring="roc_auc",
-            n_repeats=5,
+            n_repeats=n_repeats,
             random_state=0,
         )
         drop[in_fold] += result.importances_mean / folds
@@ -376,12 +379,14 @@ def robot_ceiling(
     feature_sets: Sequence[str] = FEATURE_SETS,
     n_top: int = 5,
     permuted: bool = False,
+    n_repeats: int = N_REPEATS,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The ceiling on one robot: out-of-fold AUROC per fault, feature set, classifier and
     comparison (see the module docstring), and the top features per fault and feature set.
 
     With ``permuted`` the health labels are shuffled within each task (seeded): the ceiling
     where there is nothing to find, which shows how optimistic the largest of the estimates is.
+    ``n_repeats``: permutations per feature and fold of the permutation importance.
 
     Returns
     -------
@@ -441,7 +446,9 @@ def robot_ceiling(
                             "auroc": values[comparison],
                         }
                     )
-            ranked = _top_features(features, labels, groups, names, n_top) if n_top else []
+            ranked = (
+                _top_features(features, labels, groups, names, n_top, n_repeats) if n_top else []
+            )
             for k, (method, name, importance) in enumerate(ranked):
                 top.append(
                     {
@@ -457,10 +464,10 @@ def robot_ceiling(
     return pd.DataFrame(rows), pd.DataFrame(top)
 
 
-def _one(args: tuple[int, TransferDesign, bool, int]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    seed, design, permuted, n_top = args
+def _one(args: tuple[int, TransferDesign, bool, int, int]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    seed, design, permuted, n_top, n_repeats = args
     with threadpool_limits(1):
-        return robot_ceiling(seed, design, permuted=permuted, n_top=n_top)
+        return robot_ceiling(seed, design, permuted=permuted, n_top=n_top, n_repeats=n_repeats)
 
 
 def ceiling_study(
@@ -470,11 +477,12 @@ def ceiling_study(
     workers: int = 1,
     permuted: bool = False,
     n_top: int = 5,
+    n_repeats: int = N_REPEATS,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """:func:`robot_ceiling` on every seed (in ``workers`` processes), tables concatenated in
     the seeds' order."""
     done: dict[int, tuple[pd.DataFrame, pd.DataFrame]] = {}
-    items = [(s, design, permuted, n_top) for s in seeds]
+    items = [(s, design, permuted, n_top, n_repeats) for s in seeds]
     for index, result in parallel_map(_one, items, workers=workers):
         done[index] = result
     ordered = [done[i] for i in sorted(done)]

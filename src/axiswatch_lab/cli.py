@@ -368,6 +368,12 @@ def experiment_ceiling(
         int,
         typer.Option(help="Most important features listed per fault and set (0: none, faster)."),
     ] = 5,
+    repeats: Annotated[
+        int,
+        typer.Option(
+            min=1, help="Permutations per feature and fold of the permutation importance."
+        ),
+    ] = 5,
 ) -> None:
     """A supervised ceiling (issue 13): cross-validated classifiers, faulty vs healthy captures."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS
@@ -387,7 +393,7 @@ def experiment_ceiling(
             raise typer.Exit(2) from None
     design = TransferDesign(n_per_cell=per_cell, severity=severity)
     aurocs, features = ceiling_study(
-        seeds, design, workers=workers, permuted=permuted_labels, n_top=top
+        seeds, design, workers=workers, permuted=permuted_labels, n_top=top, n_repeats=repeats
     )
     summary = ceiling_summary(aurocs)
     out.mkdir(parents=True, exist_ok=True)
