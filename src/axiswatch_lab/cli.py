@@ -304,6 +304,22 @@ def experiment_transfer(
     typer.echo(f"\nwrote {out / 'robots.csv'}, {out / 'real.csv'}")
 
 
+def _development_or_seeds(robots: str) -> tuple[int, ...]:
+    """``--robots``: 'development' (robots 0-7) or comma-separated seeds; else exit 2, one line."""
+    from axiswatch.datasets import DEVELOPMENT_ROBOTS
+
+    if robots == "development":
+        return DEVELOPMENT_ROBOTS
+    try:
+        return tuple(int(s) for s in robots.split(","))
+    except ValueError:
+        typer.echo(
+            f"error: --robots must be 'development' or seeds such as 1,2; got {robots!r}.",
+            err=True,
+        )
+        raise typer.Exit(2) from None
+
+
 @experiment_app.command("nearest-task")
 def experiment_nearest_task(
     out: Annotated[Path, typer.Option("--out", help="Folder for the table (CSV).")],
@@ -323,21 +339,10 @@ def experiment_nearest_task(
     workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
 ) -> None:
     """Nearest task (lab): a task change scored against the fleet axis that runs that task."""
-    from axiswatch.datasets import DEVELOPMENT_ROBOTS
     from axiswatch_lab._nearest_task import nearest_task_study
     from axiswatch_lab._transfer import FAST_DESIGN, TransferDesign
 
-    if robots == "development":
-        seeds: tuple[int, ...] = DEVELOPMENT_ROBOTS
-    else:
-        try:
-            seeds = tuple(int(s) for s in robots.split(","))
-        except ValueError:
-            typer.echo(
-                f"error: --robots must be 'development' or seeds such as 1,2; got {robots!r}.",
-                err=True,
-            )
-            raise typer.Exit(2) from None
+    seeds = _development_or_seeds(robots)
     design = dataclasses.replace(
         FAST_DESIGN if fast else TransferDesign(robot_a_days=48),
         degradation_days=0,
@@ -376,21 +381,10 @@ def experiment_ceiling(
     ] = 5,
 ) -> None:
     """A supervised ceiling (issue 13): cross-validated classifiers, faulty vs healthy captures."""
-    from axiswatch.datasets import DEVELOPMENT_ROBOTS
     from axiswatch_lab._ceiling import ceiling_study, ceiling_summary
     from axiswatch_lab._transfer import TransferDesign
 
-    if robots == "development":
-        seeds: tuple[int, ...] = DEVELOPMENT_ROBOTS
-    else:
-        try:
-            seeds = tuple(int(s) for s in robots.split(","))
-        except ValueError:
-            typer.echo(
-                f"error: --robots must be 'development' or seeds such as 1,2; got {robots!r}.",
-                err=True,
-            )
-            raise typer.Exit(2) from None
+    seeds = _development_or_seeds(robots)
     design = TransferDesign(n_per_cell=per_cell, severity=severity)
     aurocs, features = ceiling_study(
         seeds, design, workers=workers, permuted=permuted_labels, n_top=top, n_repeats=repeats
