@@ -30,7 +30,8 @@ allowance. The variant studied here uses what the fleet knows about the new task
   takes the one allowance), and the per-indicator allowances are the fleet's Bonferroni rule
   (:meth:`~axiswatch.FleetPrior.allowances`). With **fewer than 3 same-task pairs** there is no
   unit-change prior and every capture is scored as the default does. No own-pair allowances
-  (the prior carries no centres): an axis has one same-task partner at most in this study.
+  (the prior carries no centres): an axis has ``units_per_task - 1`` same-task partners in
+  this study, 1 by default.
 * **threshold**: the default's own rule on the matched axis: a model fitted on ``f``'s readings
   takes the unit-change prior (:meth:`~axiswatch.IndicatorModel.use_fleet`), so its threshold is
   the 99th percentile of the half-Laplace fitted to its calibration captures' leave-one-out
@@ -39,9 +40,10 @@ allowance. The variant studied here uses what the fleet knows about the new task
   different axes share one scale.
 
 The study (:func:`robot_nearest_task`) reuses the transfer study's pieces
-(:mod:`axiswatch_lab._transfer`): per robot a fleet of TWO distinct units per task (unit ``t``,
-the transfer study's fleet axis of task ``t``, and unit ``n_tasks + 1 + t`` with its own capture
-seeds), all pooled into the default's fleet prior; baselines one per task (unit ``t``'s axis),
+(:mod:`axiswatch_lab._transfer`): per robot a fleet of ``units_per_task`` (default TWO) distinct
+units per task (unit ``t``, the transfer study's fleet axis of task ``t``, and units
+``u * (n_tasks + 1) + t``, ``u = 1 .. units_per_task - 1``, with their own capture seeds:
+:func:`extra_unit_index`), all pooled into the default's fleet prior; baselines one per task (unit ``t``'s axis),
 each scored on its own unit's paired test captures (:func:`~axiswatch_lab._transfer.paired_readings`);
 Robot A is unit ``n_tasks`` with the same fleet. Default and variant score the same captures.
 Also recorded: how often a capture of task ``t`` is held by an axis of another task (a wrong
@@ -94,6 +96,7 @@ from axiswatch_lab._transfer import (
 __all__ = [
     "MIN_SAME_TASK_PAIRS",
     "NearestTaskScore",
+    "extra_unit_index",
     "holding_axes",
     "nearest_task_study",
     "robot_nearest_task",
@@ -380,8 +383,47 @@ def score_nearest(
     return NearestTaskScore(scored.distance / scored.threshold, scored.alarm, nearest)
 
 
-def robot_nearest_task(seed: int, design: TransferDesign = FAST_DESIGN) -> dict[str, object]:
+def extra_unit_index(u: int, task: int, n_tasks: int) -> int:
+    """The :func:`~axiswatch.datasets._family.draw_unit` index of unit ``u`` (``u >= 1``) of
+    ``task`` in the study's fleet: ``u * (n_tasks + 1) + task``.
+
+    Unit 0 of task ``t`` is unit ``t`` and Robot A unit ``n_tasks``
+    (:func:`~axiswatch_lab._transfer.fleet_units`), so each block of ``n_tasks + 1`` indices
+    holds one unit per task and ``u = 1`` gives the two-unit study's second units
+    (``n_tasks + 1 + t``); no two axes and Robot A share an index.
+
+    Parameters
+    ----------
+    u : int
+        Which unit of the task, from 1.
+    task : int
+        The task, ``0 .. n_tasks - 1``.
+    n_tasks : int
+        The robot's tasks.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> [extra_unit_index(u, t, 6) for u in (1, 2) for t in (0, 5)]
+    [7, 12, 14, 19]
+    """
+    if not (u >= 1 and 0 <= task < n_tasks):
+        raise ValueError(
+            f"Expected u >= 1 and 0 <= task < n_tasks; got u={u}, task={task}, n_tasks={n_tasks}."
+        )
+    return u * (n_tasks + 1) + task
+
+
+def robot_nearest_task(
+    seed: int, design: TransferDesign = FAST_DESIGN, units_per_task: int = 2
+) -> dict[str, object]:
     """The study on one robot (module docstring); one JSON-ready record.
+
+    ``units_per_task`` distinct units run each task in the fleet (default 2; unit ``u >= 1`` of
+    task ``t`` is :func:`extra_unit_index`), all pooled into the default's fleet prior.
 
     Columns: ``default_`` / ``nearest_`` / ``absent_`` (the variant, task not in the fleet)
     ``far99``, ``auroc_<fault>``, ``dr99_<fault>`` (:func:`~axiswatch_lab._transfer.paired_measures`
@@ -395,8 +437,14 @@ def robot_nearest_task(seed: int, design: TransferDesign = FAST_DESIGN) -> dict[
     Raises
     ------
     ValueError
-        With ``design.order_lines``: the unit-change prior does not read the order lines.
+        With ``design.order_lines``: the unit-change prior does not read the order lines; with
+        ``units_per_task < 2``: no same-task pairs.
     """
+    if units_per_task < 2:
+        raise ValueError(
+            "The nearest-task study needs at least two units per task (its same-task pairs). "
+            f"Got units_per_task={units_per_task} instead."
+        )
     if design.order_lines:
         raise ValueError(
             "The nearest-task study takes no order lines (design.order_lines=False): the "
@@ -411,18 +459,23 @@ def robot_nearest_task(seed: int, design: TransferDesign = FAST_DESIGN) -> dict[
     read = new_model().readings
     n_tasks = len(robot.tasks)
     units = fleet_units(robot, design)  # fleet axis t is unit t, Robot A unit n_tasks
-    seconds = [draw_unit(robot, n_tasks + 1 + t, design.unit_spread) for t in range(n_tasks)]
     fitting = [(t, taken) for t, taken in fleet_readings(robot, read, design, units=units).items()]
-    fitting += [
-        (
-            t,
-            [
-                read(seconds[t].capture(t, seed=f"second{k}"))
-                for k in range(design.n_calibration + 1)
-            ],
-        )
-        for t in range(n_tasks)
-    ]
+    for u in range(1, units_per_task):
+        others = [
+            draw_unit(robot, extra_unit_index(u, t, n_tasks), design.unit_spread)
+            for t in range(n_tasks)
+        ]
+        prefix = "second" if u == 1 else f"unit{u}-"  # "second": the two-unit study's seeds
+        fitting += [
+            (
+                t,
+                [
+                    read(others[t].capture(t, seed=f"{prefix}{k}"))
+                    for k in range(design.n_calibration + 1)
+                ],
+            )
+            for t in range(n_tasks)
+        ]
     fleet: list[IndicatorModel] = []
     axis_tasks: list[int] = []
     first_of: dict[int, int] = {}
@@ -525,17 +578,22 @@ def _robot_a(
     }
 
 
-def _one(args: tuple[int, TransferDesign]) -> dict[str, object]:
+def _one(args: tuple[int, TransferDesign, int]) -> dict[str, object]:
     # Parallelism is across robots; a multi-threaded BLAS inside each only fights for the cores.
     with threadpool_limits(1):
         return robot_nearest_task(*args)
 
 
 def nearest_task_study(
-    seeds: Sequence[int], design: TransferDesign = FAST_DESIGN, *, workers: int = 1
+    seeds: Sequence[int],
+    design: TransferDesign = FAST_DESIGN,
+    *,
+    workers: int = 1,
+    units_per_task: int = 2,
 ) -> pd.DataFrame:
     """:func:`robot_nearest_task` on every seed (in ``workers`` processes); one row per robot."""
     rows: dict[int, dict[str, object]] = {}
-    for index, record in parallel_map(_one, [(s, design) for s in seeds], workers=workers):
+    tasks = [(s, design, units_per_task) for s in seeds]
+    for index, record in parallel_map(_one, tasks, workers=workers):
         rows[index] = record
     return pd.DataFrame([rows[i] for i in sorted(rows)])

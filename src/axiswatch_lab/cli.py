@@ -331,10 +331,13 @@ def experiment_nearest_task(
         float,
         typer.Option(
             min=0.0,
-            help="Log standard deviation between the units (two per task in the fleet; 0: one "
-            "unit, where the variant is the oracle by construction).",
+            help="Log standard deviation between the units (--units-per-task per task in the "
+            "fleet; 0: one unit, where the variant is the oracle by construction).",
         ),
     ] = 0.1,
+    units_per_task: Annotated[
+        int, typer.Option(min=2, help="Distinct units per task in the fleet (same-task pairs).")
+    ] = 2,
     fast: Annotated[bool, typer.Option(help="Small configuration (seconds per robot).")] = False,
     workers: Annotated[int, typer.Option(help="Processes for the robots.")] = 1,
 ) -> None:
@@ -348,7 +351,7 @@ def experiment_nearest_task(
         degradation_days=0,
         unit_spread=unit_spread,
     )
-    table = nearest_task_study(seeds, design, workers=workers)
+    table = nearest_task_study(seeds, design, workers=workers, units_per_task=units_per_task)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "robots.csv", index=False)
     typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
