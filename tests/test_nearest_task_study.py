@@ -11,10 +11,13 @@ import pytest
 from threadpoolctl import threadpool_limits
 from typer.testing import CliRunner
 
+import axiswatch_lab._nearest_task as nearest_module
+import axiswatch_lab._transfer as transfer_module
 from axiswatch._indicator_model import IndicatorModel, pool_fleet
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
-from axiswatch.datasets._family import draw_robot
+from axiswatch.datasets._family import draw_robot, draw_unit
 from axiswatch_lab._nearest_task import (
+    extra_unit_index,
     holding_axes,
     robot_nearest_task,
     same_task_pairs,
@@ -139,13 +142,78 @@ def test_variant_is_the_default_when_no_other_axis_matches(
 def test_the_study_takes_no_order_lines() -> None:
     with pytest.raises(ValueError, match="takes no order lines"):
         robot_nearest_task(DEVELOPMENT_ROBOTS[0], TransferDesign(order_lines=True))
+    with pytest.raises(ValueError, match="at least two units per task"):
+        robot_nearest_task(DEVELOPMENT_ROBOTS[0], units_per_task=1)
+
+
+def test_extra_units_take_indices_no_other_unit_has() -> None:
+    for n_tasks in (1, 2, 6):
+        first = list(range(n_tasks + 1))  # unit t of task t, then Robot A
+        extra = [extra_unit_index(u, t, n_tasks) for u in range(1, 5) for t in range(n_tasks)]
+        assert len(set(first + extra)) == len(first) + len(extra)
+        # The second unit is the two-unit study's (n_tasks + 1 + t).
+        assert [extra_unit_index(1, t, n_tasks) for t in range(n_tasks)] == [
+            n_tasks + 1 + t for t in range(n_tasks)
+        ]
+    with pytest.raises(ValueError, match="u >= 1"):
+        extra_unit_index(0, 0, 6)
+    with pytest.raises(ValueError, match="task < n_tasks"):
+        extra_unit_index(1, 6, 6)
+
+
+#: The smallest study that fits every axis (seconds per record).
+TINY_DESIGN = TransferDesign(
+    n_per_cell=1, n_calibration=4, robot_a_days=8, degradation_days=0, unit_spread=0.2
+)
+
+
+@pytest.mark.slow
+def test_two_units_per_task_is_the_default_record() -> None:
+    with threadpool_limits(1):
+        left_out = robot_nearest_task(DEVELOPMENT_ROBOTS[1], TINY_DESIGN)
+        two = robot_nearest_task(DEVELOPMENT_ROBOTS[1], TINY_DESIGN, units_per_task=2)
+    assert list(two) == list(left_out)
+    for key, value in left_out.items():  # bit for bit (NaN where both are NaN)
+        assert two[key] == value or (
+            isinstance(value, float) and math.isnan(value) and math.isnan(two[key])  # type: ignore[arg-type]
+        ), key
+    assert left_out["same_task_pairs"] == 6
+    # The two-unit study's record before units_per_task existed (main at 1fed49f, this design):
+    # its second units (index and capture seeds) are unchanged.
+    today = {"backlash": 0.8222222222, "bearing": 0.4055555556, "friction": 0.8, "tooth": 0.45}
+    for fault, auroc in today.items():
+        assert left_out[f"nearest_auroc_{fault}"] == pytest.approx(auroc, abs=1e-9), fault
+
+
+@pytest.mark.slow
+def test_three_units_per_task_draw_distinct_units(monkeypatch: pytest.MonkeyPatch) -> None:
+    drawn: list[int] = []
+
+    def recording(robot: object, unit: int, spread: float) -> object:
+        drawn.append(unit)
+        return draw_unit(robot, unit, spread)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(nearest_module, "draw_unit", recording)
+    monkeypatch.setattr(transfer_module, "draw_unit", recording)
+    with threadpool_limits(1):
+        record = robot_nearest_task(DEVELOPMENT_ROBOTS[1], TINY_DESIGN, units_per_task=3)
+    n_tasks = len(draw_robot(DEVELOPMENT_ROBOTS[1]).tasks)
+    # Every fleet axis and Robot A a unit of its own: 3 per task and one.
+    assert sorted(drawn) == sorted(set(drawn))
+    assert len(drawn) == 3 * n_tasks + 1
+    assert record["same_task_pairs"] == 3 * n_tasks  # 3 pairs per task, none across tasks
+    assert record["pairs_across_tasks"] == 0
 
 
 @pytest.mark.slow
 def test_the_command_writes_the_table(tmp_path: Path) -> None:
     result = CliRunner().invoke(
         experiment_app,
-        ["nearest-task", "--out", str(tmp_path), "--robots", "1", "--fast", "--unit-spread", "0.2"],
+        [
+            "nearest-task",
+            *("--out", str(tmp_path), "--robots", "1", "--fast", "--unit-spread", "0.2"),
+            *("--units-per-task", "3"),
+        ],
     )
     assert result.exit_code == 0, result.output
     table = pd.read_csv(tmp_path / "robots.csv")
@@ -161,6 +229,7 @@ def test_the_command_writes_the_table(tmp_path: Path) -> None:
     for share in ("share_rerouted", "share_wrong_match", "share_wrong_nearest"):
         assert 0.0 <= record[share] <= 1.0
     assert not math.isnan(record["absent_share_rerouted"])
+    assert record["same_task_pairs"] == 18  # three units per task: 3 pairs per task
 
 
 def test_the_command_refuses_unreadable_robots(tmp_path: Path) -> None:
