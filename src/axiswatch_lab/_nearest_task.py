@@ -72,6 +72,7 @@ from axiswatch._indicator_model import (
     MIN_READINGS,
     ORDER_LINES,
     FleetPrior,
+    IndicatorAssessment,
     IndicatorModel,
     _declared,
     fleet_pair_shifts,
@@ -340,6 +341,7 @@ def score_nearest(
     fleet: Sequence[IndicatorModel],
     unit_models: Sequence[IndicatorModel] | None,
     exclude: Collection[int] = (),
+    default: IndicatorAssessment | None = None,
 ) -> NearestTaskScore:
     """Score a capture with the nearest-task rule (module docstring).
 
@@ -358,12 +360,15 @@ def score_nearest(
         (:func:`unit_change_prior`); None: no such prior, the default for every capture.
     exclude : collection of int, default=()
         Fleet axes not matched ("task not in the fleet").
+    default : IndicatorAssessment, optional
+        ``own.assess_readings(readings)`` when the caller has it already (not made again).
 
     Returns
     -------
     NearestTaskScore
     """
-    default = own.assess_readings(readings)
+    if default is None:
+        default = own.assess_readings(readings)
     fallback = NearestTaskScore(default.distance / default.threshold, default.alarm, None)
     if unit_models is None:
         return fallback
@@ -523,11 +528,13 @@ def robot_nearest_task(
             for r in taken:
                 plain = own.assess_readings(r)
                 default[(b, key)].append(plain.distance / plain.threshold)
-                score = score_nearest(r, own, index, fleet, unit_models)
+                score = score_nearest(r, own, index, fleet, unit_models, default=plain)
                 nearest[(b, key)].append(score.ratio)
                 rerouted += score.matched is not None
                 wrong_nearest += score.matched is not None and axis_tasks[score.matched] != t
-                gone = score_nearest(r, own, index, fleet, unit_models, exclude=left_out)
+                gone = score_nearest(
+                    r, own, index, fleet, unit_models, exclude=left_out, default=plain
+                )
                 absent[(b, key)].append(gone.ratio)
                 if t != b:
                     absent_total += 1
@@ -569,9 +576,13 @@ def _robot_a(
     taken = robot_a_readings(unit, read, design.robot_a_days)
     model = new_model().fit_readings(taken[: design.n_calibration + 1]).use_fleet(prior)
     days = taken[design.n_calibration + 1 :]
-    scores = [score_nearest(r, model, None, fleet, unit_models) for r in days]
+    plain = [model.assess_readings(r) for r in days]
+    scores = [
+        score_nearest(r, model, None, fleet, unit_models, default=p)
+        for r, p in zip(days, plain, strict=True)
+    ]
     return {
-        "robot_a_false_alarms_default": sum(model.assess_readings(r).alarm for r in days),
+        "robot_a_false_alarms_default": sum(p.alarm for p in plain),
         "robot_a_false_alarms_nearest": sum(s.alarm for s in scores),
         "robot_a_rerouted": sum(s.matched is not None for s in scores),
         "robot_a_test_days": len(days),
