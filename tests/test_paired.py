@@ -128,3 +128,34 @@ def test_protocol_selects_the_mechanics_stage_with_the_indicator_detector() -> N
     from axiswatch_lab._experiments import STAGE_METHODS
 
     assert STAGE_METHODS["mechanics"] == (aw.MechanicsStage, aw.IndicatorDetector)
+
+
+def test_the_evaluation_runs_blas_on_one_thread() -> None:
+    # The suite pins BLAS to one thread (conftest), so the driver is given two first: the
+    # evaluation must bring it back to one while it fits (a multi-threaded BLAS on small SVDs
+    # made select_default 4x slower on a 2-core machine) and restore the caller's limit after.
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    seen: list[int] = []
+
+    class CountingStage(lab.StateStage):
+        def fit(self, baseline: aw.Capture) -> CountingStage:
+            seen.append(max(p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"))
+            super().fit(baseline)
+            return self
+
+    design = PairedDesign(
+        test_tasks=("short_fast", "heavy"),
+        faults=("friction",),
+        n_per_cell=1,
+        n_calibration=2,
+        duration_s=1.0,
+    )
+    with threadpool_limits(2, user_api="blas"):
+        before = max(p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas")
+        paired_evaluation(
+            design, stages={"state": CountingStage}, methods={"pca": PCADetector}, oracle=False
+        )
+        after = max(p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas")
+    assert before == after == 2
+    assert seen == [1]

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 from sklearn.metrics import roc_auc_score
+from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import alarm_threshold, fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
@@ -194,6 +195,20 @@ def paired_evaluation(
     design = PairedDesign() if design is None else design
     if task_change_scales is None:
         task_change_scales = {("mechanics", "indicator"): MECHANICS_TASK_CHANGE_SCALE}
+    # As the other studies: the SVDs are a few hundred rows, and a multi-threaded BLAS on a
+    # 2-core machine mostly waits for itself (4x slower measured for ``select_default``).
+    with threadpool_limits(1):
+        return _paired_table(design, stages, methods, oracle, task_change_scales)
+
+
+def _paired_table(
+    design: PairedDesign,
+    stages: Mapping[str, Callable[[], FeatureStage]],
+    methods: Mapping[str, Callable[[], BaselineDetector]],
+    oracle: bool,
+    task_change_scales: Mapping[tuple[str, str], float],
+) -> pd.DataFrame:
+    """:func:`paired_evaluation`'s rows, with its arguments resolved."""
     n = design.n_per_cell
     cap = design.capture
     baseline = cap(design.baseline_task, "healthy", 0)
