@@ -43,7 +43,7 @@ CAPTURE = "robot01/axis1/2026-03-01.parquet"
 def test_a_malformed_profile_is_named_relative_to_the_fleet_folder(
     tmp_path: Path, where: str, text: str, expected: str
 ) -> None:
-    # Before: "robot01/axis1/2026-03-01.parquet: /tmp/.../fleet/robot01/robot.toml: ...", the
+    # Before: "robot01/axis1/2026-03-01.parquet: <absolute>/fleet/robot01/robot.toml: ...", the
     # profile by its absolute path (only the capture's own path was made relative).
     root = tmp_path / "fleet"
     simulate_fleet(
