@@ -221,12 +221,19 @@ class MemoryStore:
                     same = (old.reason_key or old.error) == (r.reason_key or r.error)
                     seen = old.acknowledged_at if same else None
                     self._rejections[index] = (
-                        dataclasses.replace(r, acknowledged_at=seen),
+                        dataclasses.replace(r, acknowledged_at=seen, removed_at=None),
                         now_us(),
                     )
                     return False
             self._rejections.append((r, now_us()))
             return True
+
+    def mark_rejection_removed(self, rejection: Rejection, at: str | None) -> None:
+        key = (rejection.method, rejection.path, rejection.file_hash)
+        with self._lock:
+            for index, (old, stamp) in enumerate(self._rejections):
+                if (old.method, old.path, old.file_hash) == key:
+                    self._rejections[index] = (dataclasses.replace(old, removed_at=at), stamp)
 
     def record_changed_file(self, change: ChangedFile) -> None:
         c = change
@@ -526,12 +533,14 @@ class MemoryStore:
 
     def rejection_table(self) -> pd.DataFrame:
         rows = [
-            (r.robot, r.axis, r.capture, r.method, r.path, r.error, stamp, r.acknowledged_at)
+            (r.robot, r.axis, r.capture, r.method, r.path, r.error, stamp, r.acknowledged_at,
+             r.removed_at)
             for r, stamp in self._rejections
-        ]
+        ]  # fmt: skip
         rows.sort(key=lambda row: (row[0], row[1], row[4], row[3]))
         columns = [
             "robot", "axis", "capture", "method", "path", "error", "rejected_at", "acknowledged_at",
+            "removed_at",
         ]  # fmt: skip
         return pd.DataFrame(rows, columns=columns)
 
@@ -623,30 +632,41 @@ class MemoryStore:
         return pd.DataFrame(rows, columns=columns)
 
     def latest_bad_data(self) -> pd.DataFrame:
-        newest: dict[tuple[str, str, str], str] = {}
+        found: dict[tuple[str, str, str], list[Rejection]] = {}
         for r, _ in self._rejections:
-            if r.kind == "bad data":
-                key = (r.robot, r.axis, r.method)
-                newest[key] = max(newest.get(key, r.capture), r.capture)
-        rows = [(*key, capture) for key, capture in sorted(newest.items())]
-        return pd.DataFrame(rows, columns=["robot", "axis", "method", "bad_capture"])
+            if r.kind == "bad data" and r.removed_at is None:
+                found.setdefault((r.robot, r.axis, r.method), []).append(r)
+        rows = []
+        for key, bad in sorted(found.items()):
+            unseen = [r.capture for r in bad if r.acknowledged_at is None]
+            seen = [r for r in bad if r.acknowledged_at is not None]
+            rows.append(
+                (
+                    *key,
+                    max(unseen, default=None),
+                    max((r.capture for r in seen), default=None),
+                    max((str(r.acknowledged_at) for r in seen), default=None),
+                )
+            )
+        columns = ["robot", "axis", "method", "bad_capture", "seen_capture", "seen_at"]
+        return pd.DataFrame(rows, columns=columns)
 
     def problem_table(self, method: str | None = None) -> pd.DataFrame:
         rows = [
-            (r.kind, r.method, r.path, r.error, at, r.acknowledged_at)
+            (r.kind, r.method, r.path, r.error, at, r.acknowledged_at, r.removed_at)
             for r, at in self._rejections
             if method is None or r.method == method
         ] + [
             (
                 "changed", "", c.path, "content changed after it was scored", at,
-                self._seen_changes.get((c.path, c.scored_hash, c.current_hash)),
+                self._seen_changes.get((c.path, c.scored_hash, c.current_hash)), None,
             )
             for c, at in self._changed
         ] + [
-            ("baseline check", c.method, c.path, c.note, c.detected_at, c.acknowledged_at)
+            ("baseline check", c.method, c.path, c.note, c.detected_at, c.acknowledged_at, None)
             for c in self._active_checks(method)
         ]  # fmt: skip
-        columns = ["kind", "method", "path", "error", "since", "acknowledged_at"]
+        columns = ["kind", "method", "path", "error", "since", "acknowledged_at", "removed_at"]
         return pd.DataFrame(sorted(rows, key=lambda r: (r[2], r[0], r[1])), columns=columns)
 
 

@@ -185,7 +185,7 @@ def test_encoder_counts_in_the_units_row_need_a_profile_with_counts(
     ("units", "column", "expected"),
     [
         (
-            "s;grad;Nm",
+            "s;gon;Nm",  # a gradian (German "Grad" is a degree: read)
             "position",
             r"not a position unit axiswatch reads; expected one of \[.*'deg'",
         ),

@@ -126,7 +126,7 @@ def test_malformed_robot_profile_rejects_its_robot_only_and_is_retried_once_fixe
     assert first.returncode == 8, first.stdout + first.stderr
     assert "1 new baseline(s), 4 capture(s) scored" in first.stdout  # robot01's
     assert (
-        f"robot02/axis1/2026-03-01.parquet: {profile}: 'resample_irregular' must be true or "
+        "robot02/axis1/2026-03-01.parquet: robot02/robot.toml: 'resample_irregular' must be true or "
         "false (unquoted); got 'no' (str)."
     ) in first.stdout
     profile.write_text("resample_irregular = false\n")

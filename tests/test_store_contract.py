@@ -330,6 +330,7 @@ def test_rejections_are_recorded_once_per_content(store: StoreBackend) -> None:
     table = store.rejection_table()
     assert list(table.columns) == [
         "robot", "axis", "capture", "method", "path", "error", "rejected_at", "acknowledged_at",
+        "removed_at",
     ]  # fmt: skip
     assert table[["path", "method"]].values.tolist() == [
         ["r1/a1/2026-03-02.csv", "lra"],

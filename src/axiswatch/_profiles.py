@@ -72,13 +72,16 @@ TIME_WORDS: dict[str, str] = {
     "µs": "us",
 }
 #: Words of a CSV units row for the position (and, with ``/s``, the speed) -> the unit of
-#: :data:`POSITION_UNITS` or :data:`COUNTS` they name. Encoder increments are counts: read as
-#: rad they would be off by counts_per_revolution / 2 pi.
+#: :data:`POSITION_UNITS` or :data:`COUNTS` they name, compared in lower case. Encoder
+#: increments are counts: read as rad they would be off by counts_per_revolution / 2 pi.
+#: ``Grad`` is German for degree (what a German controller's export writes); a gradian, 1/400
+#: of a turn, is ``gon`` there and is not read.
 POSITION_WORDS: dict[str, str] = {
     **{unit: unit for unit in (*POSITION_UNITS, COUNTS)},
     "°": "deg",
     "degree": "deg",
     "degrees": "deg",
+    "grad": "deg",
     "radian": "rad",
     "radians": "rad",
     "count": COUNTS,
@@ -317,6 +320,9 @@ class AxisProfile:
         the capture is read in (``deg`` or encoder ``counts`` under the position while the
         profile, or its absence, says ``rad``), or a word that is none of those units (``rpm``):
         the readings would be in wrong units, silently. The torque's unit is not checked.
+        Words are compared in lower case (:data:`TIME_WORDS`, :data:`POSITION_WORDS`: ``Grad``,
+        ``°`` and ``degrees`` are ``deg``; the speed's with ``/s``). A speed per minute (``rpm``,
+        ``U/min``) is refused: units are never converted from the row.
 
         Examples
         --------
@@ -324,6 +330,9 @@ class AxisProfile:
         Traceback (most recent call last):
         ...
         axiswatch.exceptions.CaptureError: c.csv: the units row gives 'deg' for column ...
+        >>> AxisProfile(position_unit="deg").check_units_row(
+        ...     {"time": "s", "position": "Grad", "speed": "°/s"}, Path("c.csv")
+        ... )
         """
         for column, text in units.items():
             role = self.role_of(column.strip())
@@ -347,10 +356,16 @@ class AxisProfile:
                 # Read anyway, the values would be in a unit nobody declared: refused, naming
                 # the words that are read, so that a typo or a foreign unit (rpm) shows.
                 accepted = sorted(words) if role != "speed" else sorted(f"{w}/s" for w in words)
+                per_minute = (
+                    "; a speed per minute (rpm, U/min) is not converted: export it per second, "
+                    "or leave the column out (the indicators derive the speed from the position)"
+                    if role == "speed" and (word in ("rpm", "u/min") or word.endswith("/min"))
+                    else ""
+                )
                 raise CaptureError(
                     f"{said}, not a {role} unit axiswatch reads; expected one of {accepted} "
                     f"(the capture is read in {declared}{'/s' if role == 'speed' else ''}, "
-                    f"{origin})."
+                    f"{origin}){per_minute}."
                 )
             if words[word] != declared:
                 declare = f'[units] {key} = "{words[word]}"'

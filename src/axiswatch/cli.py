@@ -146,7 +146,11 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
                "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip
     if summary.acknowledged_by.notna().any():
         columns.insert(5, "acknowledged_by")
-    shown = summary[columns].fillna({"alarm_since": "", "acknowledged_by": ""})
+    if summary.bad_data_acknowledged.notna().any():
+        columns.insert(columns.index("state") + 1, "bad_data_acknowledged")
+    shown = summary[columns].fillna(
+        {"alarm_since": "", "acknowledged_by": "", "bad_data_acknowledged": ""}
+    )
     typer.echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     origins = summary.threshold_origin.dropna().unique()
     if len(origins) == 1:
@@ -495,7 +499,8 @@ def rejections(
     debug: bool = DEBUG,
 ) -> None:
     """List rejected captures, changed files and baselines to check; retry (rejections) or
-    acknowledge them."""
+    acknowledge them. A rejected file a monitor run found gone from the fleet folder is kept as
+    history, with when ('removed'), and no longer sets exit status 8."""
     from axiswatch.monitor._store import Store, now
 
     with _failures(debug):
@@ -520,6 +525,9 @@ def rejections(
             typer.echo("No rejected captures, changed files or baselines to check.")
             return
         frame["acknowledged"] = frame.pop("acknowledged_at").fillna("")
+        removed = frame.pop("removed_at")
+        if removed.notna().any():  # rejected files a run found gone: history, not a problem
+            frame["removed"] = removed.fillna("")
         typer.echo(frame.to_string(index=False))
 
 

@@ -9,7 +9,9 @@ For one method (the product default when the store has it) every axis gets a kin
    axis's line, "seen on ...", but no longer needs attention, as in the monitor's exit status),
    files changed after they were scored (unless acknowledged, likewise), or no baseline at all
    (an axis whose only rejections are acknowledged, such as a misnamed folder's, is
-   ``calibrating``);
+   ``calibrating``). A rejected file a monitor run found gone from the fleet folder (deleted or
+   moved away: ``Rejection.removed_at``) is history: on the line as "removed on ...", never a
+   problem, as in the monitor's exit status;
 2. ``baseline check``: a stored check of its active baseline (``StoreBackend.baseline_checks``:
    the capture disagrees with its calibration captures, or the baseline with its fleet's) that
    nobody acknowledged (``axiswatch rejections --ack PATH``). Like bad data it says the axis's
@@ -215,11 +217,13 @@ def triage(
             lines.append(line)
         everything = rejected[(rejected.robot == robot) & (rejected.axis == axis)]
         everything = everything[~everything.path.isin(scored_paths)]
-        # Acknowledged (`rejections --ack`): on the line as seen, no longer a problem, as in the
-        # monitor's exit status.
+        # Removed from the folder since, or acknowledged (`rejections --ack`): on the line as
+        # history, no longer a problem, as in the monitor's exit status.
+        removed = everything[everything.removed_at.notna()]
+        everything = everything[everything.removed_at.isna()]
         seen = everything[everything.acknowledged_at.notna()]
         bad = everything[everything.acknowledged_at.isna()]
-        if info is None and (not bad.empty or seen.empty):
+        if info is None and (not bad.empty or (seen.empty and removed.empty)):
             problems.append("bad data")
             lines.append(
                 f"No baseline: {len(bad)} capture file(s) rejected, latest "
@@ -269,6 +273,12 @@ def triage(
                 f"{len(seen)} capture file(s) rejected, seen on "
                 f"{_day(seen.acknowledged_at.max())}, latest: {seen.error.iloc[-1]}"
             )
+        if not removed.empty:
+            last_removed = removed.sort_values("removed_at", kind="stable").iloc[-1]
+            lines.append(
+                f"{len(removed)} rejected capture file(s) since removed from the fleet folder "
+                f"(history), last on {_day(last_removed.removed_at)}: {last_removed.path}."
+            )
         if not seen_moved.empty:
             lines.append(
                 f"{len(seen_moved)} file(s) changed after they were scored (results kept), seen "
@@ -306,7 +316,7 @@ def _check_line(check: BaselineCheck) -> str:
 
 
 def _healthy_line(info: Any, last: Any, history: pd.DataFrame) -> str:
-    if info is None:  # only acknowledged rejections (`rejections --ack`)
+    if info is None:  # only acknowledged (`rejections --ack`) or removed rejections
         return "No baseline yet."
     if last is None:
         return "Baseline set; no capture scored yet."

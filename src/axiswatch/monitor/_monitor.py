@@ -88,6 +88,7 @@ from axiswatch.monitor._store import (
     RunCaches,
     SavedModel,
     StoreBackend,
+    now,
     now_us,
 )
 
@@ -776,10 +777,25 @@ def _holds(run: _Run, params: str | None) -> bool:
 
 def _standing_rejections(run: _Run) -> list[str]:
     """Rejections that still hold (the file still has the rejected content, or a transient
-    problem was seen again in this run), not acknowledged (those are counted)."""
+    problem was seen again in this run), not acknowledged (those are counted).
+
+    A rejected file gone from the fleet folder (deleted, moved away) is marked removed in the
+    store, kept as history: the report and the summary then stop asking for attention, as this
+    exit status does; if the same content comes back, the mark is cleared and it holds again.
+    """
     standing = []
     for rejection in run.store.rejections(run.method):
         path = run.root / rejection.path
+        if not rejection.transient:  # a transient one is forgotten once not seen again
+            there = path.is_file()
+            if not there and rejection.removed_at is None:
+                run.store.mark_rejection_removed(rejection, now())
+            elif (
+                there
+                and rejection.removed_at is not None
+                and run.digest(path) == rejection.file_hash
+            ):
+                run.store.mark_rejection_removed(rejection, None)
         # Point queries: a run's cost must not follow the history of scores.
         if not _holds(run, rejection.params_hash) or run.caches.was_scored(
             rejection.path, rejection.file_hash, run.method
@@ -958,11 +974,12 @@ def monitor_fleet(
                 state.model = None
 
     # An axis with a rejected capture is listed every run: ``rejections --retry`` forgets the
-    # rejection, and the file must then be tried again.
+    # rejection, and the file must then be tried again (one removed from the folder is not
+    # there to try; if it comes back, its folder's time changes).
     problem_axes = (
         run.problem_axes
         | {(f.robot, f.axis) for f in discovered if f.path in run.unreadable_paths}
-        | {(r.robot, r.axis) for r in store.rejections(run.method)}
+        | {(r.robot, r.axis) for r in store.rejections(run.method) if r.removed_at is None}
     )
     with store.batch():
         for robot_axis, mtime_ns in folder_times.items():

@@ -16,7 +16,8 @@ server and no network. From top to bottom:
    threshold, alarms raised and cleared, acknowledgements, baselines to check and their
    acknowledgement, re-baselines).
 3. Rejected captures and files changed after scoring (with when each was acknowledged,
-   ``rejections --ack``).
+   ``rejections --ack``, and when a rejected file was found removed from the fleet folder: kept
+   as history, needing no attention).
 """
 
 from __future__ import annotations
@@ -373,9 +374,10 @@ def write_report(
             "<h2 id='rejected'>Rejected captures</h2>",
             _table(
                 rejections[["method", "path", "error"]].assign(
-                    seen=["" if pd.isna(at) else _when(at) for at in rejections.acknowledged_at]
+                    seen=["" if pd.isna(at) else _when(at) for at in rejections.acknowledged_at],
+                    removed=["" if pd.isna(at) else _when(at) for at in rejections.removed_at],
                 ),
-                text=("method", "path", "error", "seen"),
+                text=("method", "path", "error", "seen", "removed"),
             ),
         ]
     if not changed.empty:

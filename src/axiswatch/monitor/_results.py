@@ -84,14 +84,18 @@ def fleet_summary(
     ``scored`` (calibration and monitored captures), ``over`` (captures over the threshold),
     ``alarms`` (alarms raised), ``last_capture``, ``last_distance``, ``last_seen`` (when a new
     capture file of the axis was last seen, UTC), ``state``, ``rejected`` (files of the axis
-    rejected), ``threshold_origin`` (:meth:`~axiswatch._calibration.Threshold.describe`),
-    ``alarm_since`` (the capture that raised the alarm in force) and ``acknowledged_by`` (who
-    saw it, if anyone).
+    rejected, removed ones included), ``threshold_origin``
+    (:meth:`~axiswatch._calibration.Threshold.describe`), ``alarm_since`` (the capture that
+    raised the alarm in force), ``acknowledged_by`` (who saw it, if anyone) and
+    ``bad_data_acknowledged`` (when someone acknowledged the bad data after the last scored
+    capture, ``rejections --ack``, if nothing after it still needs attention; None otherwise).
 
     ``state``, the first that holds: ``ALARM`` (the alarm rule fired and has not cleared),
-    ``stale`` (no new capture file for longer than ``stale_after``), ``bad data`` (the newest
-    capture was rejected by the data-quality check: no motion, a stuck signal, out of range),
-    ``calibrating`` (threshold not set yet), ``ok``.
+    ``stale`` (no new capture file for longer than ``stale_after``), ``bad data`` (a capture
+    after the last scored one was rejected by the data-quality check: no motion, a stuck signal,
+    out of range; and nobody acknowledged it, nor was its file removed from the fleet folder:
+    as in the report and the monitor's exit status), ``calibrating`` (threshold not set yet),
+    ``ok``.
     """
     frame = store.summary_table()
     activity = store.axis_activity()[["robot", "axis", "last_seen_at"]]
@@ -107,6 +111,9 @@ def fleet_summary(
     bad = (frame["bad_capture"].notna() & (frame["bad_capture"] > frame["last_capture"])).to_numpy(
         dtype=bool
     )
+    # Acknowledged bad data after the last scored capture: no longer a state, said in a column.
+    acknowledged = frame["seen_capture"].notna() & (frame["seen_capture"] > frame["last_capture"])
+    acknowledged &= ~bad
     state = np.select(
         [
             frame["last_alarm"].fillna(0).astype(bool).to_numpy(),
@@ -118,6 +125,8 @@ def fleet_summary(
         "ok",
     )
     frame["state"] = state
+    frame["bad_data_acknowledged"] = frame["seen_at"].where(acknowledged, None)
     frame = frame.rename(columns={"last_seen_at": "last_seen"})
-    columns = [c for c in frame.columns if c not in ("last_alarm", "bad_capture", "rejected")]
+    internal = ("last_alarm", "bad_capture", "seen_capture", "seen_at", "rejected")
+    columns = [c for c in frame.columns if c not in internal]
     return frame[[*columns, "rejected"]]

@@ -12,8 +12,10 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
+import re
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from axiswatch._attribution import explain_indicators
@@ -344,7 +346,47 @@ def file_hash(path: Path) -> str:
 
 def _one_line(exc: BaseException, path: Path, relative: str) -> str:
     text = (str(exc).splitlines() or [type(exc).__name__])[0].replace(str(path), relative)
+    text = fleet_relative(text, path, relative)
     return text if text.startswith(relative) else f"{relative}: {text}"
+
+
+def fleet_relative(text: str, path: Path, relative: str) -> str:
+    """``text`` with the paths of files under the fleet folder named relative to it, as the
+    capture file is: the fleet folder is ``path`` without ``relative`` (a malformed axis
+    profile's message named it by its full path).
+
+    Parameters
+    ----------
+    text : str
+        A message.
+    path : Path
+        A capture file under the fleet folder.
+    relative : str
+        ``path`` relative to the fleet folder (POSIX).
+
+    Returns
+    -------
+    str
+        ``text`` without the fleet folder's prefix where a path starts with it; other paths
+        (a profile given with ``--profile`` elsewhere) as they are.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> fleet_relative(
+    ...     "axis profile /data/fleet/r1/robot.toml: gear_ratio must be > 0.",
+    ...     Path("/data/fleet/r1/a1/c.csv"), "r1/a1/c.csv",
+    ... )
+    'axis profile r1/robot.toml: gear_ratio must be > 0.'
+    >>> fleet_relative("/data/fleet2/r1/robot.toml", Path("/data/fleet/r1/a1/c.csv"), "r1/a1/c.csv")
+    '/data/fleet2/r1/robot.toml'
+    """
+    root = path.parents[len(PurePosixPath(relative).parts) - 1]
+    if root == Path():
+        return text
+    prefix = re.escape(f"{root}{os.sep}")
+    # Only where a path starts: not inside a longer one (/data/myfleet/...).
+    return re.sub(rf"(?<![\w.~/\\-]){prefix}", "", text)
 
 
 def _failure_kind(exc: BaseException) -> tuple[str, bool]:

@@ -31,7 +31,9 @@ Tables (schema version 2):
 ``rejections``
     capture files that could not be used, with the error; keyed by file content hash, so a
     repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
-    folder's row derived from its line) is what an acknowledgement is of.
+    folder's row derived from its line) is what an acknowledgement is of. ``removed_at`` (added
+    on open, empty): when a run found the rejected file gone from the fleet folder; the row is
+    kept as history and needs no attention (cleared when the same content is back).
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
 ``baseline_checks``
@@ -228,6 +230,9 @@ class Rejection:
     #: What an acknowledgement of it is of, where ``error`` also says something that changes
     #: without being news (a misnamed folder's file count); None: the whole ``error``.
     reason_key: str | None = None
+    #: When a run found the file gone from the fleet folder (deleted or moved away): kept as
+    #: history, no longer a problem; None while the rejected content is there.
+    removed_at: str | None = None
 
 
 @dataclass(frozen=True)
@@ -364,6 +369,12 @@ class StoreBackend(Protocol):
         """
         ...
 
+    def mark_rejection_removed(self, rejection: Rejection, at: str | None) -> None:
+        """Record that the file of a (not transient) rejection is gone from the fleet folder
+        since ``at``, or, ``at`` None, that its rejected content is back. The rejection is
+        named by its method, path and file hash; it is kept either way (history)."""
+        ...
+
     def record_changed_file(self, change: ChangedFile) -> None:
         """Record that a scored file's content changed (once per path and pair of hashes)."""
         ...
@@ -467,12 +478,16 @@ class StoreBackend(Protocol):
         ...
 
     def latest_bad_data(self) -> pd.DataFrame:
-        """robot, axis, method, bad_capture: each axis's newest capture rejected as bad data."""
+        """robot, axis, method, bad_capture, seen_capture, seen_at: per axis with a capture
+        rejected as bad data whose file is still there (not removed), the newest such capture
+        nobody acknowledged (None if none), the newest acknowledged one (None if none) and the
+        latest acknowledgement of those (ISO, UTC)."""
         ...
 
     def problem_table(self, method: str | None = None) -> pd.DataFrame:
         """Rejections, changed files and checks of active baselines (kind ``baseline check``):
-        kind, method, path, error, since, acknowledged_at; ordered by path, kind, method."""
+        kind, method, path, error, since, acknowledged_at, removed_at (a rejection whose file is
+        gone; None otherwise); ordered by path, kind, method."""
         ...
 
     # acknowledgements (who saw an alarm)
@@ -551,8 +566,8 @@ class StoreBackend(Protocol):
 
     def rejection_table(self) -> pd.DataFrame:
         """Rejections: robot, axis, capture, method, path, error, rejected_at, acknowledged_at
-        (None until ``rejections --ack``); ordered by robot, axis, path, method and then as
-        recorded."""
+        (None until ``rejections --ack``), removed_at (None while the file is there); ordered by
+        robot, axis, path, method and then as recorded."""
         ...
 
     def changed_file_table(self) -> pd.DataFrame:
@@ -752,14 +767,14 @@ _INSERT_SCORE = (
     "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
 #: A rejection, or a refreshed one: a rejection whose reason changed (its ``reason_key``, else
-#: its error line) loses its acknowledgement (it is news again). The right-hand sides read the
-#: row as it was before the update.
+#: its error line) loses its acknowledgement (it is news again); one refreshed is there again
+#: (not removed). The right-hand sides read the row as it was before the update.
 _INSERT_REJECTION = (
     "INSERT INTO rejections (robot, axis, method, capture, path, file_hash, error, rejected_at, "
     "kind, params_hash, transient, reason_key) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
     "ON CONFLICT (method, path, file_hash) DO UPDATE SET error=excluded.error, "
     "rejected_at=excluded.rejected_at, kind=excluded.kind, params_hash=excluded.params_hash, "
-    "transient=excluded.transient, reason_key=excluded.reason_key, "
+    "transient=excluded.transient, reason_key=excluded.reason_key, removed_at=NULL, "
     "acknowledged_at=CASE WHEN coalesce(reason_key, error)="
     "coalesce(excluded.reason_key, excluded.error) THEN acknowledged_at END"
 )
@@ -773,6 +788,7 @@ _ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("rejections", "acknowledged_at", "TEXT"),
     ("changed_files", "acknowledged_at", "TEXT"),
     ("rejections", "reason_key", "TEXT"),
+    ("rejections", "removed_at", "TEXT"),
 )
 #: Tables added on open to a store made before them (empty: nothing before is lost).
 _BASELINE_CHECKS = """
@@ -1406,6 +1422,14 @@ class SQLiteStore:
             )  # fmt: skip
         return existed is None
 
+    def mark_rejection_removed(self, rejection: Rejection, at: str | None) -> None:
+        r = rejection
+        with self._write() as db:
+            db.execute(
+                "UPDATE rejections SET removed_at=? WHERE method=? AND path=? AND file_hash=?",
+                (at, r.method, r.path, r.file_hash),
+            )
+
     def record_changed_file(self, change: ChangedFile) -> None:
         c = change
         with self._write() as db:
@@ -1511,7 +1535,7 @@ class SQLiteStore:
         rows = self._rows(
             "SELECT robot, axis, method, capture, path, file_hash, error, "
             "coalesce(kind, 'invalid') AS kind, params_hash, transient, acknowledged_at, "
-            "reason_key FROM rejections WHERE method=? ORDER BY id",
+            "reason_key, removed_at FROM rejections WHERE method=? ORDER BY id",
             (method,),
         )
         return [Rejection(**{**dict(r), "transient": bool(r["transient"])}) for r in rows]
@@ -1691,8 +1715,8 @@ class SQLiteStore:
 
     def rejection_table(self) -> pd.DataFrame:
         return self._frame(
-            "SELECT robot, axis, capture, method, path, error, rejected_at, acknowledged_at "
-            "FROM rejections ORDER BY robot, axis, path, method, id"
+            "SELECT robot, axis, capture, method, path, error, rejected_at, acknowledged_at, "
+            "removed_at FROM rejections ORDER BY robot, axis, path, method, id"
         )
 
     def changed_file_table(self) -> pd.DataFrame:
@@ -1778,18 +1802,22 @@ class SQLiteStore:
 
     def latest_bad_data(self) -> pd.DataFrame:
         return self._frame(
-            "SELECT robot, axis, method, max(capture) AS bad_capture FROM rejections "
-            "WHERE kind='bad data' GROUP BY robot, axis, method"
+            "SELECT robot, axis, method, "
+            "max(CASE WHEN acknowledged_at IS NULL THEN capture END) AS bad_capture, "
+            "max(CASE WHEN acknowledged_at IS NOT NULL THEN capture END) AS seen_capture, "
+            "max(acknowledged_at) AS seen_at FROM rejections "
+            "WHERE kind='bad data' AND removed_at IS NULL GROUP BY robot, axis, method "
+            "ORDER BY robot, axis, method"
         )
 
     def problem_table(self, method: str | None = None) -> pd.DataFrame:
         return self._frame(
             "SELECT coalesce(kind, 'invalid') AS kind, method, path, error, rejected_at AS since, "
-            "acknowledged_at FROM rejections WHERE (? IS NULL OR method=?) "
+            "acknowledged_at, removed_at FROM rejections WHERE (? IS NULL OR method=?) "
             "UNION ALL SELECT 'changed', '', path, 'content changed after it was scored', "
-            "detected_at, acknowledged_at FROM changed_files "
+            "detected_at, acknowledged_at, NULL FROM changed_files "
             "UNION ALL SELECT 'baseline check', method, path, note, detected_at, "
-            f"acknowledged_at FROM ({_ACTIVE_CHECKS}) "
+            f"acknowledged_at, NULL FROM ({_ACTIVE_CHECKS}) "
             "ORDER BY path, kind, method",
             (method, method, method, method),
         )
