@@ -3,13 +3,17 @@ recordings (lane i21u): each message below misled or left out what it was about.
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
+from axiswatch._indicator_model import IndicatorAssessment
+from axiswatch._readings import read_indicators
 from axiswatch.exceptions import ProfileError
 
 runner = CliRunner()
@@ -51,3 +55,62 @@ def test_a_real_typo_in_units_still_gets_its_likely_key_and_no_toml_advice(
     with pytest.raises(ProfileError, match="did you mean 'time'") as raised:
         aw.AxisProfile.from_toml(path)
     assert "top-level key" not in str(raised.value)
+
+
+def test_the_reason_without_a_fleet_gives_the_thresholds_unit() -> None:
+    # Before: "load_forward (drive load) 24.6 spreads from its baseline (threshold 7.7)": 7.7
+    # what? Without a fleet the distance and the threshold are both in within-task spreads.
+    verdict = IndicatorAssessment(
+        distance=24.6,
+        threshold=7.7,
+        alarm=True,
+        top="load_forward",
+        component="drive load",
+        indicators={"load_forward": {"value": 1.0, "baseline": 0.5, "spreads": 24.6}},
+        case="no task envelope: no fleet prior",
+    )
+    assert verdict.reason() == (
+        "load_forward (drive load) 24.6 spreads from its baseline (threshold 7.7 spreads)"
+    )
+
+
+def test_a_reason_shared_by_every_indicator_is_said_once() -> None:
+    # Before: "not scored: coulomb_friction needs motion (...); viscous_friction needs motion
+    # (...); ..." six times the same words.
+    why = "needs motion (the axis did not move)"
+    verdict = IndicatorAssessment(
+        distance=math.nan,
+        threshold=1.0,
+        alarm=False,
+        top=None,
+        component=None,
+        indicators={},
+        unavailable={"coulomb_friction": why, "load_forward": why, "impulsiveness": "needs X"},
+    )
+    assert verdict.reason() == (
+        "not scored: coulomb_friction, load_forward: each needs motion (the axis did not move); "
+        "impulsiveness needs X"
+    )
+
+
+def _capture(position: np.ndarray, rate: float = 250.0) -> aw.Capture:
+    speed = np.gradient(position, 1.0 / rate)
+    torque = 0.1 * np.sign(speed) + np.sin(np.arange(position.size) / 7.0)
+    rates = {"position": rate, "speed": rate, "torque": rate}
+    return aw.Capture({"position": position, "speed": speed, "torque": torque}, rates)
+
+
+def test_a_step_in_the_position_is_not_called_no_motion() -> None:
+    # Two strokes of a hydraulic actuator joined end to end where the second starts at the
+    # other end: one sample jumps half a turn, the speed's peak is that jump and the real
+    # stroke stays under 10 % of it. Before: "needs motion (the axis did not move for 0.2 s)".
+    t = np.arange(0, 8, 1 / 250)
+    stroke = np.clip((t - 1.0) / 2.0, 0, 1) * 1.6  # 1.6 rad in 2 s
+    position = np.where(t < 4, stroke, 1.6 - np.clip((t - 5.0) / 2.0, 0, 1) * 1.6)
+    position[t >= 4] -= 1.6  # the second record starts 1.6 rad below where the first ended
+    reasons = read_indicators(_capture(position)).reasons
+    assert reasons
+    assert all("a step in the position" in why for why in reasons.values())
+    assert not any("did not move" in why for why in reasons.values())
+    still = read_indicators(_capture(np.zeros_like(t))).reasons
+    assert all(why == "needs motion (the axis did not move)" for why in still.values())
