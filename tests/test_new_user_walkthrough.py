@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,9 @@ from typer.testing import CliRunner
 import axiswatch as aw
 from axiswatch._indicator_model import IndicatorAssessment
 from axiswatch._readings import read_indicators
+from axiswatch.cli import app
 from axiswatch.exceptions import ProfileError
+from tests.conftest import settle
 
 runner = CliRunner()
 
@@ -114,3 +117,71 @@ def test_a_step_in_the_position_is_not_called_no_motion() -> None:
     assert not any("did not move" in why for why in reasons.values())
     still = read_indicators(_capture(np.zeros_like(t))).reasons
     assert all(why == "needs motion (the axis did not move)" for why in still.values())
+
+
+@pytest.mark.parametrize("command", ["results", "report", "rejections", "ack", "rebaseline"])
+def test_commands_that_refuse_a_missing_store_do_not_promise_to_create_one(command: str) -> None:
+    # Before: every --store said "(created if new)", but all but `monitor` refuse a missing one
+    # ("store 'typo.db' does not exist; run 'axiswatch monitor' first.").
+    shown = _plain(runner.invoke(app, [command, "--help"], terminal_width=200).output)
+    assert "created if new" not in shown
+    assert "written by 'axiswatch monitor' (must exist)" in shown
+
+
+def test_monitor_still_creates_its_store() -> None:
+    shown = _plain(runner.invoke(app, ["monitor", "--help"], terminal_width=200).output)
+    assert "SQLite store of the monitor (created if new)" in shown
+
+
+def test_a_second_run_says_its_file_count_covers_only_the_folders_it_listed(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # Before: the first run said "18 capture files", the second "0 capture files (2 axis
+    # folder(s) unchanged since the last run)": the files seemed gone.
+    root = tmp_path / "fleet"
+    shutil.copytree(small_fleet, root)
+    store = str(tmp_path / "s.db")
+    args = ["monitor", str(root), "--store", store, "--method", "pca"]
+    first = runner.invoke(app, args)
+    assert first.exit_code == 0, first.output
+    assert "in the axis folders listed" not in first.output
+    second = runner.invoke(app, args)
+    assert second.exit_code == 0, second.output
+    assert (
+        "0 capture files in the axis folders listed (2 axis folder(s) unchanged since the last "
+        "run, not listed)" in second.output
+    )
+
+
+def test_report_help_names_the_one_file_it_writes(tmp_path: Path) -> None:
+    # Before: "--out: Folder for index.html and the PNG figures.", but the report is one file,
+    # index.html, with its charts inline (README, "The report").
+    shown = _plain(runner.invoke(app, ["report", "--help"], terminal_width=200).output)
+    assert "PNG" not in shown
+    assert "one self-contained file, index.html" in shown
+
+
+def test_acknowledging_a_path_that_names_no_problem_is_refused_with_the_likely_one(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # Before: `rejections --ack fleet/robot01/axis1/...` (the path as the shell completes it)
+    # printed "0 problem(s) acknowledged" and exited 0: the problem stayed, nothing said why.
+    root = tmp_path / "fleet"
+    shutil.copytree(small_fleet, root)
+    bad = root / "robot01" / "axis1" / "2026-03-09T12-00-00_garbage.csv"
+    bad.write_text("not a capture\n")
+    settle(root)
+    store = str(tmp_path / "s.db")
+    scored = runner.invoke(app, ["monitor", str(root), "--store", store, "--method", "pca"])
+    assert scored.exit_code == 8, scored.output
+    listed = "robot01/axis1/2026-03-09T12-00-00_garbage.csv"
+    for given in (f"fleet/{listed}", listed.replace("garbage", "garbge")):
+        refused = runner.invoke(app, ["rejections", "--store", store, "--ack", given])
+        assert refused.exit_code == 1, refused.output
+        assert f"at {given!r} (did you mean {listed!r}?)" in refused.output
+        assert "Nothing was changed." in refused.output
+    both = runner.invoke(app, ["rejections", "--store", store, "--retry", listed, "nowhere.csv"])
+    assert both.exit_code == 1  # one unknown path: nothing is forgotten either
+    done = runner.invoke(app, ["rejections", "--store", store, "--ack", listed])
+    assert done.exit_code == 0, done.output
+    assert "1 problem(s) acknowledged" in done.output
