@@ -9,6 +9,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -185,3 +186,23 @@ def test_acknowledging_a_path_that_names_no_problem_is_refused_with_the_likely_o
     done = runner.invoke(app, ["rejections", "--store", store, "--ack", listed])
     assert done.exit_code == 0, done.output
     assert "1 problem(s) acknowledged" in done.output
+
+
+def test_a_few_skipped_samples_point_to_resample_irregular_and_say_where(tmp_path: Path) -> None:
+    # The real linear axis's PLC log (~21 Hz) skips ~5 samples now and then. Before: "step of
+    # 0.253 s after t=1.79083e+09 s ... (a gap in time)": no word of resample_irregular, which
+    # reads it, and an absolute stamp that says nothing about where in the capture it is.
+    t = 1_790_000_000.0 + np.arange(200) * 0.05
+    t[100:] += 0.2  # four samples skipped
+    q = np.sin(t - t[0])
+    path = tmp_path / "2026-10-01.csv"
+    pd.DataFrame({"time": t, "position": q, "torque": np.cos(t - t[0])}).to_csv(path, index=False)
+    with pytest.raises(aw.CaptureError) as raised:
+        aw.read_capture(path)
+    message = str(raised.value)
+    assert "(4.95 s into the capture)" in message
+    assert "a gap of 5.0 periods" in message
+    assert "resample_irregular = true in the axis profile" in message
+    # Read through a profile that says so, the same file is read.
+    profile = aw.AxisProfile(resample_irregular=True)
+    assert 19.0 < aw.read_capture(path, profile=profile).rates_hz["position"] <= 20.0
