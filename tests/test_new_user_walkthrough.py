@@ -14,6 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
+import axiswatch.monitor as awm
 from axiswatch._indicator_model import IndicatorAssessment
 from axiswatch._readings import read_indicators
 from axiswatch.cli import app
@@ -206,3 +207,20 @@ def test_a_few_skipped_samples_point_to_resample_irregular_and_say_where(tmp_pat
     # Read through a profile that says so, the same file is read.
     profile = aw.AxisProfile(resample_irregular=True)
     assert 19.0 < aw.read_capture(path, profile=profile).rates_hz["position"] <= 20.0
+
+
+def test_the_report_counts_one_healthy_axis_and_explains_shifts_without_a_fleet(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # Before: "No action needed (1 axes)", and the charts' legend explained the indicator
+    # shifts only with a fleet's task-change allowances, which an axis with fewer than 3 axes
+    # of its profile (two hydraulic actuators, one linear axis) does not have.
+    root = tmp_path / "fleet"
+    shutil.copytree(small_fleet, root)
+    shutil.rmtree(root / "robot01" / "axis2")
+    with aw.Store(tmp_path / "s.db") as store:
+        aw.monitor_fleet(root, store, aw.MonitorConfig(method="pca"), settle_s=0)
+        awm.write_report(store, tmp_path / "report")
+    page = (tmp_path / "report" / "index.html").read_text()
+    assert "No action needed (1 axis)" in page
+    assert "without one: spreads of its calibration captures" in page
