@@ -18,6 +18,7 @@ import axiswatch.monitor as awm
 from axiswatch._indicator_model import IndicatorAssessment
 from axiswatch._readings import read_indicators
 from axiswatch.cli import app
+from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
 from tests.conftest import settle
 
@@ -224,3 +225,19 @@ def test_the_report_counts_one_healthy_axis_and_explains_shifts_without_a_fleet(
     page = (tmp_path / "report" / "index.html").read_text()
     assert "No action needed (1 axis)" in page
     assert "without one: spreads of its calibration captures" in page
+
+
+def test_a_capture_not_compared_says_what_its_task_distance_is_in() -> None:
+    # Before: "task signature 0.64 beyond its envelope 0.17": 0.64 of what? The signature
+    # distance is a share of the baseline's top speed, stroke or time moving.
+    robot = draw_robot(0)
+    lone = aw.IndicatorModel().fit(
+        robot.capture(0, seed=0), [robot.capture(0, seed=k) for k in range(1, 6)]
+    )
+    reasons = [lone.assess(robot.capture(task, seed=30)).reason() for task in (1, 2, 3)]
+    not_compared = [why for why in reasons if "not compared" in why]
+    assert not_compared  # a development robot (seed 0) and its own tasks
+    assert all(
+        "as shares of the baseline's top speed, stroke or time moving" in why
+        for why in not_compared
+    )

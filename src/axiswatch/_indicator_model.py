@@ -1289,7 +1289,8 @@ class IndicatorModel:
         change does to its indicators (docs/evaluation.md, "An axis without a fleet")."""
         why = (
             f"unlike the baseline's task (task signature {task_distance:.2f} beyond its "
-            f"envelope {self.task_envelope_:.2f}): with fewer than 3 axes of this profile "
+            f"envelope {self.task_envelope_:.2f}, as shares of the baseline's top speed, "
+            "stroke or time moving): with fewer than 3 axes of this profile "
             "nothing says what a task change does to the indicators, so it is not compared "
             "(rebaseline the axis on its new task, or monitor 3 axes of its profile)"
         )
