@@ -241,3 +241,28 @@ def test_a_capture_not_compared_says_what_its_task_distance_is_in() -> None:
         "as shares of the baseline's top speed, stroke or time moving" in why
         for why in not_compared
     )
+
+
+def test_rejections_listed_beside_their_path_do_not_repeat_it(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # Before: every row of `rejections` and of the report's table held the path twice, in its
+    # column and at the start of the error ("r/a/x.csv  r/a/x.csv: ..."), 400 characters wide.
+    root = tmp_path / "fleet"
+    shutil.copytree(small_fleet, root)
+    listed = "robot01/axis1/2026-03-09T12-00-00_garbage.csv"
+    (root / listed).write_text("not a capture\n")
+    settle(root)
+    store = tmp_path / "s.db"
+    with aw.Store(store) as opened:
+        aw.monitor_fleet(root, opened, aw.MonitorConfig(method="pca"), settle_s=0)
+        awm.write_report(opened, tmp_path / "report")
+    shown = runner.invoke(app, ["rejections", "--store", str(store)], terminal_width=400)
+    assert shown.exit_code == 0, shown.output
+    (row,) = [line for line in shown.output.splitlines() if listed in line]
+    assert row.count(listed) == 1
+    page = (tmp_path / "report" / "index.html").read_text()
+    table = page[page.index("<h2 id='rejected'>") :]
+    assert listed in table
+    assert f"{listed}: " not in table
+    assert "file has a header but no rows" in table

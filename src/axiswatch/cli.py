@@ -492,6 +492,14 @@ def rebaseline(
         )
 
 
+def _without_path(paths: pd.Series, errors: pd.Series) -> list[str]:
+    """Each error line without its leading ``PATH: `` (shown beside a path column)."""
+    return [
+        str(error).removeprefix(f"{path}: ") if isinstance(error, str) else error
+        for path, error in zip(paths, errors, strict=True)
+    ]
+
+
 def _known_problem_paths(paths: list[str], listed: list[str], method: str | None) -> None:
     """Refuse paths that name no listed problem (a typo, or the fleet folder in front): before,
     `--ack` said "0 problem(s) acknowledged" and exited 0, so nothing told the user."""
@@ -559,6 +567,9 @@ def rejections(
         if frame.empty:
             typer.echo("No rejected captures, changed files or baselines to check.")
             return
+        # The stored error line starts with the path (it is printed alone by monitor); beside
+        # the path column that doubled every row's width.
+        frame["error"] = _without_path(frame["path"], frame["error"])
         frame["acknowledged"] = frame.pop("acknowledged_at").fillna("")
         removed = frame.pop("removed_at")
         if removed.notna().any():  # rejected files a run found gone: history, not a problem

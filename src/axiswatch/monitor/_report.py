@@ -376,6 +376,11 @@ def write_report(
             "<h2 id='rejected'>Rejected captures</h2>",
             _table(
                 rejections[["method", "path", "error"]].assign(
+                    # the stored line starts with the path, which has its own column
+                    error=[
+                        str(error).removeprefix(f"{path}: ")
+                        for path, error in zip(rejections.path, rejections.error, strict=True)
+                    ],
                     seen=["" if pd.isna(at) else _when(at) for at in rejections.acknowledged_at],
                     removed=["" if pd.isna(at) else _when(at) for at in rejections.removed_at],
                 ),
