@@ -20,6 +20,7 @@ from axiswatch._readings import read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
+from axiswatch.monitor._charts import distance_chart
 from tests.conftest import settle
 
 runner = CliRunner()
@@ -266,3 +267,25 @@ def test_rejections_listed_beside_their_path_do_not_repeat_it(
     assert listed in table
     assert f"{listed}: " not in table
     assert "file has a header but no rows" in table
+
+
+def test_the_indicator_distance_panel_names_its_unit() -> None:
+    # Before: the panel was titled "distance (indicators)" with values such as 1.55 and a
+    # dashed line at 1, while the panel below said its shifts were "in thresholds".
+    rows = pd.DataFrame(
+        {
+            "captured_at": ["2026-10-01", "2026-10-02", "2026-10-03"],
+            "capture": ["a.csv", "b.csv", "c.csv"],
+            "method": "indicators",
+            "epoch": 1,
+            "role": ["baseline", "calibration", "monitor"],
+            "distance": [np.nan, 0.3, 1.55],
+            "threshold": [np.nan, 1.0, 1.0],
+            "over": [False, False, True],
+            "alarm": [False, False, True],
+            "reason": ["", "", "x"],
+            "details": "{}",
+        }
+    )
+    chart = distance_chart(rows, div_id="g-l", indicators=False)
+    assert "distance (indicators) in thresholds" in chart
