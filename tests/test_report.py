@@ -129,7 +129,10 @@ def test_an_acknowledged_rejection_stays_on_the_line_but_needs_no_attention(
     assert "1 capture file(s) rejected, seen on " in healthy
     table = page.split("<h2 id='rejected'>Rejected captures</h2>")[1]
     assert "<th>seen</th>" in table
-    assert re.search(r"robot 2/: robot .*?</td><td class='text'>\d{4}-\d\d-\d\d \d\d:", table)
+    assert re.search(
+        r"robot 2/</td><td class='text'>robot .*?</td><td class='text'>\d{4}-\d\d-\d\d \d\d:",
+        table,
+    )
 
 
 def test_an_acknowledged_changed_file_stays_on_the_line_but_needs_no_attention(

@@ -49,6 +49,9 @@ DEFAULT_SIGNALS: tuple[str, ...] = ("position", "speed", "torque")
 #: Relative tolerance on the spacing of time stamps of one signal: loggers jitter a little, but a
 #: step that is 1.5 periods or more means a missing (NaN) sample.
 _SPACING_RTOL = 0.25
+#: Up to this many periods, a step in the stamps is called a skipped sample that the profile's
+#: ``resample_irregular`` can interpolate over (the message's advice only; nothing is read by it).
+_SHORT_GAP_PERIODS = 10.0
 
 
 #: Stamps read as seconds beyond this (the year 5138) are in a smaller unit than the one read:
@@ -442,9 +445,18 @@ def _signal_from_column(
             else "irregular stamps? resample_irregular = true in the axis profile puts them on "
             "a uniform grid"
         )
+        if 1.5 * period < steps[k] <= _SHORT_GAP_PERIODS * period:
+            # A PLC that now and then skips a few samples (a real linear axis's log): the
+            # profile's resampling interpolates over such a gap, and nothing else said so.
+            cause = (
+                f"a gap of {steps[k] / period:.1f} periods; a logger that skips samples needs "
+                "resample_irregular = true in the axis profile, which interpolates over it"
+            )
+        # Absolute stamps (Unix seconds) say little: also say where in the capture it is.
+        into = f" ({stamps[k] - time_s[0]:.6g} s into the capture)" if time_s[0] != 0 else ""
         raise CaptureError(
             f"{path}: column '{name}' is not uniformly sampled: step of {steps[k]:.6g} s after "
-            f"t={stamps[k]:.6g} s where the signal's period is {period:.6g} s ({cause})."
+            f"t={stamps[k]:.6g} s{into} where the signal's period is {period:.6g} s ({cause})."
         )
     # A signal sampled on a coarser grid than the file's rows: every row between its first and last
     # sample that lies on its own grid must hold a value.

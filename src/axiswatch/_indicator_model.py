@@ -863,7 +863,14 @@ class IndicatorAssessment:
     def reason(self) -> str:
         """One line: what moved, or why nothing could be scored."""
         if not self.scored:
-            return "not scored: " + "; ".join(f"{k} {v}" for k, v in self.unavailable.items())
+            # One reason shared by every indicator (no motion) is said once, not once each.
+            names: dict[str, list[str]] = {}
+            for name, why in self.unavailable.items():
+                names.setdefault(why, []).append(name)
+            return "not scored: " + "; ".join(
+                f"{group[0]} {why}" if len(group) == 1 else f"{', '.join(group)}: each {why}"
+                for why, group in names.items()
+            )
         assert self.top is not None
         entry = self.indicators[self.top]
         # Without an envelope every capture is scored one way: the case says nothing (details
@@ -876,7 +883,7 @@ class IndicatorAssessment:
                 f"{moved}, {entry['spreads'] / entry['allowance']:.2f} x its task-change "
                 f"allowance of {entry['allowance']:.1f} (threshold {self.threshold:.2f} x)"
             )
-        return f"{moved} (threshold {self.threshold:.1f})"
+        return f"{moved} (threshold {self.threshold:.1f} spreads)"
 
 
 class IndicatorModel:
@@ -1282,7 +1289,8 @@ class IndicatorModel:
         change does to its indicators (docs/evaluation.md, "An axis without a fleet")."""
         why = (
             f"unlike the baseline's task (task signature {task_distance:.2f} beyond its "
-            f"envelope {self.task_envelope_:.2f}): with fewer than 3 axes of this profile "
+            f"envelope {self.task_envelope_:.2f}, as shares of the baseline's top speed, "
+            "stroke or time moving): with fewer than 3 axes of this profile "
             "nothing says what a task change does to the indicators, so it is not compared "
             "(rebaseline the axis on its new task, or monitor 3 axes of its profile)"
         )

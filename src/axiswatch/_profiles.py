@@ -33,7 +33,7 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -96,16 +96,38 @@ PROFILE_FILES: tuple[str, ...] = ("axis.toml", "robot.toml")
 FLEET_PROFILE = "axiswatch.toml"
 
 
-def _check(mapping: Mapping[str, Any], allowed: set[str], where: str) -> None:
+#: The profile's keys that are plain values, not tables: written under a ``[table]`` line
+#: they belong to that table (TOML), a mistake :func:`_above_tables` names.
+TOP_LEVEL_VALUES: tuple[str, ...] = ("name", "resample_irregular")
+
+
+def _above_tables(keys: Iterable[str], table: str | None) -> str:
+    """Advice for top-level keys read inside ``[table]``: in TOML every line after a ``[table]``
+    header belongs to it, so ``resample_irregular = true`` below ``[columns]`` is a column."""
+    misplaced = [key for key in keys if key in TOP_LEVEL_VALUES]
+    if table is None or not misplaced:
+        return ""
+    names = ", ".join(repr(key) for key in misplaced)
+    return (
+        f" ({names} is a top-level key, here read as part of [{table}]: in TOML every line "
+        f"after a [table] header belongs to that table; move it above the first [table] line)"
+    )
+
+
+def _check(
+    mapping: Mapping[str, Any], allowed: set[str], where: str, table: str | None = None
+) -> None:
     unknown = sorted(set(mapping) - allowed)
     if unknown:
         # A typo ([unit], positon) is the usual cause: name the key it likely meant.
         likely = {
             key: close[0]
             for key in unknown
-            if (close := difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6))
+            if key not in TOP_LEVEL_VALUES
+            and (close := difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6))
         }
         hint = "".join(f" ({key!r}: did you mean {meant!r}?)" for key, meant in likely.items())
+        hint += _above_tables(unknown, table)
         raise ProfileError(
             f"{where}: unknown key(s) {unknown}{hint}; expected some of {sorted(allowed)}."
         )
@@ -193,7 +215,8 @@ class AxisProfile:
         for column, role in self.columns.items():
             if role not in ROLES:
                 raise ProfileError(
-                    f"{where}: column {column!r} maps to role {role!r}; expected one of {list(ROLES)}."
+                    f"{where}: column {column!r} maps to role {role!r}; expected one of "
+                    f"{list(ROLES)}{_above_tables([column], 'columns')}."
                 )
         if self.time_unit not in TIME_UNITS:
             raise ProfileError(
@@ -245,10 +268,15 @@ class AxisProfile:
             if not isinstance(role, str):
                 raise ProfileError(
                     f"{source} [columns]: {column!r} must map to a quoted role, one of "
-                    f"{list(ROLES)}; got {_got(role)}."
+                    f"{list(ROLES)}; got {_got(role)}{_above_tables([column], 'columns')}."
                 )
         units = _table(data, "units", source)
-        _check(units, {"time", "position", "torque", "counts_per_revolution"}, f"{source} [units]")
+        _check(
+            units,
+            {"time", "position", "torque", "counts_per_revolution"},
+            f"{source} [units]",
+            "units",
+        )
         for key in units:
             if key != "counts_per_revolution":
                 _text(units, key, f"{source} [units]", None)
@@ -261,7 +289,10 @@ class AxisProfile:
             )
         kinematics = _table(data, "kinematics", source)
         _check(
-            kinematics, {"gear_ratio", "gear_stages", "bearing_orders"}, f"{source} [kinematics]"
+            kinematics,
+            {"gear_ratio", "gear_stages", "bearing_orders"},
+            f"{source} [kinematics]",
+            "kinematics",
         )
         ratio = kinematics.get("gear_ratio")
         where = f"{source} [kinematics]"

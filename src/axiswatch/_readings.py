@@ -632,8 +632,18 @@ def read_indicators(
     min_samples = max(5, round(0.2 * m.rate_hz))
     errors = dict.fromkeys(FRICTION, math.nan) if whole_moves else {}
     if peak <= 0 or moving.sum() < min_samples:
+        still = "needs motion (the axis did not move)"
+        if peak > 0:
+            # It moved, but its top speed is a spike (a step in the position, such as two
+            # records joined end to end): say so, or "did not move" misleads.
+            still = (
+                f"needs motion (the speed was above {MOVING_FRACTION * 100:.0f} % of its peak for "
+                f"{moving.sum() / m.rate_hz:.2f} s, less than 0.2 s: a move too short, or a "
+                "step in the position, such as two records joined end to end, that makes one "
+                "high peak)"
+            )
         for name in [*values, *(["order_lines"] if order_lines else [])]:
-            reasons[name] = "needs motion (the axis did not move for 0.2 s)"
+            reasons[name] = still
         return Readings(values, reasons, capture.source, signature, errors=errors)
     profile: OrderProfile | None = None
     if order_lines:

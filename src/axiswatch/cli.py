@@ -8,6 +8,7 @@ a baseline needs checking (so 4, 8 or 12; acknowledged problems do not count).
 
 from __future__ import annotations
 
+import difflib
 import re
 import sys
 from collections.abc import Callable, Iterator
@@ -42,6 +43,12 @@ app.add_typer(simulate_app, name="simulate")
 DEBUG = typer.Option(False, "--debug", help="Show Python tracebacks of failures.")
 StorePath = Annotated[
     Path, typer.Option("--store", help="SQLite store of the monitor (created if new).")
+]
+# Every command but `monitor` reads a store a monitor run wrote and refuses a missing one
+# (_require_store): its help must not promise to create it.
+ExistingStorePath = Annotated[
+    Path,
+    typer.Option("--store", help="SQLite store written by 'axiswatch monitor' (must exist)."),
 ]
 
 
@@ -305,8 +312,11 @@ def monitor(
                     root, opened, config, workers=workers, dask=client, progress=update,
                     settle_s=settle, stale_after=silence,
                 )  # fmt: skip
+                # n_files counts only the folders this run listed: say so, or a second run
+                # seems to have lost the files of the unchanged folders.
                 unchanged = (
-                    f" ({result.unchanged_folders} axis folder(s) unchanged since the last run)"
+                    f" in the axis folders listed ({result.unchanged_folders} axis folder(s) "
+                    "unchanged since the last run, not listed)"
                     if result.unchanged_folders
                     else ""
                 )
@@ -360,7 +370,7 @@ def monitor(
 
 @app.command()
 def results(
-    store: StorePath,
+    store: ExistingStorePath,
     robot: str | None = typer.Option(None, help="Only this robot."),
     axis: str | None = typer.Option(None, help="Only this axis."),
     method: str | None = typer.Option(
@@ -425,8 +435,11 @@ def _require_store(store: Path) -> None:
 
 @app.command()
 def report(
-    store: StorePath,
-    out: Annotated[Path, typer.Option(help="Folder for index.html and the PNG figures.")],
+    store: ExistingStorePath,
+    out: Annotated[
+        Path,
+        typer.Option(help="Folder for the report: one self-contained file, index.html."),
+    ],
     stale_after: str = typer.Option(
         "3d", help="An axis without a new capture for this long is shown stale (or off)."
     ),
@@ -447,7 +460,7 @@ def report(
 
 @app.command()
 def rebaseline(
-    store: StorePath,
+    store: ExistingStorePath,
     robot: str = typer.Option(..., help="Robot folder name."),
     axis: str = typer.Option(..., help="Axis folder name."),
     method: str | None = typer.Option(
@@ -479,9 +492,37 @@ def rebaseline(
         )
 
 
+def _without_path(paths: pd.Series, errors: pd.Series) -> list[str]:
+    """Each error line without its leading ``PATH: `` (shown beside a path column)."""
+    return [
+        str(error).removeprefix(f"{path}: ") if isinstance(error, str) else error
+        for path, error in zip(paths, errors, strict=True)
+    ]
+
+
+def _known_problem_paths(paths: list[str], listed: list[str], method: str | None) -> None:
+    """Refuse paths that name no listed problem (a typo, or the fleet folder in front): before,
+    `--ack` said "0 problem(s) acknowledged" and exited 0, so nothing told the user."""
+    unknown = [path for path in paths if path not in set(listed)]
+    if not unknown:
+        return
+    advice = []
+    for path in unknown:
+        meant = [p for p in listed if path.endswith("/" + p)] or difflib.get_close_matches(
+            path, sorted(set(listed)), n=1
+        )
+        advice.append(f"{path!r}" + (f" (did you mean {meant[0]!r}?)" if meant else ""))
+    whose = f" of method {method!r}" if method else ""
+    raise ValueError(
+        f"no rejected capture, changed file or baseline check{whose} at {', '.join(advice)}; "
+        "paths are as 'axiswatch rejections' lists them, relative to the fleet folder. "
+        "Nothing was changed."
+    )
+
+
 @app.command()
 def rejections(
-    store: StorePath,
+    store: ExistingStorePath,
     paths: Annotated[
         list[str] | None,
         typer.Argument(
@@ -510,6 +551,8 @@ def rejections(
         _require_store(store)
         chosen = method
         with Store(store) as opened:
+            if (retry or ack) and paths:
+                _known_problem_paths(paths, list(opened.problem_table(chosen)["path"]), chosen)
             if retry:
                 count = opened.retry_rejections(paths or [], chosen)
                 typer.echo(
@@ -524,6 +567,9 @@ def rejections(
         if frame.empty:
             typer.echo("No rejected captures, changed files or baselines to check.")
             return
+        # The stored error line starts with the path (it is printed alone by monitor); beside
+        # the path column that doubled every row's width.
+        frame["error"] = _without_path(frame["path"], frame["error"])
         frame["acknowledged"] = frame.pop("acknowledged_at").fillna("")
         removed = frame.pop("removed_at")
         if removed.notna().any():  # rejected files a run found gone: history, not a problem
@@ -533,7 +579,7 @@ def rejections(
 
 @app.command()
 def ack(
-    store: StorePath,
+    store: ExistingStorePath,
     robot: str | None = typer.Option(None, help="Robot folder name (required unless --list)."),
     axis: str | None = typer.Option(None, help="Axis folder name (required unless --list)."),
     method: str | None = typer.Option(
@@ -635,7 +681,7 @@ def simulate_fleet_command(
 
 @app.command()
 def backup(
-    store: StorePath,
+    store: ExistingStorePath,
     destination: Annotated[Path, typer.Argument(help="The new file (never overwritten).")],
     debug: bool = DEBUG,
 ) -> None:

@@ -113,7 +113,11 @@ def distance_chart(
     from plotly.subplots import make_subplots
 
     methods = list(dict.fromkeys(rows.method))
-    titles = [f"distance ({m})" for m in methods]
+    # The method indicators stores its distance in units of the threshold that applied (the
+    # threshold is 1): say so, as the indicators' panel does, or "1.55" has no unit.
+    titles = [
+        f"distance ({m}) in thresholds" if m == "indicators" else f"distance ({m})" for m in methods
+    ]
     if indicators:
         # Method ``indicators`` scores a capture in the spreads of the case that applied (own
         # spreads for the baseline's task, the fleet's for a task change): its shifts are drawn

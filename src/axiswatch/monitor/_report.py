@@ -97,9 +97,10 @@ _LEGEND = (
     "= calibration captures (assumed healthy; they set the threshold), dashed red = threshold, "
     "orange = over the threshold, red cross = alarm, dotted purple = known task change. "
     "Indicators (method indicators, the default): each one's shift of the capture from the "
-    "baseline in units of the threshold (spreads of the axis's calibration captures and of its "
-    "fleet's task changes, over that indicator's task-change allowance); the distance is the "
-    "largest shift, so an indicator at the dashed line reaches the threshold alone. (Method "
+    "baseline in units of the threshold (with a fleet of 3 or more axes of its profile: spreads "
+    "of the axis's calibration captures and of its fleet's task changes, over that indicator's "
+    "task-change allowance; without one: spreads of its calibration captures); the distance is "
+    "the largest shift, so an indicator at the dashed line reaches the threshold alone. (Method "
     "mechanics: shifts in healthy spreads measured on the development simulator, green band = "
     "one spread, the distance the sum of the squared upward shifts.) Drag to zoom, double-click "
     "to reset, hover for the capture, its value and the reason."
@@ -162,7 +163,8 @@ def _first_screen(items: list[AxisAttention], method: str) -> list[str]:
             "data, no baseline to check, no stale axis.</p>"
         )
     parts.append(
-        f"<details id='healthy'><summary>No action needed ({len(calm)} axes)</summary>"
+        f"<details id='healthy'><summary>No action needed ({len(calm)} "
+        f"{'axis' if len(calm) == 1 else 'axes'})</summary>"
         "<table><tr><th>axis</th><th>state</th><th>last capture</th><th>note</th></tr>"
     )
     for item in calm:
@@ -374,6 +376,11 @@ def write_report(
             "<h2 id='rejected'>Rejected captures</h2>",
             _table(
                 rejections[["method", "path", "error"]].assign(
+                    # the stored line starts with the path, which has its own column
+                    error=[
+                        str(error).removeprefix(f"{path}: ")
+                        for path, error in zip(rejections.path, rejections.error, strict=True)
+                    ],
                     seen=["" if pd.isna(at) else _when(at) for at in rejections.acknowledged_at],
                     removed=["" if pd.isna(at) else _when(at) for at in rejections.removed_at],
                 ),
