@@ -29,6 +29,7 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.datasets as awd
+import axiswatch.monitor as awm
 from tests._cli import Ran, run
 from tests.conftest import settle
 
@@ -578,16 +579,9 @@ def test_full_disk_is_one_line_and_exit_1(fleet: Path, tmp_path: Path) -> None:
 def test_library_and_command_default_to_the_same_method(fleet: Path, tmp_path: Path) -> None:
     store = tmp_path / "cli.db"
     by_command = _run("monitor", fleet, "--store", store, "--settle", "0")
-    code = (
-        "import sys, axiswatch.monitor as m; s = m.Store(sys.argv[1]); "
-        "print(m.monitor_fleet(sys.argv[2], s, settle_s=0).method, m.MonitorConfig().method)"
-    )
-    direct = subprocess.run(
-        [sys.executable, "-c", code, str(tmp_path / "lib.db"), str(fleet)],
-        capture_output=True,
-        text=True,
-    )
-    assert direct.stdout.split() == ["indicators", "indicators"]
+    with awm.Store(tmp_path / "lib.db") as opened:
+        direct = [awm.monitor_fleet(fleet, opened, settle_s=0).method, awm.MonitorConfig().method]
+    assert direct == ["indicators", "indicators"]
     # Five 0.5 s captures: the axis is still calibrating (the baseline and 5 captures are fitted
     # together), so the command's first line is what names its method.
     assert by_command.stdout.startswith("indicators: 5 capture files"), by_command.stdout
