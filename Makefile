@@ -8,9 +8,10 @@ STAMP := $(VENV)/.installed
 
 LOCK := requirements/dev.lock
 
-# The suite on 2 processes (pytest-xdist), each file's tests in one of them (module fixtures made
-# once), one BLAS thread each (tests/conftest.py); `pytest -q` alone runs it in one process.
-PYTEST_PARALLEL := -n 2 --dist loadfile
+# The suite on 2 processes (pytest-xdist), spread test by test except the xdist groups (tests that
+# start processes; modules with a slow module fixture), one BLAS thread each (tests/conftest.py);
+# `pytest -q` alone runs it in one process.
+PYTEST_PARALLEL := -n 2 --dist loadgroup
 
 .PHONY: demo test lint typecheck bench clean lock test-latest
 

@@ -12,12 +12,17 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+
+from tests import _cli
+
+# One worker runs this module's tests in order: the half-minute demo (a module fixture) is made
+# once, and one Chromium runs at a time (make test: -n 2 --dist loadgroup, tests/conftest.py).
+pytestmark = pytest.mark.xdist_group("report_browser")
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 
@@ -114,10 +119,7 @@ class _FirstScreen(HTMLParser):
 def demo_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     _chromium()  # skip before the half-minute demo when there is no browser
     out = tmp_path_factory.mktemp("demo")
-    done = subprocess.run(
-        [sys.executable, "-m", "axiswatch", "demo", "--out", str(out)],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+    done = _cli.run("demo", "--out", out)  # in this process: the report is the claim
     assert done.returncode == 0, done.stdout + done.stderr
     return out / "report" / "index.html"
 
