@@ -30,14 +30,6 @@ threadpool_limits(1)
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
-#: ``make test`` spreads the suite over two workers test by test (``-n 2 --dist loadgroup``);
-#: the tests of one ``xdist_group`` run in one worker, in order. This group holds the tests that
-#: start worker processes, a Dask cluster or several commands at once, or that time a run to kill
-#: it: one of them at a time, so that two such tests never share the two cores. (A module whose
-#: module-scoped fixture is slow has a group of its own, so that the fixture is made once.)
-PROCESSES = pytest.mark.xdist_group("processes")
-
-
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)

@@ -20,7 +20,7 @@ import axiswatch as aw
 import axiswatch._capture
 from axiswatch.cli import app
 from tests._cli import run
-from tests.conftest import PROCESSES, settle
+from tests.conftest import settle
 
 runner = CliRunner()
 
@@ -334,7 +334,6 @@ def _kill_after(seconds: float, fleet: Path, store: Path) -> int:
         return -9
 
 
-@PROCESSES
 def test_killed_runs_resume_to_the_uninterrupted_result(fleet: Path, tmp_path: Path) -> None:
     for day in range(10, 14):  # more captures, so that kills land mid-run
         for axis in ("axis1", "axis2"):
@@ -358,7 +357,6 @@ def test_killed_runs_resume_to_the_uninterrupted_result(fleet: Path, tmp_path: P
     connection.close()
 
 
-@PROCESSES
 def test_two_monitors_on_one_store(fleet: Path, tmp_path: Path) -> None:
     reference = tmp_path / "reference.db"
     runner.invoke(app, ["monitor", str(fleet), "--store", str(reference), "--method", "pca"])

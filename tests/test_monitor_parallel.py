@@ -16,10 +16,6 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_results
 from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor._store import Store
-from tests.conftest import PROCESSES
-
-# Worker processes or a Dask cluster: one such module at a time (tests/conftest.py).
-pytestmark = PROCESSES
 
 _COMPARED = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]
 

@@ -31,7 +31,7 @@ import axiswatch as aw
 import axiswatch.datasets as awd
 import axiswatch.monitor as awm
 from tests._cli import Ran, run
-from tests.conftest import PROCESSES, settle
+from tests.conftest import settle
 
 FAST = ("--method", "pca", "--calibration", "2")
 AXIS = "robot01/axis1"
@@ -414,7 +414,6 @@ def _alive(pid: int) -> bool:
     return state != "Z"  # a zombie has ended; only its exit status waits to be collected
 
 
-@PROCESSES
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
 def test_workers_end_with_the_driver(fleet: Path, tmp_path: Path, sig: signal.Signals) -> None:
@@ -440,7 +439,6 @@ def test_workers_end_with_the_driver(fleet: Path, tmp_path: Path, sig: signal.Si
     assert not [pid for pid in workers if _alive(pid)]
 
 
-@PROCESSES
 @pytest.mark.parametrize("workers", [1, 2])
 def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
     fleet: Path, tmp_path: Path, workers: int
@@ -526,7 +524,6 @@ def _free_port() -> int:
         return int(probe.getsockname()[1])
 
 
-@PROCESSES
 def test_wrong_dask_address_fails_within_the_timeout_with_one_line(
     fleet: Path, tmp_path: Path, chatter: int
 ) -> None:

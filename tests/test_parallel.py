@@ -10,10 +10,6 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.monitor as awm
-from tests.conftest import PROCESSES
-
-# Worker processes or a Dask cluster: one such module at a time (tests/conftest.py).
-pytestmark = PROCESSES
 
 
 def _score(seed: int) -> tuple[int, float, int]:

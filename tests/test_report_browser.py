@@ -20,10 +20,6 @@ import pytest
 
 from tests import _cli
 
-# One worker runs this module's tests in order: the half-minute demo (a module fixture) is made
-# once, and one Chromium runs at a time (make test: -n 2 --dist loadgroup, tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("report_browser")
-
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 
 #: Ground truth of the demo (README, "What the demo shows"): the simulator's faulty axes, and

@@ -34,11 +34,6 @@ def tiny_record() -> dict[str, object]:
         return robot_transfer(DEVELOPMENT_ROBOTS[1], TINY)
 
 
-#: The tests that read ``tiny_record`` run in one xdist worker, so that it is computed once.
-TINY_RECORD = pytest.mark.xdist_group("transfer_tiny_record")
-
-
-@TINY_RECORD
 @pytest.mark.slow
 def test_robot_record_has_every_measure(tiny_record: dict[str, object]) -> None:
     record = tiny_record
@@ -74,7 +69,6 @@ def test_no_unit_spread_is_the_one_unit_study() -> None:
     assert not np.array_equal(apart[0][0], before[0][0])
 
 
-@TINY_RECORD
 @pytest.mark.slow
 def test_unit_spread_changes_the_record_not_its_layout(tiny_record: dict[str, object]) -> None:
     one = tiny_record

@@ -10,10 +10,6 @@ import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from axiswatch.monitor._parallel import MAX_BATCH, WorkerPool, _batch_size, parallel_map
-from tests.conftest import PROCESSES
-
-# Worker processes or a Dask cluster: one such module at a time (tests/conftest.py).
-pytestmark = PROCESSES
 
 
 def blas_threads(_: object) -> tuple[int, int]:
