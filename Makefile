@@ -10,6 +10,8 @@ LOCK := requirements/dev.lock
 
 # The suite on 2 processes (pytest-xdist), each file's tests in one of them (module fixtures made
 # once), one BLAS thread each (tests/conftest.py); `pytest -q` alone runs it in one process.
+# (Not --dist loadgroup: with the lock's pytest 9.2 and pytest-xdist 3.8 it ignores xdist_group
+# marks and spreads every test, pytest-xdist issue 1386.)
 PYTEST_PARALLEL := -n 2 --dist loadfile
 
 .PHONY: demo test lint typecheck bench clean lock test-latest

@@ -1,9 +1,12 @@
-"""The command-line interface, run as a user runs it."""
+"""The command-line interface, run as a user runs it (in this process, tests/_cli.py; the usage
+error through ``python -m axiswatch``: the research group reached from the real entry point)."""
 
 from __future__ import annotations
 
 import subprocess
 import sys
+
+from tests._cli import run
 
 
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
@@ -13,7 +16,7 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_experiment_lab_prints_lab_verdicts() -> None:
-    result = _run("experiment", "lab")
+    result = run("experiment", "lab")
     assert result.returncode == 0, result.stderr
     assert "lra: alarms on ['A']" in result.stdout
 

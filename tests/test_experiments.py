@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from axiswatch_lab._experiments import alarm_summary, lab_roc, robot_a, robot_b
+from tests._cli import run
 
 
 @pytest.fixture(scope="module")
@@ -58,23 +57,7 @@ def test_robot_a_needs_enough_tasks() -> None:
 
 
 def test_experiment_commands_write_figure_and_table(tmp_path: Path) -> None:
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "axiswatch",
-            "experiment",
-            "robot-b",
-            "--out",
-            str(tmp_path),
-            "--days",
-            "3",
-            "--seed",
-            "1",
-        ],
-        capture_output=True,
-        text=True,
-    )
+    result = run("experiment", "robot-b", "--out", tmp_path, "--days", "3", "--seed", "1")
     assert result.returncode == 0, result.stderr
     table = pd.read_csv(tmp_path / "robot_b.csv")
     assert list(table.columns) == [

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 
 from axiswatch._readings import Readings, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
@@ -16,8 +17,10 @@ from axiswatch_lab._gap_ringing import (
     candidate_ringing,
     reversal_bursts_before,
 )
-from axiswatch_lab._transfer import FAST_DESIGN
+from axiswatch_lab._transfer import TransferDesign
 from tests import naive
+
+SMALL_DESIGN = TransferDesign(n_per_cell=1, n_calibration=2, robot_a_days=8, degradation_days=3)
 
 
 def test_the_variants_keep_the_former_or_the_new_backlash_reading_or_both() -> None:
@@ -55,10 +58,16 @@ def test_the_former_reading_is_the_product_s_before_the_change() -> None:
 
 
 def test_the_fast_study_runs_and_the_former_product_is_unchanged_by_the_candidate() -> None:
+    # On the smallest design of the transfer tests (TINY there): whether the product's record
+    # depends on the candidate and whether every capture is read at 100 Hz do not depend on the
+    # study's size (FAST_DESIGN took 45 s of CPU here, this 26 s). With fewer captures one
+    # AUROC could match by chance, so the product's whole record must match; the candidates'
+    # own "replaced" records differ on this design (0.622 and 0.656 for backlash).
     from axiswatch_lab._gap_ringing import ringing_study
 
-    v1, _ = ringing_study([1], FAST_DESIGN, monitor=False, candidate="v1", progress=print)
-    v2, _ = ringing_study([1], FAST_DESIGN, monitor=False, candidate="v2", progress=print)
+    v1, _ = ringing_study([1], SMALL_DESIGN, monitor=False, candidate="v1", progress=print)
+    v2, _ = ringing_study([1], SMALL_DESIGN, monitor=False, candidate="v2", progress=print)
     first, second = v1.set_index("variant"), v2.set_index("variant")
     assert first.loc["product", "auroc_backlash"] == second.loc["product", "auroc_backlash"]
+    pd.testing.assert_series_equal(first.loc["product"], second.loc["product"])
     assert first.loc["replaced", "share_scored"] == 1.0  # read on every capture at 100 Hz

@@ -19,12 +19,15 @@ from typer.testing import CliRunner
 import axiswatch as aw
 import axiswatch._capture
 from axiswatch.cli import app
+from tests._cli import run
 from tests.conftest import settle
 
 runner = CliRunner()
 
 
-def _run(*args: str) -> subprocess.CompletedProcess[str]:
+def _run(*args: object) -> subprocess.CompletedProcess[str]:
+    """``python -m axiswatch ARGS``: where the claim is about the process (tests/_cli.py runs
+    the command line in this process otherwise)."""
     return subprocess.run(
         [sys.executable, "-m", "axiswatch", *map(str, args)], capture_output=True, text=True
     )
@@ -122,7 +125,7 @@ def test_bad_inputs_are_rejected_one_line_each_and_the_rest_goes_on(
 ) -> None:
     cases = _write_bad_captures(fleet / "robot01/axis1", fleet)
     store = tmp_path / "s.db"
-    result = _run("monitor", fleet, "--store", store, "--method", "pca")
+    result = run("monitor", fleet, "--store", store, "--method", "pca")
     assert result.returncode == 8, result.stderr
     assert "Traceback" not in result.stdout + result.stderr
     connection = sqlite3.connect(store)
@@ -346,7 +349,7 @@ def test_killed_runs_resume_to_the_uninterrupted_result(fleet: Path, tmp_path: P
     # the previous one's store: early (during start-up or the first baseline), mid and late.
     outcomes = [_kill_after(fraction * duration, fleet, store) for fraction in (0.3, 0.55, 0.8)]
     assert -9 in outcomes, outcomes
-    final = _run("monitor", fleet, "--method", "lra", "--store", store)
+    final = run("monitor", fleet, "--method", "lra", "--store", store)
     assert final.returncode == 0, final.stderr
     pd.testing.assert_frame_equal(_results(store), _results(reference))
     connection = sqlite3.connect(store)

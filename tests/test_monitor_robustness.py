@@ -1,8 +1,10 @@
 """The monitor against hostile conditions (issue 11), each case through the real command line.
 
-Every test runs ``python -m axiswatch`` as a user or a scheduler would, on a tiny simulated fleet
-(1 robot x 1 axis x 5 captures of 0.5 s, PCA with 2 calibration captures: seconds per run), and
-checks that no Python traceback reaches the user.
+Every test runs the ``axiswatch`` command line as a user or a scheduler would, on a tiny simulated
+fleet (1 robot x 1 axis x 5 captures of 0.5 s, PCA with 2 calibration captures), and checks that
+no Python traceback reaches the user. The commands run in this process (tests/_cli.py: the same
+command tree, exit status, stdout and stderr) except where the claim is about the process: signals
+and a killed driver, a file-size limit, the Dask connection timeout.
 """
 
 from __future__ import annotations
@@ -27,25 +29,35 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.datasets as awd
+import axiswatch.monitor as awm
+from tests._cli import Ran, run
 from tests.conftest import settle
 
 FAST = ("--method", "pca", "--calibration", "2")
 AXIS = "robot01/axis1"
 
 
-def _run(*args: object, **kwargs: object) -> subprocess.CompletedProcess[str]:
+def _process(*args: object, **kwargs: object) -> subprocess.CompletedProcess[str]:
+    """``python -m axiswatch ARGS`` in a process of its own: for claims about the process (a
+    resource limit, a network timeout); every other command runs in this process (:func:`_run`)."""
     result = subprocess.run(
         [sys.executable, "-m", "axiswatch", *map(str, args)],
         capture_output=True,
         text=True,
         **kwargs,  # type: ignore[call-overload]
     )
-    if "--debug" not in args:
-        assert "Traceback" not in result.stdout + result.stderr, result.stderr
+    assert "Traceback" not in result.stdout + result.stderr, result.stderr
     return result  # type: ignore[no-any-return]
 
 
-def _monitor(root: Path, store: Path, *extra: object) -> subprocess.CompletedProcess[str]:
+def _run(*args: object) -> Ran:
+    result = run(*args)
+    if "--debug" not in args:
+        assert "Traceback" not in result.stdout + result.stderr, result.stderr
+    return result
+
+
+def _monitor(root: Path, store: Path, *extra: object) -> Ran:
     return _run("monitor", root, "--store", store, *FAST, *extra)
 
 
@@ -519,7 +531,7 @@ def test_wrong_dask_address_fails_within_the_timeout_with_one_line(
     store = tmp_path / "s.db"
     for port in (_free_port(), chatter):
         address = f"tcp://127.0.0.1:{port}"
-        result = _run(
+        result = _process(
             "monitor", fleet, "--store", store, "--dask", address, "--dask-timeout", "2",
             timeout=120,
         )  # fmt: skip
@@ -554,7 +566,7 @@ def test_full_disk_is_one_line_and_exit_1(fleet: Path, tmp_path: Path) -> None:
         resource.setrlimit(resource.RLIMIT_FSIZE, (60_000, 60_000))
 
     store = tmp_path / "s.db"
-    result = _run("monitor", fleet, "--store", store, *FAST, preexec_fn=limit)
+    result = _process("monitor", fleet, "--store", store, *FAST, preexec_fn=limit)
     assert result.returncode == 1
     assert result.stderr.startswith(f"error: store '{store}': ")
     assert "is the disk full or failing?" in result.stderr
@@ -567,16 +579,9 @@ def test_full_disk_is_one_line_and_exit_1(fleet: Path, tmp_path: Path) -> None:
 def test_library_and_command_default_to_the_same_method(fleet: Path, tmp_path: Path) -> None:
     store = tmp_path / "cli.db"
     by_command = _run("monitor", fleet, "--store", store, "--settle", "0")
-    code = (
-        "import sys, axiswatch.monitor as m; s = m.Store(sys.argv[1]); "
-        "print(m.monitor_fleet(sys.argv[2], s, settle_s=0).method, m.MonitorConfig().method)"
-    )
-    direct = subprocess.run(
-        [sys.executable, "-c", code, str(tmp_path / "lib.db"), str(fleet)],
-        capture_output=True,
-        text=True,
-    )
-    assert direct.stdout.split() == ["indicators", "indicators"]
+    with awm.Store(tmp_path / "lib.db") as opened:
+        direct = [awm.monitor_fleet(fleet, opened, settle_s=0).method, awm.MonitorConfig().method]
+    assert direct == ["indicators", "indicators"]
     # Five 0.5 s captures: the axis is still calibrating (the baseline and 5 captures are fitted
     # together), so the command's first line is what names its method.
     assert by_command.stdout.startswith("indicators: 5 capture files"), by_command.stdout

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +13,7 @@ import axiswatch._mechanics
 import axiswatch_lab as lab
 from axiswatch._detectors import PCADetector
 from axiswatch_lab._paired import DEFAULT_STAGES, PairedDesign, paired_evaluation
+from tests._cli import run
 
 #: The columns of paired.csv, as the issue names them.
 PAIRED_COLUMNS = [
@@ -76,23 +75,7 @@ def test_paper_features_see_nothing_at_the_threshold(table: pd.DataFrame) -> Non
 
 
 def test_command_writes_paired_csv_and_figure(tmp_path: Path) -> None:
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "axiswatch",
-            "experiment",
-            "paired",
-            "--out",
-            str(tmp_path),
-            "--per-cell",
-            "1",
-            "--no-oracle",
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+    result = run("experiment", "paired", "--out", tmp_path, "--per-cell", "1", "--no-oracle")
     assert result.returncode == 0, result.stderr
     written = pd.read_csv(tmp_path / "paired.csv")
     assert list(written.columns) == PAIRED_COLUMNS + FLOOR_COLUMNS

@@ -12,12 +12,13 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+
+from tests import _cli
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 
@@ -114,10 +115,7 @@ class _FirstScreen(HTMLParser):
 def demo_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     _chromium()  # skip before the half-minute demo when there is no browser
     out = tmp_path_factory.mktemp("demo")
-    done = subprocess.run(
-        [sys.executable, "-m", "axiswatch", "demo", "--out", str(out)],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+    done = _cli.run("demo", "--out", out)  # in this process: the report is the claim
     assert done.returncode == 0, done.stdout + done.stderr
     return out / "report" / "index.html"
 
