@@ -354,9 +354,12 @@ def test_capture_still_being_written_waits_and_temporary_names_are_ignored(
     (fleet / AXIS / ".2026-03-07.parquet.tmp").write_bytes(source)
     (fleet / AXIS / "2026-03-08.parquet.partial").write_bytes(source)
     store = tmp_path / "s.db"
-    first = _monitor(fleet, store)
+    # A settling time of 10 min, not the default 10 s: the half file must still be "being
+    # written" when the run looks at it, however slowly a loaded machine starts the run (with
+    # 10 s this failed under load); the other files were delivered an hour ago (``settle``).
+    first = _monitor(fleet, store, "--settle", 600)
     assert first.returncode == 0, first.stdout
-    assert "1 capture file(s) modified less than 10 s ago: waiting" in first.stdout
+    assert "1 capture file(s) modified less than 600 s ago: waiting" in first.stdout
     assert "6 capture files" in first.stdout  # the temporary names are not captures
     (fleet / AXIS / "2026-03-06.parquet").write_bytes(source)  # complete now
     settle(fleet / AXIS)
