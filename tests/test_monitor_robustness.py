@@ -137,9 +137,12 @@ def test_malformed_robot_profile_rejects_its_robot_only_and_is_retried_once_fixe
     first = _monitor(root, store, "--settle", "0")
     assert first.returncode == 8, first.stdout + first.stderr
     assert "1 new baseline(s), 4 capture(s) scored" in first.stdout  # robot01's
+    # One line for the profile's five captures (it was five identical lines but for the path),
+    # the count in the heading still every rejected file.
     assert (
-        "robot02/axis1/2026-03-01.parquet: robot02/robot.toml: 'resample_irregular' must be true or "
-        "false (unquoted); got 'no' (str)."
+        "Rejected captures (5):\n  robot02/axis1/2026-03-01.parquet (and 4 more capture files "
+        "with this reason): robot02/robot.toml: 'resample_irregular' must be true or "
+        "false (unquoted); got 'no' (str).\n"
     ) in first.stdout
     profile.write_text("resample_irregular = false\n")
     second = _monitor(root, store, "--settle", "0")

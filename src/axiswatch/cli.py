@@ -336,7 +336,7 @@ def monitor(
                 "waiting (scored by a later run)."
             )
         for title, lines in (
-            ("Rejected captures", result.rejected),
+            ("Rejected captures", fold_same_reason(result.rejected)),
             ("Changed files", result.changed),
             ("Axes not scored", result.axis_problems),
             ("Baselines to check", result.baseline_checks),
@@ -345,7 +345,8 @@ def monitor(
             ("Stale axes", result.stale),
         ):
             if lines:
-                typer.echo(f"\n{title} ({len(lines)}):")
+                count = len(result.rejected) if title == "Rejected captures" else len(lines)
+                typer.echo(f"\n{title} ({count}):")
                 for line in lines:
                     typer.echo(f"  {line}")
         if result.acknowledged:
@@ -412,6 +413,49 @@ def results(
             if indicators:
                 table = table.join(indicator_spreads(frame))
             typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
+def fold_same_reason(lines: list[str]) -> list[str]:
+    """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
+
+    A broken axis profile rejects every capture below it with the same line but for the path
+    (22 identical lines for one misplaced key, i21u); ``axiswatch rejections`` still lists every
+    file. Lines keep the order of their reason's first file; a line without ``": "`` is its own.
+
+    Parameters
+    ----------
+    lines : list of str
+        Rejection lines, each ``PATH: reason``.
+
+    Returns
+    -------
+    list of str
+        One line per reason: the first file's line, or with more files of the same reason
+        ``FIRST (and N more capture files with this reason): reason``.
+
+    Examples
+    --------
+    >>> fold_same_reason([
+    ...     "r1/a1/d1.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: empty file",
+    ...     "r1/a1/d2.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: r1/robot.toml: bad key",
+    ... ])  # doctest: +NORMALIZE_WHITESPACE
+    ['r1/a1/d1.csv (and 2 more capture files with this reason): r1/robot.toml: bad key',
+     'r1/a2/d1.csv: empty file']
+    """
+    groups: dict[tuple[str, int], list[str]] = {}  # (reason, 0) or (line, its index)
+    for index, line in enumerate(lines):
+        path, sep, reason = line.partition(": ")
+        groups.setdefault((reason, 0) if sep else (line, index + 1), []).append(path)
+    folded = []
+    for (reason, alone), paths in groups.items():
+        if alone:
+            folded.append(reason)
+        elif len(paths) == 1:
+            folded.append(f"{paths[0]}: {reason}")
+        else:
+            more = len(paths) - 1
+            folded.append(f"{paths[0]} (and {more} more capture files with this reason): {reason}")
+    return folded
 
 
 def _noise_level(text: str) -> float | Literal["auto"]:
