@@ -9,11 +9,13 @@ import math
 import numpy as np
 import pytest
 from scipy.signal import welch
+from sklearn.base import ClassifierMixin
 from typer.testing import CliRunner
 
 from axiswatch._indicator_model import _transformed
 from axiswatch._order_lines import CELLS_PER_DECADE, OrderProfile
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
+from axiswatch.datasets._family import SimulatedRobot
 from axiswatch_lab._ceiling import (
     CLASSIFIERS,
     COMPARISONS,
@@ -21,6 +23,7 @@ from axiswatch_lab._ceiling import (
     ORDER_BAND_CELLS,
     RELATIVE_BAND_EDGES,
     WELCH_SEGMENT,
+    CaptureFeatures,
     capture_features,
     make_classifier,
     order_bands,
@@ -142,7 +145,37 @@ def test_the_captures_are_the_paired_designs() -> None:
         np.testing.assert_array_equal(list(row.readings.values()), list(want.values()))
 
 
+@pytest.fixture(scope="module")
+def features_taken() -> dict[tuple[object, TransferDesign], list[CaptureFeatures]]:
+    """The captures' features per (robot, design), shared by the command's runs below."""
+    return {}
+
+
+@pytest.fixture
+def small_command(
+    monkeypatch: pytest.MonkeyPatch,
+    features_taken: dict[tuple[object, TransferDesign], list[CaptureFeatures]],
+) -> None:
+    """The ceiling command's computation made small where its tables' layout does not depend
+    on it: the captures' features read once for every run of this module (the same robot and
+    design give the same features), and a boosting of 10 trees instead of 100."""
+    import axiswatch_lab._ceiling as ceiling_module
+
+    def taken_once(robot: SimulatedRobot, design: TransferDesign) -> list[CaptureFeatures]:
+        if (robot, design) not in features_taken:
+            features_taken[(robot, design)] = capture_features(robot, design)
+        return features_taken[(robot, design)]
+
+    def fewer_trees(name: str, seed: int = 0) -> ClassifierMixin:
+        model = make_classifier(name, seed)
+        return model.set_params(max_iter=10) if name == "boosting" else model
+
+    monkeypatch.setattr(ceiling_module, "capture_features", taken_once)
+    monkeypatch.setattr(ceiling_module, "make_classifier", fewer_trees)
+
+
 @pytest.mark.slow
+@pytest.mark.usefixtures("small_command")
 @pytest.mark.parametrize(
     # One permutation per feature and fold: the table's layout does not depend on the repeats
     # (the study's default is 5).

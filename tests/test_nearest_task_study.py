@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 from pathlib import Path
@@ -27,7 +28,7 @@ from axiswatch_lab._nearest_task import (
     unit_change_prior,
     wrong_matches,
 )
-from axiswatch_lab._transfer import FAST_DESIGN, TransferDesign
+from axiswatch_lab._transfer import TransferDesign
 from axiswatch_lab.cli import experiment_app
 from tests.naive import unit_change_prior_naive
 
@@ -185,18 +186,49 @@ def test_two_units_per_task_is_the_default_record() -> None:
         assert two[f"nearest_auroc_{fault}"] == pytest.approx(auroc, abs=1e-9), fault
 
 
-@pytest.mark.slow
-def test_three_units_per_task_draw_distinct_units(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.fixture(scope="module")
+def three_unit_command(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[object, pd.DataFrame, list[int]]:
+    """The command on robot 1 with ``--fast --unit-spread 0.2 --units-per-task 3``, ``--fast``'s
+    design made TINY_DESIGN (without its unit spread, which the option gives): its result, its
+    table, and the units it drew. One robot record is the slow part of this module, so the
+    command and the three-unit study are read from one run (it is
+    ``robot_nearest_task(DEVELOPMENT_ROBOTS[1], TINY_DESIGN, units_per_task=3)``)."""
+    out = tmp_path_factory.mktemp("nearest")
     drawn: list[int] = []
 
     def recording(robot: object, unit: int, spread: float) -> object:
         drawn.append(unit)
         return draw_unit(robot, unit, spread)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(nearest_module, "draw_unit", recording)
-    monkeypatch.setattr(transfer_module, "draw_unit", recording)
-    with threadpool_limits(1):
-        record = robot_nearest_task(DEVELOPMENT_ROBOTS[1], TINY_DESIGN, units_per_task=3)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(nearest_module, "draw_unit", recording)
+        patch.setattr(transfer_module, "draw_unit", recording)
+        # The command reads FAST_DESIGN from the module when it runs (the claim is that --fast
+        # reaches the computation, not FAST_DESIGN's sizes).
+        patch.setattr(
+            transfer_module, "FAST_DESIGN", dataclasses.replace(TINY_DESIGN, unit_spread=0)
+        )
+        result = CliRunner().invoke(
+            experiment_app,
+            [
+                "nearest-task",
+                *("--out", str(out), "--robots", "1", "--fast", "--unit-spread", "0.2"),
+                *("--units-per-task", "3"),
+            ],
+        )
+    table = pd.read_csv(out / "robots.csv") if result.exit_code == 0 else pd.DataFrame()
+    return result, table, drawn
+
+
+@pytest.mark.slow
+def test_three_units_per_task_draw_distinct_units(
+    three_unit_command: tuple[object, pd.DataFrame, list[int]],
+) -> None:
+    result, table, drawn = three_unit_command
+    assert result.exit_code == 0, result.output  # type: ignore[attr-defined]
+    record = table.iloc[0]
     n_tasks = len(draw_robot(DEVELOPMENT_ROBOTS[1]).tasks)
     # Every fleet axis and Robot A a unit of its own: 3 per task and one.
     assert sorted(drawn) == sorted(set(drawn))
@@ -206,21 +238,18 @@ def test_three_units_per_task_draw_distinct_units(monkeypatch: pytest.MonkeyPatc
 
 
 @pytest.mark.slow
-def test_the_command_writes_the_table(tmp_path: Path) -> None:
-    result = CliRunner().invoke(
-        experiment_app,
-        [
-            "nearest-task",
-            *("--out", str(tmp_path), "--robots", "1", "--fast", "--unit-spread", "0.2"),
-            *("--units-per-task", "3"),
-        ],
-    )
-    assert result.exit_code == 0, result.output
-    table = pd.read_csv(tmp_path / "robots.csv")
+def test_the_command_writes_the_table(
+    three_unit_command: tuple[object, pd.DataFrame, list[int]],
+) -> None:
+    result, table, _ = three_unit_command
+    assert result.exit_code == 0, result.output  # type: ignore[attr-defined]
     assert list(table.robot) == ["robot1"]
-    assert table.robot_a_test_days.tolist() == [FAST_DESIGN.robot_a_days - 5]
-    # Every measure of the record, for each variant, in its range (one robot record is the
-    # slow part of this module: read here, not in a test of its own).
+    # --fast's design (here TINY_DESIGN's 8 days, not the full study's 48): days after the
+    # baseline and n_calibration calibration days.
+    assert table.robot_a_test_days.tolist() == [
+        TINY_DESIGN.robot_a_days - TINY_DESIGN.n_calibration - 1
+    ]
+    # Every measure of the record, for each variant, in its range.
     record = table.iloc[0]
     for variant in ("default", "nearest", "absent"):
         for fault in ("backlash", "friction", "tooth", "bearing"):

@@ -113,29 +113,46 @@ def test_real_data_rows() -> None:
     assert table.auroc.between(0, 1).all()
 
 
-@pytest.mark.slow
-def test_monitor_study_rows_of_a_low_rate_robot(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def monitor_rows(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[dict[str, object]], Path]:
+    """Robot 5's monitor study, every variant, friction and backlash faults: computed once for
+    the two tests that read it (its scratch folder with it)."""
     from axiswatch_lab._monitor_transfer import monitor_robot
 
-    rows = {(r["scenario"], r["method"]): r for r in monitor_robot(DEVELOPMENT_ROBOTS[5], tmp_path)}
-    assert len(rows) == 8  # indicators, indicators-envelope, indicators-own, mechanics
-    for scenario, files in (("healthy", 72), ("fault", 56)):
+    scratch = tmp_path_factory.mktemp("monitor")
+    return monitor_robot(DEVELOPMENT_ROBOTS[5], scratch, faults=("friction", "backlash")), scratch
+
+
+@pytest.mark.slow
+def test_monitor_study_rows_of_a_low_rate_robot(
+    monitor_rows: tuple[list[dict[str, object]], Path],
+) -> None:
+    from axiswatch_lab._monitor_transfer import VARIANTS
+
+    taken, scratch = monitor_rows
+    rows = {(r["scenario"], r["method"]): r for r in taken}
+    assert len(rows) == len(taken) == 12  # 3 scenarios of 4 methods, below
+    assert VARIANTS == ("indicators", "indicators-envelope", "indicators-own", "mechanics")
+    for scenario, files in (("healthy", 72), ("fault", 56), ("fault:backlash", 56)):
         for variant in ("indicators", "indicators-envelope"):
             indicators = rows[(scenario, variant)]
             assert indicators["files"] == files
             assert indicators["scored"] == files - 4  # every capture but the 4 baselines
         assert rows[(scenario, "mechanics")]["stopped"]  # a 20 Hz robot: the band needs 600 Hz
     assert rows[("fault", "indicators")]["faulty_monitored"] == 8
-    assert list(tmp_path.iterdir()) == []  # the scratch folders are removed
+    assert list(scratch.iterdir()) == []  # the scratch folders are removed
 
 
 @pytest.mark.slow
-def test_monitor_study_runs_one_fault_scenario_per_kind(tmp_path: Path) -> None:
-    from axiswatch_lab._monitor_transfer import monitor_robot
-
-    rows = monitor_robot(
-        DEVELOPMENT_ROBOTS[5], tmp_path, ("indicators",), faults=("friction", "backlash")
-    )
+def test_monitor_study_runs_one_fault_scenario_per_kind(
+    monitor_rows: tuple[list[dict[str, object]], Path],
+) -> None:
+    # Every method's rows, scenario by scenario; the indicators' in the order of the faults.
+    taken, _ = monitor_rows
+    assert [r["scenario"] for r in taken] == [
+        s for s in ("healthy", "fault", "fault:backlash") for _ in range(4)
+    ]
+    rows = [r for r in taken if r["method"] == "indicators"]
     assert [r["scenario"] for r in rows] == ["healthy", "fault", "fault:backlash"]
     backlash = rows[2]
     assert backlash["faulty_monitored"] == 8  # axis a0's eight captures after calibration
