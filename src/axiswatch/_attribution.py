@@ -8,8 +8,6 @@ are split into ``n_bands`` contiguous frequency bands of (nearly) equal numbers 
   With ``D = X_s - X_t`` (rows paired) and the projector ``Q = P P^T``,
   ``d = sum_rows D Q D^T = sum_j c_j`` with ``c_j = sum_rows D_j (D Q)_j``, so the contributions of
   the columns in a cell add up to exactly ``d`` (a cell can be negative when it cancels another).
-* **Exact terms** for :class:`~axiswatch.IndicatorDetector` on :class:`~axiswatch.MechanicsStage`
-  (:func:`explain_indicators`): its distance is a sum of one term per indicator column.
 * **Occlusion** for every other detector (LRA, energy, CORAL, SA), whose distance does not split
   into a sum over columns: the cell's columns of the test are replaced by the baseline's (its
   leading rows) and the share is ``(d - d_occluded) / d``, the part of the distance that goes away
@@ -27,18 +25,29 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import check_is_fitted
 
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, PCADetector
+from axiswatch._detectors import BaselineDetector, PCADetector
 from axiswatch._features import Features
-from axiswatch._mechanics import COLUMNS, LIKELY_FAULTS, MechanicsStage
 
 __all__ = [
+    "LIKELY_FAULTS",
     "attribute",
     "describe_top_indicator",
     "difference_spectrogram",
-    "explain_indicators",
     "pca_contributions",
     "plot_difference_spectrogram",
 ]
+
+
+#: What a rise of an indicator most likely means, by the name a score's ``indicators`` details
+#: give it: the fault it watches, for the monitor's reasons and report.
+LIKELY_FAULTS: dict[str, str] = {
+    "viscous_friction": "friction (lubrication, seals, wear)",
+    "viscous_friction_deficit": "lost motion (backlash) breaking the energy balance",
+    "impulsiveness": "impacts (backlash or a damaged gear tooth)",
+    "reversal_bursts": "backlash in the gearbox",
+    "tooth_lines": "a damaged gear tooth",
+    "bearing_lines": "a bearing defect",
+}
 
 
 def pca_contributions(
@@ -74,69 +83,13 @@ def pca_contributions(
     return np.asarray(np.sum(difference * projected, axis=0))
 
 
-def explain_indicators(
-    stage: MechanicsStage, detector: IndicatorDetector, X: NDArray[np.float64]
-) -> dict[str, dict[str, float]]:
-    """Why a capture has its distance: each indicator's reading, shift and share.
-
-    Parameters
-    ----------
-    stage : MechanicsStage
-        Fitted on the baseline.
-    detector : IndicatorDetector
-        Fitted on the stage's baseline rows.
-    X : ndarray of shape (n_rows, 6)
-        The test capture's rows (``stage.transform(capture).X``).
-
-    Returns
-    -------
-    dict
-        One entry per column of :data:`~axiswatch._mechanics.COLUMNS`, in that order:
-        ``value`` and ``baseline`` (the indicator in its own unit, geometric mean over the two
-        directions of motion; the deficit column repeats the viscous friction), ``spreads`` (the
-        mean row's shift from the baseline's in that column, in healthy spreads
-        ``MechanicsStage.scales``; positive is worse: for the deficit column, friction that
-        fell) and ``share`` (the column's term of the distance over the distance, 0 when the
-        distance is 0; the shares add up to 1).
-
-    Examples
-    --------
-    >>> from axiswatch import IndicatorDetector, MechanicsStage
-    >>> from axiswatch.datasets import simulate_capture
-    >>> stage = MechanicsStage().fit(simulate_capture("short_fast", seed=0))
-    >>> detector = IndicatorDetector().fit(stage.baseline_rows_)
-    >>> X = stage.transform(simulate_capture("short_fast", seed=1)).X
-    >>> why = explain_indicators(stage, detector, X)
-    >>> list(why) == list(COLUMNS), round(sum(v["share"] for v in why.values()), 12)
-    (True, 1.0)
-    """
-    X = np.asarray(X, dtype=np.float64)
-    terms = detector.contributions(X)
-    total = float(terms.sum())
-    shift = X.mean(axis=0) - detector.centre_
-    scales = np.asarray(stage.scales, dtype=np.float64)
-    baseline_log = stage.baseline_readings_.mean(axis=0)
-    explanation = {}
-    for j, name in enumerate(COLUMNS):
-        indicator = max(j - 1, 0)  # the viscous friction has two columns: up, and negated
-        sign = -1.0 if j == 1 else 1.0
-        test_log = float(np.mean(sign * X[:, j] * scales[indicator]))
-        explanation[name] = {
-            "value": 10.0**test_log,
-            "baseline": float(10.0 ** baseline_log[indicator]),
-            "spreads": float(shift[j]),
-            "share": float(terms[j] / total) if total > 0 else 0.0,
-        }
-    return explanation
-
-
 def describe_top_indicator(explanation: dict[str, dict[str, float]]) -> str | None:
     """One line on the indicator with the largest share of the distance, and what it means.
 
     Parameters
     ----------
     explanation : dict
-        :func:`explain_indicators`'s output (as stored in a score's details).
+        A score's ``indicators`` details: per indicator its ``spreads`` and ``share``.
 
     Returns
     -------

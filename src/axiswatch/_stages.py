@@ -2,8 +2,8 @@
 
 A stage is fitted on the baseline capture and transforms every capture into
 :class:`~axiswatch.Features` (rows of comparable situations, columns of measurements). The
-paper's |STFT| features are :class:`StftStage`; the product default's physical indicators are
-:class:`~axiswatch.MechanicsStage`; research stages live in ``axiswatch_lab``.
+paper's |STFT| features are :class:`StftStage`; research stages live in the lab
+(``axiswatch_lab``).
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ from axiswatch.datasets._family import (
     HELD_OUT_ROBOTS,
     SimulatedRobot,
     draw_robot,
+    draw_unit,
 )
 from axiswatch.datasets._lab import (
     LAB_DAYS,
@@ -23,10 +24,12 @@ from axiswatch.datasets._recorded import (
 )
 from axiswatch.datasets._robot import (
     DEFAULT_FLEET_FAULTS,
+    FAULT_KINDS,
     NOMINAL_AXIS,
     TASKS,
     AxisSpec,
     Fault,
+    FaultKind,
     FleetFault,
     Task,
     fleet_profile_toml,
@@ -38,7 +41,9 @@ __all__ = [
     "AxisSpec",
     "DEFAULT_FLEET_FAULTS",
     "DEVELOPMENT_ROBOTS",
+    "FAULT_KINDS",
     "Fault",
+    "FaultKind",
     "FleetFault",
     "HELD_OUT_ROBOTS",
     "LAB_DAYS",
@@ -51,6 +56,7 @@ __all__ = [
     "Task",
     "default_data_dir",
     "draw_robot",
+    "draw_unit",
     "fleet_profile_toml",
     "lab_dataset",
     "read_dataset",

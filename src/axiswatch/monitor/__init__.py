@@ -6,7 +6,7 @@ store; ``fleet_summary``, ``fleet_results`` and ``write_report`` read them back.
 
 A store is any :class:`StoreBackend` (the protocol, in domain words); ``Store(path)`` opens the
 product's, :class:`SQLiteStore`. A method of the monitor is a :class:`MethodPreset` registered by
-name (:func:`register_method`; built in: ``mechanics``, the default, ``lra`` and ``pca``).
+name (:func:`register_method`; built in: ``indicators``, the default, ``lra`` and ``pca``).
 """
 
 from axiswatch.monitor._fleet import (

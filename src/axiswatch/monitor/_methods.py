@@ -10,9 +10,8 @@ imported the first time the table is read).
 
 Built in: ``indicators`` (the product default: :class:`~axiswatch.IndicatorModel` per axis,
 fitted on the baseline and the calibration captures, with its fleet's prior:
-``axiswatch.monitor._indicators``; no number of its decision comes from a simulator), the paper's
-``lra`` and ``pca``, and ``mechanics`` (the former default, whose indicator scales and task-change
-floor were measured on the project's simulator: kept for comparison, docs/evaluation.md).
+``axiswatch.monitor._indicators``; no number of its decision comes from a simulator), and the paper's
+``lra`` and ``pca``. The lab registers the former default, ``mechanics``, through the entry point.
 """
 
 from __future__ import annotations
@@ -22,8 +21,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from axiswatch._calibration import half_laplace_threshold
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
-from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
+from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch._stages import FeatureStage
 
 if TYPE_CHECKING:
@@ -114,13 +112,6 @@ _METHODS: dict[str, MethodPreset] = {
     ),
     "lra": MethodPreset(detector=_lra, summary="the paper's Low Rank Alignment"),
     "pca": MethodPreset(detector=lambda config: PCADetector(), summary="the paper's PCA"),
-    "mechanics": MethodPreset(
-        detector=lambda config: IndicatorDetector(),
-        stage=lambda config: MechanicsStage(),
-        task_change_scale=MECHANICS_TASK_CHANGE_SCALE,
-        summary="the former default: physical indicators in scales measured on the project's "
-        "simulator (needs >= 600 Hz; kept for comparison)",
-    ),
 }
 _plugins_loaded = False
 

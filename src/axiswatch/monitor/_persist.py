@@ -77,7 +77,6 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.IndicatorDetector",
     "axiswatch.IndicatorModel",
     "axiswatch.LRADetector",
-    "axiswatch.MechanicsStage",
     "axiswatch.PCADetector",
     "axiswatch.StftStage",
     "axiswatch.Threshold",

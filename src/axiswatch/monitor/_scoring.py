@@ -18,12 +18,10 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
-from axiswatch._attribution import explain_indicators
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector, IndicatorDetector
+from axiswatch._detectors import BaselineDetector
 from axiswatch._features import FeatureSpec
 from axiswatch._indicator_model import MIN_AXES, MIN_READINGS, IndicatorModel
-from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
@@ -75,9 +73,7 @@ class MonitorConfig:
         ``"indicators"``, the product default, an :class:`~axiswatch.IndicatorModel` per axis
         fitted on the baseline and the calibration captures, with its fleet's prior; the paper's
         Low Rank Alignment ``"lra"`` and ``"pca"``, library defaults of :class:`LRADetector` and
-        :class:`PCADetector` on ``features``; and ``"mechanics"``, the former default, the
-        physical indicators of :class:`MechanicsStage` with :class:`IndicatorDetector` in scales
-        measured on the project's simulator). The method's preset makes the detector, the stage
+        :class:`PCADetector` on ``features``). The method's preset makes the detector, the stage
         and the threshold floor.
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
@@ -130,8 +126,8 @@ class MonitorConfig:
     {'k': 2, 'n': 3, 'clear_m': 1}
     >>> MonitorConfig().method  # the product default
     'indicators'
-    >>> type(MonitorConfig(method="mechanics").model().stage).__name__
-    'MechanicsStage'
+    >>> type(MonitorConfig(method="pca").model().detector).__name__
+    'PCADetector'
     """
 
     method: str = DEFAULT_METHOD
@@ -243,8 +239,7 @@ class MonitorConfig:
 
     def threshold_floor(self) -> float:
         """Least threshold: the ``percentile`` of the half-Laplace fit of healthy task changes
-        in development, for a method that has one (``"mechanics"``:
-        ``MECHANICS_TASK_CHANGE_SCALE``); else 0."""
+        in development, for a method that has one; else 0."""
         floor = self.preset.threshold_floor(self.percentile)
         return 0.0 if floor is None else floor
 
@@ -630,8 +625,11 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         detector = model.detector_
         distance, diagnostics = detector.distance_and_diagnostics(features.X)
         details.update(diagnostics)
-        if isinstance(model.stage_, MechanicsStage) and isinstance(detector, IndicatorDetector):
-            details["indicators"] = explain_indicators(model.stage_, detector, features.X)
+        # A stage that can say why (the lab's ``mechanics``) adds each indicator's share.
+        explain = getattr(model.stage_, "explain", None)
+        explanation = None if explain is None else explain(detector, features.X)
+        if explanation is not None:
+            details["indicators"] = explanation
     except _DATA_ERRORS as exc:
         kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)
