@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 from pathlib import Path
@@ -67,6 +68,52 @@ def test_a_registered_detector_reaches_the_monitor_and_the_cli(
     assert wrong.exit_code == 2
     words = " ".join(wrong.output.replace("│", " ").split())
     assert re.search(r"expected one of indicators, lra, pca, (\S+, )*rms; got 'rmz'", words)
+
+
+class ExplainedStage(aw.FeatureStage):
+    """A stage that says why a capture has its distance: each score keeps its words."""
+
+    def __init__(self, window: int = 100) -> None:
+        self.window = window
+
+    def fit(self, baseline: aw.Capture) -> ExplainedStage:
+        return self
+
+    def transform(self, capture: aw.Capture) -> aw.Features:
+        torque = capture.signals["torque"]
+        rows = torque[: torque.size // self.window * self.window].reshape(-1, self.window)
+        rms = np.sqrt(np.mean(rows**2, axis=1, keepdims=True))
+        rate = float(capture.rates_hz["torque"])
+        return aw.Features(rms, ("torque",), None, rate, ("rms",))
+
+    def explain(self, detector: object, X: NDArray[np.float64]) -> dict[str, dict[str, float]]:
+        return {"rms": {"value": float(np.mean(X)), "spreads": 1.0, "share": 1.0}}
+
+
+def test_a_stage_that_explains_its_distance_fills_the_scores_indicators(
+    registry: None, fleet: Path, tmp_path: Path
+) -> None:
+    register_method(
+        "explained",
+        MethodPreset(
+            detector=lambda config: RmsDetector(),
+            stage=lambda config: ExplainedStage(),
+        ),
+    )
+    with aw.Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, MonitorConfig(method="explained"))
+        results = fleet_results(store)
+    monitored = results[results.role == "monitor"]
+    assert len(monitored) == 6
+    for row in monitored.itertuples():
+        (entry,) = json.loads(row.details)["indicators"].values()
+        assert entry["value"] > 0
+    # A stage without the method stores no indicators.
+    register_method("plain", MethodPreset(detector=lambda config: RmsDetector()))
+    with aw.Store(tmp_path / "p.db") as store:
+        monitor_fleet(fleet, store, MonitorConfig(method="plain"))
+        plain = fleet_results(store)
+    assert not any("indicators" in json.loads(d) for d in plain.details)
 
 
 def test_register_method_refuses_bad_and_taken_names(registry: None) -> None:

@@ -3,15 +3,11 @@ and the product's wheel without it."""
 
 from __future__ import annotations
 
-import doctest
 import importlib
 import subprocess
 import sys
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any
-
-import pytest
 
 import axiswatch as aw
 import axiswatch_lab
@@ -37,31 +33,6 @@ def test_the_lab_is_its_own_distribution_with_the_product_s_entry_points() -> No
     assert method.value == "axiswatch_lab._mechanics"
     (script,) = entry_points(group="console_scripts", name="axiswatch-lab")
     assert script.value == "axiswatch_lab_launcher:main"
-
-
-def _relocated_methods() -> list[tuple[str, object]]:
-    """Methods with examples of the classes whose __module__ is the lab's namespace (doctest
-    skips them there)."""
-    methods = []
-    for name in axiswatch_lab.__all__:
-        cls = getattr(axiswatch_lab, name)
-        if not (isinstance(cls, type) and cls.__module__ == "axiswatch_lab"):
-            continue
-        for attribute, value in vars(cls).items():
-            function = getattr(value, "__func__", getattr(value, "fget", value))
-            if callable(function) and ">>>" in (function.__doc__ or ""):
-                methods.append((f"axiswatch_lab.{name}.{attribute}", function))
-    return methods
-
-
-@pytest.mark.parametrize(("name", "function"), _relocated_methods())
-def test_examples_of_public_classes_methods(name: str, function: Any) -> None:
-    tests = doctest.DocTestFinder(recurse=False).find(function, name, globs=function.__globals__)
-    runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE | doctest.ELLIPSIS)
-    for test in tests:
-        runner.run(test)
-    assert runner.summarize(verbose=False).failed == 0
-    assert runner.summarize(verbose=False).attempted > 0
 
 
 def test_reprs_show_public_paths() -> None:
