@@ -1,8 +1,8 @@
 """axiswatch: predictive maintenance of robot axes that does not cry wolf when the task changes.
 
 A model is fitted on a healthy baseline of one axis and assesses each new capture: distance,
-threshold, alarm and reason. The default is :class:`IndicatorModel`; the paper's method is
-:class:`HealthModel`. :mod:`axiswatch.monitor` runs a fleet; :mod:`axiswatch.datasets` has data.
+threshold, alarm and reason. The default is :class:`IndicatorModel`, the paper's method
+:class:`HealthModel`. :mod:`axiswatch.monitor` runs a fleet, :mod:`axiswatch.datasets` has data.
 
 >>> import axiswatch as aw
 >>> from axiswatch.datasets import simulate_capture

@@ -1,6 +1,6 @@
 """Why an alarm fired: the share of a capture's distance carried by each channel and band.
 
-Exact for PCA (paper, "Detection") and for the indicator detector; by occlusion for the others.
+It is exact for PCA (paper, "Detection") and the indicator detector, by occlusion elsewhere.
 The decomposition is in docs/internals.md, "Attribution".
 """
 

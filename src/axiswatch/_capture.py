@@ -1,6 +1,6 @@
 """A capture: the signals of one robot axis over a few seconds, each at its own rate.
 
-The file format is the monitor manual's "Capture files"; formats are in :mod:`axiswatch._formats`.
+The file format is the monitor manual's "Capture files". Readers are in :mod:`axiswatch._formats`.
 """
 
 from __future__ import annotations

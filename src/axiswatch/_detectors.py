@@ -1,7 +1,7 @@
 """Detectors: the distance between a test capture's features and the healthy baseline's.
 
 Each detector is a scikit-learn estimator: ``fit(X)``, ``distance(X)``, ``transform(X)``. A new
-method subclasses :class:`BaselineDetector`; docs/internals.md, "Detectors", gives row policies.
+method subclasses :class:`BaselineDetector`. Row policies: docs/internals.md, "Detectors".
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """|STFT| features of a capture (paper, section "Feature Extraction").
 
-One row per STFT time slice; columns are every bin of every channel, channel by channel. A
+A row is one STFT time slice. Columns are every bin of every channel, channel by channel. A
 "combination" is the sample-wise product of two signals (docs/paper-notes.md).
 """
 

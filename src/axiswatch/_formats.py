@@ -1,7 +1,7 @@
 """Capture file formats: one registry from file suffix to reader and writer.
 
 Built in: ``.parquet``, ``.csv`` and ``.npz``. A new format is a reader and a writer registered
-with :func:`register_format`; docs/internals.md, "Capture formats", gives the table form.
+with :func:`register_format`. The table form: docs/internals.md, "Capture formats".
 """
 
 from __future__ import annotations

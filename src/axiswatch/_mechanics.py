@@ -1,7 +1,8 @@
 """The former default's physical indicators, meant to read the same on every task.
 
 Viscous friction from the energy of whole moves, impulsiveness, reversal bursts and
-angle-locked lines; :class:`MechanicsStage` stacks them. docs/internals.md, "The former default".
+angle-locked lines. :class:`MechanicsStage` stacks them. See docs/internals.md, "The former
+default".
 """
 
 from __future__ import annotations

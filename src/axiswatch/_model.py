@@ -1,7 +1,7 @@
 """A health model of one robot axis: features, a detector and a calibrated threshold.
 
 It composes a :class:`~axiswatch.FeatureStage`, a :class:`~axiswatch.BaselineDetector` and
-:func:`~axiswatch.alarm_threshold`; docs/library.md shows it in one screen.
+:func:`~axiswatch.alarm_threshold`. docs/library.md shows it in one screen.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """A default for LRA's ``lambda`` from the baseline's own noise (Marchenko-Pastur edge).
 
-Paper eqs. 3-4 keep singular values above ``sqrt(lambda)``; ``sigma`` follows Gavish & Donoho
-(2014), eq. 10. The derivation and its caveat are in docs/internals.md, "LRA solvers".
+Paper eqs. 3-4 keep singular values above ``sqrt(lambda)``. The noise ``sigma`` follows Gavish &
+Donoho (2014), eq. 10. The derivation and its caveat are in docs/internals.md, "LRA solvers".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Order lines against the baseline's own order spectrum, without kinematics.
 
 A fault of a rotating part adds lines at fixed orders of the position. New or grown lines
-become one indicator, ``order_lines``; docs/internals.md, "Order lines", gives each step.
+become one indicator, ``order_lines``. Each step: docs/internals.md, "Order lines".
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Figures of the library: a distance trend with its threshold.
 
-Matplotlib is imported lazily. Each function takes an optional ``ax``; without one it draws on
+Matplotlib is imported lazily. Each function takes an optional ``ax``. Without one it draws on
 its own figure, made without pyplot, so no backend is chosen or switched.
 """
 

@@ -1,7 +1,7 @@
 """Resampling of a capture's signals onto one common rate (paper, section "Pre-processing").
 
 The paper upsamples 250 Hz position to 2 kHz with monotone cubic (PCHIP) interpolation.
-:func:`upsample_pchip` takes any integer factor; :func:`resample_capture` stacks the signals.
+:func:`upsample_pchip` takes any integer factor. :func:`resample_capture` stacks the signals.
 """
 
 from __future__ import annotations

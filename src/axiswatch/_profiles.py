@@ -1,7 +1,7 @@
 """AxisProfile: what the library must know about an axis that its files do not say.
 
-Column names, units and kinematics, from a TOML file; every field is optional. The monitor
-manual's "Monitor your own robot" shows one; docs/internals.md, "Axis profiles", the full form.
+Column names, units and kinematics, from a TOML file. Every field is optional. The monitor
+manual's "Monitor your own robot" shows one. The full form: docs/internals.md, "Axis profiles".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Physical indicators of an axis that adapt to the capture: its rate, units and motion.
 
 Friction, drive loads, impulsiveness, gap ringing and kinematic lines. Each declares what it
-needs; a capture that cannot give one gets NaN and the reason. docs/internals.md, "Readings".
+needs. A capture that cannot give one gets NaN and the reason. See docs/internals.md, "Readings".
 """
 
 from __future__ import annotations

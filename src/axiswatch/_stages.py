@@ -1,6 +1,6 @@
 """The feature-stage interface: a capture becomes a feature matrix a detector can compare.
 
-The paper's |STFT| features are :class:`StftStage`; the former default's indicators are
+The paper's |STFT| features are :class:`StftStage`. The former default's indicators are
 :class:`~axiswatch.MechanicsStage`.
 """
 

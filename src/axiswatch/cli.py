@@ -1,7 +1,7 @@
 """Command-line interface: maps options to library calls, no science here.
 
 Exit codes: 0 success, 1 failure, 2 usage error. ``monitor`` adds 4 for an unacknowledged alarm
-and 8 for a new problem; the monitor manual lists them.
+and 8 for a new problem. The monitor manual lists them.
 """
 
 from __future__ import annotations

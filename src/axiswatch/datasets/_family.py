@@ -1,7 +1,7 @@
 """A family of simulated robot axes: each robot draws its own mechanics, controller and logger.
 
 :func:`draw_robot` turns a seed into a :class:`SimulatedRobot`. The seeds split once into
-:data:`DEVELOPMENT_ROBOTS` and :data:`HELD_OUT_ROBOTS`; docs/internals.md, "The robot family".
+:data:`DEVELOPMENT_ROBOTS` and :data:`HELD_OUT_ROBOTS`. See docs/internals.md, "The robot family".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Synthetic data: the paper's lab-generated dataset (paper, "Lab Generated Dataset").
 
 The paper leaves three gaps: the time base, the 10th day, each day's phase. Each is a
-parameter here; docs/paper-notes.md gives the choices and what they change.
+parameter here. docs/paper-notes.md gives the choices and what they change.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The fleet service: monitor a folder of capture files, remember every score, raise alarms.
 
-:func:`monitor_fleet` scores new captures into a store; :func:`fleet_summary`,
+:func:`monitor_fleet` scores new captures into a store. :func:`fleet_summary`,
 :func:`fleet_results` and :func:`write_report` read them back. docs/monitor.md is the manual.
 """
 

@@ -1,7 +1,7 @@
 """A fleet on disk: ``ROOT/<robot>/<axis>/<capture>.<ext>``, discovered and ordered by date.
 
-It looks only at names, never at contents. The rules are the monitor manual's "Fleet layout";
-captures of one axis are ordered by date-time, then by file name.
+It looks only at names, never at contents. The rules are the monitor manual's "Fleet layout".
+Captures of one axis are ordered by date-time, then by file name.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The axis ledger: every change of a store's state the monitor makes, in domain words.
 
-Each function is one atomic write of a :class:`~axiswatch.monitor.StoreBackend`; the decision
+Each function is one atomic write of a :class:`~axiswatch.monitor.StoreBackend`. The decision
 is made inside the store's transaction, from what the store holds at that moment.
 """
 

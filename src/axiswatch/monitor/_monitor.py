@@ -1,7 +1,7 @@
 """Monitor a fleet: per robot axis a baseline, a calibrated threshold, scores and alarm states.
 
 The driver: baseline, calibration and scoring as the monitor manual's "What monitor does"
-says. It alone writes the store, one transaction per capture; workers only score.
+says. It alone writes the store, one transaction per capture. Workers only score.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Fitted models as plain data: NumPy arrays and JSON, never pickle.
 
 A fitted model becomes one ``.npz`` blob and comes back bit for bit. Loading builds only the
-classes of :data:`ALLOWED_CLASSES`; docs/internals.md, "Stored models", gives the encoding.
+classes of :data:`ALLOWED_CLASSES`. The encoding: docs/internals.md, "Stored models".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Data quality of a capture: a verdict of its own, judged before any mechanical one.
 
 Bad data is never an alarm nor a healthy score. Rules, first match wins: ``out of range``,
-``flat/stuck signal``, ``no motion``; docs/internals.md, "Data quality", gives each.
+``flat/stuck signal``, ``no motion``. Each is in docs/internals.md, "Data quality".
 """
 
 from __future__ import annotations

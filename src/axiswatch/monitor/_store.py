@@ -1,7 +1,7 @@
 """The monitoring store: the :class:`StoreBackend` protocol in domain words, and :class:`SQLiteStore`.
 
 Every SQL statement of axiswatch is here. WAL mode, and one short ``BEGIN IMMEDIATE`` transaction
-per write. The tables are the monitor manual's "The store"; docs/internals.md, "The store".
+per write. The tables are in the monitor manual's "The store" and docs/internals.md.
 """
 
 from __future__ import annotations
