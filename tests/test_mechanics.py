@@ -1,5 +1,5 @@
 """The mechanics indicators: exact on constructed signals, task-invariant and fault-sensitive on
-the simulator (the figures in the comments are measured, docs/evaluation.md)."""
+the simulator (the figures in the comments are measured, lab/docs/decision-log.md)."""
 
 from __future__ import annotations
 

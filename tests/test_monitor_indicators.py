@@ -44,7 +44,7 @@ from tests.memory_store import MemoryStore
 
 runner = CliRunner()
 
-#: A development robot of the family (docs/evaluation.md, "Transfer"): a 50 Hz wrist axis.
+#: A development robot of the family (lab/docs/decision-log.md, "Transfer"): a 50 Hz wrist axis.
 ROBOT_SEED = 4
 AXES = 4
 DAYS = 9

@@ -22,18 +22,17 @@ from tests import _cli
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 
-#: Ground truth of the demo (README, "What the demo shows"): the simulator's faulty axes, and
+#: Ground truth of the demo (docs/monitor.md, "What the demo shows"): the simulator's faulty axes, and
 #: the parts an indicator of the default method may name for their fault (a friction rise raises
 #: the friction and the drive-load readings; the bearing is the one named in the demo's profile).
 FAULTY = {
     "robot02/axis1": ("bearing motor_inner_race",),
     "robot03/axis2": ("friction", "drive load"),
 }
-#: A healthy axis the default calls over its threshold at the demo's last capture (README, "What
-#: the demo shows": robot02/axis2, Coulomb friction 1.25 x its task-change allowance on 03-30).
-#: Since i17a the fleet prior reads every pair of axes both ways and does not depend on the order
-#: of the robot folders; read one way (main a3707e2) the demo listed it in 3 of the 6 orders of
-#: its robot folders, not in the order they have.
+#: A healthy axis the default calls over its threshold at the demo's last capture (docs/monitor.md,
+#: "What the demo shows": robot02/axis2, Coulomb friction 1.25 x its task-change allowance on
+#: 03-30). The fleet prior reads every pair of axes both ways, so the order of the robot folders
+#: does not change this.
 FALSE_ALARMS = {"robot02/axis2": ("friction",)}
 
 
@@ -158,15 +157,16 @@ def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: 
 
 @pytest.mark.slow
 def test_readme_quotes_the_demo(demo_report: Path) -> None:
-    """README.md quotes the demo's stored reasons ("The store") and the alarm line `monitor`
-    prints ("Rejected captures and exit status"): they are what the demo gives."""
+    """The monitor manual quotes the demo's stored reasons ("The store") and the alarm line
+    `monitor` prints ("Rejected captures and exit status"): they are what the demo gives."""
     from typer.testing import CliRunner
 
     from axiswatch.cli import app
     from axiswatch.monitor._results import fleet_results
     from axiswatch.monitor._store import Store
 
-    readme = " ".join((ARTIFACTS.parent / "README.md").read_text(encoding="utf-8").split())
+    manual = ARTIFACTS.parent / "docs" / "monitor.md"
+    readme = " ".join(manual.read_text(encoding="utf-8").split())
     out = demo_report.parent.parent
     with Store(out / "fleet.db", read_only=True) as store:
         reasons = fleet_results(store)["reason"].dropna().tolist()

@@ -29,7 +29,7 @@ from axiswatch.monitor._indicators import (
 )
 from tests import naive
 
-#: A development robot of the family (docs/evaluation.md, "Transfer"): a 50 Hz wrist axis.
+#: A development robot of the family (lab/docs/decision-log.md, "Transfer"): a 50 Hz wrist axis.
 ROBOT_SEED = 4
 SAME = "same task as the baseline: own spreads"
 

@@ -1,11 +1,8 @@
 """axiswatch: predictive maintenance of robot axes that does not cry wolf when the task changes.
 
-The library: a capture of one axis (position, speed, torque) becomes features (the paper's |STFT|,
-or the product default's physical indicators, :class:`MechanicsStage`); a detector compares them
-with a healthy baseline (PCA subspace distance, the paper's Low Rank Alignment, or indicator
-spreads); a half-Laplace fit of healthy distances gives the alarm threshold. The fleet service is
-:mod:`axiswatch.monitor`, simulators and recorded-data readers are :mod:`axiswatch.datasets`; the
-research experiments are the separate package ``axiswatch_lab``.
+A model is fitted on a healthy baseline of one axis and assesses each new capture: distance,
+threshold, alarm and reason. The default is :class:`IndicatorModel`, the paper's method
+:class:`HealthModel`. :mod:`axiswatch.monitor` runs a fleet, :mod:`axiswatch.datasets` has data.
 
 >>> import axiswatch as aw
 >>> from axiswatch.datasets import simulate_capture

@@ -1,12 +1,6 @@
-"""A capture: the signals of one robot axis over a few seconds, and its file format.
+"""A capture: the signals of one robot axis over a few seconds, each at its own rate.
 
-Pipeline stage 0. A :class:`Capture` maps signal names to 1-D float64 arrays, each with its own
-sampling rate (the paper's robots log position at 250 Hz and speed and torque at 2 kHz).
-
-File format (the project's public data format, see README): one Parquet (``.parquet``), CSV
-(``.csv``) or NumPy (``.npz``) file per capture (the registry of formats: :mod:`axiswatch._formats`). Column ``time`` holds seconds, strictly increasing; every other
-numeric column is a signal. A signal sampled more slowly than the file's time grid has values only
-at its own instants and is blank (NaN) elsewhere. Rates are inferred from the time stamps.
+The file format is the monitor manual's "Capture files". Readers are in :mod:`axiswatch._formats`.
 """
 
 from __future__ import annotations

@@ -1,46 +1,8 @@
-"""Compact physical health indicators of an axis, each meant to read the same whatever the task.
+"""The former default's physical indicators, meant to read the same on every task.
 
-Pipeline stage 2c (beside the |STFT| features of ``_features`` and the per-state stages of
-``_indicators``). A capture becomes a few numbers with a physical meaning, chosen so that a healthy
-axis gives the same value on every task while the fault they watch moves them:
-
-* **viscous friction** (:func:`viscous_friction`): the energy the motor puts into a move,
-  ``W = integral of torque * speed dt``, between two instants of equal speed, goes into gravity,
-  friction and nothing else (the kinetic and spring energies are the same at both ends):
-  ``W = c * |dq| + F_v * integral of speed^2 dt``. Nested windows of one move (speed above
-  2 %, 15 %, ..., 75 % of its peak) share the move's constant force ``c`` (Coulomb friction plus
-  gravity and payload, which differ from move to move and are not needed) and every move shares
-  ``F_v``, solved by least squares. Energy integrals are immune to the link's resonance and to
-  the payload, which defeat a sample-by-sample torque model (docs/evaluation.md).
-* **impulsiveness**: the kurtosis, while moving, of the torque's 40-300 Hz band divided by its own
-  RMS envelope over 100 ms (backlash and tooth impacts last a few ms). Without the envelope the
-  kurtosis reads the task: a band whose level follows the speed along a move is heavy-tailed
-  even if Gaussian at every instant (healthy kurtosis 3.8 on a slow task, 10 on fast ones; with
-  the envelope 3.1-3.5 on the three simulator tasks of the development design).
-* **reversal bursts** (:func:`reversal_bursts`): the torque's 40-300 Hz burst where the torque
-  changes sign while moving (where a gearbox's backlash is crossed), over the square root of the
-  rate at which the torque turns there.
-* **angle-locked lines** (:func:`angle_locked_f`): the torque's 40-300 Hz band is regressed on
-  sines and cosines of the motor angle at the orders a fault would excite (a damaged tooth of a
-  gear turning once every ``tooth_period_revs`` motor revolutions: orders ``k / tooth_period_revs``
-  that are not whole orders; an inner-race bearing defect: ``bearing_order`` and its sidebands),
-  after the whole orders (gear mesh, ripple, whose presence is healthy) are regressed out; the
-  indicator is the F statistic of that regression, the share of the band the fault's orders
-  explain relative to what chance would give them, divided by the same statistic at neighbouring
-  orders that no fault excites (:func:`line_ratio`), which see the same coloured noise. A line at
-  a fixed order stays at that order whatever the speed, so the ratio does not move with the task.
-
-These need the axis's kinematics (gear ratio, the period of the gear stage that could lose a
-tooth, the bearing's defect order), which a service engineer takes from the datasheets as any
-vibration monitoring system does; defaults are those of the project's simulator.
-
-:class:`MechanicsStage` turns a capture into a ``(2, 6)`` matrix (rows: the two directions of
-motion; columns :data:`COLUMNS`: ``log10`` of the five indicators, each divided by the spread it
-shows across healthy tasks in the development protocol of ``_paired``, the viscous friction
-also negated as the second column), usable by any detector. Larger means worse in every column:
-the viscous friction is abnormal both ways (more friction; less apparent friction when lost
-motion such as backlash breaks the energy balance, measured 3-9 spreads lower), the other four
-only upwards (a quieter task lowers them).
+Viscous friction from the energy of whole moves, impulsiveness, reversal bursts and
+angle-locked lines. :class:`MechanicsStage` stacks them. See docs/internals.md, "The former
+default".
 """
 
 from __future__ import annotations
@@ -100,7 +62,7 @@ COLUMNS: tuple[str, ...] = (
 )
 
 #: What a rise of each column most likely means: the fault its indicator watches
-#: (docs/evaluation.md, "Beyond the paper"), for the monitor's reasons and report.
+#: (docs/evaluation.md, "The former default"), for the monitor's reasons and report.
 LIKELY_FAULTS: dict[str, str] = {
     "viscous_friction": "friction (lubrication, seals, wear)",
     "viscous_friction_deficit": "lost motion (backlash) breaking the energy balance",
@@ -171,7 +133,7 @@ def viscous_friction(
     The motor's work over the window is ``c_move * |dq| + F_v * integral(speed^2 dt)``; ``c_move``
     is free per move (Coulomb friction, gravity and payload), ``F_v`` is shared and returned.
     Gravity thus enters as its mean torque over the move; its variation along a long move is not
-    modelled and biases ``F_v`` somewhat (docs/evaluation.md).
+    modelled and biases ``F_v`` somewhat (lab/docs/decision-log.md).
 
     Parameters
     ----------

@@ -1,13 +1,7 @@
-"""A health model of one robot axis: features + detector + calibrated threshold.
+"""A health model of one robot axis: features, a detector and a calibrated threshold.
 
-The public one-screen API::
-
-    model = HealthModel(detector=LRADetector()).fit(baseline_capture)
-    model.calibrate(healthy_captures, percentile=99)
-    verdict = model.assess(new_capture)   # distance, threshold, alarm
-
-It only composes the lower stages: a :class:`~axiswatch.FeatureStage`, a
-:class:`~axiswatch.BaselineDetector` and :func:`~axiswatch.alarm_threshold`.
+It composes a :class:`~axiswatch.FeatureStage`, a :class:`~axiswatch.BaselineDetector` and
+:func:`~axiswatch.alarm_threshold`. docs/library.md shows it in one screen.
 """
 
 from __future__ import annotations
@@ -147,7 +141,7 @@ class HealthModel:
         measured on the project's simulator (``MECHANICS_TASK_CHANGE_SCALE``).
 
         Kept for comparison: its scales and floor come from one simulator and its band needs more
-        than 600 Hz (issue 13). The product default is :class:`~axiswatch.IndicatorModel`.
+        than 600 Hz. The product default is :class:`~axiswatch.IndicatorModel`.
 
         Examples
         --------

@@ -1,9 +1,7 @@
 """The feature-stage interface: a capture becomes a feature matrix a detector can compare.
 
-A stage is fitted on the baseline capture and transforms every capture into
-:class:`~axiswatch.Features` (rows of comparable situations, columns of measurements). The
-paper's |STFT| features are :class:`StftStage`; the product default's physical indicators are
-:class:`~axiswatch.MechanicsStage`; research stages live in ``axiswatch_lab``.
+The paper's |STFT| features are :class:`StftStage`. The former default's indicators are
+:class:`~axiswatch.MechanicsStage`.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
 """Command-line interface: maps options to library calls, no science here.
 
-Exit codes: 0 success; 1 a command failed (message on stderr; traceback only with ``--debug``);
-2 usage error (unknown option, a value out of range). ``monitor`` adds 4 when an axis is in alarm
-and 8 when a capture was rejected, a scored file changed, an axis cannot be scored or is stale,
-a baseline needs checking (so 4, 8 or 12; acknowledged problems do not count).
+Exit codes: 0 success, 1 failure, 2 usage error. ``monitor`` adds 4 for an unacknowledged alarm
+and 8 for a new problem. The monitor manual lists them.
 """
 
 from __future__ import annotations
@@ -419,7 +417,7 @@ def fold_same_reason(lines: list[str]) -> list[str]:
     """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
 
     A broken axis profile rejects every capture below it with the same line but for the path
-    (22 identical lines for one misplaced key, i21u); ``axiswatch rejections`` still lists every
+    (22 identical lines for one misplaced key); ``axiswatch rejections`` still lists every
     file. Lines keep the order of their reason's first file; a line without ``": "`` is its own.
 
     Parameters

@@ -1,4 +1,4 @@
-"""A supervised ceiling of fault detection on the transfer study's captures (issue 13, i19b).
+"""A supervised ceiling of fault detection on the transfer study's captures.
 
 Research study (docs/evaluation.md, "A supervised ceiling"). Issue 13 asks every fault's AUROC
 to reach 0.95 against healthy captures of other tasks; the default and even its own-task oracle

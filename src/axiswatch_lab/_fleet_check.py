@@ -1,6 +1,6 @@
 """The fleet check of a baseline: against the other axes (leave-self-out) or the whole fleet.
 
-Research study of issue 13, item 2 (docs/evaluation.md, "Through the monitor", "A worn axis in
+Research study (lab/docs/decision-log.md, "Through the monitor", "A worn axis in
 the fleet"). Each axis's :class:`~axiswatch.IndicatorModel` is fitted as the monitor fits it
 (:func:`~axiswatch.monitor._indicators.fit_indicator_baseline` on the baseline and ``K = 5``
 calibration captures) and its baseline is checked against its fleet two ways:

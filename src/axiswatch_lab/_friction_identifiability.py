@@ -1,4 +1,4 @@
-"""Coulomb and viscous friction read only where the least squares can tell them apart (i15e; lab).
+"""Coulomb and viscous friction read only where the least squares can tell them apart (lab study).
 
 Research study (docs/evaluation.md, "Friction only where it is identified"). The product reads
 ``coulomb_friction`` and ``viscous_friction`` by least squares of the moving torque on

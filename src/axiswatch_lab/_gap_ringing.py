@@ -1,4 +1,4 @@
-"""Backlash as the drive's ringing after the gear crosses its gap: the study (issue 13, i14a).
+"""Backlash as the drive's ringing after the gear crosses its gap: the study.
 
 Research study (docs/evaluation.md, "Backlash as ringing after the gap crossings"). It chose
 :func:`axiswatch._ringing.gap_ringing` (the product's ``gap_ringing`` reading since) over the

@@ -1,4 +1,4 @@
-"""Nearest task (i20n, issue 13): score a task change against the fleet axis that runs that task.
+"""Nearest task: score a task change against the fleet axis that runs that task.
 
 Research code (``axiswatch experiment nearest-task``); nothing here is in the product. The
 default (:class:`~axiswatch.IndicatorModel` with a fleet prior) scores a capture of another task

@@ -1,4 +1,4 @@
-"""Order lines without kinematics (issue 13, item 3; i13e): candidates and their study.
+"""Order lines without kinematics: candidates and their study.
 
 Research code. Without an :class:`~axiswatch.AxisProfile`'s kinematics no line indicator is read
 (the ``tooth_lines:*`` / ``bearing_lines:*`` need the gear ratio and the components' orders).

@@ -1,4 +1,4 @@
-"""A friction reading as uncertain as its own least squares says (issue 13, i15a; lab study).
+"""A friction reading as uncertain as its own least squares says (lab study).
 
 Research study (docs/evaluation.md, "Drive loads from whole moves", second candidate). The
 product reads ``coulomb_friction`` and ``viscous_friction`` by least squares of the torque on
@@ -23,7 +23,7 @@ the factor can only lower a distance).
 
 :func:`friction_standard_errors` is the pure function (its arithmetic
 :func:`~axiswatch._readings.least_squares_errors`, shared with the product's opt-in
-``whole_moves``, i16a). ``python -m axiswatch_lab._reading_errors
+``whole_moves``). ``python -m axiswatch_lab._reading_errors
 OUT [SEED ...]`` scores ``current`` (the product), ``whole moves``
 (:mod:`axiswatch_lab._whole_moves`), ``friction errors`` and ``whole moves, friction errors`` from
 the same captures (:data:`STUDY`, :mod:`axiswatch_lab._variant_study`); development robots

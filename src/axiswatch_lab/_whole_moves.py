@@ -1,4 +1,4 @@
-"""Drive loads read from whole moves only (issue 13, i15a; lab study).
+"""Drive loads read from whole moves only (lab study).
 
 Research study (docs/evaluation.md, "Drive loads from whole moves"). The product's
 ``load_forward`` / ``load_backward`` (:func:`~axiswatch.read_indicators`) are the mean of
@@ -18,7 +18,7 @@ end inside the capture, so every reading averages the same stretch of positions.
 without a whole steady move gives NaN and a reason. No constant is added.
 
 :func:`~axiswatch._readings.whole_move_mask` is the pure function (in the product since the
-opt-in operating point ``whole_moves``, i16a); :func:`whole_move_readings` replaces the two loads
+opt-in operating point ``whole_moves``); :func:`whole_move_readings` replaces the two loads
 of a product reading with :func:`~axiswatch._readings.drive_loads` over whole moves. ``python -m axiswatch_lab._whole_moves OUT [SEED ...]`` scores the
 product (``current``) and the candidate (``whole moves``), :data:`STUDY`, from the same
 captures (:mod:`axiswatch_lab._variant_study`): the transfer design (paired AUROC / ``dr99`` /

@@ -1,12 +1,7 @@
 """The fleet service: monitor a folder of capture files, remember every score, raise alarms.
 
-``monitor_fleet(root, store, config)`` discovers ``ROOT/<robot>/<axis>/<capture>`` files, fits each
-axis's baseline, calibrates its threshold, scores new captures and records the results in a
-store; ``fleet_summary``, ``fleet_results`` and ``write_report`` read them back.
-
-A store is any :class:`StoreBackend` (the protocol, in domain words); ``Store(path)`` opens the
-product's, :class:`SQLiteStore`. A method of the monitor is a :class:`MethodPreset` registered by
-name (:func:`register_method`; built in: ``mechanics``, the default, ``lra`` and ``pca``).
+:func:`monitor_fleet` scores new captures into a store. :func:`fleet_summary`,
+:func:`fleet_results` and :func:`write_report` read them back. docs/monitor.md is the manual.
 """
 
 from axiswatch.monitor._fleet import (

@@ -1,10 +1,7 @@
-"""Interactive trend charts of the report (Plotly; its JavaScript is embedded in the page once).
+"""Interactive trend charts of the report, drawn by Plotly.
 
-Pipeline side-stage of the report. Each function takes rows of
-:func:`~axiswatch.monitor._results.fleet_results` and returns an HTML ``<div>`` that draws itself with
-``Plotly.newPlot`` when the page holds the library (:func:`plotly_library`), so the report is one
-file that opens from a file share with no server and no network. Zoom, pan and hover (capture,
-value, reason) come from Plotly; nothing here draws pixels.
+Each function returns an HTML ``<div>`` that draws itself from the page's one inline copy of
+plotly.js, so the report opens from a file share with no server.
 """
 
 from __future__ import annotations

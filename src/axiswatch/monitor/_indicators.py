@@ -1,33 +1,7 @@
 """The monitor's ``indicators`` method: an :class:`~axiswatch.IndicatorModel` per axis baseline.
 
-Pipeline stage of the monitor's jobs for the method ``indicators`` (issue 13). The HealthModel
-methods fit a model on the baseline capture alone and calibrate the threshold on the next ``K``
-captures' distances; an IndicatorModel needs those captures' *readings* for its within-task
-spreads. So, with the decision rule and the store unchanged:
-
-1. the fit job reads the baseline and the next ``K`` captures after it that give a reading (the
-   captures the monitor then decides as its calibration captures) and fits the model on all
-   ``K + 1`` (:func:`fit_indicator_baseline`); an axis with fewer such captures waits;
-2. the driver pools the fitted models of the axes of one profile into a fleet prior
-   (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`); each
-   axis's baseline is checked against the prior of the *other* axes when 3 remain
-   (:func:`~axiswatch._indicator_model.pool_fleet_without`: a worn axis must not set the
-   allowances it is checked against);
-3. a score job gives a capture the model was fitted on its *leave-one-out* assessment
-   (:meth:`~axiswatch.IndicatorModel.assess_fitting`, in the axis's own spreads); any other
-   capture is assessed against the centre (:func:`assess_capture`), in the own spreads when its
-   motion is the baseline's task and, when the task changed, in units of each indicator's
-   task-change allowance from the fleet;
-4. the score stored is the distance **in units of the threshold that applied**
-   (:func:`threshold_units`): the calibration captures' are their own-spread distances over the
-   own threshold, so the half-Laplace fit of the ``K`` that
-   :func:`~axiswatch.monitor._decision.decide` makes is exactly 1 (the fit is proportional to
-   the distances) and a monitored capture is over the threshold exactly when the model says so,
-   whichever case applied. The details keep the distance in spreads, the threshold in spreads
-   and which case applied.
-
-A reading that is unavailable is never an alarm: a capture gives the indicators it can, and one
-that gives none of the model's is recorded as not scored, with the reasons.
+Fit on the baseline and ``K`` calibration captures, pooled with the axis's fleet, scored in
+units of the threshold that applied. docs/internals.md, "The method indicators".
 """
 
 from __future__ import annotations
@@ -93,7 +67,7 @@ class IndicatorBaseline:
         return None if fleet is None else fleet.allowance(self.model.percentile)
 
 
-#: The lowest rate the monitor reads indicators at (README: "any rate from 20 Hz"): that of
+#: The lowest rate the monitor reads indicators at (docs/monitor.md: "any rate from 20 Hz"): that of
 #: ``gap_ringing``, the indicator that needs the least.
 MIN_MONITOR_RATE_HZ = MIN_RINGING_RATE_HZ
 

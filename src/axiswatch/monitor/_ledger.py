@@ -1,10 +1,7 @@
 """The axis ledger: every change of a store's state the monitor makes, in domain words.
 
-Pipeline stage below the monitor's driver. Each function is one atomic write of a
-:class:`~axiswatch.monitor.StoreBackend`. A capture's role (calibration, monitor, excluded), the
-threshold and the alarm state are decided by the pure :func:`~axiswatch.monitor._decision.decide`
-*inside* the store's transaction that writes the capture, from what the store holds at that
-moment; so a killed run resumes exactly, and two processes on one store never disagree.
+Each function is one atomic write of a :class:`~axiswatch.monitor.StoreBackend`. The decision
+is made inside the store's transaction, from what the store holds at that moment.
 """
 
 from __future__ import annotations

@@ -1,18 +1,8 @@
-"""The monitor's methods: a table of named presets that turn a method name into model objects.
+"""The monitor's methods: named presets that turn a method name into model objects.
 
-Pipeline stage below :class:`~axiswatch.monitor.MonitorConfig`. A method is a
-:class:`MethodPreset`: factories of its detector and (optionally) its feature stage, and the
-half-Laplace scale of healthy task changes that sets its threshold floor. The monitor
-(``MonitorConfig(method=...)``) and the CLI (``axiswatch monitor --method``) read the table, so a
-new detector or stage reaches both through :func:`register_method`, called in its own module (or
-in a package that declares the module under the entry-point group ``axiswatch.methods``: it is
-imported the first time the table is read).
-
-Built in: ``indicators`` (the product default: :class:`~axiswatch.IndicatorModel` per axis,
-fitted on the baseline and the calibration captures, with its fleet's prior:
-``axiswatch.monitor._indicators``; no number of its decision comes from a simulator), the paper's
-``lra`` and ``pca``, and ``mechanics`` (the former default, whose indicator scales and task-change
-floor were measured on the project's simulator: kept for comparison, docs/evaluation.md).
+Built in: ``indicators`` (the default), the paper's ``lra`` and ``pca``, and ``mechanics``. A
+new method is registered with :func:`register_method`, or under the entry-point group
+``axiswatch.methods``.
 """
 
 from __future__ import annotations
@@ -38,10 +28,10 @@ __all__ = [
     "register_method",
 ]
 
-#: The product default: ``MonitorConfig()`` and ``axiswatch monitor``. ``indicators`` since
-#: 2026-11-23 (issue 13): it scores captures at any rate >= 20 Hz and estimates every spread and
-#: allowance from the axis and its fleet; ``mechanics`` rejects captures below 600 Hz and its
-#: scales come from the project's simulator (docs/evaluation.md, "Through the monitor").
+#: The product default: ``MonitorConfig()`` and ``axiswatch monitor``. ``indicators`` scores
+#: captures at any rate >= 20 Hz and estimates every spread and allowance from the axis and its
+#: fleet. ``mechanics`` rejects captures below 600 Hz and its scales come from the project's
+#: simulator (docs/evaluation.md, "Real data").
 DEFAULT_METHOD = "indicators"
 
 #: Entry-point group whose modules register methods when imported.

@@ -1,11 +1,7 @@
 """Fitted models between the driver, the store and the workers: shipped once, kept where used.
 
-Pipeline side-stage of the monitor. The driver never sends a fitted model with a job: a job
-carries a :class:`ModelRef` (the model's content hash and the store that holds it), and each
-worker process keeps the models it has used or fitted in a small cache keyed by that hash,
-reading a missing one from the store once (read-only). A model is therefore deserialised at
-most once per worker and run, whatever the number of captures it scores, and a model fitted in
-a worker is never read back there.
+A job carries a :class:`ModelRef`, the model's hash and its store. Each worker caches the models
+it has used, so a model is read at most once per worker and run.
 """
 
 from __future__ import annotations

@@ -1,32 +1,7 @@
 """Monitor a fleet: per robot axis a baseline, a calibrated threshold, scores and alarm states.
 
-Pipeline top stage (below the CLI). For every robot axis found under ``ROOT`` (see ``_fleet``) and
-one detection method:
-
-1. **Baseline** (the paper's commissioning capture): the first capture that can be read, or the
-   one named by ``MonitorConfig.baseline``; after :func:`rebaseline`, the capture named then, or
-   the next capture that arrives. A capture that raised an alarm is never a baseline.
-2. **Calibration**: the next ``calibration_size`` usable captures (default 5) are assumed
-   healthy; the threshold is the ``percentile`` (default 99) of the half-Laplace fit of their
-   distances (paper, end of "Proposed Method"). Five is the fewest that still gives the fit a
-   sample (its scale is the mean distance, whose relative standard error is 1/sqrt(5) = 45 %)
-   while keeping the first week of a new robot free of alarms; raise it where captures are
-   cheap. A capture alarmed under an earlier baseline is never used for calibration. The
-   method ``indicators`` fits its model on the baseline and these captures together, with the
-   prior of the axis's fleet (``_indicators``); their distances are leave-one-out ones.
-3. **Scoring**: every later capture gets its distance to the baseline, whether it is over the
-   threshold, and the alarm state: raised when ``alarm_k`` of the last ``alarm_n`` captures are
-   over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
-   row (default 1).
-
-The driver process alone writes the store (any :class:`~axiswatch.monitor.StoreBackend`; the
-driver holds no SQL), one transaction per capture, committed in capture order per axis; the store
-calls the pure :func:`~axiswatch.monitor._decision.decide` inside that transaction, from what it
-holds at that moment. Scoring itself (read, features, distance) runs on the workers of one
-:class:`axiswatch.monitor._parallel.WorkerPool` per run, which keep the fitted models (stored in
-the store, not refitted: ``_persist``, ``_models``); unchanged axis folders are not listed and
-unchanged files not hashed again (``_index``). Hence a killed run resumes exactly, and a second
-process on the same store skips what the first has written.
+The driver: baseline, calibration and scoring as the monitor manual's "What monitor does"
+says. It alone writes the store, one transaction per capture. Workers only score.
 """
 
 from __future__ import annotations
@@ -104,7 +79,7 @@ __all__ = [
 Progress = Callable[[str, int, int], None]
 
 #: Seconds a capture file must go unmodified before it is scored (a file still being written
-#: is not a capture yet); deliver files atomically (README) and this wait costs nothing.
+#: is not a capture yet); deliver files atomically (docs/monitor.md) and this wait costs nothing.
 DEFAULT_SETTLE_S = 10.0
 #: Silence after which an axis is *stale*: no new capture file for this long.
 DEFAULT_STALE_AFTER = timedelta(days=3)

@@ -1,10 +1,7 @@
 """Run one function over many items: serially, on local processes, or on a Dask cluster.
 
-The fleet's scoring is embarrassingly parallel (one capture file at a time), so the layer is one
-function, :func:`parallel_map`, that yields ``(index, result)`` pairs as results complete; the
-caller (the monitor) keeps writing its store from the driver process only. ``fn`` and the items
-must be picklable for processes and for a cluster (a module-level function, paths, small
-objects): send file paths, not arrays, and let the workers read the files.
+:func:`parallel_map` yields ``(index, result)`` pairs as they complete. ``fn`` and the items must
+pickle: send file paths, not arrays, and let the workers read the files.
 """
 
 from __future__ import annotations

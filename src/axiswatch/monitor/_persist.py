@@ -1,24 +1,7 @@
 """Fitted models as plain data: NumPy arrays and JSON, never pickle.
 
-Pipeline side-stage of the monitor: a fitted :class:`~axiswatch.HealthModel` (its stage,
-detector, features and calibration, however nested) becomes one ``.npz`` blob that the store
-keeps beside its baseline, and comes back bit for bit, so a stored model scores exactly as the
-freshly fitted one did.
-
-The walk is generic, so a stage that gains or renames fitted state needs no change here: every
-instance attribute of an object (the parameters set in ``__init__`` and the scikit-learn-style
-fitted state ending in ``_``) is written, recursively:
-
-* ``ndarray`` (any plain dtype: no objects, no structured records) -> its bytes, unchanged, in
-  the blob's one packed ``uint8`` member, with its dtype, shape and offset in the JSON;
-* ``None``, ``bool``, ``int``, ``str``, ``float`` (``repr`` round-trips a float64 exactly;
-  NaN and infinities are written as strings) and NumPy scalars -> JSON;
-* ``tuple``, ``list``, ``dict`` with string keys -> JSON containers of encoded values;
-* an object whose class is in :data:`ALLOWED_CLASSES` -> its class's path and its attributes.
-
-Loading builds only classes of that registry (``cls.__new__`` and the stored attributes, as
-pickle does, but no other code can be named by the file), reads the ``.npz`` with
-``allow_pickle=False`` and each array with ``np.frombuffer`` (which cannot run code). Anything else is refused when saving, with the attribute's path.
+A fitted model becomes one ``.npz`` blob and comes back bit for bit. Loading builds only the
+classes of :data:`ALLOWED_CLASSES`. The encoding: docs/internals.md, "Stored models".
 """
 
 from __future__ import annotations

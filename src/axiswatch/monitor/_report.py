@@ -1,23 +1,7 @@
 """The HTML report of a monitoring store: the service engineer's view.
 
-Pipeline side-stage (reads the store, writes one file). ``index.html`` is self-contained: the
-charts' library (plotly.js) is embedded once, inline, so the page opens from a file share with no
-server and no network. From top to bottom:
-
-1. **Needs attention now**: the axes in alarm, with bad data, with a baseline to check (a stored
-   check nobody acknowledged), stale or with an acknowledged alarm
-   (:func:`axiswatch.monitor._attention.triage`), ranked, one engineer's line each (what moved, by how
-   much against its healthy spread, since when, what it likely means), each a link to its axis;
-   the healthy axes folded underneath with their last capture. The product default (mechanics)
-   leads; the paper's methods (PCA, LRA) are in a folded section of their own.
-2. **Axes**: per axis its line, an interactive trend of the distance and of each indicator
-   (healthy band, threshold, baseline and calibration periods, task changes where known, alarms;
-   zoom, and hover for capture, value and reason), and a short history of events (baseline,
-   threshold, alarms raised and cleared, acknowledgements, baselines to check and their
-   acknowledgement, re-baselines).
-3. Rejected captures and files changed after scoring (with when each was acknowledged,
-   ``rejections --ack``, and when a rejected file was found removed from the fleet folder: kept
-   as history, needing no attention).
+One self-contained ``index.html``: needs attention now, then each axis, then rejected captures.
+The monitor manual's "The report" describes each part.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Reading a monitoring store: results per capture, the fleet summary, rejections.
 
-Pipeline stage below the report and the CLI; it only reads.
+The report and the CLI read through it. It only reads.
 """
 
 from __future__ import annotations

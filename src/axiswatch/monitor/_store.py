@@ -1,67 +1,7 @@
 """The monitoring store: the :class:`StoreBackend` protocol in domain words, and :class:`SQLiteStore`.
 
-Pipeline side-stage of the monitor (storage only: the decisions are ``_decision.decide``, made
-inside the store's transaction by :meth:`StoreBackend.record_score`). Every SQL statement of
-axiswatch is in this module (``tests/test_store_contract.py`` checks it, and holds the contract
-tests any other backend must pass).
-
-``Store`` is the name users open a store by (``aw.Store("fleet.db")``): the SQLite backend.
-
-Safety: the store runs in WAL mode with a busy timeout, and every write is one short transaction
-opened with ``BEGIN IMMEDIATE`` (the writer takes the lock before it reads the state it builds
-on), or a savepoint of a :meth:`~SQLiteStore.batch`'s transaction (the scores of the captures a
-worker returns together, the file index of a run's new files). A process killed at any moment
-therefore leaves the store as it was after its last commit, and two processes writing at once
-take turns instead of corrupting it.
-
-Tables (schema version 2):
-
-``baselines``
-    one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
-    its features, the monitor parameters (JSON), the library version, the calibrated threshold
-    and half-Laplace fit (JSON, once calibration is complete), and when it was retired.
-``rebaselines``
-    requests to start a new epoch (``from_capture``: the new baseline, or NULL for "the next
-    capture that arrives").
-``scores``
-    one row per capture and baseline: role (``baseline``, ``calibration``, ``monitor`` or
-    ``excluded``), distance, threshold, whether it is over the threshold, the alarm state after
-    it, a reason a service engineer can read and a JSON ``details`` column (phase lag, eigengap,
-    ...). The row id is the scoring order.
-``rejections``
-    capture files that could not be used, with the error; keyed by file content hash, so a
-    repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
-    folder's row derived from its line) is what an acknowledgement is of. ``removed_at`` (added
-    on open, empty): when a run found the rejected file gone from the fleet folder; the row is
-    kept as history and needs no attention (cleared when the same content is back).
-``changed_files``
-    files whose content changed after they were scored (reported, never silently re-scored).
-``baseline_checks``
-    per baseline and kind (``baseline``: its capture disagrees with the calibration captures
-    after it; ``fleet``: it differs from its fleet's) the note a person must see, written in the
-    transaction that adds the baseline (or gives it its fleet's prior), and when someone
-    acknowledged it. A store made before the table gains it, empty, when it is opened: its
-    baselines have no stored checks.
-
-Caches (created when missing, so a store made before them gains them when opened; deleting
-their rows loses no result, only time):
-
-``fitted_models``
-    the fitted model of a baseline (``monitor._persist``: arrays and JSON, never pickle) with
-    the baseline file's hash, the parameters and the library version it was fitted with; used
-    only while all three still match.
-``file_index``
-    path, size, ``mtime_ns`` and SHA-256 of every capture file hashed: a file whose size and
-    modification time are unchanged is never hashed again. ``verified_run`` is the run that
-    last compared the file with the disk (kept files are verified a slice at a time).
-``axis_folders``
-    per axis folder and method, its modification time when a run last finished the axis: a
-    folder whose time is unchanged holds no new, removed or renamed file, and is not listed.
-``acknowledgements`` (schema version 2)
-    who saw an alarm, when, and what they noted: the alarm is named by the score that raised
-    it, so an alarm that clears and is raised again needs a new acknowledgement; a
-    re-baseline after maintenance is recorded here too. A version-1 store gains the table when
-    it is opened (nothing else changes).
+Every SQL statement of axiswatch is here. WAL mode, and one short ``BEGIN IMMEDIATE`` transaction
+per write. The tables are in the monitor manual's "The store" and docs/internals.md.
 """
 
 from __future__ import annotations
@@ -444,7 +384,7 @@ class StoreBackend(Protocol):
         """``(robot, axis)`` whose active baseline's last monitored capture is in alarm, sorted."""
         ...
 
-    # standing problems and axis activity (issue 11)
+    # standing problems and axis activity
 
     def resolve_transient(self, method: str, seen_before: str) -> None:
         """Forget transient rejections of ``method`` not seen again since ``seen_before``."""
