@@ -319,7 +319,7 @@ def monitor(
         Path | None,
         typer.Option(
             help="Axis profile (TOML) of every axis; default: each axis's axis.toml, its "
-            "robot's robot.toml or the fleet's axiswatch.toml."
+            "robot's robot.toml or the fleet's axiswatch.toml ('axiswatch profile' writes them)."
         ),
     ] = None,
     calibration: int | None = typer.Option(
@@ -511,6 +511,91 @@ def monitor(
             for line in reasons:
                 typer.echo(f"  {line}")
     raise typer.Exit(result.exit_code)
+
+
+@app.command()
+def profile(
+    files: Annotated[list[Path], typer.Argument(help="A few capture files of your robot(s).")],
+    fleet: Annotated[
+        Path | None,
+        typer.Option(help="Fleet folder to write: axis.toml per axis, captures linked in."),
+    ] = None,
+    robot: str | None = typer.Option(
+        None, help="Robot folder of files outside --fleet (default: the folder they lie in)."
+    ),
+    force: bool = typer.Option(False, "--force", help="Replace an axis.toml with other content."),
+    debug: bool = DEBUG,
+) -> None:
+    """Detect how capture files are written; show it; with --fleet, write what monitor reads.
+
+    A file holding several axes (A1_*, A2_*) is linked into one folder per axis, each with an
+    axis.toml; run it again on new files to link them.
+    """
+    from axiswatch._profile_detection import detect_file
+    from axiswatch.monitor._layout_plan import plan_layout
+
+    with _failures(debug):
+        guesses = [detect_file(path) for path in files]
+        plan = plan_layout(guesses, fleet or Path("fleet"), robot)
+        _show_guesses(guesses)
+        if plan.unplaced:
+            typer.echo(f"\nFiles not placed ({len(plan.unplaced)}):")
+            for line in fold_same_reason([f"{path}: {why}" for path, why in plan.unplaced]):
+                typer.echo(f"  {line}")
+        if fleet is None:
+            typer.echo("\nNothing written: --fleet FOLDER writes the profiles and links.")
+            return
+        from axiswatch.monitor._layout_plan import apply_plan
+
+        for line in apply_plan(plan, force=force):
+            typer.echo(line)
+        if plan.placed:
+            typer.echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
+    if not plan.placed:
+        raise typer.Exit(1)
+
+
+def _show_guesses(guesses: list[Any]) -> None:
+    """What the files hold: one table row per axis and way of writing it, with its file count."""
+    from rich.console import Console
+    from rich.table import Table
+
+    rows: dict[tuple[str, ...], list[str]] = {}
+    for guess in guesses:
+        layout = guess.layout
+        written = (
+            f"{layout.encoding}, {layout.separator!r}, decimal {layout.decimal!r}"
+            f"{', units row' if layout.units else ''}"
+            if layout is not None
+            else guess.path.suffix
+        )
+        for axis in guess.axes:
+            by_role = {role: column for column, role in axis.columns.items()}
+            cells = [
+                f"{by_role[role]} ({axis.how[role]})" if role in by_role else "-"
+                for role in ("position", "speed", "torque")
+            ]
+            cells[0] += f" in {axis.position_unit}" if "position" in by_role else ""
+            rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
+            time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
+            key = (written, axis.axis or "-", time, *cells, rates)
+            rows.setdefault(key, []).append(guess.path.name)
+    table = Table(title="What the files hold", title_justify="left")
+    for heading in ("files", "written", "axis", "time", "position", "speed", "torque", "Hz"):
+        table.add_column(heading, overflow="fold")
+    for key, names in rows.items():
+        more = f" +{len(names) - 1}" if len(names) > 1 else ""
+        table.add_row(names[0] + more, *key)
+    Console(width=max(_terminal_width(), 100)).print(table)
+    notes = {note for guess in guesses for axis in guess.axes for note in axis.notes}
+    for note in sorted(notes):
+        typer.echo(f"note: {note}")
+
+
+def _terminal_width() -> int:
+    import shutil
+
+    return shutil.get_terminal_size().columns
 
 
 @app.command()
