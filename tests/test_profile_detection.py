@@ -133,3 +133,15 @@ def test_the_plan_names_files_it_leaves_out_and_never_overwrites(tmp_path: Path)
     ):
         apply_plan(plan)
     assert toml.read_text(encoding="utf-8") == 'name = "mine"\n'
+
+
+def test_a_position_without_a_unit_is_read_in_rad_and_said_so(tmp_path: Path) -> None:
+    values = _rows()
+    path = tmp_path / "2026-03-01.csv"
+    pd.DataFrame(
+        {"Timestamp": START_MS + np.arange(200), "J2_ActPos": values["position"],
+         "J2_Current": values["current"]}
+    ).to_csv(path, index=False)  # fmt: skip
+    (axis,) = detect_file(path).axes
+    assert (axis.axis, axis.position_unit, axis.unit_assumed) == ("J2", "rad", True)
+    assert any('position = "deg"' in note for note in axis.notes)

@@ -217,7 +217,9 @@ class AxisGuess:
     how : dict of str to str
         Role -> how it was found (``name``, ``units row``, ``content``).
     notes : list of str
-        What was left out, and why.
+        What was left out or assumed, and why.
+    unit_assumed : bool
+        Nothing in the file gives the position's unit.
     """
 
     axis: str
@@ -226,6 +228,7 @@ class AxisGuess:
     rates_hz: Mapping[str, float]
     how: Mapping[str, str]
     notes: Sequence[str] = ()
+    unit_assumed: bool = False
 
 
 @dataclass(frozen=True)
@@ -365,13 +368,17 @@ def _axis_guess(
     units: Mapping[str, str], stamps_s: np.ndarray,
 ) -> AxisGuess:  # fmt: skip
     notes: list[str] = []
-    position_unit = "rad"
+    position_unit, assumed = "rad", False
     if "position" in slot:
         word = _unit_word(slot["position"][0], units)
         if word is not None and word in POSITION_WORDS:
             position_unit = POSITION_WORDS[word]
         else:
-            notes.append("position unit not given: read in rad (declare [units] position if not)")
+            assumed = True
+            notes.append(
+                "position unit not in the file: rad assumed; if it is deg, write "
+                'position = "deg" under [units] in the axis.toml'
+            )
     columns = {column: role for role, (column, _) in slot.items()}
     if "speed" in slot:
         word = (_unit_word(slot["speed"][0], units) or "").removesuffix("/s").removesuffix("/sec")
@@ -383,7 +390,7 @@ def _axis_guess(
             )
     rates = {role: _rate(stamps_s, frame[column]) for column, role in columns.items()}
     how = {role: how for role, (column, how) in slot.items() if column in columns}
-    return AxisGuess(axis, columns, position_unit, rates, how, tuple(notes))
+    return AxisGuess(axis, columns, position_unit, rates, how, tuple(notes), assumed)
 
 
 def detect_file(path: str | Path) -> FileGuess:

@@ -575,7 +575,8 @@ def _show_guesses(guesses: list[Any]) -> None:
                 f"{by_role[role]} ({axis.how[role]})" if role in by_role else "-"
                 for role in ("position", "speed", "torque")
             ]
-            cells[0] += f" in {axis.position_unit}" if "position" in by_role else ""
+            if "position" in by_role:
+                cells[0] += f" in {axis.position_unit}{'?' if axis.unit_assumed else ''}"
             rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
             time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
             key = (written, axis.axis or "-", time, *cells, rates)
