@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -131,17 +132,32 @@ def test_heavy_modules_are_imported_only_by_the_commands_that_need_them(code: st
     assert shown.stdout.splitlines()[-1] == "[]"
 
 
-def test_a_first_run_of_400_files_with_one_cause_prints_one_line_for_them(tmp_path: Path) -> None:
+def _unit_row_in_degrees(k: int, t: np.ndarray) -> str:
+    body = "".join(f"{v:.2f},{np.sin(v):.4f},{np.cos(v):.4f}\n" for v in t / 100.0)
+    return "time,position,torque\ns,deg,Nm\n" + body
+
+
+def _unix_milliseconds(k: int, t: np.ndarray) -> str:
+    start = START_MS + k * 86_400_000
+    body = "".join(f"{start + v},{np.sin(v / 100):.4f},{np.cos(v / 100):.4f}\n" for v in t * 10)
+    return "time,position,torque\n" + body
+
+
+@pytest.mark.parametrize("write", [_unit_row_in_degrees, _unix_milliseconds])
+def test_a_first_run_of_400_files_with_one_cause_prints_one_line_for_them(
+    tmp_path: Path, write: Callable[[int, np.ndarray], str]
+) -> None:
+    # Unix milliseconds without a profile: each file's reason names its own first stamp, and a
+    # first run of 400 daily captures printed 97 lines of rejections.
     axis = tmp_path / "fleet" / "r1" / "a1"
     axis.mkdir(parents=True)
-    t = np.arange(50) / 100.0
-    body = "".join(f"{v:.2f},{np.sin(v):.4f},{np.cos(v):.4f}\n" for v in t)
+    t = np.arange(50)
     for k in range(400):
-        name = f"2026-01-{k // 24 + 1:02d}T{k % 24:02d}-00-00.csv"
-        (axis / name).write_text("time,position,torque\ns,deg,Nm\n" + body, encoding="utf-8")
+        day = np.datetime64("2025-01-01") + k  # in the past: a future date is another cause
+        (axis / f"{day}.csv").write_text(write(k, t), encoding="utf-8")
     shown = run("monitor", tmp_path / "fleet", "--store", tmp_path / "s.db", "--settle", "0")
     assert shown.returncode == 8
     lines = (shown.stdout + shown.stderr).splitlines()
     assert "Rejected captures (400):" in lines
     assert len(lines) <= 8
-    assert any("(and 399 more capture files with this reason)" in line for line in lines)
+    assert any("(and 399 more capture files with this reason" in line for line in lines)

@@ -648,9 +648,10 @@ def results(
 def fold_same_reason(lines: list[str]) -> list[str]:
     """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
 
-    A broken axis profile rejects every capture below it with the same line but for the path
-    (22 identical lines for one misplaced key, i21u); ``axiswatch rejections`` still lists every
-    file. Lines keep the order of their reason's first file; a line without ``": "`` is its own.
+    A broken axis profile rejects every capture below it with the same line but for the path.
+    Reasons that differ only in their numbers (each file's first stamp) are one reason too.
+    ``axiswatch rejections`` still lists every file. Lines keep the order of their reason's
+    first file; a line without ``": "`` is its own.
 
     Parameters
     ----------
@@ -672,20 +673,32 @@ def fold_same_reason(lines: list[str]) -> list[str]:
     ['r1/a1/d1.csv (and 2 more capture files with this reason): r1/robot.toml: bad key',
      'r1/a2/d1.csv: empty file']
     """
-    groups: dict[tuple[str, int], list[str]] = {}  # (reason, 0) or (line, its index)
+    groups: dict[tuple[str, int], list[tuple[str, str]]] = {}  # (key, 0) or (line, its index)
     for index, line in enumerate(lines):
         path, sep, reason = line.partition(": ")
-        groups.setdefault((reason, 0) if sep else (line, index + 1), []).append(path)
+        key = (_NUMBER.sub("#", reason), 0) if sep else (line, index + 1)
+        groups.setdefault(key, []).append((path, reason))
     folded = []
-    for (reason, alone), paths in groups.items():
+    for (_, alone), members in groups.items():
+        (path, reason), more = members[0], len(members) - 1
         if alone:
-            folded.append(reason)
-        elif len(paths) == 1:
-            folded.append(f"{paths[0]}: {reason}")
+            folded.append(reason if reason else path)
+        elif not more:
+            folded.append(f"{path}: {reason}")
         else:
-            more = len(paths) - 1
-            folded.append(f"{paths[0]} (and {more} more capture files with this reason): {reason}")
+            # Unix milliseconds read as seconds: each file's message names its own first stamp.
+            aside = "" if len({r for _, r in members}) == 1 else ", numbers aside"
+            folded.append(
+                f"{path} (and {more} more capture files with this reason{aside}): {reason}"
+            )
     return folded
+
+
+#: A date or a measured number in a rejection reason (a stamp, a time, a rate: a decimal
+#: point, an exponent or 3 digits): reasons that differ only in these are folded together.
+_NUMBER = re.compile(
+    r"\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}:\d{2})?|\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\d{3,}"
+)
 
 
 def _noise_level(text: str) -> float | Literal["auto"]:
