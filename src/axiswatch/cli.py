@@ -46,7 +46,9 @@ class _Commands(TyperGroup):
     def get_command(self, ctx: Any, cmd_name: str) -> Any:
         plugin = self._plugins().get(cmd_name)
         if plugin is not None:
-            self.add_command(typer.main.get_command(plugin.load()), cmd_name)
+            command = typer.main.get_command(plugin.load())
+            command.name = cmd_name
+            self.add_command(command, cmd_name)
         return super().get_command(ctx, cmd_name)
 
     def format_commands(self, ctx: Any, formatter: Any) -> None:
