@@ -10,6 +10,7 @@ imported everything). The target is under 0.5 s for both starts.
 
 from __future__ import annotations
 
+import contextlib
 import statistics
 import subprocess
 import sys
@@ -56,10 +57,8 @@ def _small_fleet(folder: Path) -> tuple[Path, Path]:
         ["monitor", str(root), "--store", str(store), "--settle", "0", "--no-progress"],
     ):
         sys.argv = ["axiswatch", *args]
-        try:
+        with contextlib.suppress(SystemExit):
             main()
-        except SystemExit:
-            pass
     return root, store
 
 
