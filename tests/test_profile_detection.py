@@ -145,3 +145,20 @@ def test_a_position_without_a_unit_is_read_in_rad_and_said_so(tmp_path: Path) ->
     (axis,) = detect_file(path).axes
     assert (axis.axis, axis.position_unit, axis.unit_assumed) == ("J2", "rad", True)
     assert any('position = "deg"' in note for note in axis.notes)
+
+
+def test_a_speed_is_kept_only_in_the_positions_unit_per_second(tmp_path: Path) -> None:
+    values = _rows()
+    frame = pd.DataFrame({
+        "Zeit": START_MS + np.arange(200), "A1_Pos": values["position"],
+        "A1_Vel": values["current"], "A1_Cur": values["current"],
+        "A2_Pos": values["position"], "A2_Drehzahl": values["current"],
+        "A2_Strom": values["current"],
+    })  # fmt: skip
+    header, rest = frame.to_csv(sep=";", index=False).split("\n", 1)
+    path = tmp_path / "trace.csv"
+    path.write_text(f"{header}\nms;deg;deg/s;A;deg;U/min;A\n{rest}", encoding="utf-8")
+    first, second = detect_file(path).axes
+    assert dict(first.columns) == {"A1_Pos": "position", "A1_Vel": "speed", "A1_Cur": "torque"}
+    assert dict(second.columns) == {"A2_Pos": "position", "A2_Strom": "torque"}
+    assert any("'A2_Drehzahl' left out" in note for note in second.notes)

@@ -381,12 +381,15 @@ def _axis_guess(
             )
     columns = {column: role for role, (column, _) in slot.items()}
     if "speed" in slot:
-        word = (_unit_word(slot["speed"][0], units) or "").removesuffix("/s").removesuffix("/sec")
-        if word and POSITION_WORDS.get(word) != position_unit:
-            del columns[slot["speed"][0]]
+        # Read only in a stated unit: a Drehzahl column is often in rpm, 6x off if read as deg/s.
+        column = slot["speed"][0]
+        word = (_unit_word(column, units) or "").removesuffix("/s").removesuffix("/sec")
+        if not word or POSITION_WORDS.get(word) != position_unit:
+            del columns[column]
+            said = "no unit" if not word else "a unit other than the position's per second"
             notes.append(
-                f"speed column {slot['speed'][0]!r} left out: its unit is not the position's "
-                "per second (the indicators derive the speed from the position)"
+                f"speed column {column!r} left out ({said}): the indicators derive the speed "
+                "from the position"
             )
     rates = {role: _rate(stamps_s, frame[column]) for column, role in columns.items()}
     how = {role: how for role, (column, how) in slot.items() if column in columns}
