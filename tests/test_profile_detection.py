@@ -91,7 +91,7 @@ def test_a_controller_export_is_detected(tmp_path: Path) -> None:
     assert axis.axis == "A2"
     assert dict(axis.columns) == {"A2_Pos_deg": "position", "A2_Cur_A": "torque"}
     assert axis.position_unit == "deg"
-    assert axis.rates_hz["torque"] == pytest.approx(1000.0)
+    assert axis.rates_hz["torque"] == pytest.approx(1000.0, rel=1e-12)
 
 
 @pytest.mark.parametrize(

@@ -351,16 +351,23 @@ def _rate(stamps_s: np.ndarray, values: Any) -> float:
     return (times.size - 1) / float(times[-1] - times[0]) if times.size > 1 else math.nan
 
 
-def _stamps_s(stamps: pd.Series, kind: str, unit: str) -> np.ndarray:
+def _stamps_s(stamps: pd.Series, kind: str, unit: str) -> tuple[np.ndarray, float]:
+    """Seconds from the first stamp, and the first stamp in seconds (Unix time or relative).
+
+    The first stamp is subtracted before scaling: Unix milliseconds scaled first lose the
+    steps' last digits (a 1 kHz log read as 999.999 Hz)."""
     import pandas as pd
 
     from axiswatch._profiles import TIME_UNITS
 
     if kind == "iso":
         nanoseconds = pd.DatetimeIndex(pd.to_datetime(stamps, format="ISO8601", utc=True))
-        return np.asarray(nanoseconds.as_unit("ns").asi8 / 1e9, dtype=np.float64)
-    values = pd.to_numeric(stamps, errors="coerce").to_numpy(dtype=np.float64)
-    return values * TIME_UNITS[unit]
+        ticks = nanoseconds.as_unit("ns").asi8
+        return np.asarray((ticks - ticks[0]) / 1e9, dtype=np.float64), float(ticks[0]) / 1e9
+    values = pd.to_numeric(stamps, errors="coerce").to_numpy()
+    scale = TIME_UNITS[unit]
+    relative = np.asarray(values - values[0], dtype=np.float64) * scale
+    return relative, float(values[0]) * scale
 
 
 def _axis_guess(
@@ -427,10 +434,10 @@ def detect_file(path: str | Path) -> FileGuess:
         )  # fmt: skip
     kind, unit = stamp_kind(frame[time_column], _unit_word(time_column, units))
     try:
-        stamps_s = _stamps_s(frame[time_column], kind, unit)
+        stamps_s, first_s = _stamps_s(frame[time_column], kind, unit)
     except (ValueError, TypeError) as exc:
         return FileGuess(path, layout, time_column, problem=f"time column {time_column!r}: {exc}")
-    first = float(stamps_s[0]) if kind != "relative" else None
+    first = first_s if kind != "relative" else None
     slots = guess_roles(frame, units, time_column)
     axes = tuple(
         _axis_guess(axis, slot, frame, units, stamps_s) for axis, slot in sorted(slots.items())

@@ -100,7 +100,8 @@ def plan_layout(guesses: Sequence[FileGuess], root: Path, robot: str | None = No
             try:
                 read_capture(guess.path, profile=profile)
             except (AxiswatchError, ValueError, OSError) as exc:
-                plan.unplaced.append((guess.path, f"axis {axis.axis or '-'}: {exc}"))
+                why = str(exc).removeprefix(f"{guess.path}: ")
+                plan.unplaced.append((guess.path, f"axis {axis.axis or '-'}: {why}"))
                 continue
             link = target / name
             if not here and plan.links.setdefault(link, guess.path) != guess.path:
