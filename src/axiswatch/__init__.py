@@ -14,74 +14,126 @@ threshold, alarm and reason. The default is :class:`IndicatorModel`, the paper's
 True
 """
 
-from axiswatch._alignment import (
-    low_rank_basis,
-    lra_embedding,
-)
-from axiswatch._attribution import (
-    attribute,
-)
-from axiswatch._calibration import (
-    HalfLaplaceFit,
-    Threshold,
-    alarm_threshold,
-    fit_half_laplace,
-    half_laplace_threshold,
-)
-from axiswatch._capture import (
-    DEFAULT_SIGNALS,
-    Capture,
-    as_capture,
-    read_capture,
-    write_capture,
-)
-from axiswatch._detectors import (
-    BaselineDetector,
-    IndicatorDetector,
-    LRADetector,
-    PCADetector,
-)
-from axiswatch._features import (
-    Features,
-    FeatureSpec,
-    extract_features,
-    stft_features,
-)
-from axiswatch._formats import (
-    register_format,
-)
-from axiswatch._indicator_model import IndicatorModel
-from axiswatch._mechanics import (
-    INDICATORS,
-    MechanicsStage,
-)
-from axiswatch._model import (
-    Assessment,
-    HealthModel,
-)
-from axiswatch._preprocessing import (
-    align_phase,
-    phase_lag,
-    resample_capture,
-    upsample_pchip,
-)
-from axiswatch._profiles import AxisProfile
-from axiswatch._stages import (
-    FeatureStage,
-    StftStage,
-)
-from axiswatch.exceptions import (
-    AxiswatchError,
-    CalibrationError,
-    CaptureError,
-    DataNotFoundError,
-    StoreError,
-)
-from axiswatch.monitor import (
-    MonitorConfig,
-    Store,
-    monitor_fleet,
-)
+from importlib import import_module as _import_module
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
+
+if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
+    from axiswatch._alignment import (
+        low_rank_basis,
+        lra_embedding,
+    )
+    from axiswatch._attribution import (
+        attribute,
+    )
+    from axiswatch._calibration import (
+        HalfLaplaceFit,
+        Threshold,
+        alarm_threshold,
+        fit_half_laplace,
+        half_laplace_threshold,
+    )
+    from axiswatch._capture import (
+        DEFAULT_SIGNALS,
+        Capture,
+        as_capture,
+        read_capture,
+        write_capture,
+    )
+    from axiswatch._detectors import (
+        BaselineDetector,
+        IndicatorDetector,
+        LRADetector,
+        PCADetector,
+    )
+    from axiswatch._features import (
+        Features,
+        FeatureSpec,
+        extract_features,
+        stft_features,
+    )
+    from axiswatch._formats import (
+        register_format,
+    )
+    from axiswatch._indicator_model import IndicatorModel
+    from axiswatch._mechanics import (
+        INDICATORS,
+        MechanicsStage,
+    )
+    from axiswatch._model import (
+        Assessment,
+        HealthModel,
+    )
+    from axiswatch._preprocessing import (
+        align_phase,
+        phase_lag,
+        resample_capture,
+        upsample_pchip,
+    )
+    from axiswatch._profiles import AxisProfile
+    from axiswatch._stages import (
+        FeatureStage,
+        StftStage,
+    )
+    from axiswatch.exceptions import (
+        AxiswatchError,
+        CalibrationError,
+        CaptureError,
+        DataNotFoundError,
+        StoreError,
+    )
+    from axiswatch.monitor import (
+        MonitorConfig,
+        Store,
+        monitor_fleet,
+    )
+
+#: Public name -> the module it is imported from, on first use (PEP 562): ``import axiswatch``
+#: stays light, and a command imports SciPy, scikit-learn or pandas only when it needs them.
+_EXPORTS: dict[str, str] = {
+    "Assessment": "axiswatch._model",
+    "AxisProfile": "axiswatch._profiles",
+    "AxiswatchError": "axiswatch.exceptions",
+    "BaselineDetector": "axiswatch._detectors",
+    "CalibrationError": "axiswatch.exceptions",
+    "Capture": "axiswatch._capture",
+    "CaptureError": "axiswatch.exceptions",
+    "DEFAULT_SIGNALS": "axiswatch._capture",
+    "DataNotFoundError": "axiswatch.exceptions",
+    "FeatureSpec": "axiswatch._features",
+    "FeatureStage": "axiswatch._stages",
+    "Features": "axiswatch._features",
+    "HalfLaplaceFit": "axiswatch._calibration",
+    "HealthModel": "axiswatch._model",
+    "INDICATORS": "axiswatch._mechanics",
+    "IndicatorDetector": "axiswatch._detectors",
+    "IndicatorModel": "axiswatch._indicator_model",
+    "LRADetector": "axiswatch._detectors",
+    "MechanicsStage": "axiswatch._mechanics",
+    "MonitorConfig": "axiswatch.monitor",
+    "PCADetector": "axiswatch._detectors",
+    "StftStage": "axiswatch._stages",
+    "Store": "axiswatch.monitor",
+    "StoreError": "axiswatch.exceptions",
+    "Threshold": "axiswatch._calibration",
+    "alarm_threshold": "axiswatch._calibration",
+    "align_phase": "axiswatch._preprocessing",
+    "as_capture": "axiswatch._capture",
+    "attribute": "axiswatch._attribution",
+    "extract_features": "axiswatch._features",
+    "fit_half_laplace": "axiswatch._calibration",
+    "half_laplace_threshold": "axiswatch._calibration",
+    "low_rank_basis": "axiswatch._alignment",
+    "lra_embedding": "axiswatch._alignment",
+    "monitor_fleet": "axiswatch.monitor",
+    "phase_lag": "axiswatch._preprocessing",
+    "read_capture": "axiswatch._capture",
+    "register_format": "axiswatch._formats",
+    "resample_capture": "axiswatch._preprocessing",
+    "stft_features": "axiswatch._features",
+    "upsample_pchip": "axiswatch._preprocessing",
+    "write_capture": "axiswatch._capture",
+}
 
 __version__ = "0.1.0"
 
@@ -131,10 +183,24 @@ __all__ = [
 ]
 
 
-# Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private module);
-# pickles then refer to it too, which every class listed here can be loaded from.
-for _name in __all__:
-    _public = globals()[_name]
-    if isinstance(_public, type) and _public.__module__.startswith(f"{__name__}._"):
-        _public.__module__ = __name__
-del _name, _public
+#: Subpackages reachable as attributes (``axiswatch.monitor.Store``) before they are imported.
+_SUBPACKAGES: tuple[str, ...] = ("datasets", "exceptions", "monitor")
+
+
+def __getattr__(name: str) -> _Any:
+    """Import a public name's module on first use and keep the name here."""
+    if name in _SUBPACKAGES:
+        return _import_module(f"{__name__}.{name}")
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_import_module(_EXPORTS[name]), name)
+    # Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private
+    # module); pickles then refer to it too, which every class listed here can be loaded from.
+    if isinstance(value, type) and value.__module__.startswith(f"{__name__}._"):
+        value.__module__ = __name__
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

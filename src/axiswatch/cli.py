@@ -17,21 +17,62 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import typer
+from typer.core import TyperCommand, TyperGroup, TyperOption
 
-from axiswatch.monitor._methods import DEFAULT_METHOD, methods
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch_launcher import INTERRUPTED, INTERRUPTED_STATUS
 
-if TYPE_CHECKING:  # imported where used: the CLI starts without pandas
+if TYPE_CHECKING:  # imported where used: `axiswatch --help` imports neither pandas nor SciPy
     import pandas as pd
 
-#: The monitor's defaults: every option of ``monitor`` defaults from these fields.
-DEFAULTS = MonitorConfig()
+#: Entry-point group through which installed packages add command groups to ``axiswatch``
+#: (the research package adds ``experiment``); the CLI never imports them by name.
+PLUGIN_GROUP = "axiswatch.commands"
+
+
+class _Commands(TyperGroup):
+    """The commands, with those of installed packages (:data:`PLUGIN_GROUP`) loaded when used:
+    ``axiswatch --help`` does not import the research package and its scikit-learn."""
+
+    def _plugins(self) -> dict[str, Any]:
+        from importlib.metadata import entry_points
+
+        return {e.name: e for e in entry_points(group=PLUGIN_GROUP) if e.name not in self.commands}
+
+    def list_commands(self, ctx: Any) -> list[str]:
+        return [*super().list_commands(ctx), *self._plugins()]
+
+    def get_command(self, ctx: Any, cmd_name: str) -> Any:
+        plugin = self._plugins().get(cmd_name)
+        if plugin is not None:
+            command = typer.main.get_command(plugin.load())
+            command.name = cmd_name
+            self.add_command(command, cmd_name)
+        return super().get_command(ctx, cmd_name)
+
+    def format_commands(self, ctx: Any, formatter: Any) -> None:
+        described = {
+            name: TyperGroup(
+                name=name,
+                help=f"Commands of {entry.module.partition('.')[0]} ('axiswatch {name} -h').",
+            )
+            for name, entry in self._plugins().items()
+        }
+        self.commands.update(described)
+        try:
+            super().format_commands(ctx, formatter)
+        finally:
+            for name in described:
+                del self.commands[name]
+
 
 app = typer.Typer(
+    cls=_Commands,
     help="axiswatch: predictive maintenance of robot axes that does not cry wolf on a task change.",
     no_args_is_help=True,
     add_completion=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
+    # Plain help: rich's tables cut option names at 80 columns and took 4x the lines.
+    rich_markup_mode=None,
 )
 simulate_app = typer.Typer(
     help="Write simulated captures in the fleet layout.", no_args_is_help=True
@@ -121,6 +162,8 @@ def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
 
 def _registered_method(name: str | None) -> str | None:
     """``--method``: a method registered when the command runs (plugins included)."""
+    from axiswatch.monitor._methods import methods
+
     if name is not None and name not in methods():
         raise typer.BadParameter(
             f"expected one of {', '.join(methods())}; got {name!r}.", param_hint="'--method'"
@@ -128,8 +171,93 @@ def _registered_method(name: str | None) -> str | None:
     return name
 
 
-def _method_help() -> str:
-    return "; ".join(f"{name}: {preset.summary}" for name, preset in methods().items())
+def _version(shown: bool) -> None:
+    if shown:
+        from axiswatch import __version__
+
+        typer.echo(f"axiswatch {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(
+        False, "--version", is_eager=True, callback=_version, help="Print the version and exit."
+    ),
+) -> None:
+    """axiswatch: predictive maintenance of robot axes that does not cry wolf on a task change."""
+
+
+def monitor_defaults() -> dict[str, Any]:
+    """The value of each ``monitor`` option left out: the field of :class:`MonitorConfig` it sets.
+
+    The options default to None, so that the CLI imports the scoring stack only when a command
+    needs it; the help shows these values.
+    """
+    from axiswatch.monitor._scoring import MonitorConfig
+
+    config = MonitorConfig()
+    return {
+        "method": config.method,
+        "percentile": config.percentile,
+        "calibration": config.calibration_size,
+        "alarm_k": config.alarm_k,
+        "alarm_n": config.alarm_n,
+        "clear_m": config.clear_m,
+        "signals": ",".join(config.features.signals),
+        "hop": config.features.hop,
+        "segment_length": config.features.segment_length,
+        "lra_noise_level": str(config.lra_noise_level),
+        "align": config.align_phase,
+        "order_lines": config.order_lines,
+        "whole_moves": config.whole_moves,
+    }
+
+
+class _MonitorCommand(TyperCommand):
+    """``monitor``: its help shows the monitor's defaults and methods, read when it is shown."""
+
+    def format_help(self, ctx: Any, formatter: Any) -> None:
+        from axiswatch.monitor._methods import methods
+
+        defaults = monitor_defaults()
+        options = [p for p in self.params if isinstance(p, TyperOption)]
+        saved = [(p, p.default, p.show_default, p.help) for p in options]
+        advanced = bool(ctx.meta.get(_ADVANCED))
+        for param in options:
+            if param.name in defaults:
+                param.default, param.show_default = defaults[param.name], True
+            if param.name == "method":
+                described = (
+                    "; ".join(f"{name}: {preset.summary}" for name, preset in methods().items())
+                    if advanced
+                    else ", ".join(methods()) + " ('--advanced' describes them)"
+                )
+                param.help = f"Distance method: {described}."
+        try:
+            super().format_help(ctx, formatter)
+        finally:
+            for param, default, show, text in saved:
+                param.default, param.show_default, param.help = default, show, text
+
+
+_ADVANCED = "axiswatch.advanced"
+
+
+def _advanced_help(ctx: typer.Context, param: Any, shown: bool) -> None:
+    """``--advanced``: the help with the research options, then exit."""
+    if not shown or ctx.resilient_parsing:
+        return
+    hidden = [p for p in ctx.command.params if isinstance(p, TyperOption) and p.hidden]
+    ctx.meta[_ADVANCED] = True
+    for option in hidden:
+        option.hidden = False
+    try:
+        typer.echo(ctx.get_help(), color=ctx.color)
+    finally:
+        for option in hidden:
+            option.hidden = True
+    ctx.exit()
 
 
 class Format(StrEnum):
@@ -182,87 +310,93 @@ def _alarm_reasons(
     return [f"{i.robot}/{i.axis}: {i.line}" for i in listed if (i.robot, i.axis) in wanted]
 
 
-@app.command()
+@app.command(cls=_MonitorCommand)
 def monitor(
     root: Annotated[Path, typer.Argument(help="Fleet folder ROOT/<robot>/<axis>/<capture>.<ext>.")],
     store: StorePath,
-    method: str = typer.Option(
-        DEFAULTS.method,
-        help=f"Distance method ({_method_help()}).",
-        callback=_registered_method,
-    ),
-    percentile: float = typer.Option(
-        DEFAULTS.percentile, help="Threshold percentile of the half-Laplace fit."
-    ),
-    calibration: int = typer.Option(
-        DEFAULTS.calibration_size, help="Captures after the baseline that set the threshold."
-    ),
-    alarm_k: int = typer.Option(
-        DEFAULTS.alarm_k, help="Alarm when K of the last N captures are over..."
-    ),
-    alarm_n: int = typer.Option(
-        DEFAULTS.alarm_n, help="...the threshold (K = N = 1 as in the paper)."
-    ),
-    clear_m: int = typer.Option(
-        DEFAULTS.clear_m, help="An alarm clears after M clean captures in a row."
-    ),
-    baseline: str | None = typer.Option(
-        DEFAULTS.baseline,
-        help="File name of the baseline capture of new axes (default: their first).",
-    ),
-    signals: str = typer.Option(
-        ",".join(DEFAULTS.features.signals), help="Signal columns, comma-separated."
-    ),
-    hop: int = typer.Option(DEFAULTS.features.hop, help="Samples between STFT slices."),
-    segment_length: int = typer.Option(
-        DEFAULTS.features.segment_length, help="STFT window length in samples."
-    ),
-    lra_noise_level: str = typer.Option(
-        str(DEFAULTS.lra_noise_level),
-        help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline).",
-    ),
-    align: bool = typer.Option(
-        DEFAULTS.align_phase, help="Align each capture's phase to the baseline's."
-    ),
+    method: str | None = typer.Option(None, help="Distance method.", callback=_registered_method),
     profile: Annotated[
         Path | None,
         typer.Option(
-            help="Axis profile (TOML: column names, units, kinematics) for every axis; default: "
-            "each axis's axis.toml, its robot's robot.toml or the fleet's axiswatch.toml."
+            help="Axis profile (TOML) of every axis; default: each axis's axis.toml, its "
+            "robot's robot.toml or the fleet's axiswatch.toml ('axiswatch profile' writes them)."
         ),
     ] = None,
-    task_envelope: float | None = typer.Option(
-        DEFAULTS.task_envelope,
-        help="Method indicators: allow for a task change only when the motion is not the "
-        "baseline's task, with this envelope factor (2 was chosen on development robots; "
-        "default: off, every capture gets the fleet's allowance; docs/evaluation.md).",
+    calibration: int | None = typer.Option(
+        None, help="Captures after the baseline that set the threshold."
     ),
-    order_lines: bool = typer.Option(
-        DEFAULTS.order_lines,
-        help="Method indicators: also score the torque's order lines against each baseline's "
-        "own order spectrum (no kinematics needed; 100 Hz or more; docs/evaluation.md).",
+    percentile: float | None = typer.Option(None, help="Threshold percentile."),
+    alarm_k: int | None = typer.Option(
+        None, help="Alarm when K of the last N captures are over the threshold..."
     ),
-    whole_moves: bool = typer.Option(
-        DEFAULTS.whole_moves,
-        help="Method indicators, opt-in: drive loads from whole moves and loose friction "
-        "readings widened: fewer false alarms after task changes, dr99 up to 0.03 lower "
-        "(docs/evaluation.md, 'An opt-in operating point').",
+    alarm_n: int | None = typer.Option(None, help="...(K = N = 1 as in the paper)."),
+    clear_m: int | None = typer.Option(
+        None, help="An alarm clears after M clean captures in a row."
+    ),
+    baseline: str | None = typer.Option(
+        None, help="File name of the baseline capture of new axes (default: their first)."
     ),
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
-    dask: str | None = typer.Option(
-        None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
-    ),
-    dask_timeout: float = typer.Option(
-        10.0, min=0.1, help="Seconds the Dask scheduler has to answer."
-    ),
     settle: float = typer.Option(
         10.0, min=0.0, help="Seconds a capture file must go unmodified before it is scored."
     ),
     stale_after: str = typer.Option(
         "3d", help="An axis without a new capture for this long is stale (3d, 12h, ... or off)."
     ),
+    dask: str | None = typer.Option(
+        None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
+    ),
     progress: bool = typer.Option(True, help="Progress bar on stderr (only on a terminal)."),
     debug: bool = DEBUG,
+    advanced: bool = typer.Option(
+        False,
+        "--advanced",
+        is_eager=True,
+        expose_value=False,
+        callback=_advanced_help,
+        help="Show the help with the research and tuning options, and exit.",
+    ),
+    signals: str | None = typer.Option(None, help="Signal columns, comma-separated.", hidden=True),
+    hop: int | None = typer.Option(None, help="Samples between STFT slices.", hidden=True),
+    segment_length: int | None = typer.Option(
+        None, help="STFT window length in samples.", hidden=True
+    ),
+    lra_noise_level: str | None = typer.Option(
+        None,
+        help="LRA's lambda: a number (1 is the paper's form) or 'auto' (from the baseline).",
+        hidden=True,
+    ),
+    align: bool | None = typer.Option(
+        None,
+        "--align/--no-align",
+        help="Align each capture's phase to the baseline's.",
+        hidden=True,
+    ),
+    task_envelope: float | None = typer.Option(
+        None,
+        help="Method indicators: allow for a task change only when the motion is not the "
+        "baseline's task, with this envelope factor (2 was chosen on development robots; "
+        "default: off, every capture gets the fleet's allowance; docs/evaluation.md).",
+        hidden=True,
+    ),
+    order_lines: bool | None = typer.Option(
+        None,
+        "--order-lines/--no-order-lines",
+        help="Method indicators: also score the torque's order lines against each baseline's "
+        "own order spectrum (no kinematics needed; 100 Hz or more; docs/evaluation.md).",
+        hidden=True,
+    ),
+    whole_moves: bool | None = typer.Option(
+        None,
+        "--whole-moves/--no-whole-moves",
+        help="Method indicators, opt-in: drive loads from whole moves and loose friction "
+        "readings widened: fewer false alarms after task changes, dr99 up to 0.03 lower "
+        "(docs/evaluation.md, 'An opt-in operating point').",
+        hidden=True,
+    ),
+    dask_timeout: float = typer.Option(
+        10.0, min=0.1, help="Seconds the Dask scheduler has to answer.", hidden=True
+    ),
 ) -> None:
     """Score every capture not scored yet; print the fleet's state.
 
@@ -275,30 +409,42 @@ def monitor(
     from axiswatch._profiles import AxisProfile
     from axiswatch.monitor._monitor import check_request, monitor_fleet
     from axiswatch.monitor._parallel import connect_dask
+    from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor._store import Store
 
+    given: dict[str, Any] = {
+        "method": method, "percentile": percentile, "calibration": calibration,
+        "alarm_k": alarm_k, "alarm_n": alarm_n, "clear_m": clear_m, "signals": signals,
+        "hop": hop, "segment_length": segment_length, "lra_noise_level": lra_noise_level,
+        "align": align, "order_lines": order_lines, "whole_moves": whole_moves,
+    }  # fmt: skip
+    value: dict[str, Any] = {
+        name: default if given[name] is None else given[name]
+        for name, default in monitor_defaults().items()
+    }
     with _failures(debug):
         with _usage(debug):
+            defaults = MonitorConfig()
             config = MonitorConfig(
-                method=method,
-                percentile=percentile,
-                calibration_size=calibration,
-                alarm_k=alarm_k,
-                alarm_n=alarm_n,
-                clear_m=clear_m,
+                method=value["method"],
+                percentile=value["percentile"],
+                calibration_size=value["calibration"],
+                alarm_k=value["alarm_k"],
+                alarm_n=value["alarm_n"],
+                clear_m=value["clear_m"],
                 baseline=baseline,
                 features=dataclasses.replace(
-                    DEFAULTS.features,
-                    signals=tuple(s.strip() for s in signals.split(",")),
-                    hop=hop,
-                    segment_length=segment_length,
+                    defaults.features,
+                    signals=tuple(s.strip() for s in value["signals"].split(",")),
+                    hop=value["hop"],
+                    segment_length=value["segment_length"],
                 ),
-                lra_noise_level=_noise_level(lra_noise_level),
-                align_phase=align,
+                lra_noise_level=_noise_level(value["lra_noise_level"]),
+                align_phase=value["align"],
                 profile=None if profile is None else AxisProfile.from_toml(profile),
                 task_envelope=task_envelope,
-                order_lines=order_lines,
-                whole_moves=whole_moves,
+                order_lines=value["order_lines"],
+                whole_moves=value["whole_moves"],
             )
             silence = _duration(stale_after, "--stale-after")
             check_request(root, config)
@@ -368,6 +514,92 @@ def monitor(
 
 
 @app.command()
+def profile(
+    files: Annotated[list[Path], typer.Argument(help="A few capture files of your robot(s).")],
+    fleet: Annotated[
+        Path | None,
+        typer.Option(help="Fleet folder to write: axis.toml per axis, captures linked in."),
+    ] = None,
+    robot: str | None = typer.Option(
+        None, help="Robot folder of files outside --fleet (default: the folder they lie in)."
+    ),
+    force: bool = typer.Option(False, "--force", help="Replace an axis.toml with other content."),
+    debug: bool = DEBUG,
+) -> None:
+    """Detect how capture files are written; show it; with --fleet, write what monitor reads.
+
+    A file holding several axes (A1_*, A2_*) is linked into one folder per axis, each with an
+    axis.toml; run it again on new files to link them.
+    """
+    from axiswatch._profile_detection import detect_file
+    from axiswatch.monitor._layout_plan import plan_layout
+
+    with _failures(debug):
+        guesses = [detect_file(path) for path in files]
+        plan = plan_layout(guesses, fleet or Path("fleet"), robot)
+        _show_guesses(guesses)
+        if plan.unplaced:
+            typer.echo(f"\nFiles not placed ({len(plan.unplaced)}):")
+            for line in fold_same_reason([f"{path}: {why}" for path, why in plan.unplaced]):
+                typer.echo(f"  {line}")
+        if fleet is None:
+            typer.echo("\nNothing written: --fleet FOLDER writes the profiles and links.")
+            return
+        from axiswatch.monitor._layout_plan import apply_plan
+
+        for line in apply_plan(plan, force=force):
+            typer.echo(line)
+        if plan.placed:
+            typer.echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
+    if not plan.placed:
+        raise typer.Exit(1)
+
+
+def _show_guesses(guesses: list[Any]) -> None:
+    """What the files hold: one table row per axis and way of writing it, with its file count."""
+    from rich.console import Console
+    from rich.table import Table
+
+    rows: dict[tuple[str, ...], list[str]] = {}
+    for guess in guesses:
+        layout = guess.layout
+        written = (
+            f"{layout.encoding}, {layout.separator!r}, decimal {layout.decimal!r}"
+            f"{', units row' if layout.units else ''}"
+            if layout is not None
+            else guess.path.suffix
+        )
+        for axis in guess.axes:
+            by_role = {role: column for column, role in axis.columns.items()}
+            cells = [
+                f"{by_role[role]} ({axis.how[role]})" if role in by_role else "-"
+                for role in ("position", "speed", "torque")
+            ]
+            if "position" in by_role:
+                cells[0] += f" in {axis.position_unit}{'?' if axis.unit_assumed else ''}"
+            rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
+            time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
+            key = (written, axis.axis or "-", time, *cells, rates)
+            rows.setdefault(key, []).append(guess.path.name)
+    table = Table(title="What the files hold", title_justify="left")
+    for heading in ("files", "written", "axis", "time", "position", "speed", "torque", "Hz"):
+        table.add_column(heading, overflow="fold")
+    for key, names in rows.items():
+        more = f" +{len(names) - 1}" if len(names) > 1 else ""
+        table.add_row(names[0] + more, *key)
+    Console(width=max(_terminal_width(), 100)).print(table)
+    notes = {note for guess in guesses for axis in guess.axes for note in axis.notes}
+    for note in sorted(notes):
+        typer.echo(f"note: {note}")
+
+
+def _terminal_width() -> int:
+    import shutil
+
+    return shutil.get_terminal_size().columns
+
+
+@app.command()
 def results(
     store: ExistingStorePath,
     robot: str | None = typer.Option(None, help="Only this robot."),
@@ -416,9 +648,10 @@ def results(
 def fold_same_reason(lines: list[str]) -> list[str]:
     """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
 
-    A broken axis profile rejects every capture below it with the same line but for the path
-    (22 identical lines for one misplaced key); ``axiswatch rejections`` still lists every
-    file. Lines keep the order of their reason's first file; a line without ``": "`` is its own.
+    A broken axis profile rejects every capture below it with the same line but for the path.
+    Reasons that differ only in their numbers (each file's first stamp) are one reason too.
+    ``axiswatch rejections`` still lists every file. Lines keep the order of their reason's
+    first file; a line without ``": "`` is its own.
 
     Parameters
     ----------
@@ -440,20 +673,32 @@ def fold_same_reason(lines: list[str]) -> list[str]:
     ['r1/a1/d1.csv (and 2 more capture files with this reason): r1/robot.toml: bad key',
      'r1/a2/d1.csv: empty file']
     """
-    groups: dict[tuple[str, int], list[str]] = {}  # (reason, 0) or (line, its index)
+    groups: dict[tuple[str, int], list[tuple[str, str]]] = {}  # (key, 0) or (line, its index)
     for index, line in enumerate(lines):
         path, sep, reason = line.partition(": ")
-        groups.setdefault((reason, 0) if sep else (line, index + 1), []).append(path)
+        key = (_NUMBER.sub("#", reason), 0) if sep else (line, index + 1)
+        groups.setdefault(key, []).append((path, reason))
     folded = []
-    for (reason, alone), paths in groups.items():
+    for (_, alone), members in groups.items():
+        (path, reason), more = members[0], len(members) - 1
         if alone:
-            folded.append(reason)
-        elif len(paths) == 1:
-            folded.append(f"{paths[0]}: {reason}")
+            folded.append(reason if reason else path)
+        elif not more:
+            folded.append(f"{path}: {reason}")
         else:
-            more = len(paths) - 1
-            folded.append(f"{paths[0]} (and {more} more capture files with this reason): {reason}")
+            # Unix milliseconds read as seconds: each file's message names its own first stamp.
+            aside = "" if len({r for _, r in members}) == 1 else ", numbers aside"
+            folded.append(
+                f"{path} (and {more} more capture files with this reason{aside}): {reason}"
+            )
     return folded
+
+
+#: A date or a measured number in a rejection reason (a stamp, a time, a rate: a decimal
+#: point, an exponent or 3 digits): reasons that differ only in these are folded together.
+_NUMBER = re.compile(
+    r"\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}:\d{2})?|\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\d{3,}"
+)
 
 
 def _noise_level(text: str) -> float | Literal["auto"]:
@@ -752,8 +997,10 @@ def demo(
     import tempfile
 
     from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.monitor._methods import DEFAULT_METHOD
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._report import write_report
+    from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor._store import Store
 
     with _failures(debug):
@@ -781,19 +1028,6 @@ def demo(
         typer.echo(f"\nReport: {page}")
 
 
-#: Entry-point group through which installed packages add command groups to ``axiswatch``
-#: (the research package adds ``experiment``); the CLI never imports them by name.
-PLUGIN_GROUP = "axiswatch.commands"
-
-
-def _add_plugins() -> None:
-    from importlib.metadata import entry_points
-
-    for entry in entry_points(group=PLUGIN_GROUP):
-        app.add_typer(entry.load(), name=entry.name)
-
-
 def main() -> None:
     """Entry point of the ``axiswatch`` script."""
-    _add_plugins()
     sys.exit(app())
