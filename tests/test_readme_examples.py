@@ -32,6 +32,7 @@ import axiswatch as aw
 import axiswatch.monitor as awm
 from axiswatch.cli import PLUGIN_GROUP, app, monitor_defaults
 from tests.conftest import settle
+from tests.test_profile_command import _controller_export
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -307,6 +308,33 @@ def test_watch_a_fleet_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     done = _invoke(report)
     assert done.exit_code == 0, done.output
     assert Path("demo/report/index.html").is_file()
+
+
+def test_your_own_robots_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The README's own-files session on a controller-style export of two axes per file."""
+    monkeypatch.chdir(tmp_path)
+    lines = _command_lines(_block("test_your_own_robots_files"))
+    assert [shlex.split(line, comments=True)[1] for line in lines] == [
+        "profile", "monitor", "report",
+    ]  # fmt: skip
+    profile, monitor, report = lines
+    exports = _controller_export(Path("exports/cell1"), days=7)
+    words = shlex.split(profile.removeprefix(".venv/bin/"), comments=True)
+    pattern = next(word for word in words if "*" in word)
+    assert sorted(Path().glob(pattern)) == sorted(exports)
+    profile_line = " ".join(word for word in words if word != pattern)
+    done = _invoke(profile_line, *map(str, exports))
+    assert done.exit_code == 0, done.output
+    assert sorted(p.parent.name for p in Path("fleet").glob("*/*/axis.toml")) == ["A1", "A2"]
+    settle(Path("fleet"))
+    with threadpool_limits(1):
+        done = _invoke(monitor, "--no-progress")
+    assert done.exit_code == 0, done.output
+    assert "14 capture files, 2 new baseline(s), 12 capture(s) scored" in done.output
+    assert "Rejected" not in done.output
+    done = _invoke(report)
+    assert done.exit_code == 0, done.output
+    assert Path("report/index.html").is_file()
 
 
 # -- command lines ---------------------------------------------------------------------------------
