@@ -217,7 +217,10 @@ class WorkerPool:
         slots = max(1, sum(client.nthreads().values()))
 
         def wait_one(futures: set[Any]) -> Iterable[Any]:
-            return list(distributed.wait(list(futures), return_when="FIRST_COMPLETED").done)
+            # wait() looks for the current client: a client made from an address is not the
+            # default one (set_as_default=False), so it is made current for the call.
+            with client.as_current():
+                return list(distributed.wait(list(futures), return_when="FIRST_COMPLETED").done)
 
         submitted: list[Any] = []
 
