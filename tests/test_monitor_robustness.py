@@ -21,6 +21,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -497,9 +498,9 @@ def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
 # --- row 7: a wrong Dask address -------------------------------------------------------------
 
 
-@pytest.fixture
-def chatter() -> Iterator[int]:
-    """A TCP port that answers every connection with bytes that are no Dask message."""
+@contextmanager
+def _answering(answer: bytes) -> Iterator[int]:
+    """A TCP port that answers every connection with ``answer`` (no Dask message)."""
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen()
@@ -512,7 +513,7 @@ def chatter() -> Iterator[int]:
                 connection, _ = server.accept()
             except TimeoutError:
                 continue
-            connection.sendall(b"\xff" * 64 + b"HTTP/1.1 400 Bad Request\r\n\r\n")
+            connection.sendall(answer)
             time.sleep(0.5)
             connection.close()
 
@@ -522,6 +523,12 @@ def chatter() -> Iterator[int]:
     stop.set()
     thread.join()
     server.close()
+
+
+@pytest.fixture
+def chatter() -> Iterator[int]:
+    with _answering(b"\xff" * 64 + b"HTTP/1.1 400 Bad Request\r\n\r\n") as port:
+        yield port
 
 
 def _free_port() -> int:
@@ -545,6 +552,22 @@ def test_wrong_dask_address_fails_within_the_timeout_with_one_line(
         assert result.stderr.startswith(f"error: no Dask scheduler answered at '{address}'")
         assert result.stderr.count("\n") == 1, result.stderr
         assert not store.exists()
+
+
+def test_another_service_on_the_dask_port_is_named_in_one_line(fleet: Path, tmp_path: Path) -> None:
+    # Before: an HTTP answer's first bytes, read as a Dask frame length, gave "Unable to
+    # allocate 3.07 EiB for an array ..." as the reason.
+    pytest.importorskip("distributed")
+    store = tmp_path / "s.db"
+    with _answering(b"HTTP/1.1 400 Bad Request\r\n\r\n") as port:
+        address = f"tcp://127.0.0.1:{port}"
+        result = _process("monitor", fleet, "--store", store, "--dask", address, timeout=120)
+    assert result.returncode == 1
+    assert result.stderr == (
+        f"error: no Dask scheduler answered at '{address}': another service answers there "
+        "(its answer is no Dask message); check the host and port of the scheduler.\n"
+    )
+    assert not store.exists()
 
 
 # --- row 8: a corrupt store, a full disk -----------------------------------------------------
