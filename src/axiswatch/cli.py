@@ -396,7 +396,7 @@ def results(
 
     with _failures(debug):
         _require_store(store)
-        with Store(store) as opened:
+        with Store(store, read_only=True) as opened:
             frame = fleet_results(opened, robot=robot, axis=axis)
         if method is not None:
             frame = frame[frame["method"] == method].reset_index(drop=True)
@@ -497,7 +497,7 @@ def report(
         with _usage(debug):
             silence = _duration(stale_after, "--stale-after")
         _require_store(store)
-        with Store(store) as opened:
+        with Store(store, read_only=True) as opened:
             page = write_report(opened, out, stale_after=silence)
         typer.echo(f"Report: {page}")
 
@@ -594,7 +594,7 @@ def rejections(
                 raise ValueError("choose one of --retry and --ack.")
         _require_store(store)
         chosen = method
-        with Store(store) as opened:
+        with Store(store, read_only=not (retry or ack)) as opened:
             if (retry or ack) and paths:
                 _known_problem_paths(paths, list(opened.problem_table(chosen)["path"]), chosen)
             if retry:
@@ -655,7 +655,7 @@ def ack(
     if list_:
         with _failures(debug):
             _require_store(store)
-            with Store(store) as opened:
+            with Store(store, read_only=True) as opened:
                 frame = opened.acknowledgements(robot, axis)
             if frame.empty:
                 typer.echo("No acknowledgements.")
@@ -734,7 +734,7 @@ def backup(
 
     with _failures(debug):
         _require_store(store)
-        with Store(store) as opened:
+        with Store(store, read_only=True) as opened:
             copy = opened.backup(destination)
         with Store(copy, read_only=True) as restored:
             rows = len(restored.score_table())

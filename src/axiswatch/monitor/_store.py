@@ -905,7 +905,8 @@ class SQLiteStore:
     timeout_s : float, default=60.0
         How long a writer waits for another process's transaction before giving up.
     read_only : bool, default=False
-        Open an existing store for reading only (a worker fetching fitted models).
+        Open an existing store for reading only; nothing is ever written to it. Works where the
+        file or its folder is read-only; a store of an older layout is upgraded in memory.
 
     Raises
     ------
@@ -930,20 +931,15 @@ class SQLiteStore:
         if self.path.exists() and not self.path.is_file():
             raise StoreError(f"store '{self.path}' exists but is not a file.")
         try:
-            target = f"file:{self.path}?mode=ro" if read_only else str(self.path)
+            if read_only:
+                self._connection = _open_read_only(self.path, timeout_s)
+                self.version = self._read_only_schema()
+                return
             self._connection = sqlite3.connect(
-                target,
-                timeout=timeout_s,
-                isolation_level=None,
-                check_same_thread=False,
-                uri=read_only,
+                self.path, timeout=timeout_s, isolation_level=None, check_same_thread=False
             )
             self._connection.row_factory = sqlite3.Row
             self._connection.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
-            if read_only:
-                # A worker reading fitted models: the driver made the schema.
-                self.version = SCHEMA_VERSION
-                return
             self._connection.execute("PRAGMA journal_mode = WAL")
             self._connection.execute("PRAGMA synchronous = NORMAL")
             self._connection.execute("PRAGMA foreign_keys = ON")
@@ -953,6 +949,27 @@ class SQLiteStore:
             raise StoreError(
                 f"store '{self.path}': cannot be opened as an axiswatch SQLite store: {exc}."
             ) from None
+
+    def _read_only_schema(self) -> int:
+        """Check the schema of a store opened read-only; a store of an older layout is copied
+        into memory and upgraded there (the file is never written)."""
+        try:
+            version = self._ensure_schema()
+            self._upgrade()
+            return version
+        except StoreError as exc:
+            if not isinstance(exc.__cause__, sqlite3.OperationalError) or "readonly" not in str(
+                exc.__cause__
+            ):
+                raise
+        memory = sqlite3.connect(":memory:", isolation_level=None, check_same_thread=False)
+        memory.row_factory = sqlite3.Row
+        self._connection.backup(memory)
+        self._connection.close()
+        self._connection = memory
+        version = self._ensure_schema()
+        self._upgrade()
+        return version
 
     def __repr__(self) -> str:
         return f"axiswatch.monitor.SQLiteStore({str(self.path)!r})"
@@ -1821,6 +1838,30 @@ class SQLiteStore:
             "ORDER BY path, kind, method",
             (method, method, method, method),
         )
+
+
+def _open_read_only(path: Path, timeout_s: float) -> sqlite3.Connection:
+    """A read-only connection to an existing store (``mode=ro``); ``immutable`` where SQLite
+    cannot open the shared-memory file a store in WAL mode needs (a read-only folder)."""
+    for options in ("mode=ro", "immutable=1"):
+        connection = sqlite3.connect(
+            f"{path.absolute().as_uri()}?{options}",
+            timeout=timeout_s,
+            isolation_level=None,
+            check_same_thread=False,
+            uri=True,
+        )
+        connection.row_factory = sqlite3.Row
+        connection.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
+        try:
+            connection.execute("SELECT count(*) FROM sqlite_master").fetchone()
+        except sqlite3.OperationalError:
+            connection.close()
+            if options == "immutable=1":
+                raise
+            continue
+        return connection
+    raise AssertionError("unreachable")
 
 
 def _each_path(
