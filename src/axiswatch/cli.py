@@ -52,6 +52,37 @@ ExistingStorePath = Annotated[
 ]
 
 
+#: Characters a terminal acts on, as the escapes printed instead: C0 but the newline, DEL, C1,
+#: the bidirectional overrides and isolates (they reorder what is shown), the line separators.
+_CONTROLS = {
+    code: f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+    for code in (
+        *range(0x20), 0x7F, *range(0x80, 0xA0), *range(0x202A, 0x202F), *range(0x2066, 0x206A),
+        0x2028, 0x2029,
+    )
+    if code != 0x0A
+}  # fmt: skip
+
+
+def printable(text: str) -> str:
+    """``text`` with the characters a terminal acts on written as escapes, lines kept.
+
+    A file name can hold ``ESC [ 2 J`` (clear the screen) or set the terminal's title: every
+    line a command prints goes through here.
+
+    Examples
+    --------
+    >>> print(printable("r1/a1/2026-03-01_\x1b[2J.csv: empty"))
+    r1/a1/2026-03-01_\\x1b[2J.csv: empty
+    """
+    return text.translate(_CONTROLS)
+
+
+def echo(message: str = "", *, err: bool = False, nl: bool = True) -> None:
+    """Print one message to stdout (``err``: stderr), escaped by :func:`printable`."""
+    typer.echo(printable(message), err=err, nl=nl)
+
+
 @contextmanager
 def _failures(debug: bool) -> Iterator[None]:
     """Turn expected failures into one line on stderr and exit status 1 (unless ``--debug``);
@@ -65,12 +96,12 @@ def _failures(debug: bool) -> Iterator[None]:
     except KeyboardInterrupt:
         if debug:
             raise
-        typer.echo(INTERRUPTED, err=True)
+        echo(INTERRUPTED, err=True)
         raise typer.Exit(INTERRUPTED_STATUS) from None
     except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
         if debug:
             raise
-        typer.echo(f"error: {exc}", err=True)
+        echo(f"error: {exc}", err=True)
         raise typer.Exit(1) from None
 
 
@@ -82,7 +113,7 @@ def _usage(debug: bool) -> Iterator[None]:
     except ValueError as exc:
         if debug:
             raise
-        typer.echo(f"usage error: {exc}", err=True)
+        echo(f"usage error: {exc}", err=True)
         raise typer.Exit(2) from None
 
 
@@ -146,7 +177,7 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
 
     summary = fleet_summary(store, stale_after=stale_after)
     if summary.empty:
-        typer.echo("No axis has a baseline yet.")
+        echo("No axis has a baseline yet.")
         return summary
     # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
     columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
@@ -158,10 +189,10 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
     shown = summary[columns].fillna(
         {"alarm_since": "", "acknowledged_by": "", "bad_data_acknowledged": ""}
     )
-    typer.echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     origins = summary.threshold_origin.dropna().unique()
     if len(origins) == 1:
-        typer.echo(f"threshold of every axis: {origins[0]}.")
+        echo(f"threshold of every axis: {origins[0]}.")
     return summary
 
 
@@ -320,7 +351,7 @@ def monitor(
                     if result.unchanged_folders
                     else ""
                 )
-                typer.echo(
+                echo(
                     f"{result.method}: {result.n_files} capture files{unchanged}, "
                     f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
                     "in this run."
@@ -331,7 +362,7 @@ def monitor(
             if client is not None:
                 client.close()
         if result.waiting:
-            typer.echo(
+            echo(
                 f"\n{result.waiting} capture file(s) modified less than {settle:g} s ago: "
                 "waiting (scored by a later run)."
             )
@@ -346,26 +377,26 @@ def monitor(
         ):
             if lines:
                 count = len(result.rejected) if title == "Rejected captures" else len(lines)
-                typer.echo(f"\n{title} ({count}):")
+                echo(f"\n{title} ({count}):")
                 for line in lines:
-                    typer.echo(f"  {line}")
+                    echo(f"  {line}")
         if result.acknowledged:
-            typer.echo(
+            echo(
                 f"\n{result.acknowledged} acknowledged problem(s) not shown "
                 "('axiswatch rejections' lists them)."
             )
         if result.acknowledged_alarms:
-            typer.echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
+            echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
             for seen in result.acknowledged_alarms:
-                typer.echo(
+                echo(
                     f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
                     f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
                 )
         if result.alarms:
             axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
-            typer.echo(f"\nALARM ({result.method}) on {axes}")
+            echo(f"\nALARM ({result.method}) on {axes}")
             for line in reasons:
-                typer.echo(f"  {line}")
+                echo(f"  {line}")
     raise typer.Exit(result.exit_code)
 
 
@@ -402,17 +433,17 @@ def results(
             frame = frame[frame["method"] == method].reset_index(drop=True)
         columns = ["robot", "axis", "capture", "method", "distance", "threshold", "alarm"]
         if output is Format.csv:
-            typer.echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
+            echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
         elif output is Format.json:
             records = frame.assign(details=frame["details"].map(json.loads))
-            typer.echo(records.to_json(orient="records", indent=1))
+            echo(records.to_json(orient="records", indent=1))
         elif frame.empty:
-            typer.echo("No scored captures.")
+            echo("No scored captures.")
         else:
             table = frame[[*columns, "role", "top_indicator"]].fillna({"top_indicator": ""})
             if indicators:
                 table = table.join(indicator_spreads(frame))
-            typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+            echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
 def fold_same_reason(lines: list[str]) -> list[str]:
@@ -499,7 +530,7 @@ def report(
         _require_store(store)
         with Store(store, read_only=True) as opened:
             page = write_report(opened, out, stale_after=silence)
-        typer.echo(f"Report: {page}")
+        echo(f"Report: {page}")
 
 
 @app.command()
@@ -530,7 +561,7 @@ def rebaseline(
                 from_capture=from_capture,
             )
         start = from_capture or "the next capture that arrives"
-        typer.echo(
+        echo(
             f"{robot}/{axis}: baseline retired ({', '.join(methods)}); the next monitor run "
             f"starts a new baseline at {start}."
         )
@@ -599,17 +630,15 @@ def rejections(
                 _known_problem_paths(paths, list(opened.problem_table(chosen)["path"]), chosen)
             if retry:
                 count = opened.retry_rejections(paths or [], chosen)
-                typer.echo(
-                    f"{count} rejection(s) forgotten; the next monitor run tries them again."
-                )
+                echo(f"{count} rejection(s) forgotten; the next monitor run tries them again.")
                 return
             if ack:
                 count = opened.acknowledge_problems(paths or [], now(), chosen)
-                typer.echo(f"{count} problem(s) acknowledged; they no longer set exit status 8.")
+                echo(f"{count} problem(s) acknowledged; they no longer set exit status 8.")
                 return
             frame = opened.problem_table(chosen)
         if frame.empty:
-            typer.echo("No rejected captures, changed files or baselines to check.")
+            echo("No rejected captures, changed files or baselines to check.")
             return
         # The stored error line starts with the path (it is printed alone by monitor); beside
         # the path column that doubled every row's width.
@@ -618,7 +647,7 @@ def rejections(
         removed = frame.pop("removed_at")
         if removed.notna().any():  # rejected files a run found gone: history, not a problem
             frame["removed"] = removed.fillna("")
-        typer.echo(frame.to_string(index=False))
+        echo(frame.to_string(index=False))
 
 
 @app.command()
@@ -658,9 +687,9 @@ def ack(
             with Store(store, read_only=True) as opened:
                 frame = opened.acknowledgements(robot, axis)
             if frame.empty:
-                typer.echo("No acknowledgements.")
+                echo("No acknowledgements.")
             else:
-                typer.echo(frame.fillna("").to_string(index=False))
+                echo(frame.fillna("").to_string(index=False))
         return
     robot, axis, by, note = (
         _required(value, hint)
@@ -679,10 +708,10 @@ def ack(
             methods = opened.acknowledge(
                 robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline
             )
-        typer.echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
+        echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
         if rebaseline:
             start = from_capture or "the next capture that arrives"
-            typer.echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
+            echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
 
 
 def _required(value: str | None, hint: str) -> str:
@@ -718,9 +747,9 @@ def simulate_fleet_command(
             duration_s=duration,
         )
         faulty = labels[labels.fault != "none"].groupby(["robot", "axis"]).fault.first()
-        typer.echo(f"Wrote {len(labels)} captures to {out} (labels in {out / 'labels.csv'}).")
+        echo(f"Wrote {len(labels)} captures to {out} (labels in {out / 'labels.csv'}).")
         for row in faulty.reset_index().itertuples(index=False):
-            typer.echo(f"  developing fault: {row.robot}/{row.axis} {row.fault}")
+            echo(f"  developing fault: {row.robot}/{row.axis} {row.fault}")
 
 
 @app.command()
@@ -738,7 +767,7 @@ def backup(
             copy = opened.backup(destination)
         with Store(copy, read_only=True) as restored:
             rows = len(restored.score_table())
-        typer.echo(f"Backup: {copy} ({rows} score rows); open it with --store to use it.")
+        echo(f"Backup: {copy} ({rows} score rows); open it with --store to use it.")
 
 
 @app.command()
@@ -762,25 +791,25 @@ def demo(
         folder = Path(tempfile.mkdtemp(prefix="axiswatch-demo-")) if out is None else out
         folder.mkdir(parents=True, exist_ok=True)
         root = folder / "fleet"
-        typer.echo(f"Simulating a fleet into {root} ...")
+        echo(f"Simulating a fleet into {root} ...")
         labels = simulate_fleet(root, n_days=days, seed=seed)
         with Store(folder / "fleet.db") as opened, _progress(True) as update:
             for method in (DEFAULT_METHOD, "lra", "pca"):
                 # The simulator has just written every file completely: nothing to wait for.
                 config = MonitorConfig(method=method)
                 monitor_fleet(root, opened, config, progress=update, settle_s=0)
-            typer.echo("\nFleet summary (state after the last capture):")
+            echo("\nFleet summary (state after the last capture):")
             _echo_summary(opened, None)
             page = write_report(opened, folder / "report", labels=labels)
         truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
         changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]
         later = sorted(set(changes.date) - {labels.date.min()})
-        typer.echo("\nGround truth (simulator labels, not seen by the monitor):")
-        typer.echo(f"  task changes (must not alarm) on {', '.join(later) or 'no day'}")
-        typer.echo("  developing faults (should alarm):")
+        echo("\nGround truth (simulator labels, not seen by the monitor):")
+        echo(f"  task changes (must not alarm) on {', '.join(later) or 'no day'}")
+        echo("  developing faults (should alarm):")
         for row in truth.reset_index().itertuples(index=False):
-            typer.echo(f"    {row.robot}/{row.axis} from {row.date}")
-        typer.echo(f"\nReport: {page}")
+            echo(f"    {row.robot}/{row.axis} from {row.date}")
+        echo(f"\nReport: {page}")
 
 
 #: Entry-point group through which installed packages add command groups to ``axiswatch``
