@@ -206,6 +206,40 @@ def test_rejection_under_other_parameters_is_retried_when_they_change(
     assert "1 new baseline(s), 4 capture(s) scored" in fixed.stdout
 
 
+def test_rejections_are_retried_when_the_axis_profile_is_added_or_fixed(tmp_path: Path) -> None:
+    # Before: the rejections were kept for the unchanged capture files, so the run after the
+    # profile was added (as the message advises) printed the same error; nothing said how to
+    # try again.
+    root = tmp_path / "fleet"
+    awd.simulate_fleet(
+        root, n_robots=1, n_axes=1, n_days=5, task_change_days=(), faults=[],
+        duration_s=0.5, file_format="csv",
+    )  # fmt: skip
+    for path in (root / AXIS).glob("*.csv"):  # the controller's name of the time column
+        path.write_text(path.read_text().replace("time,", "Timestamp,", 1))
+    settle(root)
+    store = tmp_path / "s.db"
+    first = _monitor(root, store, "--settle", "0")
+    assert first.returncode == 8, first.stdout + first.stderr
+    assert "missing column 'time'" in first.stdout
+    assert (
+        "A rejected capture is tried again when its file, the options or its axis profile "
+        f"change; to try again now: axiswatch rejections --store {store} --retry"
+    ) in first.stdout
+    profile = root / "robot01" / "robot.toml"
+    profile.write_text('[columns]\n"Zeit" = "time"\n')  # added, but wrong
+    wrong = _monitor(root, store, "--settle", "0")
+    assert wrong.returncode == 8, wrong.stdout
+    assert "0 capture(s) scored" in wrong.stdout
+    profile.write_text('[columns]\n"Timestamp" = "time"\n')  # fixed
+    fixed = _monitor(root, store, "--settle", "0")
+    assert fixed.returncode == 0, fixed.stdout
+    assert "1 new baseline(s), 4 capture(s) scored" in fixed.stdout
+    assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
+    again = _monitor(root, store, "--settle", "0")  # an unchanged profile changes nothing
+    assert (again.returncode, "0 capture(s) scored" in again.stdout) == (0, True), again.stdout
+
+
 def test_rejections_are_listed_acknowledged_and_retried(fleet: Path, tmp_path: Path) -> None:
     bad = fleet / AXIS / "2026-03-05T12-00-00_garbage.parquet"
     bad.write_bytes(b"PAR1 not parquet")

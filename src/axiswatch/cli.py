@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import re
+import shlex
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -380,6 +381,12 @@ def monitor(
                 echo(f"\n{title} ({count}):")
                 for line in lines:
                     echo(f"  {line}")
+                if title == "Rejected captures":
+                    echo(
+                        "A rejected capture is tried again when its file, the options or its "
+                        "axis profile change; to try again now: axiswatch rejections --store "
+                        f"{shlex.quote(str(store))} --retry [PATH ...]"
+                    )
         if result.acknowledged:
             echo(
                 f"\n{result.acknowledged} acknowledged problem(s) not shown "

@@ -100,8 +100,16 @@ def insert_baseline(
     )
 
 
-def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConfig) -> bool:
-    """Decide and write one capture's result (or its rejection); True when this call wrote it."""
+def commit_score(
+    store: StoreBackend,
+    outcome: ScoreOutcome,
+    config: MonitorConfig,
+    rejection_key: str | None = None,
+) -> bool:
+    """Decide and write one capture's result (or its rejection); True when this call wrote it.
+
+    ``rejection_key``: what a rejection depends on (default: the parameters' hash); the monitor
+    adds its axis profile's."""
     job = outcome.job
     file = job.file
     if outcome.error is not None:
@@ -114,7 +122,7 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
             outcome.file_hash,
             outcome.error,
             kind=outcome.kind,
-            params_hash=params_hash(config),
+            params_hash=rejection_key or params_hash(config),
             transient=outcome.transient,
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
