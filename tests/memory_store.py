@@ -22,7 +22,7 @@ import pandas as pd
 
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AddedBaseline,
     AlarmState,
     Baseline,
@@ -32,12 +32,11 @@ from axiswatch.monitor._store import (
     NewScore,
     Rejection,
     ScoredFile,
-    _alarmed_baseline,
-    _no_active_baseline,
     now,
     now_us,
     summary_extras,
 )
+from axiswatch.monitor.store.sqlite import _alarmed_baseline, _no_active_baseline
 
 
 @dataclasses.dataclass

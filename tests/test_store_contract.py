@@ -24,7 +24,7 @@ from axiswatch.exceptions import StoreError
 from axiswatch.monitor import MonitorConfig, SQLiteStore, StoreBackend, fleet_results
 from axiswatch.monitor._decision import AxisHistory, Decision
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AddedBaseline,
     BaselineCheck,
     ChangedFile,
@@ -562,7 +562,7 @@ SQL = re.compile(
 
 def test_no_sql_outside_the_store_module() -> None:
     source = Path(axiswatch.__file__).parent.parent
-    store_module = source / "axiswatch" / "monitor" / "_store.py"
+    store_module = source / "axiswatch" / "monitor" / "store" / "sqlite.py"
     offenders = [
         f"{path.relative_to(source)}:{number}: {line.strip()}"
         for path in sorted(source.rglob("*.py"))

@@ -309,7 +309,7 @@ def monitor(
     from axiswatch._profiles import AxisProfile
     from axiswatch.monitor._monitor import check_request, monitor_fleet
     from axiswatch.monitor._parallel import connect_dask
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         with _usage(debug):
@@ -430,7 +430,7 @@ def results(
     import json
 
     from axiswatch.monitor._results import fleet_results, indicator_spreads
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -529,7 +529,7 @@ def report(
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
     from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         with _usage(debug):
@@ -555,7 +555,7 @@ def rebaseline(
 ) -> None:
     """Retire an axis's baseline after maintenance; the next monitor run fits a new one."""
     from axiswatch.monitor._ledger import rebaseline as retire
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -624,7 +624,7 @@ def rejections(
     """List rejected captures, changed files and baselines to check; retry (rejections) or
     acknowledge them. A rejected file a monitor run found gone from the fleet folder is kept as
     history, with when ('removed'), and no longer sets exit status 8."""
-    from axiswatch.monitor._store import Store, now
+    from axiswatch.monitor.store import Store, now
 
     with _failures(debug):
         if retry and ack:
@@ -686,7 +686,7 @@ def ack(
     also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
     """
     from axiswatch.monitor._ledger import rebaseline as retire
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     if list_:
         with _failures(debug):
@@ -766,7 +766,7 @@ def backup(
     debug: bool = DEBUG,
 ) -> None:
     """Write a consistent copy of the store, also while monitor runs (SQLite's online backup)."""
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -792,7 +792,7 @@ def demo(
     from axiswatch.datasets._robot import simulate_fleet
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         folder = Path(tempfile.mkdtemp(prefix="axiswatch-demo-")) if out is None else out

@@ -39,7 +39,7 @@ from axiswatch.monitor._results import (
 from axiswatch.monitor._scoring import (
     MonitorConfig,
 )
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     SQLiteStore,
     Store,
     StoreBackend,

@@ -25,7 +25,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from axiswatch.monitor._scoring import file_hash
-from axiswatch.monitor._store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreBackend
+from axiswatch.monitor.store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreBackend
 
 __all__ = [
     "VERIFY_MIN",
@@ -78,7 +78,7 @@ def unchanged_axes(
 
 
 class MemoryCaches:
-    """:class:`~axiswatch.monitor._store.RunCaches` for one run, in memory, for a store without
+    """:class:`~axiswatch.monitor.store.RunCaches` for one run, in memory, for a store without
     its own: nothing is kept between runs (every baseline refitted, every folder listed), and
     the index starts from what the store says of every scored file, all verified each run (the
     behaviour before the caches existed). Models travel with the jobs."""

@@ -16,7 +16,7 @@ from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AddedBaseline,
     NewBaseline,
     NewScore,

@@ -82,7 +82,7 @@ from axiswatch.monitor._scoring import (
     profile_for,
     score_capture,
 )
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AlarmState,
     Baseline,
     ChangedFile,
