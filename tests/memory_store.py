@@ -36,7 +36,7 @@ from axiswatch.monitor.store import (
     now_us,
     summary_extras,
 )
-from axiswatch.monitor.store.sqlite import _alarmed_baseline, _no_active_baseline
+from axiswatch.monitor.store.records import _alarmed_baseline, _no_active_baseline
 
 
 @dataclasses.dataclass

@@ -1,7 +1,18 @@
-"""The monitoring store: records in domain words, the protocol, and SQLite, its backend."""
+"""The monitoring store: records in domain words, a protocol per caller, and SQLite, its backend.
 
-from axiswatch.monitor.store.sqlite import (
-    SCHEMA_VERSION,
+Every SQL statement of axiswatch is in this package (``tests/test_store_contract.py`` checks it,
+and holds the contract tests any other backend must pass). ``Store`` is the name users open a
+store by (``aw.Store("fleet.db")``): the SQLite backend.
+"""
+
+from axiswatch.monitor.store.protocols import (
+    RunCaches,
+    StoreBackend,
+    StoreOperator,
+    StoreReader,
+    StoreWriter,
+)
+from axiswatch.monitor.store.records import (
     AddedBaseline,
     AlarmState,
     Baseline,
@@ -11,16 +22,14 @@ from axiswatch.monitor.store.sqlite import (
     NewBaseline,
     NewScore,
     Rejection,
-    RunCaches,
     SavedModel,
     ScoredFile,
-    SQLiteStore,
-    Store,
-    StoreBackend,
     now,
     now_us,
     summary_extras,
 )
+from axiswatch.monitor.store.sqlite import SQLiteStore, Store
+from axiswatch.monitor.store.upgrades import SCHEMA_VERSION
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -39,6 +48,9 @@ __all__ = [
     "ScoredFile",
     "Store",
     "StoreBackend",
+    "StoreOperator",
+    "StoreReader",
+    "StoreWriter",
     "now",
     "now_us",
     "summary_extras",
