@@ -21,7 +21,8 @@ from axiswatch.monitor.store import (
     NewBaseline,
     NewScore,
     Rejection,
-    StoreBackend,
+    StoreOperator,
+    StoreWriter,
 )
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
@@ -33,7 +34,7 @@ def params_json(config: MonitorConfig) -> str:
 
 
 def reject(
-    store: StoreBackend,
+    store: StoreWriter,
     method: str,
     robot: str,
     axis: str,
@@ -59,7 +60,7 @@ def reject(
 
 
 def insert_baseline(
-    store: StoreBackend, outcome: FitOutcome, epoch: int, config: MonitorConfig
+    store: StoreWriter, outcome: FitOutcome, epoch: int, config: MonitorConfig
 ) -> AddedBaseline | None:
     """Insert the baseline of ``epoch`` unless another process did; return its id and whether
     this call added it (None: the other process chose another capture).
@@ -101,7 +102,7 @@ def insert_baseline(
 
 
 def commit_score(
-    store: StoreBackend,
+    store: StoreWriter,
     outcome: ScoreOutcome,
     config: MonitorConfig,
     rejection_key: str | None = None,
@@ -152,7 +153,7 @@ def commit_score(
 
 
 def rebaseline(
-    store: StoreBackend,
+    store: StoreOperator,
     robot: str,
     axis: str,
     *,
@@ -163,7 +164,7 @@ def rebaseline(
 
     Parameters
     ----------
-    store : StoreBackend
+    store : StoreOperator
     robot, axis : str
     method : str or None, default=None
         Only this method's baseline; default every method the axis has.

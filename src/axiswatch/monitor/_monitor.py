@@ -19,7 +19,7 @@ one detection method:
    over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
    row (default 1).
 
-The driver process alone writes the store (any :class:`~axiswatch.monitor.StoreBackend`; the
+The driver process alone writes the store (any :class:`~axiswatch.monitor.store.StoreWriter`; the
 driver holds no SQL), one transaction per capture, committed in capture order per axis; the store
 calls the pure :func:`~axiswatch.monitor._decision.decide` inside that transaction, from what it
 holds at that moment. Scoring itself (read, features, distance) runs on the workers of one
@@ -89,7 +89,7 @@ from axiswatch.monitor.store import (
     Rejection,
     RunCaches,
     SavedModel,
-    StoreBackend,
+    StoreWriter,
     now,
     now_us,
 )
@@ -192,7 +192,7 @@ class _Run:
     changed), the workers, what the store held when it started, and the summary being built."""
 
     root: Path
-    store: StoreBackend
+    store: StoreWriter
     config: MonitorConfig
     pool: WorkerPool
     caches: RunCaches
@@ -855,7 +855,7 @@ _AXES_PER_PLAN = 64
 
 def monitor_fleet(
     root: str | Path,
-    store: StoreBackend,
+    store: StoreWriter,
     config: MonitorConfig | None = None,
     *,
     workers: int = 1,
@@ -871,7 +871,7 @@ def monitor_fleet(
     ----------
     root : str or Path
         Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
-    store : StoreBackend
+    store : StoreWriter
         Where results go (and what was done before): ``Store(path)``, or another backend.
     config : MonitorConfig, optional
         Default ``MonitorConfig()``: the product default, as ``axiswatch monitor``.
@@ -1171,7 +1171,7 @@ def _activity(files: Sequence[FleetFile]) -> list[tuple[str, str, int, str]]:
     ]
 
 
-def _stale_axes(store: StoreBackend, now_utc: datetime, stale_after: timedelta) -> list[str]:
+def _stale_axes(store: StoreWriter, now_utc: datetime, stale_after: timedelta) -> list[str]:
     """Axes without a new capture file for longer than ``stale_after``, one line each."""
     lines = []
     for row in store.axis_activity().itertuples(index=False):

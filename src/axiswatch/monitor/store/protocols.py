@@ -44,7 +44,25 @@ class _Opened(Protocol):
         ...
 
 
-class StoreWriter(_Opened, Protocol):
+class _Standing(_Opened, Protocol):
+    """Alarms and standing problems: what the driver and the readers both read."""
+
+    def alarms(self, method: str | None = None) -> list[AlarmState]:
+        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
+        not; one per axis and method, ordered by robot, axis, method."""
+        ...
+
+    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
+        """The checks of the active baselines (of ``method``), acknowledged or not; ordered by
+        robot, axis, method and kind."""
+        ...
+
+    def axis_activity(self) -> pd.DataFrame:
+        """robot, axis, n_files, newest_capture, last_seen_at (ISO, UTC); by robot, axis."""
+        ...
+
+
+class StoreWriter(_Standing, Protocol):
     """What the monitor's driver reads and writes while it scores a fleet.
 
     Every write is atomic: it happens whole or not at all, also when the process is killed, and
@@ -168,25 +186,13 @@ class StoreWriter(_Opened, Protocol):
         """Whether someone acknowledged this change of this file."""
         ...
 
+    def retry_rejections(self, paths: Sequence[str], method: str | None = None) -> int:
+        """Forget the rejections of ``paths`` (all when empty): the next run tries them again."""
+        ...
 
-class StoreReader(_Opened, Protocol):
+
+class StoreReader(_Standing, Protocol):
     """What the results, the report and the attention list read."""
-
-    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
-        """The checks of the active baselines (of ``method``), acknowledged or not; ordered by
-        robot, axis, method and kind."""
-        ...
-
-    # acknowledgements (who saw an alarm)
-
-    def alarms(self, method: str | None = None) -> list[AlarmState]:
-        """Axes in alarm after their last monitored capture (active baselines), acknowledged or
-        not; one per axis and method, ordered by robot, axis, method."""
-        ...
-
-    def axis_activity(self) -> pd.DataFrame:
-        """robot, axis, n_files, newest_capture, last_seen_at (ISO, UTC); by robot, axis."""
-        ...
 
     def latest_bad_data(self) -> pd.DataFrame:
         """robot, axis, method, bad_capture, seen_capture, seen_at: per axis with a capture
