@@ -14,7 +14,7 @@ from axiswatch.exceptions import StoreError
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import SCHEMA_VERSION, Store
+from axiswatch.monitor.store import SCHEMA_VERSION, Store
 from tests.test_monitor import faulty_copy
 
 runner = CliRunner()

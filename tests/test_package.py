@@ -18,7 +18,7 @@ import axiswatch.datasets
 import axiswatch.monitor
 import axiswatch_lab
 
-SUBPACKAGES = {"cli", "datasets", "exceptions", "monitor"}
+SUBPACKAGES = {"cli", "datasets", "exceptions", "monitor", "store"}
 
 
 @pytest.mark.parametrize(

@@ -163,7 +163,7 @@ def test_readme_quotes_the_demo(demo_report: Path) -> None:
 
     from axiswatch.cli import app
     from axiswatch.monitor._results import fleet_results
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     manual = ARTIFACTS.parent / "docs" / "monitor.md"
     readme = " ".join(manual.read_text(encoding="utf-8").split())
@@ -189,7 +189,7 @@ def test_an_acknowledged_rejection_leaves_the_first_screen(
     # Before: the page read no acknowledgement of a rejection and listed both acknowledged
     # axes (robot01/axis1, the misnamed folder robot 2/) as bad data.
     from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
     from tests.test_report import acknowledged_rejections
 
     _chromium()

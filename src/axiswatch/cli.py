@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import difflib
 import re
+import shlex
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -91,6 +92,37 @@ ExistingStorePath = Annotated[
 ]
 
 
+#: Characters a terminal acts on, as the escapes printed instead: C0 but the newline, DEL, C1,
+#: the bidirectional overrides and isolates (they reorder what is shown), the line separators.
+_CONTROLS = {
+    code: f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+    for code in (
+        *range(0x20), 0x7F, *range(0x80, 0xA0), *range(0x202A, 0x202F), *range(0x2066, 0x206A),
+        0x2028, 0x2029,
+    )
+    if code != 0x0A
+}  # fmt: skip
+
+
+def printable(text: str) -> str:
+    """``text`` with the characters a terminal acts on written as escapes, lines kept.
+
+    A file name can hold ``ESC [ 2 J`` (clear the screen) or set the terminal's title: every
+    line a command prints goes through here.
+
+    Examples
+    --------
+    >>> print(printable("r1/a1/2026-03-01_\x1b[2J.csv: empty"))
+    r1/a1/2026-03-01_\\x1b[2J.csv: empty
+    """
+    return text.translate(_CONTROLS)
+
+
+def echo(message: str = "", *, err: bool = False, nl: bool = True) -> None:
+    """Print one message to stdout (``err``: stderr), escaped by :func:`printable`."""
+    typer.echo(printable(message), err=err, nl=nl)
+
+
 @contextmanager
 def _failures(debug: bool) -> Iterator[None]:
     """Turn expected failures into one line on stderr and exit status 1 (unless ``--debug``);
@@ -104,12 +136,12 @@ def _failures(debug: bool) -> Iterator[None]:
     except KeyboardInterrupt:
         if debug:
             raise
-        typer.echo(INTERRUPTED, err=True)
+        echo(INTERRUPTED, err=True)
         raise typer.Exit(INTERRUPTED_STATUS) from None
     except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
         if debug:
             raise
-        typer.echo(f"error: {exc}", err=True)
+        echo(f"error: {exc}", err=True)
         raise typer.Exit(1) from None
 
 
@@ -121,7 +153,7 @@ def _usage(debug: bool) -> Iterator[None]:
     except ValueError as exc:
         if debug:
             raise
-        typer.echo(f"usage error: {exc}", err=True)
+        echo(f"usage error: {exc}", err=True)
         raise typer.Exit(2) from None
 
 
@@ -272,7 +304,7 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
 
     summary = fleet_summary(store, stale_after=stale_after)
     if summary.empty:
-        typer.echo("No axis has a baseline yet.")
+        echo("No axis has a baseline yet.")
         return summary
     # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
     columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
@@ -284,10 +316,10 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
     shown = summary[columns].fillna(
         {"alarm_since": "", "acknowledged_by": "", "bad_data_acknowledged": ""}
     )
-    typer.echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     origins = summary.threshold_origin.dropna().unique()
     if len(origins) == 1:
-        typer.echo(f"threshold of every axis: {origins[0]}.")
+        echo(f"threshold of every axis: {origins[0]}.")
     return summary
 
 
@@ -410,7 +442,7 @@ def monitor(
     from axiswatch.monitor._monitor import check_request, monitor_fleet
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._scoring import MonitorConfig
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     given: dict[str, Any] = {
         "method": method, "percentile": percentile, "calibration": calibration,
@@ -464,7 +496,7 @@ def monitor(
                     if result.unchanged_folders
                     else ""
                 )
-                typer.echo(
+                echo(
                     f"{result.method}: {result.n_files} capture files{unchanged}, "
                     f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
                     "in this run."
@@ -475,7 +507,7 @@ def monitor(
             if client is not None:
                 client.close()
         if result.waiting:
-            typer.echo(
+            echo(
                 f"\n{result.waiting} capture file(s) modified less than {settle:g} s ago: "
                 "waiting (scored by a later run)."
             )
@@ -490,26 +522,32 @@ def monitor(
         ):
             if lines:
                 count = len(result.rejected) if title == "Rejected captures" else len(lines)
-                typer.echo(f"\n{title} ({count}):")
+                echo(f"\n{title} ({count}):")
                 for line in lines:
-                    typer.echo(f"  {line}")
+                    echo(f"  {line}")
+                if title == "Rejected captures":
+                    echo(
+                        "A rejected capture is tried again when its file, the options or its "
+                        "axis profile change; to try again now: axiswatch rejections --store "
+                        f"{shlex.quote(str(store))} --retry [PATH ...]"
+                    )
         if result.acknowledged:
-            typer.echo(
+            echo(
                 f"\n{result.acknowledged} acknowledged problem(s) not shown "
                 "('axiswatch rejections' lists them)."
             )
         if result.acknowledged_alarms:
-            typer.echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
+            echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
             for seen in result.acknowledged_alarms:
-                typer.echo(
+                echo(
                     f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
                     f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
                 )
         if result.alarms:
             axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
-            typer.echo(f"\nALARM ({result.method}) on {axes}")
+            echo(f"\nALARM ({result.method}) on {axes}")
             for line in reasons:
-                typer.echo(f"  {line}")
+                echo(f"  {line}")
     raise typer.Exit(result.exit_code)
 
 
@@ -539,18 +577,18 @@ def profile(
         plan = plan_layout(guesses, fleet or Path("fleet"), robot)
         _show_guesses(guesses)
         if plan.unplaced:
-            typer.echo(f"\nFiles not placed ({len(plan.unplaced)}):")
+            echo(f"\nFiles not placed ({len(plan.unplaced)}):")
             for line in fold_same_reason([f"{path}: {why}" for path, why in plan.unplaced]):
-                typer.echo(f"  {line}")
+                echo(f"  {line}")
         if fleet is None:
-            typer.echo("\nNothing written: --fleet FOLDER writes the profiles and links.")
+            echo("\nNothing written: --fleet FOLDER writes the profiles and links.")
             return
         from axiswatch.monitor._layout_plan import apply_plan
 
         for line in apply_plan(plan, force=force):
-            typer.echo(line)
+            echo(line)
         if plan.placed:
-            typer.echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
+            echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
     if not plan.placed:
         raise typer.Exit(1)
 
@@ -590,7 +628,7 @@ def _show_guesses(guesses: list[Any]) -> None:
     Console(width=max(_terminal_width(), 100)).print(table)
     notes = {note for guess in guesses for axis in guess.axes for note in axis.notes}
     for note in sorted(notes):
-        typer.echo(f"note: {note}")
+        echo(f"note: {note}")
 
 
 def _terminal_width() -> int:
@@ -622,27 +660,27 @@ def results(
     import json
 
     from axiswatch.monitor._results import fleet_results, indicator_spreads
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         _require_store(store)
-        with Store(store) as opened:
+        with Store(store, read_only=True) as opened:
             frame = fleet_results(opened, robot=robot, axis=axis)
         if method is not None:
             frame = frame[frame["method"] == method].reset_index(drop=True)
         columns = ["robot", "axis", "capture", "method", "distance", "threshold", "alarm"]
         if output is Format.csv:
-            typer.echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
+            echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
         elif output is Format.json:
             records = frame.assign(details=frame["details"].map(json.loads))
-            typer.echo(records.to_json(orient="records", indent=1))
+            echo(records.to_json(orient="records", indent=1))
         elif frame.empty:
-            typer.echo("No scored captures.")
+            echo("No scored captures.")
         else:
             table = frame[[*columns, "role", "top_indicator"]].fillna({"top_indicator": ""})
             if indicators:
                 table = table.join(indicator_spreads(frame))
-            typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+            echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
 def fold_same_reason(lines: list[str]) -> list[str]:
@@ -734,15 +772,15 @@ def report(
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
     from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         with _usage(debug):
             silence = _duration(stale_after, "--stale-after")
         _require_store(store)
-        with Store(store) as opened:
+        with Store(store, read_only=True) as opened:
             page = write_report(opened, out, stale_after=silence)
-        typer.echo(f"Report: {page}")
+        echo(f"Report: {page}")
 
 
 @app.command()
@@ -760,7 +798,7 @@ def rebaseline(
 ) -> None:
     """Retire an axis's baseline after maintenance; the next monitor run fits a new one."""
     from axiswatch.monitor._ledger import rebaseline as retire
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         _require_store(store)
@@ -773,7 +811,7 @@ def rebaseline(
                 from_capture=from_capture,
             )
         start = from_capture or "the next capture that arrives"
-        typer.echo(
+        echo(
             f"{robot}/{axis}: baseline retired ({', '.join(methods)}); the next monitor run "
             f"starts a new baseline at {start}."
         )
@@ -829,7 +867,7 @@ def rejections(
     """List rejected captures, changed files and baselines to check; retry (rejections) or
     acknowledge them. A rejected file a monitor run found gone from the fleet folder is kept as
     history, with when ('removed'), and no longer sets exit status 8."""
-    from axiswatch.monitor._store import Store, now
+    from axiswatch.monitor.store import Store, now
 
     with _failures(debug):
         if retry and ack:
@@ -837,22 +875,20 @@ def rejections(
                 raise ValueError("choose one of --retry and --ack.")
         _require_store(store)
         chosen = method
-        with Store(store) as opened:
+        with Store(store, read_only=not (retry or ack)) as opened:
             if (retry or ack) and paths:
                 _known_problem_paths(paths, list(opened.problem_table(chosen)["path"]), chosen)
             if retry:
                 count = opened.retry_rejections(paths or [], chosen)
-                typer.echo(
-                    f"{count} rejection(s) forgotten; the next monitor run tries them again."
-                )
+                echo(f"{count} rejection(s) forgotten; the next monitor run tries them again.")
                 return
             if ack:
                 count = opened.acknowledge_problems(paths or [], now(), chosen)
-                typer.echo(f"{count} problem(s) acknowledged; they no longer set exit status 8.")
+                echo(f"{count} problem(s) acknowledged; they no longer set exit status 8.")
                 return
             frame = opened.problem_table(chosen)
         if frame.empty:
-            typer.echo("No rejected captures, changed files or baselines to check.")
+            echo("No rejected captures, changed files or baselines to check.")
             return
         # The stored error line starts with the path (it is printed alone by monitor); beside
         # the path column that doubled every row's width.
@@ -861,7 +897,7 @@ def rejections(
         removed = frame.pop("removed_at")
         if removed.notna().any():  # rejected files a run found gone: history, not a problem
             frame["removed"] = removed.fillna("")
-        typer.echo(frame.to_string(index=False))
+        echo(frame.to_string(index=False))
 
 
 @app.command()
@@ -893,17 +929,17 @@ def ack(
     also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
     """
     from axiswatch.monitor._ledger import rebaseline as retire
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     if list_:
         with _failures(debug):
             _require_store(store)
-            with Store(store) as opened:
+            with Store(store, read_only=True) as opened:
                 frame = opened.acknowledgements(robot, axis)
             if frame.empty:
-                typer.echo("No acknowledgements.")
+                echo("No acknowledgements.")
             else:
-                typer.echo(frame.fillna("").to_string(index=False))
+                echo(frame.fillna("").to_string(index=False))
         return
     robot, axis, by, note = (
         _required(value, hint)
@@ -922,10 +958,10 @@ def ack(
             methods = opened.acknowledge(
                 robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline
             )
-        typer.echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
+        echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
         if rebaseline:
             start = from_capture or "the next capture that arrives"
-            typer.echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
+            echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
 
 
 def _required(value: str | None, hint: str) -> str:
@@ -961,9 +997,9 @@ def simulate_fleet_command(
             duration_s=duration,
         )
         faulty = labels[labels.fault != "none"].groupby(["robot", "axis"]).fault.first()
-        typer.echo(f"Wrote {len(labels)} captures to {out} (labels in {out / 'labels.csv'}).")
+        echo(f"Wrote {len(labels)} captures to {out} (labels in {out / 'labels.csv'}).")
         for row in faulty.reset_index().itertuples(index=False):
-            typer.echo(f"  developing fault: {row.robot}/{row.axis} {row.fault}")
+            echo(f"  developing fault: {row.robot}/{row.axis} {row.fault}")
 
 
 @app.command()
@@ -973,15 +1009,15 @@ def backup(
     debug: bool = DEBUG,
 ) -> None:
     """Write a consistent copy of the store, also while monitor runs (SQLite's online backup)."""
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         _require_store(store)
-        with Store(store) as opened:
+        with Store(store, read_only=True) as opened:
             copy = opened.backup(destination)
         with Store(copy, read_only=True) as restored:
             rows = len(restored.score_table())
-        typer.echo(f"Backup: {copy} ({rows} score rows); open it with --store to use it.")
+        echo(f"Backup: {copy} ({rows} score rows); open it with --store to use it.")
 
 
 @app.command()
@@ -1001,31 +1037,31 @@ def demo(
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._report import write_report
     from axiswatch.monitor._scoring import MonitorConfig
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
     with _failures(debug):
         folder = Path(tempfile.mkdtemp(prefix="axiswatch-demo-")) if out is None else out
         folder.mkdir(parents=True, exist_ok=True)
         root = folder / "fleet"
-        typer.echo(f"Simulating a fleet into {root} ...")
+        echo(f"Simulating a fleet into {root} ...")
         labels = simulate_fleet(root, n_days=days, seed=seed)
         with Store(folder / "fleet.db") as opened, _progress(True) as update:
             for method in (DEFAULT_METHOD, "lra", "pca"):
                 # The simulator has just written every file completely: nothing to wait for.
                 config = MonitorConfig(method=method)
                 monitor_fleet(root, opened, config, progress=update, settle_s=0)
-            typer.echo("\nFleet summary (state after the last capture):")
+            echo("\nFleet summary (state after the last capture):")
             _echo_summary(opened, None)
             page = write_report(opened, folder / "report", labels=labels)
         truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
         changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]
         later = sorted(set(changes.date) - {labels.date.min()})
-        typer.echo("\nGround truth (simulator labels, not seen by the monitor):")
-        typer.echo(f"  task changes (must not alarm) on {', '.join(later) or 'no day'}")
-        typer.echo("  developing faults (should alarm):")
+        echo("\nGround truth (simulator labels, not seen by the monitor):")
+        echo(f"  task changes (must not alarm) on {', '.join(later) or 'no day'}")
+        echo("  developing faults (should alarm):")
         for row in truth.reset_index().itertuples(index=False):
-            typer.echo(f"    {row.robot}/{row.axis} from {row.date}")
-        typer.echo(f"\nReport: {page}")
+            echo(f"    {row.robot}/{row.axis} from {row.date}")
+        echo(f"\nReport: {page}")
 
 
 def main() -> None:

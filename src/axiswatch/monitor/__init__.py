@@ -39,7 +39,7 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
     from axiswatch.monitor._scoring import (
         MonitorConfig,
     )
-    from axiswatch.monitor._store import (
+    from axiswatch.monitor.store import (
         SQLiteStore,
         Store,
         StoreBackend,
@@ -52,9 +52,9 @@ _EXPORTS: dict[str, str] = {
     "MethodPreset": "axiswatch.monitor._methods",
     "MonitorConfig": "axiswatch.monitor._scoring",
     "MonitorSummary": "axiswatch.monitor._monitor",
-    "SQLiteStore": "axiswatch.monitor._store",
-    "Store": "axiswatch.monitor._store",
-    "StoreBackend": "axiswatch.monitor._store",
+    "SQLiteStore": "axiswatch.monitor.store",
+    "Store": "axiswatch.monitor.store",
+    "StoreBackend": "axiswatch.monitor.store",
     "discover_fleet": "axiswatch.monitor._fleet",
     "fleet_results": "axiswatch.monitor._results",
     "fleet_summary": "axiswatch.monitor._results",

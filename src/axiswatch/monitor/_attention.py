@@ -14,7 +14,7 @@ from typing import Any
 import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
-from axiswatch.monitor._store import AlarmState, BaselineCheck
+from axiswatch.monitor.store import AlarmState, BaselineCheck
 
 __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 

@@ -11,7 +11,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from axiswatch.monitor._scoring import file_hash
-from axiswatch.monitor._store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreBackend
+from axiswatch.monitor.store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreWriter
 
 __all__ = [
     "VERIFY_MIN",
@@ -64,12 +64,12 @@ def unchanged_axes(
 
 
 class MemoryCaches:
-    """:class:`~axiswatch.monitor._store.RunCaches` for one run, in memory, for a store without
+    """:class:`~axiswatch.monitor.store.RunCaches` for one run, in memory, for a store without
     its own: nothing is kept between runs (every baseline refitted, every folder listed), and
     the index starts from what the store says of every scored file, all verified each run (the
     behaviour before the caches existed). Models travel with the jobs."""
 
-    def __init__(self, store: StoreBackend) -> None:
+    def __init__(self, store: StoreWriter) -> None:
         self._store = store
         self._scored = store.scored_files()
         self._index = {
@@ -122,7 +122,7 @@ class MemoryCaches:
         return None
 
 
-def run_caches(store: StoreBackend) -> RunCaches:
+def run_caches(store: StoreWriter) -> RunCaches:
     """The store's own caches, or :class:`MemoryCaches` for a store without them."""
     return store if isinstance(store, RunCaches) else MemoryCaches(store)
 

@@ -13,12 +13,13 @@ from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AddedBaseline,
     NewBaseline,
     NewScore,
     Rejection,
-    StoreBackend,
+    StoreOperator,
+    StoreWriter,
 )
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
@@ -30,7 +31,7 @@ def params_json(config: MonitorConfig) -> str:
 
 
 def reject(
-    store: StoreBackend,
+    store: StoreWriter,
     method: str,
     robot: str,
     axis: str,
@@ -56,7 +57,7 @@ def reject(
 
 
 def insert_baseline(
-    store: StoreBackend, outcome: FitOutcome, epoch: int, config: MonitorConfig
+    store: StoreWriter, outcome: FitOutcome, epoch: int, config: MonitorConfig
 ) -> AddedBaseline | None:
     """Insert the baseline of ``epoch`` unless another process did; return its id and whether
     this call added it (None: the other process chose another capture).
@@ -97,8 +98,16 @@ def insert_baseline(
     )
 
 
-def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConfig) -> bool:
-    """Decide and write one capture's result (or its rejection); True when this call wrote it."""
+def commit_score(
+    store: StoreWriter,
+    outcome: ScoreOutcome,
+    config: MonitorConfig,
+    rejection_key: str | None = None,
+) -> bool:
+    """Decide and write one capture's result (or its rejection); True when this call wrote it.
+
+    ``rejection_key``: what a rejection depends on (default: the parameters' hash); the monitor
+    adds its axis profile's."""
     job = outcome.job
     file = job.file
     if outcome.error is not None:
@@ -111,7 +120,7 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
             outcome.file_hash,
             outcome.error,
             kind=outcome.kind,
-            params_hash=params_hash(config),
+            params_hash=rejection_key or params_hash(config),
             transient=outcome.transient,
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
@@ -141,7 +150,7 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
 
 
 def rebaseline(
-    store: StoreBackend,
+    store: StoreOperator,
     robot: str,
     axis: str,
     *,
@@ -152,7 +161,7 @@ def rebaseline(
 
     Parameters
     ----------
-    store : StoreBackend
+    store : StoreOperator
     robot, axis : str
     method : str or None, default=None
         Only this method's baseline; default every method the axis has.

@@ -2,11 +2,11 @@
 
 A job carries a :class:`ModelRef`, the model's hash and its store. Each worker caches the models
 it has used, so a model is read at most once per worker and run.
+A worker opens the store only to read a model, and closes it at once.
 """
 
 from __future__ import annotations
 
-import os
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
@@ -14,7 +14,7 @@ from typing import Any
 from axiswatch._model import HealthModel
 from axiswatch.monitor._indicators import IndicatorBaseline
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
-from axiswatch.monitor._store import Store
+from axiswatch.monitor.store import Store
 
 __all__ = ["MODELS_PER_WORKER", "Fitted", "ModelRef", "keep_model", "resolve_model"]
 
@@ -47,7 +47,6 @@ class ModelRef:
 
 
 _cache: OrderedDict[str, Fitted] = OrderedDict()
-_stores: dict[tuple[int, str], tuple[int, Store]] = {}
 
 
 def keep_model(model: Fitted, *, params: dict[str, Any] | None = None) -> tuple[str, bytes | None]:
@@ -69,18 +68,15 @@ def _remember(key: str, model: Fitted) -> None:
         _cache.popitem(last=False)
 
 
-def _read_only(store_path: str) -> Store:
-    # One connection per process and store (a forked worker must not use its parent's), and per
-    # file: a store deleted and made anew at the same path (a long-lived process, a notebook)
-    # gets a new connection instead of reading the old file's models through the old one.
-    key = (os.getpid(), store_path)
-    file_id = os.stat(store_path).st_ino
-    opened = _stores.get(key)
-    if opened is None or opened[0] != file_id:
-        if opened is not None:
-            opened[1].close()
-        opened = _stores[key] = (file_id, Store(store_path, read_only=True))
-    return opened[1]
+def _stored_blob(store_path: str, key: str) -> bytes | None:
+    """The blob of a stored model, read through a connection closed at once.
+
+    A worker never holds the store open: a connection kept between runs kept the store's
+    write-ahead log alive, and a backup restored over the file then met the old file's log
+    ("database disk image is malformed"). A model is read once per worker, so opening is cheap.
+    """
+    with Store(store_path, read_only=True) as store:
+        return store.model_blob(key)
 
 
 def resolve_model(ref: ModelRef) -> Fitted:
@@ -97,7 +93,7 @@ def resolve_model(ref: ModelRef) -> Fitted:
     if model is not None:
         _cache.move_to_end(ref.key)
         return model
-    blob = _read_only(ref.store_path).model_blob(ref.key)
+    blob = _stored_blob(ref.store_path, ref.key)
     if blob is None:
         raise LookupError(
             f"store '{ref.store_path}' holds no fitted model {ref.key[:12]}; run monitor again."

@@ -7,6 +7,7 @@ says. It alone writes the store, one transaction per capture. Workers only score
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import time
 from collections import defaultdict
@@ -56,13 +57,14 @@ from axiswatch.monitor._scoring import (
     profile_for,
     score_capture,
 )
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AlarmState,
     Baseline,
     ChangedFile,
+    Rejection,
     RunCaches,
     SavedModel,
-    StoreBackend,
+    StoreWriter,
     now,
     now_us,
 )
@@ -165,7 +167,7 @@ class _Run:
     changed), the workers, what the store held when it started, and the summary being built."""
 
     root: Path
-    store: StoreBackend
+    store: StoreWriter
     config: MonitorConfig
     pool: WorkerPool
     caches: RunCaches
@@ -174,6 +176,7 @@ class _Run:
     summary: MonitorSummary
     params: str
     params_hash: str = ""
+    profile_hashes: dict[tuple[str, str], str] = field(default_factory=dict)
     owners: dict[Path, FleetFile] = field(default_factory=dict)
     unreadable_paths: set[Path] = field(default_factory=set)
     stored_models: list[_Axis] = field(default_factory=list)  # scored without a refit
@@ -222,6 +225,20 @@ class _Run:
         )
         self.caches.save_model(baseline_id, saved, outcome.blob)
         return ModelRef(outcome.model_key, source)
+
+    def rejection_key(self, robot: str, axis: str) -> str:
+        """What a rejection of the axis's captures depends on: the parameters, and the content
+        of the axis profile that applied (none, or a malformed one: its error). Adding or fixing
+        the profile changes it, and the captures are read again."""
+        key = (robot, axis)
+        if key not in self.profile_hashes:
+            try:
+                profile = self.config.profile or AxisProfile.find(self.root, robot, axis)
+                text = repr(profile)
+            except (ProfileError, OSError) as exc:  # its captures are rejected with this error
+                text = str(exc)
+            self.profile_hashes[key] = hashlib.sha256(text.encode()).hexdigest()[:16]
+        return f"{self.params_hash}+{self.profile_hashes[key]}"
 
     def unreadable(self, file: FleetFile, reason: str) -> None:
         relative = self.relative(file.path)
@@ -487,7 +504,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             digest,
             str(outcome.error),
             kind=outcome.kind,
-            params_hash=run.params_hash,
+            params_hash=run.rejection_key(file.robot, file.axis),
             transient=outcome.transient,
         )
         if not outcome.transient:
@@ -738,16 +755,18 @@ def _score_in_order(run: _Run, planned: Iterable[ScoreJob], *, expected: int | N
                 queue = queue_of[jobs[index].baseline_id]
                 while queue and queue[0] in pending:
                     ready = pending.pop(queue.pop(0))
-                    if commit_score(run.store, ready, run.config) and ready.error is None:
+                    key = run.rejection_key(ready.job.file.robot, ready.job.file.axis)
+                    if commit_score(run.store, ready, run.config, key) and ready.error is None:
                         run.summary.scored += 1
         count += len(group)
         run.report("captures", first + count, first + len(jobs))
     run.done["captures"] += len(jobs)
 
 
-def _holds(run: _Run, params: str | None) -> bool:
-    """A rejection made under ``params`` holds for this run's parameters."""
-    return params is None or params == run.params_hash
+def _holds(run: _Run, rejection: Rejection) -> bool:
+    """A rejection holds for this run's parameters and its axis's profile."""
+    made_under = rejection.params_hash
+    return made_under is None or made_under == run.rejection_key(rejection.robot, rejection.axis)
 
 
 def _standing_rejections(run: _Run) -> list[str]:
@@ -772,9 +791,12 @@ def _standing_rejections(run: _Run) -> list[str]:
             ):
                 run.store.mark_rejection_removed(rejection, None)
         # Point queries: a run's cost must not follow the history of scores.
-        if not _holds(run, rejection.params_hash) or run.caches.was_scored(
-            rejection.path, rejection.file_hash, run.method
-        ):
+        scored = run.caches.was_scored(rejection.path, rejection.file_hash, run.method)
+        if not _holds(run, rejection):
+            if scored:  # made under other options or another profile, and scored since
+                run.store.retry_rejections([rejection.path], run.method)
+            continue
+        if scored:
             continue
         if not rejection.transient and not (
             path.is_file() and run.digest(path) == rejection.file_hash
@@ -808,7 +830,7 @@ _AXES_PER_PLAN = 64
 
 def monitor_fleet(
     root: str | Path,
-    store: StoreBackend,
+    store: StoreWriter,
     config: MonitorConfig | None = None,
     *,
     workers: int = 1,
@@ -824,7 +846,7 @@ def monitor_fleet(
     ----------
     root : str or Path
         Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
-    store : StoreBackend
+    store : StoreWriter
         Where results go (and what was done before): ``Store(path)``, or another backend.
     config : MonitorConfig, optional
         Default ``MonitorConfig()``: the product default, as ``axiswatch monitor``.
@@ -911,7 +933,7 @@ def monitor_fleet(
         run.rejected = {
             (r.path, r.file_hash)
             for r in store.rejections(run.method)
-            if not r.transient and _holds(run, r.params_hash)
+            if not r.transient and _holds(run, r)
         }
         run.alarmed = store.alarmed_captures(run.method)
 
@@ -1124,7 +1146,7 @@ def _activity(files: Sequence[FleetFile]) -> list[tuple[str, str, int, str]]:
     ]
 
 
-def _stale_axes(store: StoreBackend, now_utc: datetime, stale_after: timedelta) -> list[str]:
+def _stale_axes(store: StoreWriter, now_utc: datetime, stale_after: timedelta) -> list[str]:
     """Axes without a new capture file for longer than ``stale_after``, one line each."""
     lines = []
     for row in store.axis_activity().itertuples(index=False):

@@ -19,7 +19,7 @@ from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_metho
 from axiswatch.monitor._charts import distance_chart, plotly_library
 from axiswatch.monitor._methods import DEFAULT_METHOD
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._store import BaselineCheck, StoreBackend
+from axiswatch.monitor.store import BaselineCheck, StoreBackend
 
 __all__ = ["write_report"]
 

@@ -14,7 +14,7 @@ import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
 from axiswatch._mechanics import COLUMNS
-from axiswatch.monitor._store import StoreBackend
+from axiswatch.monitor.store import StoreBackend
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
