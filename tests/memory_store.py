@@ -22,6 +22,7 @@ import pandas as pd
 
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision
+from axiswatch.monitor._feedback import check_verdict
 from axiswatch.monitor._store import (
     AddedBaseline,
     AlarmState,
@@ -382,6 +383,7 @@ class MemoryStore:
                     ack["acknowledged_by"] if ack else None,
                     ack["note"] if ack else None,
                     ack["acknowledged_at"] if ack else None,
+                    ack["verdict"] if ack else None,
                 )
             )  # fmt: skip
         return sorted(found, key=lambda a: (a.robot, a.axis, a.method))
@@ -395,10 +397,12 @@ class MemoryStore:
         note: str,
         method: str | None = None,
         rebaseline: bool = False,
+        verdict: str | None = None,
     ) -> list[str]:
         for name, value in (("by", by), ("note", note)):
             if not value.strip():
                 raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        check_verdict(verdict)
         label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
         with self._lock:
             latest: dict[str, Baseline] = {}
@@ -436,6 +440,7 @@ class MemoryStore:
                         "acknowledged_by": by,
                         "note": note,
                         "acknowledged_at": stamp,
+                        "verdict": verdict,
                     }
                 )
             return [b.method for b, _ in chosen]
@@ -446,13 +451,14 @@ class MemoryStore:
             (
                 a["robot"], a["axis"], a["method"], captures.get(a["score_id"]),
                 a["rebaseline"], a["acknowledged_by"], a["note"], a["acknowledged_at"],
+                a["verdict"],
             )
             for a in self._acks
             if robot in (None, a["robot"]) and axis in (None, a["axis"])
         ]  # fmt: skip
         columns = [
             "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
-            "acknowledged_at",
+            "acknowledged_at", "verdict",
         ]  # fmt: skip
         return pd.DataFrame(rows, columns=columns).astype({"rebaseline": bool})
 

@@ -22,6 +22,7 @@ import pandas as pd
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision, DecisionRule, stored_threshold
+from axiswatch.monitor._feedback import check_verdict
 from axiswatch.monitor._fleet import misnamed_folder_key
 
 __all__ = [
@@ -239,6 +240,8 @@ class AlarmState:
     acknowledged_by: str | None
     note: str | None
     acknowledged_at: str | None
+    #: The engineer's verdict (:data:`~axiswatch.monitor._feedback.ACK_VERDICTS`), if any.
+    verdict: str | None = None
 
     @property
     def acknowledged(self) -> bool:
@@ -446,6 +449,7 @@ class StoreBackend(Protocol):
         note: str,
         method: str | None = None,
         rebaseline: bool = False,
+        verdict: str | None = None,
     ) -> list[str]:
         """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
 
@@ -462,6 +466,8 @@ class StoreBackend(Protocol):
             The record of a re-baseline after maintenance: made for the latest baseline of each
             method whether or not it is in alarm (it names the alarm when there is one). The
             caller retires the baselines (``rebaseline`` of the ledger) before.
+        verdict : str or None, default=None
+            What they concluded: one of :data:`~axiswatch.monitor._feedback.ACK_VERDICTS`.
 
         Returns
         -------
@@ -471,7 +477,7 @@ class StoreBackend(Protocol):
         Raises
         ------
         ValueError
-            If ``by`` or ``note`` is empty.
+            If ``by`` or ``note`` is empty, or ``verdict`` is unknown.
         StoreError
             If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
             alarm.
@@ -481,7 +487,7 @@ class StoreBackend(Protocol):
     def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
         that raised the alarm seen; None for a re-baseline without alarm), ``rebaseline``,
-        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ``acknowledged_by``, ``note``, ``acknowledged_at``, ``verdict`` (None without one)."""
         ...
 
     def rebaseline_requests(self) -> pd.DataFrame:
@@ -630,7 +636,7 @@ WITH last AS (
 )
 SELECT l.robot, l.axis, l.method, l.baseline_id, r.id AS raised_score_id,
     r.capture AS raised_capture, r.captured_at AS raised_at, a.acknowledged_by, a.note,
-    a.acknowledged_at
+    a.acknowledged_at, {verdict} AS verdict
 FROM last l
 JOIN scores r ON r.id = (SELECT min(s.id) FROM scores s WHERE s.baseline_id=l.baseline_id
     AND s.role='monitor' AND s.alarm=1 AND s.id > coalesce(l.last_clean, 0))
@@ -729,6 +735,7 @@ _ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("changed_files", "acknowledged_at", "TEXT"),
     ("rejections", "reason_key", "TEXT"),
     ("rejections", "removed_at", "TEXT"),
+    ("acknowledgements", "verdict", "TEXT"),
 )
 #: Tables added on open to a store made before them (empty: nothing before is lost).
 _BASELINE_CHECKS = """
@@ -1031,6 +1038,11 @@ class SQLiteStore:
                     connection.execute("ROLLBACK")
                 raise
             connection.execute("COMMIT")
+
+    def _verdict_column(self) -> str:
+        """``a.verdict``, or NULL in a store opened read-only before the column was added."""
+        present = {row[1] for row in self._rows("PRAGMA table_info(acknowledgements)")}
+        return "a.verdict" if "verdict" in present else "NULL"
 
     def _rows(self, sql: str, parameters: tuple[Any, ...] = ()) -> list[sqlite3.Row]:
         with self._errors():
@@ -1501,7 +1513,9 @@ class SQLiteStore:
         """Axes in alarm after their last monitored capture (active baselines), acknowledged or
         not; one per axis and method."""
         where = "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
-        rows = self._rows(_ALARMS.format(where=where), (method, method))
+        rows = self._rows(
+            _ALARMS.format(where=where, verdict=self._verdict_column()), (method, method)
+        )
         return [AlarmState(**dict(row)) for row in rows]
 
     def acknowledge(
@@ -1513,6 +1527,7 @@ class SQLiteStore:
         note: str,
         method: str | None = None,
         rebaseline: bool = False,
+        verdict: str | None = None,
     ) -> list[str]:
         """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
 
@@ -1529,6 +1544,8 @@ class SQLiteStore:
             The record of a re-baseline after maintenance: made for the latest baseline of each
             method whether or not it is in alarm (it names the alarm when there is one). The
             caller retires the baselines (``rebaseline`` of the ledger) before.
+        verdict : str or None, default=None
+            What they concluded: one of :data:`~axiswatch.monitor._feedback.ACK_VERDICTS`.
 
         Returns
         -------
@@ -1538,7 +1555,7 @@ class SQLiteStore:
         Raises
         ------
         ValueError
-            If ``by`` or ``note`` is empty.
+            If ``by`` or ``note`` is empty, or ``verdict`` is unknown.
         StoreError
             If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
             alarm.
@@ -1546,6 +1563,7 @@ class SQLiteStore:
         for name, value in (("by", by), ("note", note)):
             if not value.strip():
                 raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        check_verdict(verdict)
         label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
         stamp = datetime.now(UTC).isoformat(timespec="seconds")
         with self._write() as db:
@@ -1562,7 +1580,8 @@ class SQLiteStore:
             alarms = {
                 int(row["baseline_id"]): int(row["raised_score_id"])
                 for row in db.execute(
-                    _ALARMS.format(where="WHERE b.robot=? AND b.axis=?"), (robot, axis)
+                    _ALARMS.format(where="WHERE b.robot=? AND b.axis=?", verdict="a.verdict"),
+                    (robot, axis),
                 )
             }
             chosen = [(r["id"], r["method"], alarms.get(r["id"])) for r in baselines]
@@ -1576,8 +1595,8 @@ class SQLiteStore:
             for baseline_id, method_name, score_id in chosen:
                 db.execute(
                     "INSERT INTO acknowledgements (robot, axis, method, baseline_id, score_id, "
-                    "rebaseline, acknowledged_by, note, acknowledged_at) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    "rebaseline, acknowledged_by, note, acknowledged_at, verdict) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (
                         robot,
                         axis,
@@ -1588,6 +1607,7 @@ class SQLiteStore:
                         by,
                         note,
                         stamp,
+                        verdict,
                     ),
                 )
         return [str(c[1]) for c in chosen]
@@ -1595,10 +1615,11 @@ class SQLiteStore:
     def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
         that raised the alarm seen; empty for a re-baseline without alarm), ``rebaseline``,
-        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ``acknowledged_by``, ``note``, ``acknowledged_at``, ``verdict`` (None without one)."""
         frame = self._frame(
             "SELECT a.robot, a.axis, a.method, s.capture, a.rebaseline, a.acknowledged_by, "
-            "a.note, a.acknowledged_at FROM acknowledgements a "
+            f"a.note, a.acknowledged_at, {self._verdict_column()} AS verdict "
+            "FROM acknowledgements a "
             "LEFT JOIN scores s ON s.id = a.score_id "
             "WHERE (? IS NULL OR a.robot=?) AND (? IS NULL OR a.axis=?) ORDER BY a.id",
             (robot, robot, axis, axis),
