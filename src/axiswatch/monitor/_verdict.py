@@ -430,18 +430,24 @@ def _wrap(text: str, indent: str) -> list[str]:
 def attention_lines(verdicts: Sequence[Verdict], method: str) -> list[str]:
     """The terminal's summary: the axes needing attention with their verdicts, then a count.
 
-    The same sentences as the report's first screen (:meth:`Verdict.sentences`), but for the
-    files of a bad-data verdict, which the run has just listed.
+    The same sentences as the report's first screen (:meth:`Verdict.sentences`). Axes whose
+    files were rejected or changed are only counted: the run lists their files, which a first
+    run of a misread export does by the hundred.
     """
     urgent = [v for v in verdicts if v.needs_attention]
+    files = [v for v in urgent if v.state == "bad data" and v.kind == "bad data"]
     lines = [f"Needs attention ({method}): {len(urgent)} of {_axes(len(verdicts))}"]
+    if files:
+        lines[0] += (
+            f"; {_axes(len(files))} with rejected or changed files ('axiswatch rejections' "
+            "lists them)"
+        )
     for verdict in urgent:
+        if verdict in files:
+            continue
         first, *rest = verdict.sentences() or [""]
         lines += _wrap(f"{verdict.label.upper()}  {verdict.robot}/{verdict.axis}  {first}", "  ")
-        for text in rest:
-            if verdict.state == "bad data" and text == verdict.since:
-                continue  # the run lists the rejected and changed files just above
-            lines += _wrap(text, "    ")
+        lines += [line for text in rest for line in _wrap(text, "    ")]
     calm = Counter(v.state for v in verdicts if not v.needs_attention)
     if calm:
         ranked = sorted(calm.items(), key=lambda s: STATES.index(s[0]))
