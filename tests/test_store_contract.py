@@ -444,12 +444,13 @@ def test_alarms_are_acknowledged_until_raised_again(store: StoreBackend) -> None
     table = store.acknowledgements()
     assert list(table.columns) == [
         "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
-        "acknowledged_at",
+        "acknowledged_at", "verdict",
     ]  # fmt: skip
     assert table[["capture", "rebaseline", "acknowledged_by"]].values.tolist() == [
         ["2026-03-03.csv", False, "ana"],
         ["2026-03-06.csv", True, "bo"],
     ]
+    assert table.verdict.isna().all()
     assert store.acknowledgements(robot="r2").empty
     requests = store.rebaseline_requests()
     assert list(requests.columns) == [
@@ -458,6 +459,28 @@ def test_alarms_are_acknowledged_until_raised_again(store: StoreBackend) -> None
     assert requests[["robot", "axis", "method", "retired_epoch"]].values.tolist() == [
         ["r1", "a1", "pca", 1]
     ]
+
+
+@WHOLE
+def test_an_acknowledgement_keeps_the_engineers_verdict(store: StoreBackend) -> None:
+    """The verdict given with an acknowledgement is kept with it and on the alarm it names."""
+    baseline_id = add(store, new_baseline())
+    threshold = alarm_threshold([1.0, 2.0])
+    store.record_score(
+        new_score(baseline_id, 2),
+        fixed(Decision("calibration", threshold.value, False, False, "", calibrated=threshold)),
+        window=1,
+    )
+    alarmed = Decision("monitor", threshold.value, True, True, "")
+    store.record_score(new_score(baseline_id, 3, 50.0), fixed(alarmed), window=1)
+    with pytest.raises(ValueError, match="'verdict' parameter must be one of fault-confirmed"):
+        store.acknowledge("r1", "a1", by="ana", note="x", verdict="fault confirmed")
+    assert store.acknowledgements().empty  # a refused verdict records nothing
+    store.acknowledge("r1", "a1", by="ana", note="new gripper", verdict="task-changed")
+    store.acknowledge("r1", "a1", by="bo", note="friction up", verdict="fault-confirmed")
+    [alarm] = store.alarms()
+    assert (alarm.acknowledged_by, alarm.verdict) == ("bo", "fault-confirmed")
+    assert store.acknowledgements().verdict.tolist() == ["task-changed", "fault-confirmed"]
 
 
 @WHOLE

@@ -298,11 +298,12 @@ class Format(StrEnum):
     json = "json"
 
 
-def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
-    """Print the fleet's summary (the columns that fit a terminal); return it whole."""
+def _echo_summary(store: Any, stale_after: timedelta | None, method: str) -> pd.DataFrame:
+    """Print the fleet's summary of ``method`` (the columns that fit a terminal); return it."""
     from axiswatch.monitor._results import fleet_summary
 
     summary = fleet_summary(store, stale_after=stale_after)
+    summary = summary[summary.method == method].reset_index(drop=True)
     if summary.empty:
         echo("No axis has a baseline yet.")
         return summary
@@ -323,23 +324,11 @@ def _echo_summary(store: Any, stale_after: timedelta | None) -> pd.DataFrame:
     return summary
 
 
-def _alarm_reasons(
-    store: Any, summary: pd.DataFrame, method: str, axes: list[tuple[str, str]]
-) -> list[str]:
-    """One line per axis in alarm: why (the report's first-screen line), read from the store."""
-    import pandas as pd
+def _verdict_lines(store: Any, method: str, stale_after: timedelta | None) -> list[str]:
+    """The axes needing attention and their verdicts (the report's first screen), in lines."""
+    from axiswatch.monitor._verdict import attention_lines, fleet_verdicts
 
-    from axiswatch.monitor._attention import triage
-    from axiswatch.monitor._results import fleet_rejections, fleet_results
-
-    if not axes:
-        return []
-    results = pd.concat([fleet_results(store, robot=r, axis=a) for r, a in axes])
-    listed = triage(summary, results, fleet_rejections(store), store.changed_file_table(),
-                    store.alarms(method), method=method,
-                    checks=store.baseline_checks(method))  # fmt: skip
-    wanted = set(axes)
-    return [f"{i.robot}/{i.axis}: {i.line}" for i in listed if (i.robot, i.axis) in wanted]
+    return attention_lines(fleet_verdicts(store, method, stale_after=stale_after), method)
 
 
 @app.command(cls=_MonitorCommand)
@@ -501,8 +490,8 @@ def monitor(
                     f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
                     "in this run."
                 )
-                summary = _echo_summary(opened, silence)
-                reasons = _alarm_reasons(opened, summary, result.method, list(result.alarms))
+                _echo_summary(opened, silence, result.method)
+                verdicts = _verdict_lines(opened, result.method, silence)
         finally:
             if client is not None:
                 client.close()
@@ -543,11 +532,9 @@ def monitor(
                     f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
                     f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
                 )
-        if result.alarms:
-            axes = ", ".join(f"{robot}/{axis}" for robot, axis in result.alarms)
-            echo(f"\nALARM ({result.method}) on {axes}")
-            for line in reasons:
-                echo(f"  {line}")
+        echo("")
+        for line in verdicts:
+            echo(line)
     raise typer.Exit(result.exit_code)
 
 
@@ -655,7 +642,8 @@ def results(
 
     Then captured_at, epoch, role, over, reason, details (JSON: for the indicator methods each
     indicator's value, baseline, shift in healthy spreads and share of the distance) and
-    top_indicator. The table shows the first seven, role and top_indicator.
+    top_indicator, feedback (the verdict of an acknowledged alarm). The table shows the first
+    seven, role, feedback (when any) and top_indicator.
     """
     import json
 
@@ -677,7 +665,11 @@ def results(
         elif frame.empty:
             echo("No scored captures.")
         else:
-            table = frame[[*columns, "role", "top_indicator"]].fillna({"top_indicator": ""})
+            # The engineer's feedback on an acknowledged alarm (ack --false-alarm, ...).
+            said = ["feedback"] if frame.feedback.notna().any() else []
+            table = frame[[*columns, "role", *said, "top_indicator"]].fillna(
+                {"top_indicator": "", "feedback": ""}
+            )
             if indicators:
                 table = table.join(indicator_spreads(frame))
             echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
@@ -918,6 +910,13 @@ def ack(
     from_capture: str | None = typer.Option(
         None, "--from", help="With --rebaseline: file name of the new baseline."
     ),
+    fault_confirmed: bool = typer.Option(
+        False, "--fault-confirmed", help="Verdict: the fault is real."
+    ),
+    false_alarm: bool = typer.Option(False, "--false-alarm", help="Verdict: the axis is fine."),
+    task_changed: bool = typer.Option(
+        False, "--task-changed", help="Verdict: the axis's task or payload changed."
+    ),
     list_: bool = typer.Option(
         False, "--list", help="List the acknowledgements (of --robot/--axis if given) instead."
     ),
@@ -925,7 +924,8 @@ def ack(
 ) -> None:
     """Record that an alarm was seen: it no longer makes monitor exit 4 until raised again.
 
-    The report shows who saw it. With --rebaseline (after maintenance) the axis's baseline is
+    The report shows who saw it and their verdict, if given (at most one of --fault-confirmed,
+    --false-alarm, --task-changed). With --rebaseline (after maintenance) the axis's baseline is
     also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
     """
     from axiswatch.monitor._ledger import rebaseline as retire
@@ -947,6 +947,14 @@ def ack(
     )
     if from_capture is not None and not rebaseline:
         raise typer.BadParameter("only with --rebaseline.", param_hint="'--from'")
+    given = [name for name, flag in (("fault-confirmed", fault_confirmed),
+             ("false-alarm", false_alarm), ("task-changed", task_changed)) if flag]  # fmt: skip
+    if len(given) > 1:
+        raise typer.BadParameter(
+            f"give at most one verdict; got {', '.join('--' + g for g in given)}.",
+            param_hint="'--fault-confirmed / --false-alarm / --task-changed'",
+        )
+    verdict = given[0] if given else None
     chosen = method
     with _failures(debug):
         _require_store(store)
@@ -956,9 +964,11 @@ def ack(
                 # before anything is written, so a refused request records nothing.
                 retire(opened, robot, axis, method=chosen, from_capture=from_capture)
             methods = opened.acknowledge(
-                robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline
-            )
-        echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}.")
+                robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline,
+                verdict=verdict,
+            )  # fmt: skip
+        said = f": {verdict}" if verdict else ""
+        echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}{said}.")
         if rebaseline:
             start = from_capture or "the next capture that arrives"
             echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")
@@ -1050,8 +1060,15 @@ def demo(
                 # The simulator has just written every file completely: nothing to wait for.
                 config = MonitorConfig(method=method)
                 monitor_fleet(root, opened, config, progress=update, settle_s=0)
-            echo("\nFleet summary (state after the last capture):")
-            _echo_summary(opened, None)
+            echo("")
+            for line in _verdict_lines(opened, DEFAULT_METHOD, None):
+                echo(line)
+            paper = [a for a in opened.alarms() if a.method != DEFAULT_METHOD]
+            runs = 2 * len(labels[["robot", "axis"]].drop_duplicates())
+            echo(
+                f"The paper's methods (lra, pca), kept for comparison: {len(paper)} of {runs} "
+                "axis results in alarm; they alarm on task changes too (the report folds them)."
+            )
             page = write_report(opened, folder / "report", labels=labels)
         truth = labels[labels.fault != "none"].groupby(["robot", "axis"]).date.min()
         changes = labels[labels.task.ne(labels.groupby(["robot", "axis"]).task.shift())]

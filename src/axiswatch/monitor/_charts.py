@@ -15,6 +15,7 @@ from typing import Any
 import pandas as pd
 
 from axiswatch._mechanics import COLUMNS
+from axiswatch.monitor._advice import indicator_colour
 
 __all__ = ["distance_chart", "plotly_library"]
 
@@ -246,7 +247,8 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
         figure.add_trace(
             go.Scatter(
                 x=scored.when[keep], y=[e["spreads"] for e in values], mode="lines+markers",
-                name=name, marker={"size": 4}, line={"width": 1},
+                name=name, marker={"size": 4, "color": indicator_colour(name)},
+                line={"width": 1, "color": indicator_colour(name)},
                 # The deficit column mirrors the friction's: hidden until asked for (legend).
                 visible="legendonly" if name == "viscous_friction_deficit" else True,
                 customdata=[

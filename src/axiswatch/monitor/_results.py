@@ -14,6 +14,7 @@ import pandas as pd
 
 from axiswatch._attribution import describe_top_indicator
 from axiswatch._mechanics import COLUMNS
+from axiswatch.monitor._feedback import alarm_feedback
 from axiswatch.monitor.store import StoreBackend
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
@@ -28,7 +29,9 @@ def fleet_results(
     (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the indicator
     methods, over the threshold or in alarm: ``indicators``, the indicator that set the distance,
     the part it watches and its shift; ``mechanics``, the one with the largest share of the
-    distance and its likely meaning; None otherwise). Baseline rows are included
+    distance and its likely meaning; None otherwise), ``feedback`` (on the captures of an
+    acknowledged alarm: the engineer's verdict, ``seen`` without one; None otherwise:
+    :func:`~axiswatch.monitor._feedback.alarm_feedback`). Baseline rows are included
     (role ``baseline``, no distance).
     """
     frame = store.score_table(robot=robot, axis=axis)
@@ -38,6 +41,7 @@ def fleet_results(
         _top_indicator(json.loads(details)) if flagged else None
         for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
     ]
+    frame["feedback"] = alarm_feedback(frame, store.acknowledgements(robot, axis))
     return frame
 
 

@@ -210,7 +210,7 @@ class StoreReader(_Standing, Protocol):
     def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
         that raised the alarm seen; None for a re-baseline without alarm), ``rebaseline``,
-        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ``acknowledged_by``, ``note``, ``acknowledged_at``, ``verdict`` (None without one)."""
         ...
 
     def rebaseline_requests(self) -> pd.DataFrame:
@@ -282,6 +282,7 @@ class StoreOperator(_Opened, Protocol):
         note: str,
         method: str | None = None,
         rebaseline: bool = False,
+        verdict: str | None = None,
     ) -> list[str]:
         """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
 
@@ -298,6 +299,8 @@ class StoreOperator(_Opened, Protocol):
             The record of a re-baseline after maintenance: made for the latest baseline of each
             method whether or not it is in alarm (it names the alarm when there is one). The
             caller retires the baselines (``rebaseline`` of the ledger) before.
+        verdict : str or None, default=None
+            What they concluded: one of :data:`~axiswatch.monitor._feedback.ACK_VERDICTS`.
 
         Returns
         -------
@@ -307,7 +310,7 @@ class StoreOperator(_Opened, Protocol):
         Raises
         ------
         ValueError
-            If ``by`` or ``note`` is empty.
+            If ``by`` or ``note`` is empty, or ``verdict`` is unknown.
         StoreError
             If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
             alarm.

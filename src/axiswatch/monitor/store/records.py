@@ -228,6 +228,8 @@ class AlarmState:
     acknowledged_by: str | None
     note: str | None
     acknowledged_at: str | None
+    #: The engineer's verdict (:data:`~axiswatch.monitor._feedback.ACK_VERDICTS`), if any.
+    verdict: str | None = None
 
     @property
     def acknowledged(self) -> bool:

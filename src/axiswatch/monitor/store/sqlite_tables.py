@@ -17,6 +17,7 @@ import pandas as pd
 
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._feedback import check_verdict
 from axiswatch.monitor.store.records import AlarmState, Baseline, BaselineCheck, summary_extras
 
 __all__ = ["SQLiteTables"]
@@ -35,7 +36,7 @@ WITH last AS (
 )
 SELECT l.robot, l.axis, l.method, l.baseline_id, r.id AS raised_score_id,
     r.capture AS raised_capture, r.captured_at AS raised_at, a.acknowledged_by, a.note,
-    a.acknowledged_at
+    a.acknowledged_at, a.verdict
 FROM last l
 JOIN scores r ON r.id = (SELECT min(s.id) FROM scores s WHERE s.baseline_id=l.baseline_id
     AND s.role='monitor' AND s.alarm=1 AND s.id > coalesce(l.last_clean, 0))
@@ -184,6 +185,7 @@ class SQLiteTables:
         note: str,
         method: str | None = None,
         rebaseline: bool = False,
+        verdict: str | None = None,
     ) -> list[str]:
         """Record that someone saw the axis's alarm (or, ``rebaseline``, maintained the axis).
 
@@ -200,6 +202,8 @@ class SQLiteTables:
             The record of a re-baseline after maintenance: made for the latest baseline of each
             method whether or not it is in alarm (it names the alarm when there is one). The
             caller retires the baselines (``rebaseline`` of the ledger) before.
+        verdict : str or None, default=None
+            What they concluded: one of :data:`~axiswatch.monitor._feedback.ACK_VERDICTS`.
 
         Returns
         -------
@@ -209,7 +213,7 @@ class SQLiteTables:
         Raises
         ------
         ValueError
-            If ``by`` or ``note`` is empty.
+            If ``by`` or ``note`` is empty, or ``verdict`` is unknown.
         StoreError
             If the axis has no baseline (for ``method``), or, without ``rebaseline``, is not in
             alarm.
@@ -217,6 +221,7 @@ class SQLiteTables:
         for name, value in (("by", by), ("note", note)):
             if not value.strip():
                 raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
+        check_verdict(verdict)
         label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
         stamp = datetime.now(UTC).isoformat(timespec="seconds")
         with self._write() as db:
@@ -247,8 +252,8 @@ class SQLiteTables:
             for baseline_id, method_name, score_id in chosen:
                 db.execute(
                     "INSERT INTO acknowledgements (robot, axis, method, baseline_id, score_id, "
-                    "rebaseline, acknowledged_by, note, acknowledged_at) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    "rebaseline, acknowledged_by, note, acknowledged_at, verdict) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (
                         robot,
                         axis,
@@ -259,6 +264,7 @@ class SQLiteTables:
                         by,
                         note,
                         stamp,
+                        verdict,
                     ),
                 )
         return [str(c[1]) for c in chosen]
@@ -266,10 +272,10 @@ class SQLiteTables:
     def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         """Every acknowledgement, oldest first: ``robot, axis, method, capture`` (the capture
         that raised the alarm seen; empty for a re-baseline without alarm), ``rebaseline``,
-        ``acknowledged_by``, ``note``, ``acknowledged_at``."""
+        ``acknowledged_by``, ``note``, ``acknowledged_at``, ``verdict`` (None without one)."""
         frame = self._frame(
             "SELECT a.robot, a.axis, a.method, s.capture, a.rebaseline, a.acknowledged_by, "
-            "a.note, a.acknowledged_at FROM acknowledgements a "
+            "a.note, a.acknowledged_at, a.verdict FROM acknowledgements a "
             "LEFT JOIN scores s ON s.id = a.score_id "
             "WHERE (? IS NULL OR a.robot=?) AND (? IS NULL OR a.axis=?) ORDER BY a.id",
             (robot, robot, axis, axis),

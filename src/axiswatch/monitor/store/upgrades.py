@@ -204,6 +204,7 @@ _ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("changed_files", "acknowledged_at", "TEXT"),
     ("rejections", "reason_key", "TEXT"),
     ("rejections", "removed_at", "TEXT"),
+    ("acknowledgements", "verdict", "TEXT"),
 )
 #: Tables added on open to a store made before them (empty: nothing before is lost).
 _BASELINE_CHECKS = """
