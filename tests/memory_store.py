@@ -379,6 +379,11 @@ class MemoryStore:
 
     # --- tables ----------------------------------------------------------------------------
 
+    def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
+        """None: this double records no acknowledgement (the operator's protocol)."""
+        columns = ["robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note"]
+        return pd.DataFrame(columns=[*columns, "acknowledged_at", "verdict"])
+
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         epochs = {b.id: b.epoch for b in self._baselines}
         rows = [
