@@ -42,8 +42,8 @@ import scipy.fft
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-import axiswatch._alignment
 import axiswatch.datasets as awd
+import axiswatch.paper._alignment
 from axiswatch.monitor._methods import DEFAULT_METHOD
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -273,7 +273,7 @@ def case_pool(n_axes: int, quick: bool) -> dict[str, Any]:
     spread by 5 % (a fleet of one robot model on six kinds of task)."""
     import copy
 
-    from axiswatch._indicator_model import _declared, pool_fleet
+    from axiswatch.indicators._model import _declared, pool_fleet
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from tests import naive

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-import axiswatch._alignment
-import axiswatch._alignment as aw_alignment
+import axiswatch.paper._alignment
+import axiswatch.paper._alignment as aw_alignment
 
 from .naive import lra_delta
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-import axiswatch._attribution
-import axiswatch._features
+import axiswatch.paper._attribution
+import axiswatch.paper._features
 import axiswatch_lab as lab
 
 _SPEC = aw.FeatureSpec(

@@ -7,7 +7,7 @@ import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import axiswatch as aw
-import axiswatch._alignment
+import axiswatch.paper._alignment
 
 from .naive import lra_delta, pca_distance
 
@@ -89,7 +89,7 @@ def test_not_fitted() -> None:
 def test_baseline_basis_is_computed_once(
     rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import axiswatch._detectors as detectors
+    import axiswatch.paper._detectors as detectors
 
     calls: list[int] = []
     real = detectors.low_rank_basis

@@ -9,8 +9,8 @@ import math
 import pytest
 
 from axiswatch import IndicatorModel
-from axiswatch._indicator_model import FleetPrior, _declared, _transformed, own_pair_allowances
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._model import FleetPrior, _declared, _transformed, own_pair_allowances
 from axiswatch_lab._indicator_allowance import VARIANTS, _models, _scorers
 from tests import naive
 

@@ -15,7 +15,7 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
-from axiswatch._indicator_model import (
+from axiswatch.indicators._model import (
     IndicatorModel,
     fleet_difference,
     indicator_allowances,
@@ -25,7 +25,7 @@ from axiswatch._indicator_model import (
     pool_fleet_without,
     robust_spread,
 )
-from axiswatch._readings import INDICATORS
+from axiswatch.indicators._readings import INDICATORS
 from tests import naive
 
 RATE = 200.0
@@ -360,7 +360,7 @@ def test_nothing_in_the_decision_path_comes_from_the_simulator() -> None:
     for module in DECISION_PATH:
         assert _simulator_imports((src / module).read_text()) == set(), module
     import axiswatch._mechanics as mechanics
-    import axiswatch._readings as readings
+    import axiswatch.indicators._readings as readings
 
     taken = [
         getattr(readings, name)
@@ -430,7 +430,7 @@ def test_a_large_fleet_checks_a_baseline_with_itself_included(
 
 
 def test_fleet_pair_shifts_match_the_loop_twin() -> None:
-    from axiswatch._indicator_model import fleet_pair_shifts
+    from axiswatch.indicators._model import fleet_pair_shifts
 
     rng = np.random.default_rng(7)
     centres = rng.normal(size=(9, 4)) * [1.0, 10.0, 0.1, 3.0]
@@ -505,7 +505,7 @@ def test_the_fleet_prior_does_not_depend_on_the_order_of_the_axes() -> None:
 
 
 def test_pool_fleet_takes_its_scales_from_the_pairs_of_the_loop_twin() -> None:
-    from axiswatch._indicator_model import _declared
+    from axiswatch.indicators._model import _declared
 
     fleet = _task_fleet(aw.datasets.draw_robot(2), 5)
     prior = pool_fleet(fleet)

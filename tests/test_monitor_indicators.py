@@ -19,9 +19,9 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 from axiswatch._capture import capture_to_frame
-from axiswatch._readings import Readings, read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import Fault, draw_robot
+from axiswatch.indicators._readings import Readings, read_indicators
 from axiswatch.monitor import MonitorConfig, SQLiteStore
 from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._fleet import FleetFile

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 import axiswatch as aw
-import axiswatch._preprocessing
+import axiswatch.paper._preprocessing
 from axiswatch import CaptureError
 
 from .naive import pchip_upsample

@@ -7,7 +7,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-from axiswatch._readings import motion, read_indicators
+from axiswatch.indicators._readings import motion, read_indicators
 from tests import naive
 
 

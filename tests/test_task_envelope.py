@@ -11,14 +11,19 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._calibration import alarm_threshold
-from axiswatch._indicator_model import (
+from axiswatch.datasets import Fault, draw_robot
+from axiswatch.indicators._model import (
     TASK_ENVELOPE_FACTOR,
     IndicatorModel,
     pool_fleet,
     task_envelope,
 )
-from axiswatch._readings import motion, read_indicators, signature_distance, task_signature
-from axiswatch.datasets import Fault, draw_robot
+from axiswatch.indicators._readings import (
+    motion,
+    read_indicators,
+    signature_distance,
+    task_signature,
+)
 from axiswatch.monitor import MonitorConfig
 from axiswatch.monitor._indicators import (
     assess_capture,

@@ -21,13 +21,15 @@ import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
-from axiswatch._indicator_model import (
+from axiswatch.cli import app
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._model import (
     IndicatorModel,
     pool_fleet,
     pool_fleet_without,
     reference_errors,
 )
-from axiswatch._readings import (
+from axiswatch.indicators._readings import (
     FRICTION,
     MOVING_FRACTION,
     Readings,
@@ -35,8 +37,6 @@ from axiswatch._readings import (
     read_indicators,
     whole_move_mask,
 )
-from axiswatch.cli import app
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
 from axiswatch.monitor import MonitorConfig, SQLiteStore, _persist
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model

@@ -17,13 +17,6 @@ research experiments are the separate package ``axiswatch_lab``.
 True
 """
 
-from axiswatch._alignment import (
-    low_rank_basis,
-    lra_embedding,
-)
-from axiswatch._attribution import (
-    attribute,
-)
 from axiswatch._calibration import (
     HalfLaplaceFit,
     Threshold,
@@ -38,41 +31,14 @@ from axiswatch._capture import (
     read_capture,
     write_capture,
 )
-from axiswatch._detectors import (
-    BaselineDetector,
-    IndicatorDetector,
-    LRADetector,
-    PCADetector,
-)
-from axiswatch._features import (
-    Features,
-    FeatureSpec,
-    extract_features,
-    stft_features,
-)
 from axiswatch._formats import (
     register_format,
 )
-from axiswatch._indicator_model import IndicatorModel
 from axiswatch._mechanics import (
     INDICATORS,
     MechanicsStage,
 )
-from axiswatch._model import (
-    Assessment,
-    HealthModel,
-)
-from axiswatch._preprocessing import (
-    align_phase,
-    phase_lag,
-    resample_capture,
-    upsample_pchip,
-)
 from axiswatch._profiles import AxisProfile
-from axiswatch._stages import (
-    FeatureStage,
-    StftStage,
-)
 from axiswatch.exceptions import (
     AxiswatchError,
     CalibrationError,
@@ -80,10 +46,44 @@ from axiswatch.exceptions import (
     DataNotFoundError,
     StoreError,
 )
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.monitor import (
     MonitorConfig,
     Store,
     monitor_fleet,
+)
+from axiswatch.paper._alignment import (
+    low_rank_basis,
+    lra_embedding,
+)
+from axiswatch.paper._attribution import (
+    attribute,
+)
+from axiswatch.paper._detectors import (
+    BaselineDetector,
+    IndicatorDetector,
+    LRADetector,
+    PCADetector,
+)
+from axiswatch.paper._features import (
+    Features,
+    FeatureSpec,
+    extract_features,
+    stft_features,
+)
+from axiswatch.paper._model import (
+    Assessment,
+    HealthModel,
+)
+from axiswatch.paper._preprocessing import (
+    align_phase,
+    phase_lag,
+    resample_capture,
+    upsample_pchip,
+)
+from axiswatch.paper._stages import (
+    FeatureStage,
+    StftStage,
 )
 
 __version__ = "0.1.0"
@@ -138,6 +138,7 @@ __all__ = [
 # pickles then refer to it too, which every class listed here can be loaded from.
 for _name in __all__:
     _public = globals()[_name]
-    if isinstance(_public, type) and _public.__module__.startswith(f"{__name__}._"):
+    _library = tuple(f"{__name__}.{part}" for part in ("_", "indicators.", "paper."))
+    if isinstance(_public, type) and _public.__module__.startswith(_library):
         _public.__module__ = __name__
-del _name, _public
+del _name, _public, _library

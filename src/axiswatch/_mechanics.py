@@ -56,10 +56,10 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import butter, sosfiltfilt
 
 from axiswatch._capture import Capture
-from axiswatch._features import Features
-from axiswatch._preprocessing import resample_capture
-from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CaptureError
+from axiswatch.paper._features import Features
+from axiswatch.paper._preprocessing import resample_capture
+from axiswatch.paper._stages import FeatureStage
 
 __all__ = [
     "COLUMNS",

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
@@ -23,6 +22,7 @@ from axiswatch.monitor._store import (
     Rejection,
     StoreBackend,
 )
+from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from axiswatch._calibration import half_laplace_threshold
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
 from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
-from axiswatch._stages import FeatureStage
+from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch.paper._stages import FeatureStage
 
 if TYPE_CHECKING:
     from axiswatch.monitor._scoring import MonitorConfig

@@ -15,10 +15,10 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
-from axiswatch._model import HealthModel
 from axiswatch.monitor._indicators import IndicatorBaseline
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
 from axiswatch.monitor._store import Store
+from axiswatch.paper._model import HealthModel
 
 __all__ = ["MODELS_PER_WORKER", "Fitted", "ModelRef", "keep_model", "resolve_model"]
 

@@ -42,7 +42,6 @@ from glob import escape
 from pathlib import Path
 from typing import Any
 
-from axiswatch._features import FeatureSpec
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import ProfileError, StoreError
 from axiswatch.monitor._fleet import (
@@ -91,6 +90,7 @@ from axiswatch.monitor._store import (
     now,
     now_us,
 )
+from axiswatch.paper._features import FeatureSpec
 
 __all__ = [
     "DEFAULT_SETTLE_S",

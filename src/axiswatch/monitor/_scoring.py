@@ -18,16 +18,11 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
-from axiswatch._attribution import explain_indicators
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector, IndicatorDetector
-from axiswatch._features import FeatureSpec
-from axiswatch._indicator_model import MIN_AXES, MIN_READINGS, IndicatorModel
 from axiswatch._mechanics import MechanicsStage
-from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
-from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
+from axiswatch.indicators._model import MIN_AXES, MIN_READINGS, IndicatorModel
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._indicators import (
@@ -43,6 +38,11 @@ from axiswatch.monitor._indicators import (
 from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
+from axiswatch.paper._attribution import explain_indicators
+from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector
+from axiswatch.paper._features import FeatureSpec
+from axiswatch.paper._model import HealthModel
+from axiswatch.paper._stages import FeatureStage
 
 __all__ = [
     "MONITOR_FEATURES",
@@ -109,7 +109,7 @@ class MonitorConfig:
     task_envelope : float > 0 or None, default=None
         Method ``"indicators"``: apply the fleet's task-change allowance only to captures whose
         motion is not the baseline's task, with this envelope factor
-        (:data:`~axiswatch._indicator_model.TASK_ENVELOPE_FACTOR` was chosen on the development
+        (:data:`~axiswatch.indicators._model.TASK_ENVELOPE_FACTOR` was chosen on the development
         robots); None: every capture is scored with the allowance. Off by default: on the real
         hydraulic actuators it raised 55 false alarms in 297 healthy captures
         (docs/evaluation.md, "Through the monitor").

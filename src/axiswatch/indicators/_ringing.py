@@ -1,6 +1,6 @@
 """Backlash as the drive's ringing after the gear crosses its gap (issue 13).
 
-Pipeline stage 2d, one indicator of :mod:`axiswatch._readings` (``gap_ringing``). Where the
+Pipeline stage 2d, one indicator of :mod:`axiswatch.indicators._readings` (``gap_ringing``). Where the
 torque a gearbox transmits changes sign, the motor crosses the backlash gap, strikes the other
 flank and the drive rings at its own resonance (a few to some tens of Hz, for a few tenths of a
 second), whatever the logging rate. The transmitted torque is not measured; it lies between two
@@ -184,7 +184,7 @@ def gap_ringing(
     Parameters
     ----------
     time_s, position, speed, acceleration, torque : ndarray of shape (n,)
-        On the torque's instants (:func:`~axiswatch._readings.motion`), SI units or any
+        On the torque's instants (:func:`~axiswatch.indicators._readings.motion`), SI units or any
         consistent ones.
     rate_hz : float
     moving_fraction : float, default=0.1

@@ -29,11 +29,11 @@ from axiswatch._calibration import (
     half_laplace_threshold,
 )
 from axiswatch._capture import Capture
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
-from axiswatch._features import Features, FeatureSpec
 from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
-from axiswatch._stages import FeatureStage, StftStage
 from axiswatch.exceptions import CalibrationError
+from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch.paper._features import Features, FeatureSpec
+from axiswatch.paper._stages import FeatureStage, StftStage
 
 __all__ = ["Assessment", "HealthModel"]
 

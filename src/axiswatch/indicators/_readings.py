@@ -21,7 +21,7 @@ Indicators (the signal called torque may be a motor current or a pressure differ
 * ``impulsiveness``: kurtosis of the torque's band ``[0.04, 0.4] x rate`` while moving, divided
   by its own running RMS over 0.1 s (at least 8 samples). Needs a rate of 100 Hz or more (a
   band from 4 Hz) and 1 s of motion.
-* ``gap_ringing`` (backlash): :func:`~axiswatch._ringing.gap_ringing`, the drive's ringing at
+* ``gap_ringing`` (backlash): :func:`~axiswatch.indicators._ringing.gap_ringing`, the drive's ringing at
   its resonance (5-50 Hz, a physical range, not the rate's share) from 0.05 s before to 0.3 s
   after each estimated sign change of the torque the gear transmits, over the same ringing away
   from those windows. Needs a rate of 20 Hz or more and a gap crossing while moving. It replaced
@@ -32,7 +32,7 @@ Indicators (the signal called torque may be a motor current or a pressure differ
   :func:`~axiswatch._mechanics.line_ratio` at the component's orders. Need the component's
   highest order to fall inside the band at the median moving speed and 20 motor revolutions.
   Without kinematics the kinematic lines are not read; the order spectrum is
-  (``order_lines=True``: :mod:`axiswatch._order_lines`), and a model compares it with its
+  (``order_lines=True``: :mod:`axiswatch.indicators._order_lines`), and a model compares it with its
   baseline's own (``order_lines``: new or grown lines, docs/evaluation.md, "Order lines against
   the baseline's own order spectrum").
 
@@ -76,9 +76,9 @@ from axiswatch._mechanics import (
     running_rms,
     whole_samples,
 )
-from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
-from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
+from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 
 __all__ = [
     "FRICTION",
@@ -188,7 +188,7 @@ class Readings:
         The capture's :func:`task_signature` (empty when no motion could be read).
     order_profile : OrderProfile or None
         The torque's order spectrum on the common order grid
-        (:func:`~axiswatch._order_lines.order_profile`), when read (``order_lines=True``) and
+        (:func:`~axiswatch.indicators._order_lines.order_profile`), when read (``order_lines=True``) and
         the capture gives one; a model compares it with its baseline's (``order_lines``).
         Not part of ``==`` (an array has no single truth value).
     errors : dict of str to float

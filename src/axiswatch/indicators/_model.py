@@ -41,7 +41,7 @@ estimated from what the user has:
 * **a loose friction reading** (``whole_moves=True`` only, an opt-in operating point, and with
   a fleet prior): the drive loads are read on whole moves and the least squares that reads
   ``coulomb_friction`` and ``viscous_friction`` gives each a standard error ``se``
-  (:attr:`~axiswatch._readings.Readings.errors`); the model keeps ``se_ref``, the median of its
+  (:attr:`~axiswatch.indicators._readings.Readings.errors`); the model keeps ``se_ref``, the median of its
   fitting captures', and takes a capture's friction shift in ``sqrt((s_w max(1, se / se_ref))^2
   + s_t^2)`` (times its allowance): on constant-speed moves Coulomb and viscous trade off from
   one capture to the next and their own least squares says so. The threshold and the fitting
@@ -68,7 +68,7 @@ estimated from what the user has:
   well as a task change, so a capture whose *motion* is the baseline's task is scored with the
   axis's own within-task spreads ``s_w`` and its own calibration threshold (the same half-Laplace
   rule on the leave-one-out distances in ``s_w``). Whether it is the baseline's task is read from
-  the position and speed only (:func:`~axiswatch._readings.task_signature`; a fault changes the
+  the position and speed only (:func:`~axiswatch.indicators._readings.task_signature`; a fault changes the
   torque, hardly the commanded motion): a capture whose signature is within the **task
   envelope** of the baseline's (``TASK_ENVELOPE_FACTOR`` x the largest leave-one-out signature
   distance among the ``K + 1`` fitting captures, :func:`task_envelope`) is the same task; any
@@ -98,7 +98,9 @@ from numpy.typing import NDArray
 
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
-from axiswatch._order_lines import (
+from axiswatch._profiles import AxisProfile
+from axiswatch.exceptions import CalibrationError
+from axiswatch.indicators._order_lines import (
     MIN_COMMON_CELLS,
     OrderProfile,
     component_at,
@@ -106,8 +108,7 @@ from axiswatch._order_lines import (
     most_grown_order,
     order_reference,
 )
-from axiswatch._profiles import AxisProfile
-from axiswatch._readings import (
+from axiswatch.indicators._readings import (
     FRICTION,
     INDICATORS,
     Indicator,
@@ -115,7 +116,6 @@ from axiswatch._readings import (
     read_indicators,
     signature_distance,
 )
-from axiswatch.exceptions import CalibrationError
 
 __all__ = [
     "FleetPrior",
@@ -154,7 +154,7 @@ TASK_ENVELOPE_FACTOR = 2.0
 
 
 #: The order lines read against the baseline's own order spectrum (``order_lines=True``): in
-#: decades already (:func:`~axiswatch._order_lines.grown_lines`), only growth is abnormal.
+#: decades already (:func:`~axiswatch.indicators._order_lines.grown_lines`), only growth is abnormal.
 ORDER_LINES = Indicator(
     "order_lines",
     "a torque rate >= 100 Hz and steady runs resolving order lines, as the baseline's",
@@ -269,7 +269,7 @@ def task_envelope(
     Parameters
     ----------
     signatures : sequence of sequence of float
-        :func:`~axiswatch._readings.task_signature` of the baseline and calibration captures
+        :func:`~axiswatch.indicators._readings.task_signature` of the baseline and calibration captures
         (empty or NaN where the motion could not be read).
     factor : float > 0, default=TASK_ENVELOPE_FACTOR
         Envelope in units of the largest leave-one-out distance.
@@ -279,7 +279,7 @@ def task_envelope(
     (ndarray of shape (6,), float, list of float) or None
         The median signature; ``factor`` x the largest leave-one-out distance; and each
         capture's leave-one-out distance: its signature's from the median of the others'
-        (:func:`~axiswatch._readings.signature_distance`; NaN where not read). None with fewer
+        (:func:`~axiswatch.indicators._readings.signature_distance`; NaN where not read). None with fewer
         than 3 readable signatures.
 
     Examples
@@ -735,12 +735,12 @@ def own_pair_allowances(
 
 def reference_errors(read: Sequence[Readings]) -> dict[str, float]:
     """``se_ref`` per friction indicator: the median least-squares standard error of the
-    captures a model is fitted on (:attr:`~axiswatch._readings.Readings.errors`; NaN where none
+    captures a model is fitted on (:attr:`~axiswatch.indicators._readings.Readings.errors`; NaN where none
     has one).
 
     Examples
     --------
-    >>> from axiswatch._readings import Readings
+    >>> from axiswatch.indicators._readings import Readings
     >>> read = [Readings({}, errors={"coulomb_friction": e, "viscous_friction": math.nan})
     ...         for e in (0.1, 0.3, 0.2)]
     >>> reference_errors(read)
@@ -913,7 +913,7 @@ class IndicatorModel:
     order_lines : bool, default=False
         Also read the torque's order spectrum and score ``order_lines``: how much the order
         lines of a capture grew against the baseline's own order spectrum
-        (:mod:`axiswatch._order_lines`), without kinematics. Its task-change spread and
+        (:mod:`axiswatch.indicators._order_lines`), without kinematics. Its task-change spread and
         allowance come from the fleet: each axis's reference reading the other axes' captures.
     whole_moves : bool, default=False
         An opt-in operating point: read the drive loads on whole moves only and, with a fleet
@@ -940,7 +940,7 @@ class IndicatorModel:
         is fitted on the calibration captures' (:func:`leave_one_out_distances`).
     order_reference_ : OrderProfile or None
         With ``order_lines``: the median order profile of the fitting captures
-        (:func:`~axiswatch._order_lines.order_reference`); None when none gave one.
+        (:func:`~axiswatch.indicators._order_lines.order_reference`); None when none gave one.
     task_reference_ : ndarray of shape (6,) or None
         The median task signature of the fitting captures (None when fewer than 3 are read),
         with or without ``task_envelope_factor``.
@@ -1122,7 +1122,7 @@ class IndicatorModel:
         Parameters
         ----------
         errors : mapping of str to float
-            The capture's :attr:`~axiswatch._readings.Readings.errors`.
+            The capture's :attr:`~axiswatch.indicators._readings.Readings.errors`.
 
         Examples
         --------

@@ -152,7 +152,7 @@ def order_spectrum(
     Parameters
     ----------
     position, speed, torque : ndarray of shape (n,)
-        On one time base (:func:`~axiswatch._readings.motion`), position in rad or m.
+        On one time base (:func:`~axiswatch.indicators._readings.motion`), position in rad or m.
     rate_hz : float
     band_hz : (float, float), optional
         The frequency band the torque was filtered to: the order band is then the orders that
