@@ -48,7 +48,7 @@ from scipy.ndimage import median_filter
 from scipy.signal import detrend, get_window
 
 from axiswatch._capture import rate_at_least
-from axiswatch._mechanics import bearing_orders
+from axiswatch.indicators._signals import bearing_orders
 
 __all__ = [
     "OrderProfile",

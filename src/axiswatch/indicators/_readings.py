@@ -68,7 +68,10 @@ from scipy.interpolate import PchipInterpolator
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from axiswatch._capture import Capture, rate_at_least
-from axiswatch._mechanics import (
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
+from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
+from axiswatch.indicators._signals import (
     bearing_lines,
     bearing_orders,
     line_ratio,
@@ -76,9 +79,6 @@ from axiswatch._mechanics import (
     running_rms,
     whole_samples,
 )
-from axiswatch.exceptions import CaptureError
-from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
-from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 
 __all__ = [
     "FRICTION",

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from scipy.signal import sosfiltfilt
 
 from axiswatch._capture import rate_at_least
-from axiswatch._mechanics import butter_sos, whole_samples
+from axiswatch.indicators._signals import butter_sos, whole_samples
 
 __all__ = [
     "CROSSING_HYSTERESIS",
