@@ -273,7 +273,8 @@ def case_pool(n_axes: int, quick: bool) -> dict[str, Any]:
     spread by 5 % (a fleet of one robot model on six kinds of task)."""
     import copy
 
-    from axiswatch.indicators._model import _declared, pool_fleet
+    from axiswatch.indicators._fleet import pool_fleet
+    from axiswatch.indicators._spreads import _declared
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from tests import naive

@@ -14,8 +14,8 @@ from typer.testing import CliRunner
 
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._family import SimulatedRobot
-from axiswatch.indicators._model import _transformed
 from axiswatch.indicators._order_lines import CELLS_PER_DECADE, OrderProfile
+from axiswatch.indicators._spreads import _transformed
 from axiswatch_lab._ceiling import (
     CLASSIFIERS,
     COMPARISONS,

@@ -18,7 +18,7 @@ import axiswatch.monitor as awm
 from axiswatch.cli import app
 from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
-from axiswatch.indicators._model import IndicatorAssessment
+from axiswatch.indicators._assessment import IndicatorAssessment
 from axiswatch.indicators._readings import read_indicators
 from axiswatch.monitor._charts import distance_chart
 from tests.conftest import settle

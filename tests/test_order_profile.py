@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from axiswatch import AxisProfile, Capture, IndicatorModel, write_capture
 from axiswatch.cli import app
-from axiswatch.indicators._model import pool_fleet
+from axiswatch.indicators._fleet import pool_fleet
 from axiswatch.indicators._order_lines import (
     CELLS_PER_DECADE,
     MIN_COMMON_CELLS,

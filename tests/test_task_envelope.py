@@ -12,18 +12,15 @@ import pytest
 import axiswatch as aw
 from axiswatch._calibration import alarm_threshold
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.indicators._model import (
-    TASK_ENVELOPE_FACTOR,
-    IndicatorModel,
-    pool_fleet,
-    task_envelope,
-)
+from axiswatch.indicators._fleet import pool_fleet
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import (
     motion,
     read_indicators,
     signature_distance,
     task_signature,
 )
+from axiswatch.indicators._spreads import TASK_ENVELOPE_FACTOR, task_envelope
 from axiswatch.monitor import MonitorConfig
 from axiswatch.monitor._indicators import (
     assess_capture,

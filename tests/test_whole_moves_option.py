@@ -23,12 +23,8 @@ from typer.testing import CliRunner
 import axiswatch as aw
 from axiswatch.cli import app
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
-from axiswatch.indicators._model import (
-    IndicatorModel,
-    pool_fleet,
-    pool_fleet_without,
-    reference_errors,
-)
+from axiswatch.indicators._fleet import pool_fleet, pool_fleet_without
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import (
     FRICTION,
     MOVING_FRACTION,
@@ -37,6 +33,7 @@ from axiswatch.indicators._readings import (
     read_indicators,
     whole_move_mask,
 )
+from axiswatch.indicators._spreads import reference_errors
 from axiswatch.monitor import MonitorConfig, SQLiteStore, _persist
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model

@@ -59,8 +59,9 @@ from threadpoolctl import threadpool_limits
 from axiswatch._capture import Capture
 from axiswatch.datasets._family import SimulatedRobot, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS, Fault
-from axiswatch.indicators._model import IndicatorModel, _transformed
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._order_lines import CELLS_PER_DECADE, OrderProfile
+from axiswatch.indicators._spreads import _transformed
 from axiswatch.monitor._parallel import parallel_map
 from axiswatch_lab._transfer import TransferDesign, _profile
 

@@ -45,15 +45,15 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.indicators._model import (
+from axiswatch.indicators._fleet import (
     MIN_AXES,
     FleetPrior,
-    IndicatorModel,
     _task_change_scales,
     fleet_difference,
     pool_fleet,
     pool_fleet_without,
 )
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import Readings
 from axiswatch.monitor._indicators import fit_indicator_baseline, read_axis_indicators, with_fleet
 
@@ -178,7 +178,7 @@ def inverse_variance_weight(models: Sequence[IndicatorModel]) -> float:
 def drive_friction_prior(
     models: Sequence[IndicatorModel], index: int, forward_weight: float = 0.5
 ) -> FleetPrior | None:
-    """:func:`~axiswatch.indicators._model.pool_fleet_without` of the models seen through
+    """:func:`~axiswatch.indicators._fleet.pool_fleet_without` of the models seen through
     :func:`drive_friction_view`: what the ``index``-th axis is checked against."""
     viewed = []
     for model in models:
@@ -224,7 +224,7 @@ def growth_difference(
     prior: FleetPrior,
     percentile: float,
 ) -> float:
-    """:func:`~axiswatch.indicators._model.fleet_difference` with every indicator one-sided:
+    """:func:`~axiswatch.indicators._fleet.fleet_difference` with every indicator one-sided:
     only a centre above the fleet's counts (the candidate ``growth only``)."""
     _, shifts = fleet_difference(centre, within, prior, percentile)
     scales = _task_change_scales({n: within[n] for n in shifts}, prior, percentile)

@@ -25,11 +25,12 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
-import axiswatch.indicators._model as indicator_model
+import axiswatch.indicators._spreads as indicator_model
 from axiswatch._capture import Capture
 from axiswatch._mechanics import reversal_bursts
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
-from axiswatch.indicators._model import IndicatorModel, pool_fleet, pool_fleet_without
+from axiswatch.indicators._fleet import pool_fleet, pool_fleet_without
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import (
     INDICATORS,
     MIN_BAND_MOTION_S,

@@ -32,7 +32,7 @@ import pandas as pd
 
 from axiswatch._capture import Capture, write_capture
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.indicators._model import TASK_ENVELOPE_FACTOR
+from axiswatch.indicators._spreads import TASK_ENVELOPE_FACTOR
 from axiswatch.monitor import MonitorConfig, SQLiteStore, monitor_fleet
 
 __all__ = ["HELD_OUT", "monitor_real_data", "monitor_robot"]

@@ -53,7 +53,7 @@ import pandas as pd
 from scipy.signal import find_peaks
 from threadpoolctl import threadpool_limits
 
-import axiswatch.indicators._model as indicator_model
+import axiswatch.indicators._spreads as indicator_model
 from axiswatch._capture import Capture
 from axiswatch.datasets._family import SimulatedRobot
 from axiswatch.indicators._order_lines import OrderSpectrum

@@ -40,7 +40,7 @@ import numpy as np
 
 from axiswatch._capture import Capture
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
-from axiswatch.indicators._model import IndicatorModel, _distance, _transformed
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import (
     FRICTION,
     MOVING_FRACTION,
@@ -50,6 +50,7 @@ from axiswatch.indicators._readings import (
     least_squares_errors,
     motion,
 )
+from axiswatch.indicators._spreads import _distance, _transformed
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
 from axiswatch_lab._whole_moves import whole_move_readings

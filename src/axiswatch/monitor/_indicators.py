@@ -11,7 +11,7 @@ spreads. So, with the decision rule and the store unchanged:
 2. the driver pools the fitted models of the axes of one profile into a fleet prior
    (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`); each
    axis's baseline is checked against the prior of the *other* axes when 3 remain
-   (:func:`~axiswatch.indicators._model.pool_fleet_without`: a worn axis must not set the
+   (:func:`~axiswatch.indicators._fleet.pool_fleet_without`: a worn axis must not set the
    allowances it is checked against);
 3. a score job gives a capture the model was fitted on its *leave-one-out* assessment
    (:meth:`~axiswatch.IndicatorModel.assess_fitting`, in the axis's own spreads); any other
@@ -41,14 +41,14 @@ from typing import Any
 from axiswatch._capture import Capture, rate_at_least
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError, CaptureError
-from axiswatch.indicators._model import (
+from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._fleet import (
     LEAVE_SELF_OUT_MAX_AXES,
     FleetPrior,
-    IndicatorAssessment,
-    IndicatorModel,
     pool_fleet,
     pool_fleet_without,
 )
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import Readings, read_indicators
 from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ
 
@@ -265,7 +265,7 @@ def with_fleet(
     list of IndicatorBaseline
         In order, each model a copy scored with the prior of the whole fleet and checked
         (``fleet_check_``) against the prior of the fleet without it
-        (:func:`~axiswatch.indicators._model.pool_fleet_without`), or, with fewer than 3 other
+        (:func:`~axiswatch.indicators._fleet.pool_fleet_without`), or, with fewer than 3 other
         axes, against the whole fleet's (its notes say so).
 
     Raises

@@ -58,7 +58,7 @@ __all__ = [
 #: its readings their friction standard errors (``errors``; empty without ``whole_moves``): a
 #: format-7 blob would come back without them, so it is refitted (to the same model, for the
 #: default). 9: a fleet prior's scales are medians over the ordered pairs of its axes, each read
-#: in its baseline's spreads (:func:`~axiswatch.indicators._model.fleet_pair_shifts`), and its
+#: in its baseline's spreads (:func:`~axiswatch.indicators._fleet.fleet_pair_shifts`), and its
 #: ``n_pairs`` counts them; a format-8 model keeps a prior that depends on the order its fleet
 #: was listed in (and counts the pairs one way), so it is refitted and pooled again. 10:
 #: ``gap_ringing``'s windows and the rate floors of the indicators are counted in whole samples
@@ -92,7 +92,7 @@ ALLOWED_CLASSES: tuple[str, ...] = (
 #: that moves keeps the name it was stored under, so stored models load and hash as before.
 MOVED_CLASSES: dict[str, str] = {
     "axiswatch._alignment.LowRankBasis": "axiswatch.paper._alignment.LowRankBasis",
-    "axiswatch._indicator_model.FleetPrior": "axiswatch.indicators._model.FleetPrior",
+    "axiswatch._indicator_model.FleetPrior": "axiswatch.indicators._fleet.FleetPrior",
     "axiswatch._order_lines.OrderProfile": "axiswatch.indicators._order_lines.OrderProfile",
     "axiswatch._readings.Readings": "axiswatch.indicators._readings.Readings",
 }

@@ -22,7 +22,9 @@ from axiswatch._capture import read_capture
 from axiswatch._mechanics import MechanicsStage
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
-from axiswatch.indicators._model import MIN_AXES, MIN_READINGS, IndicatorModel
+from axiswatch.indicators._fleet import MIN_AXES
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._spreads import MIN_READINGS
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._indicators import (
@@ -109,7 +111,7 @@ class MonitorConfig:
     task_envelope : float > 0 or None, default=None
         Method ``"indicators"``: apply the fleet's task-change allowance only to captures whose
         motion is not the baseline's task, with this envelope factor
-        (:data:`~axiswatch.indicators._model.TASK_ENVELOPE_FACTOR` was chosen on the development
+        (:data:`~axiswatch.indicators._spreads.TASK_ENVELOPE_FACTOR` was chosen on the development
         robots); None: every capture is scored with the allowance. Off by default: on the real
         hydraulic actuators it raised 55 false alarms in 297 healthy captures
         (docs/evaluation.md, "Through the monitor").
