@@ -169,7 +169,7 @@ def case_job(method: str, quick: bool, *, order_lines: bool = False) -> dict[str
     model: Any
     if config.preset.indicator_model:
         # Fitted on the baseline and K = 5 calibration captures, as the monitor's fit job does.
-        from axiswatch.monitor._indicators import fit_indicator_baseline, read_axis_indicators
+        from axiswatch.indicators._axis import fit_indicator_baseline, read_axis_indicators
 
         fitting = [baseline] + [awd.simulate_capture("heavy", seed=s) for s in range(3, 8)]
         model = fit_indicator_baseline(

@@ -326,7 +326,7 @@ DECISION_PATH = (
     "indicators/_model.py",
     "_profiles.py",
     "_calibration.py",
-    "monitor/_indicators.py",
+    "indicators/_axis.py",
     "monitor/_decision.py",
 )
 

@@ -21,15 +21,15 @@ import axiswatch as aw
 from axiswatch._capture import capture_to_frame
 from axiswatch.cli import app
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.indicators._readings import Readings, read_indicators
-from axiswatch.monitor import MonitorConfig, SQLiteStore
-from axiswatch.monitor._attention import AxisAttention, triage
-from axiswatch.monitor._fleet import FleetFile
-from axiswatch.monitor._indicators import (
+from axiswatch.indicators._axis import (
     IndicatorBaseline,
     check_monitor_rate,
     fit_indicator_baseline,
 )
+from axiswatch.indicators._readings import Readings, read_indicators
+from axiswatch.monitor import MonitorConfig, SQLiteStore
+from axiswatch.monitor._attention import AxisAttention, triage
+from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._methods import MethodPreset
 from axiswatch.monitor._models import ModelRef
@@ -911,7 +911,7 @@ def _slow_baseline_before_an_upgrade(
     """Store r1/a1's baseline from 7 slow captures (``day``: :func:`_slow_capture_writer`) as a
     version from before the 20 Hz floor did, in an older model format: the next run refits it
     (an upgrade, run in a new process)."""
-    import axiswatch.monitor._indicators as indicators
+    import axiswatch.indicators._axis as indicators
     import axiswatch.monitor._models
     import axiswatch.monitor._persist
 
@@ -931,7 +931,7 @@ def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
 ) -> None:
     # A store from before the 20 Hz floor of new baselines: its axis was fitted on stamps in
     # milliseconds read as seconds (0.05 Hz). Its model is kept; every run says to rebaseline.
-    import axiswatch.monitor._indicators as indicators
+    import axiswatch.indicators._axis as indicators
 
     root = tmp_path / "fleet"
     day = _slow_capture_writer(root)

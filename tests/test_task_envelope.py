@@ -12,6 +12,13 @@ import pytest
 import axiswatch as aw
 from axiswatch._calibration import alarm_threshold
 from axiswatch.datasets import Fault, draw_robot
+from axiswatch.indicators._axis import (
+    assess_capture,
+    fit_indicator_baseline,
+    read_axis_indicators,
+    threshold_units,
+    with_fleet,
+)
 from axiswatch.indicators._fleet import pool_fleet
 from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import (
@@ -22,13 +29,6 @@ from axiswatch.indicators._readings import (
 )
 from axiswatch.indicators._spreads import TASK_ENVELOPE_FACTOR, task_envelope
 from axiswatch.monitor import MonitorConfig
-from axiswatch.monitor._indicators import (
-    assess_capture,
-    fit_indicator_baseline,
-    read_axis_indicators,
-    threshold_units,
-    with_fleet,
-)
 from tests import naive
 
 #: A development robot of the family (docs/evaluation.md, "Transfer"): a 50 Hz wrist axis.

@@ -2,10 +2,10 @@
 
 Research study of issue 13, item 2 (docs/evaluation.md, "Through the monitor", "A worn axis in
 the fleet"). Each axis's :class:`~axiswatch.IndicatorModel` is fitted as the monitor fits it
-(:func:`~axiswatch.monitor._indicators.fit_indicator_baseline` on the baseline and ``K = 5``
+(:func:`~axiswatch.indicators._axis.fit_indicator_baseline` on the baseline and ``K = 5``
 calibration captures) and its baseline is checked against its fleet two ways:
 
-* ``leave-self-out``: what the monitor does (:func:`~axiswatch.monitor._indicators.with_fleet`):
+* ``leave-self-out``: what the monitor does (:func:`~axiswatch.indicators._axis.with_fleet`):
   against the prior of the other axes when 3 remain, else of all;
 * ``itself included``: the rule before: against the prior of all the axes, the checked one
   included.
@@ -45,6 +45,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from axiswatch.datasets import Fault, draw_robot
+from axiswatch.indicators._axis import fit_indicator_baseline, read_axis_indicators, with_fleet
 from axiswatch.indicators._fleet import (
     MIN_AXES,
     FleetPrior,
@@ -55,7 +56,6 @@ from axiswatch.indicators._fleet import (
 )
 from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._readings import Readings
-from axiswatch.monitor._indicators import fit_indicator_baseline, read_axis_indicators, with_fleet
 
 __all__ = [
     "SCENARIOS",

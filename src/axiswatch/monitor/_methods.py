@@ -10,7 +10,7 @@ imported the first time the table is read).
 
 Built in: ``indicators`` (the product default: :class:`~axiswatch.IndicatorModel` per axis,
 fitted on the baseline and the calibration captures, with its fleet's prior:
-``axiswatch.monitor._indicators``; no number of its decision comes from a simulator), the paper's
+``axiswatch.indicators._axis``; no number of its decision comes from a simulator), the paper's
 ``lra`` and ``pca``, and ``mechanics`` (the former default, whose indicator scales and task-change
 floor were measured on the project's simulator: kept for comparison, docs/evaluation.md).
 """
@@ -71,7 +71,7 @@ class MethodPreset:
     indicator_model : bool, default=False
         The method has no detector and no stage: each axis gets an
         :class:`~axiswatch.IndicatorModel` fitted on its baseline and ``K`` calibration captures
-        together, with the fleet prior of its profile (``axiswatch.monitor._indicators``).
+        together, with the fleet prior of its profile (``axiswatch.indicators._axis``).
 
     Examples
     --------

@@ -15,7 +15,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
-from axiswatch.monitor._indicators import IndicatorBaseline
+from axiswatch.indicators._axis import IndicatorBaseline
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
 from axiswatch.monitor._store import Store
 from axiswatch.paper._model import HealthModel

@@ -44,6 +44,12 @@ from typing import Any
 
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import ProfileError, StoreError
+from axiswatch.indicators._axis import (
+    IndicatorBaseline,
+    fleet_key,
+    slow_baseline_note,
+    with_fleet,
+)
 from axiswatch.monitor._fleet import (
     FleetFile,
     LayoutProblem,
@@ -57,12 +63,6 @@ from axiswatch.monitor._index import (
     run_caches,
     unchanged_axes,
     verify_budget,
-)
-from axiswatch.monitor._indicators import (
-    IndicatorBaseline,
-    fleet_key,
-    slow_baseline_note,
-    with_fleet,
 )
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
@@ -648,9 +648,9 @@ def _give_prior(
 
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
     """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
-    axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
+    axes of one profile (:func:`~axiswatch.indicators._axis.fleet_key`) fitted in this run or
     stored with an active baseline, each new baseline checked against the others' prior
-    (:func:`~axiswatch.monitor._indicators.with_fleet`). An axis keeps the prior it was fitted
+    (:func:`~axiswatch.indicators._axis.with_fleet`). An axis keeps the prior it was fitted
     with until it is re-baselined (its allowances must not move under its captures); one fitted
     without a prior, because its fleet had fewer than 3 axes then, gets the prior once its fleet
     has them (:func:`_give_prior`)."""

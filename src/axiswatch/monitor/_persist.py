@@ -95,6 +95,7 @@ MOVED_CLASSES: dict[str, str] = {
     "axiswatch._indicator_model.FleetPrior": "axiswatch.indicators._fleet.FleetPrior",
     "axiswatch._order_lines.OrderProfile": "axiswatch.indicators._order_lines.OrderProfile",
     "axiswatch._readings.Readings": "axiswatch.indicators._readings.Readings",
+    "axiswatch.monitor._indicators.IndicatorBaseline": "axiswatch.indicators._axis.IndicatorBaseline",
 }
 
 _META = "__meta__"

@@ -22,12 +22,7 @@ from axiswatch._capture import read_capture
 from axiswatch._mechanics import MechanicsStage
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
-from axiswatch.indicators._fleet import MIN_AXES
-from axiswatch.indicators._model import IndicatorModel
-from axiswatch.indicators._spreads import MIN_READINGS
-from axiswatch.monitor._decision import DecisionRule
-from axiswatch.monitor._fleet import FleetFile
-from axiswatch.monitor._indicators import (
+from axiswatch.indicators._axis import (
     IndicatorBaseline,
     assess_capture,
     check_monitor_rate,
@@ -37,6 +32,11 @@ from axiswatch.monitor._indicators import (
     slow_baseline_note,
     threshold_units,
 )
+from axiswatch.indicators._fleet import MIN_AXES
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._spreads import MIN_READINGS
+from axiswatch.monitor._decision import DecisionRule
+from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
