@@ -94,7 +94,7 @@ def test_baseline_basis_is_computed_once(
     calls: list[int] = []
     real = detectors.low_rank_basis
 
-    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw._alignment.LowRankBasis:
+    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw.paper._alignment.LowRankBasis:
         calls.append(X.shape[0])
         return real(X, noise_level)
 

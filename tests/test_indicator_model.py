@@ -405,7 +405,7 @@ def test_a_large_fleet_checks_a_baseline_with_itself_included(
 ) -> None:
     # Above LEAVE_SELF_OUT_MAX_AXES the leave-self-out pools (cubic in a first run) are not made:
     # the check is against the whole fleet, and the notes say so. A cut at 3 axes shows it on 4.
-    from axiswatch.monitor import _indicators
+    from axiswatch.indicators import _axis as _indicators
 
     monkeypatch.setattr(_indicators, "LEAVE_SELF_OUT_MAX_AXES", 3)
     baselines = [

@@ -536,12 +536,14 @@ def _attention_list(page: str) -> str:
 
 
 def test_indicators_has_no_detector_or_stage() -> None:
-    with pytest.raises(ValueError, match="do not apply to the method 'indicators'"):
+    with pytest.raises(ValueError, match="'detector' parameter is for the method 'lra', 'pca'"):
         MonitorConfig(method="indicators", detector=aw.PCADetector())
-    with pytest.raises(ValueError, match="has no HealthModel"):
-        MonitorConfig(method="indicators").model()
-    with pytest.raises(ValueError, match="needs a 'detector' factory, or indicator_model=True"):
+    with pytest.raises(ValueError, match="'stage' parameter is for the method 'lra'"):
+        MonitorConfig(method="indicators", stage=aw.MechanicsStage())
+    with pytest.raises(ValueError, match="needs a 'model' factory or a 'detector' factory"):
         MethodPreset()
+    with pytest.raises(ValueError, match="not both"):
+        MethodPreset(model=lambda config: config.model(), detector=lambda config: aw.PCADetector())
     with pytest.raises(ValueError, match="one entry per capture"):
         fit_indicator_baseline([Readings({})], [], [], percentile=99.0)
 

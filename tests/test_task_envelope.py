@@ -203,9 +203,9 @@ def test_the_envelope_is_off_by_default(fleet: list[IndicatorModel]) -> None:
 
 
 def test_the_monitor_takes_the_envelope_for_the_indicators_method_only() -> None:
-    assert MonitorConfig(method="indicators").indicator_model().task_envelope_factor is None
+    assert MonitorConfig(method="indicators").model().model.task_envelope_factor is None
     config = MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
-    assert config.indicator_model().task_envelope_factor == TASK_ENVELOPE_FACTOR
+    assert config.model().model.task_envelope_factor == TASK_ENVELOPE_FACTOR
     assert config.params()["task_envelope"] == TASK_ENVELOPE_FACTOR
     assert "task_envelope" not in MonitorConfig(method="indicators").params()
     with pytest.raises(ValueError, match="'task_envelope' parameter must be None or a float > 0"):

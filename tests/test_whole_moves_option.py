@@ -525,7 +525,7 @@ def test_the_monitor_option_reaches_the_model_and_the_command_is_the_librarys(
 ) -> None:
     on = _scores(task_change_fleet, MonitorConfig(whole_moves=True))
     off = _scores(task_change_fleet, MonitorConfig())
-    assert MonitorConfig(whole_moves=True).indicator_model().whole_moves
+    assert MonitorConfig(whole_moves=True).model().model.whole_moves
     assert MonitorConfig(whole_moves=True).params()["whole_moves"] is True
     assert "whole_moves" not in MonitorConfig().params()  # earlier stores still match
     # The option changes what is scored: the loads of robot 4 move with the capture's phase.

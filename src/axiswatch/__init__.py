@@ -17,6 +17,7 @@ research experiments are the separate package ``axiswatch_lab``.
 True
 """
 
+from axiswatch._axis_model import Assessment
 from axiswatch._calibration import (
     HalfLaplaceFit,
     Threshold,
@@ -71,10 +72,7 @@ from axiswatch.paper._features import (
     extract_features,
     stft_features,
 )
-from axiswatch.paper._model import (
-    Assessment,
-    HealthModel,
-)
+from axiswatch.paper._model import HealthModel
 from axiswatch.paper._preprocessing import (
     align_phase,
     phase_lag,

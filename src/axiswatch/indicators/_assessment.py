@@ -5,12 +5,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from axiswatch._axis_model import Assessment
+
 __all__ = ["IndicatorAssessment"]
 
 
 @dataclass(frozen=True)
-class IndicatorAssessment:
-    """Verdict on one capture.
+class IndicatorAssessment(Assessment):
+    """Verdict of an :class:`~axiswatch.IndicatorModel` on one capture (``leading`` is ``top``).
 
     Attributes
     ----------
@@ -57,15 +59,13 @@ class IndicatorAssessment:
     task_distance: float = math.nan
     task_envelope: float = math.nan
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "leading", self.top)
+
     @property
     def same_task(self) -> bool:
         """Whether the capture was scored as the baseline's task (own spreads)."""
         return self.case.startswith("same task")
-
-    @property
-    def scored(self) -> bool:
-        """Whether any indicator was scored."""
-        return math.isfinite(self.distance)
 
     def reason(self) -> str:
         """One line: what moved, or why nothing could be scored."""

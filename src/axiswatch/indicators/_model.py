@@ -8,11 +8,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from axiswatch._axis_model import AxisModel
 from axiswatch._calibration import fit_half_laplace
 from axiswatch._capture import Capture
 from axiswatch._profiles import AxisProfile
@@ -180,15 +181,34 @@ class IndicatorModel:
             capture, **kinematics, order_lines=self.order_lines, whole_moves=self.whole_moves
         )
 
-    def fit(self, baseline: Capture, calibration: Sequence[Capture]) -> IndicatorModel:
-        """Centre and within-task spreads from the baseline and the calibration captures."""
+    def fit(
+        self,
+        baseline: Capture,
+        calibration: Sequence[Capture] = (),
+        *,
+        fleet: Sequence[IndicatorModel] = (),
+    ) -> IndicatorModel:
+        """Centre and within-task spreads from the baseline and the calibration captures.
+
+        ``fleet``: fitted models of the other axes of the profile. With them, the model takes
+        the prior of the whole fleet and is checked against the others' (:meth:`use_fleet`);
+        with fewer than 3 axes in all it has no prior.
+        """
         if len(calibration) < MIN_READINGS - 1:
             raise CalibrationError(
                 f"IndicatorModel needs at least {MIN_READINGS - 1} calibration captures after "
                 f"the baseline (a spread needs {MIN_READINGS} readings); got {len(calibration)}."
             )
         read = [self.readings(c) for c in (baseline, *calibration)]
-        return self.fit_readings(read)
+        self.fit_readings(read)
+        if not fleet:
+            return self
+        models = [*fleet, self]
+        try:
+            prior = pool_fleet(models)
+        except CalibrationError:
+            return self
+        return self.use_fleet(prior, check_against=pool_fleet_without(models, len(fleet)))
 
     def fit_readings(self, read: Sequence[Readings]) -> IndicatorModel:
         """:meth:`fit` from readings already taken (first = the baseline)."""
@@ -615,3 +635,7 @@ class IndicatorModel:
         if self.whole_moves:  # absent otherwise: the default's description is as before
             params.update(whole_moves=True, se_ref=self.se_ref_)
         return params
+
+
+if TYPE_CHECKING:  # checked by mypy: the product default is a model of an axis
+    _CONFORMS: type[AxisModel] = IndicatorModel

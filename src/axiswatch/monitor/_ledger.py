@@ -64,19 +64,15 @@ def insert_baseline(
     """Insert the baseline of ``epoch`` unless another process did; return its id and whether
     this call added it (None: the other process chose another capture).
 
-    The fit's checks (an IndicatorModel's ``baseline_check``, ``fleet_check``) are stored with
+    The fit's checks (a model's ``checks()``) are stored with
     it in the same transaction: every later run reports them until acknowledged, also when the
     run that fitted it is killed right after this commit."""
     file = outcome.job.file
     stat = file.path.stat()
     details: dict[str, Any] = {"rates_hz": outcome.rates_hz}
-    checks: dict[str, str] = {}
-    if outcome.summary is not None:  # an IndicatorModel: what it estimated, from what
-        details["indicator_model"] = outcome.summary
-        for kind in ("baseline", "fleet"):
-            note = outcome.summary.get(f"{kind}_check")
-            if note:
-                checks[kind] = str(note)
+    if outcome.summary is not None:  # what the model estimated, from what
+        details.update(outcome.summary)
+    checks = outcome.checks
     return store.add_baseline(
         NewBaseline(
             robot=file.robot,
