@@ -69,3 +69,11 @@ def test_indicator_model_takes_its_fleet_in_fit() -> None:
     # Fewer than 3 axes in all: no prior, as without a fleet.
     alone = aw.IndicatorModel().fit(captures[0], captures[1:], fleet=others[:1])
     assert alone.fleet is None
+
+
+def test_the_top_namespace_lists_what_the_default_reads() -> None:
+    robot = draw_robot(0)
+    captures = [robot.capture(0, seed=k) for k in range(6)]
+    model = aw.IndicatorModel().fit(captures[0], captures[1:])
+    read = set(model.centre_) | set(model.reasons_)
+    assert read == set(aw.INDICATORS)

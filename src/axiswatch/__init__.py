@@ -35,10 +35,7 @@ from axiswatch._capture import (
 from axiswatch._formats import (
     register_format,
 )
-from axiswatch._mechanics import (
-    INDICATORS,
-    MechanicsStage,
-)
+from axiswatch._mechanics import MechanicsStage
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import (
     AxiswatchError,
@@ -47,6 +44,7 @@ from axiswatch.exceptions import (
     DataNotFoundError,
     StoreError,
 )
+from axiswatch.indicators import INDICATORS
 from axiswatch.indicators._model import IndicatorModel
 from axiswatch.monitor import (
     MonitorConfig,
