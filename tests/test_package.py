@@ -171,3 +171,17 @@ def test_every_error_is_reachable_where_the_readme_says() -> None:
     assert issubclass(errors.ProfileError, aw.CaptureError)
     with pytest.raises(aw.CaptureError):
         aw.AxisProfile.from_dict({"units": {"time": "minutes"}})
+
+
+def test_no_import_cycle_in_the_product() -> None:
+    # Imports for type checking only are left out: they never run.
+    import grimp
+
+    graph = grimp.build_graph("axiswatch", cache_dir=None, exclude_type_checking_imports=True)
+    cycles = {
+        tuple(sorted((module, imported)))
+        for module in graph.modules
+        for imported in graph.find_modules_directly_imported_by(module)
+        if imported != module and graph.chain_exists(importer=imported, imported=module)
+    }
+    assert cycles == set()
