@@ -12,10 +12,10 @@ from scipy.signal import welch
 from sklearn.base import ClassifierMixin
 from typer.testing import CliRunner
 
-from axiswatch._indicator_model import _transformed
-from axiswatch._order_lines import CELLS_PER_DECADE, OrderProfile
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._family import SimulatedRobot
+from axiswatch.indicators._order_lines import CELLS_PER_DECADE, OrderProfile
+from axiswatch.indicators._spreads import _transformed
 from axiswatch_lab._ceiling import (
     CLASSIFIERS,
     COMPARISONS,

@@ -7,10 +7,10 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.datasets as awd
-from axiswatch._attribution import describe_top_indicator, explain_indicators
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch._mechanics import COLUMNS, INDICATORS, LIKELY_FAULTS
 from axiswatch.monitor._decision import DecisionRule, stored_threshold
+from axiswatch.paper._attribution import describe_top_indicator, explain_indicators
 from tests.naive import indicator_terms
 
 

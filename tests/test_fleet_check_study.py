@@ -7,14 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from axiswatch._indicator_model import (
-    FleetPrior,
-    IndicatorModel,
-    fleet_difference,
-    pool_fleet_without,
-)
-from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch.indicators._fleet import FleetPrior, fleet_difference, pool_fleet_without
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings
 from axiswatch_lab._fleet_check import (
     SCENARIOS,
     drive_friction_difference,

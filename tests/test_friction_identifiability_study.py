@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from axiswatch import Capture
-from axiswatch._readings import MOVING_FRACTION, Motion, motion, read_indicators
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
+from axiswatch.indicators._readings import MOVING_FRACTION, Motion, motion, read_indicators
 from axiswatch_lab._friction_identifiability import (
     NOT_SEPARABLE,
     VIF_BOUND,

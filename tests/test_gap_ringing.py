@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from axiswatch._readings import Readings, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._readings import Readings, motion
 from axiswatch_lab._gap_ringing import (
     REVERSAL_BURSTS,
     VARIANTS,
@@ -47,7 +47,7 @@ def test_the_former_reading_is_the_product_s_before_the_change() -> None:
     m = motion(robot.capture(0, fault=Fault("backlash", 0.6), seed="before"))
     value, why = reversal_bursts_before(m)
     assert why is None
-    from axiswatch._readings import MOVING_FRACTION, _band
+    from axiswatch.indicators._readings import MOVING_FRACTION, _band
 
     moving = np.abs(m.speed) > MOVING_FRACTION * np.max(np.abs(m.speed))
     expected = naive.reversal_bursts(m.torque, _band(m), m.rate_hz, moving, 10.0)

@@ -9,8 +9,9 @@ import math
 import pytest
 
 from axiswatch import IndicatorModel
-from axiswatch._indicator_model import FleetPrior, _declared, _transformed, own_pair_allowances
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._fleet import FleetPrior, own_pair_allowances
+from axiswatch.indicators._spreads import _declared, _transformed
 from axiswatch_lab._indicator_allowance import VARIANTS, _models, _scorers
 from tests import naive
 

@@ -9,8 +9,8 @@ import pytest
 from scipy import stats
 
 from axiswatch import IndicatorModel
-from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._readings import Readings
 from axiswatch_lab._indicator_allowance import _models
 from axiswatch_lab._indicator_combination import VARIANTS, Combiner
 

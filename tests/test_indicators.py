@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-from axiswatch._stages import StftStage
 from axiswatch.datasets._robot import Fault, simulate_capture
+from axiswatch.paper._stages import StftStage
 from axiswatch_lab._indicators import (
     STATES,
     OrderStage,

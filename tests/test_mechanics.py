@@ -10,6 +10,7 @@ import axiswatch as aw
 import axiswatch._mechanics
 import axiswatch.datasets as awd
 from axiswatch._mechanics import ENERGY_LEVELS
+from axiswatch.indicators._signals import GRAM_MIN_RCOND
 from tests import naive
 
 
@@ -218,7 +219,7 @@ def test_reversal_bursts_match_the_loop_twin() -> None:
 
 
 def test_waves_by_recurrence_match_the_trigonometric_functions() -> None:
-    from axiswatch._mechanics import _harmonics
+    from axiswatch.indicators._signals import _harmonics
 
     theta = np.linspace(0, 3000, 4000)  # 480 motor revolutions
     orders = [k / 5 for k in range(15, 41) if k % 5]  # on a grid: built by recurrence
@@ -265,7 +266,7 @@ def test_pearson_kurtosis_matches_scipy() -> None:
 
 
 def test_bearing_waves_by_class_recurrence_match_the_trigonometric_functions() -> None:
-    from axiswatch._mechanics import _harmonics, bearing_orders
+    from axiswatch.indicators._signals import _harmonics, bearing_orders
 
     theta = np.linspace(0, 3000, 4000)
     orders = bearing_orders(5.43) + [o + 0.25 for o in bearing_orders(5.43)]  # not on one grid
@@ -291,7 +292,7 @@ def test_ill_conditioned_waves_take_the_qr_path(rng: np.random.Generator) -> Non
     # Over 3 motor revolutions, orders 0.01 apart are nearly the same wave: the Gram matrix's
     # reciprocal condition falls below GRAM_MIN_RCOND and the statistic is computed by QR; the
     # result matches the exact path and the hat-matrix twin.
-    from axiswatch._mechanics import _harmonics, _NuisanceFree
+    from axiswatch.indicators._signals import _harmonics, _NuisanceFree
 
     theta = np.linspace(0, 6 * np.pi, 600)
     y = rng.normal(size=theta.size)
@@ -299,14 +300,14 @@ def test_ill_conditioned_waves_take_the_qr_path(rng: np.random.Generator) -> Non
     free = _NuisanceFree(y, theta, [1, 2, 3], None)
     tests = _harmonics(theta, orders, None)
     gram = tests.T @ tests
-    assert 1.0 / np.linalg.cond(gram) < aw._mechanics.GRAM_MIN_RCOND
+    assert 1.0 / np.linalg.cond(gram) < GRAM_MIN_RCOND
     fast = free.f_statistic(orders)
     assert fast == pytest.approx(free.f_statistic(orders, exact=True), rel=1e-12)
     assert fast == pytest.approx(naive.angle_locked_f(y, theta, orders, [1, 2, 3]), rel=1e-6)
 
 
 def test_gram_path_matches_the_qr_path_on_stage_sized_waves(rng: np.random.Generator) -> None:
-    from axiswatch._mechanics import _NuisanceFree
+    from axiswatch.indicators._signals import _NuisanceFree
 
     theta = np.sort(rng.uniform(0, 600, 900))
     y = _ar1(rng, theta.size)

@@ -15,9 +15,10 @@ from typer.testing import CliRunner
 
 import axiswatch_lab._nearest_task as nearest_module
 import axiswatch_lab._transfer as transfer_module
-from axiswatch._indicator_model import IndicatorModel, pool_fleet
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch.datasets._family import draw_robot, draw_unit
+from axiswatch.indicators._fleet import pool_fleet
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch_lab._nearest_task import (
     extra_unit_index,
     holding_axes,

@@ -15,11 +15,11 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch.monitor as awm
-from axiswatch._indicator_model import IndicatorAssessment
-from axiswatch._readings import read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
+from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._readings import read_indicators
 from axiswatch.monitor._charts import distance_chart
 from tests.conftest import settle
 

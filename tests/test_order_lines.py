@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from axiswatch import Capture
-from axiswatch._readings import motion
+from axiswatch.indicators._readings import motion
 from axiswatch_lab._order_lines import (
     LINE_PROMINENCE,
     STATISTICS,

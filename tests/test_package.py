@@ -18,7 +18,7 @@ import axiswatch.datasets
 import axiswatch.monitor
 import axiswatch_lab
 
-SUBPACKAGES = {"cli", "datasets", "exceptions", "monitor", "store"}
+SUBPACKAGES = {"cli", "datasets", "exceptions", "indicators", "monitor", "paper", "store"}
 
 
 @pytest.mark.parametrize(
@@ -75,7 +75,7 @@ def test_figures_leave_the_users_matplotlib_backend_alone(tmp_path: Path) -> Non
         "import numpy as np, pandas as pd\n"
         "import axiswatch as aw\n"
         "from axiswatch._plotting import plot_distance_trend\n"
-        "from axiswatch._attribution import plot_difference_spectrogram\n"
+        "from axiswatch.paper._attribution import plot_difference_spectrogram\n"
         "from axiswatch_lab._plots import plot_paired, plot_roc, plot_robot_study\n"
         "rows = pd.DataFrame({'captured_at': ['2026-03-01', '2026-03-02'], 'epoch': 1,\n"
         "    'role': ['baseline', 'monitor'], 'distance': [None, 1.0], 'threshold': [None, 2.0],\n"
@@ -110,7 +110,7 @@ def test_every_library_module_is_under_the_import_contract() -> None:
         f"axiswatch.{path.stem}"
         for path in (root / "src" / "axiswatch").glob("*.py")
         if path.stem not in {"__init__", "__main__", "cli"}
-    }
+    } | {"axiswatch.indicators", "axiswatch.paper"}
     assert modules == set(contract["source_modules"])
 
 
@@ -175,3 +175,17 @@ def test_every_error_is_reachable_where_the_readme_says() -> None:
     assert issubclass(errors.ProfileError, aw.CaptureError)
     with pytest.raises(aw.CaptureError):
         aw.AxisProfile.from_dict({"units": {"time": "minutes"}})
+
+
+def test_no_import_cycle_in_the_product() -> None:
+    # Imports for type checking only are left out: they never run.
+    import grimp
+
+    graph = grimp.build_graph("axiswatch", cache_dir=None, exclude_type_checking_imports=True)
+    cycles = {
+        tuple(sorted((module, imported)))
+        for module in graph.modules
+        for imported in graph.find_modules_directly_imported_by(module)
+        if imported != module and graph.chain_exists(importer=imported, imported=module)
+    }
+    assert cycles == set()

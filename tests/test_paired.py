@@ -11,7 +11,7 @@ import pytest
 import axiswatch as aw
 import axiswatch._mechanics
 import axiswatch_lab as lab
-from axiswatch._detectors import PCADetector
+from axiswatch.paper._detectors import PCADetector
 from axiswatch_lab._paired import DEFAULT_STAGES, PairedDesign, paired_evaluation
 from tests._cli import run
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from axiswatch import IndicatorModel
-from axiswatch._readings import MOVING_FRACTION, Motion, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._readings import MOVING_FRACTION, Motion, motion
 from axiswatch_lab._indicator_allowance import _models
 from axiswatch_lab._reading_errors import (
     Taken,

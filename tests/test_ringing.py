@@ -8,9 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from axiswatch._readings import Motion, motion, read_indicators
-from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_crossings, gap_ringing, sign_passages
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._readings import Motion, motion, read_indicators
+from axiswatch.indicators._ringing import (
+    MIN_RINGING_RATE_HZ,
+    gap_crossings,
+    gap_ringing,
+    sign_passages,
+)
 from axiswatch_lab._gap_ringing import CANDIDATES
 from tests import naive
 

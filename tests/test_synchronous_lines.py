@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from axiswatch import Capture
-from axiswatch._readings import Readings, motion
 from axiswatch.datasets import draw_robot
+from axiswatch.indicators._readings import Readings, motion
 from axiswatch_lab._synchronous_lines import (
     FLOOR_GAP_CELLS,
     floor_orders,

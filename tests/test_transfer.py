@@ -11,9 +11,9 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch.datasets._family import draw_robot
+from axiswatch.indicators._readings import Readings
 from axiswatch_lab._transfer import (
     FAST_DESIGN,
     TransferDesign,

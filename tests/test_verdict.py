@@ -9,9 +9,9 @@ import re
 import pandas as pd
 import pytest
 
-from axiswatch._indicator_model import ORDER_LINES
 from axiswatch._mechanics import COLUMNS
-from axiswatch._readings import INDICATORS
+from axiswatch.indicators._readings import INDICATORS
+from axiswatch.indicators._spreads import ORDER_LINES
 from axiswatch.monitor._advice import ADVICE, advice_for, indicator_colour
 from axiswatch.monitor._attention import AxisAttention
 from axiswatch.monitor._verdict import (

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 import axiswatch as aw
-from axiswatch._readings import read_indicators
+from axiswatch.indicators._readings import read_indicators
 from axiswatch_lab._whole_moves import whole_move_readings
 
 

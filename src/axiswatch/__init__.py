@@ -19,13 +19,7 @@ from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
 if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
-    from axiswatch._alignment import (
-        low_rank_basis,
-        lra_embedding,
-    )
-    from axiswatch._attribution import (
-        attribute,
-    )
+    from axiswatch._axis_model import Assessment
     from axiswatch._calibration import (
         HalfLaplaceFit,
         Threshold,
@@ -40,41 +34,11 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
         read_capture,
         write_capture,
     )
-    from axiswatch._detectors import (
-        BaselineDetector,
-        IndicatorDetector,
-        LRADetector,
-        PCADetector,
-    )
-    from axiswatch._features import (
-        Features,
-        FeatureSpec,
-        extract_features,
-        stft_features,
-    )
     from axiswatch._formats import (
         register_format,
     )
-    from axiswatch._indicator_model import IndicatorModel
-    from axiswatch._mechanics import (
-        INDICATORS,
-        MechanicsStage,
-    )
-    from axiswatch._model import (
-        Assessment,
-        HealthModel,
-    )
-    from axiswatch._preprocessing import (
-        align_phase,
-        phase_lag,
-        resample_capture,
-        upsample_pchip,
-    )
+    from axiswatch._mechanics import MechanicsStage
     from axiswatch._profiles import AxisProfile
-    from axiswatch._stages import (
-        FeatureStage,
-        StftStage,
-    )
     from axiswatch.exceptions import (
         AxiswatchError,
         CalibrationError,
@@ -82,56 +46,88 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
         DataNotFoundError,
         StoreError,
     )
+    from axiswatch.indicators import INDICATORS
+    from axiswatch.indicators._model import IndicatorModel
     from axiswatch.monitor import (
         MonitorConfig,
         Store,
         monitor_fleet,
     )
+    from axiswatch.paper._alignment import (
+        low_rank_basis,
+        lra_embedding,
+    )
+    from axiswatch.paper._attribution import (
+        attribute,
+    )
+    from axiswatch.paper._detectors import (
+        BaselineDetector,
+        IndicatorDetector,
+        LRADetector,
+        PCADetector,
+    )
+    from axiswatch.paper._features import (
+        Features,
+        FeatureSpec,
+        extract_features,
+        stft_features,
+    )
+    from axiswatch.paper._model import HealthModel
+    from axiswatch.paper._preprocessing import (
+        align_phase,
+        phase_lag,
+        resample_capture,
+        upsample_pchip,
+    )
+    from axiswatch.paper._stages import (
+        FeatureStage,
+        StftStage,
+    )
 
 #: Public name -> the module it is imported from, on first use (PEP 562): ``import axiswatch``
 #: stays light, and a command imports SciPy, scikit-learn or pandas only when it needs them.
 _EXPORTS: dict[str, str] = {
-    "Assessment": "axiswatch._model",
+    "Assessment": "axiswatch._axis_model",
     "AxisProfile": "axiswatch._profiles",
     "AxiswatchError": "axiswatch.exceptions",
-    "BaselineDetector": "axiswatch._detectors",
+    "BaselineDetector": "axiswatch.paper._detectors",
     "CalibrationError": "axiswatch.exceptions",
     "Capture": "axiswatch._capture",
     "CaptureError": "axiswatch.exceptions",
     "DEFAULT_SIGNALS": "axiswatch._capture",
     "DataNotFoundError": "axiswatch.exceptions",
-    "FeatureSpec": "axiswatch._features",
-    "FeatureStage": "axiswatch._stages",
-    "Features": "axiswatch._features",
+    "FeatureSpec": "axiswatch.paper._features",
+    "FeatureStage": "axiswatch.paper._stages",
+    "Features": "axiswatch.paper._features",
     "HalfLaplaceFit": "axiswatch._calibration",
-    "HealthModel": "axiswatch._model",
-    "INDICATORS": "axiswatch._mechanics",
-    "IndicatorDetector": "axiswatch._detectors",
-    "IndicatorModel": "axiswatch._indicator_model",
-    "LRADetector": "axiswatch._detectors",
+    "HealthModel": "axiswatch.paper._model",
+    "INDICATORS": "axiswatch.indicators",
+    "IndicatorDetector": "axiswatch.paper._detectors",
+    "IndicatorModel": "axiswatch.indicators._model",
+    "LRADetector": "axiswatch.paper._detectors",
     "MechanicsStage": "axiswatch._mechanics",
     "MonitorConfig": "axiswatch.monitor",
-    "PCADetector": "axiswatch._detectors",
-    "StftStage": "axiswatch._stages",
+    "PCADetector": "axiswatch.paper._detectors",
+    "StftStage": "axiswatch.paper._stages",
     "Store": "axiswatch.monitor",
     "StoreError": "axiswatch.exceptions",
     "Threshold": "axiswatch._calibration",
     "alarm_threshold": "axiswatch._calibration",
-    "align_phase": "axiswatch._preprocessing",
+    "align_phase": "axiswatch.paper._preprocessing",
     "as_capture": "axiswatch._capture",
-    "attribute": "axiswatch._attribution",
-    "extract_features": "axiswatch._features",
+    "attribute": "axiswatch.paper._attribution",
+    "extract_features": "axiswatch.paper._features",
     "fit_half_laplace": "axiswatch._calibration",
     "half_laplace_threshold": "axiswatch._calibration",
-    "low_rank_basis": "axiswatch._alignment",
-    "lra_embedding": "axiswatch._alignment",
+    "low_rank_basis": "axiswatch.paper._alignment",
+    "lra_embedding": "axiswatch.paper._alignment",
     "monitor_fleet": "axiswatch.monitor",
-    "phase_lag": "axiswatch._preprocessing",
+    "phase_lag": "axiswatch.paper._preprocessing",
     "read_capture": "axiswatch._capture",
     "register_format": "axiswatch._formats",
-    "resample_capture": "axiswatch._preprocessing",
-    "stft_features": "axiswatch._features",
-    "upsample_pchip": "axiswatch._preprocessing",
+    "resample_capture": "axiswatch.paper._preprocessing",
+    "stft_features": "axiswatch.paper._features",
+    "upsample_pchip": "axiswatch.paper._preprocessing",
     "write_capture": "axiswatch._capture",
 }
 
@@ -184,7 +180,7 @@ __all__ = [
 
 
 #: Subpackages reachable as attributes (``axiswatch.monitor.Store``) before they are imported.
-_SUBPACKAGES: tuple[str, ...] = ("datasets", "exceptions", "monitor")
+_SUBPACKAGES: tuple[str, ...] = ("datasets", "exceptions", "indicators", "monitor", "paper")
 
 
 def __getattr__(name: str) -> _Any:
@@ -196,7 +192,8 @@ def __getattr__(name: str) -> _Any:
     value = getattr(_import_module(_EXPORTS[name]), name)
     # Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private
     # module); pickles then refer to it too, which every class listed here can be loaded from.
-    if isinstance(value, type) and value.__module__.startswith(f"{__name__}._"):
+    library = tuple(f"{__name__}.{part}" for part in ("_", "indicators.", "paper."))
+    if isinstance(value, type) and value.__module__.startswith(library):
         value.__module__ = __name__
     globals()[name] = value
     return value

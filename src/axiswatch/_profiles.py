@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._capture import (
+from axiswatch._timebase import (
     check_increasing,
     check_stamp_unit,
     date_stamps,
@@ -157,7 +157,7 @@ class AxisProfile:
         ``position_unit="counts"`` and only then.
     resample_irregular : bool, default=False
         Put irregularly stamped rows (a PLC logging every 39-55 ms) on a uniform grid at their
-        step (:func:`~axiswatch._capture.sampling_period`), by linear interpolation, instead of
+        step (:func:`~axiswatch._timebase.sampling_period`), by linear interpolation, instead of
         rejecting the file.
     gear_ratio : float, optional
         Motor turns per turn of the position; enables the kinematic lines.
@@ -413,7 +413,7 @@ class AxisProfile:
         """The file's table in the project's format: roles as column names, time in seconds from
         the first stamp, position in rad (or m) and speed per second; with
         ``resample_irregular``, on a uniform grid every ``step_s`` seconds (default: the rows'
-        own :func:`~axiswatch._capture.sampling_period`)."""
+        own :func:`~axiswatch._timebase.sampling_period`)."""
         renamed = frame.rename(columns={c: self.role_of(str(c)) for c in frame.columns})
         duplicated = renamed.columns[renamed.columns.duplicated()].tolist()
         if duplicated:

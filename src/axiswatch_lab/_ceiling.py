@@ -57,10 +57,11 @@ from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel, _transformed
-from axiswatch._order_lines import CELLS_PER_DECADE, OrderProfile
 from axiswatch.datasets._family import SimulatedRobot, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS, Fault
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._order_lines import CELLS_PER_DECADE, OrderProfile
+from axiswatch.indicators._spreads import _transformed
 from axiswatch.monitor._parallel import parallel_map
 from axiswatch_lab._transfer import TransferDesign, _profile
 
@@ -180,7 +181,7 @@ def order_bands(profile: OrderProfile | None) -> dict[str, float]:
     Examples
     --------
     >>> import numpy as np
-    >>> from axiswatch._order_lines import OrderProfile
+    >>> from axiswatch.indicators._order_lines import OrderProfile
     >>> profile = OrderProfile(first_cell=94, values=np.array([0.1, 0.9, np.nan, 0.3]))
     >>> order_bands(profile)  # cells 94-95 in [10 ** (84 / 48), 10 ** (96 / 48)), 96-97 above
     {'order[56-1e+02]': 0.9, 'order[1e+02-1.8e+02]': 0.3}

@@ -18,14 +18,14 @@ from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import alarm_threshold, half_laplace_threshold
 from axiswatch._capture import Capture
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
-from axiswatch._features import FeatureSpec, extract_features
 from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
-from axiswatch._model import HealthModel
-from axiswatch._stages import FeatureStage
 from axiswatch.datasets._lab import LAB_DAYS, lab_dataset
 from axiswatch.datasets._robot import Fault, FaultKind, simulate_capture
 from axiswatch.exceptions import CalibrationError
+from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch.paper._features import FeatureSpec, extract_features
+from axiswatch.paper._model import HealthModel
+from axiswatch.paper._stages import FeatureStage
 
 __all__ = [
     "LAB_FEATURES",

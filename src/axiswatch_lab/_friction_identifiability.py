@@ -3,7 +3,7 @@
 Research study (docs/evaluation.md, "Friction only where it is identified"). The product reads
 ``coulomb_friction`` and ``viscous_friction`` by least squares of the moving torque on
 ``sign(v)``, ``v``, the acceleration, 1 and a cubic in the position
-(:func:`axiswatch._readings._friction`); it drops ``v`` only when ``std|v| <= 0.1 mean|v|``. On
+(:func:`axiswatch.indicators._readings._friction`); it drops ``v`` only when ``std|v| <= 0.1 mean|v|``. On
 a task of constant-speed moves ``|v|`` is nearly one value, ``v`` is nearly ``c sign(v)`` and
 the two coefficients trade off from capture to capture (development robots 4, 6 and 7: Robot
 A's 12 friction days), yet the speeds' spread left by the ramps keeps that test from firing.
@@ -44,8 +44,14 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
-from axiswatch._readings import MOVING_FRACTION, Motion, Readings, friction_design, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch.indicators._readings import (
+    MOVING_FRACTION,
+    Motion,
+    Readings,
+    friction_design,
+    motion,
+)
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
 

@@ -36,7 +36,7 @@ axis's own pairs"):
 * ``own pairs, at least the fleet's``: per axis, ``A_i = max(A_i(fleet), A_i(own))``, where
   ``A_i(own)`` is the same half-Laplace rule (``median / ln 2``, the fleet's Bonferroni level)
   fitted to the ``|z_i|`` of the axis's centre against each other axis's centre
-  (:func:`~axiswatch._indicator_model.own_pair_allowances`, the product's since it was chosen):
+  (:func:`~axiswatch.indicators._fleet.own_pair_allowances`, the product's since it was chosen):
   an axis whose task is unlike the fleet's gets a larger allowance, a normal axis about the
   fleet's;
 * ``own pairs``: ``A_i(own)`` alone (smaller than the fleet's on an axis in the fleet's middle).
@@ -61,20 +61,18 @@ import numpy as np
 import pandas as pd
 
 from axiswatch._calibration import fit_half_laplace, half_laplace_threshold
-from axiswatch._indicator_model import (
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
+from axiswatch.exceptions import CalibrationError
+from axiswatch.indicators._fleet import (
     MIN_PAIRS,
     FleetPrior,
-    IndicatorModel,
-    _distance,
-    _transformed,
-    leave_one_out_distances,
     own_pair_allowances,
     pool_fleet,
     pool_fleet_without,
 )
-from axiswatch._readings import Readings
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
-from axiswatch.exceptions import CalibrationError
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings
+from axiswatch.indicators._spreads import _distance, _transformed, leave_one_out_distances
 from axiswatch_lab._task_envelope import _scenario
 from axiswatch_lab._transfer import (
     TransferDesign,

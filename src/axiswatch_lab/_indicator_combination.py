@@ -55,15 +55,11 @@ import pandas as pd
 from scipy import stats
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._indicator_model import (
-    IndicatorModel,
-    _centre_without,
-    _distance,
-    _transformed,
-)
-from axiswatch._readings import Readings
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings
+from axiswatch.indicators._spreads import _centre_without, _distance, _transformed
 from axiswatch_lab._indicator_allowance import _models, variant_summary
 from axiswatch_lab._transfer import (
     TransferDesign,

@@ -34,10 +34,10 @@ from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
 from axiswatch._capture import Capture
-from axiswatch._features import Features, stft_features
-from axiswatch._preprocessing import resample_capture
-from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CaptureError
+from axiswatch.paper._features import Features, stft_features
+from axiswatch.paper._preprocessing import resample_capture
+from axiswatch.paper._stages import FeatureStage
 
 __all__ = [
     "STATES",

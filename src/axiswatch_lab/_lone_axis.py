@@ -36,15 +36,11 @@ from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._indicator_model import (
-    IndicatorModel,
-    _distance,
-    _transformed,
-    leave_one_out_distances,
-)
-from axiswatch._readings import Readings, signature_distance
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings, signature_distance
+from axiswatch.indicators._spreads import _distance, _transformed, leave_one_out_distances
 from axiswatch_lab._transfer import (
     TransferDesign,
     _profile,

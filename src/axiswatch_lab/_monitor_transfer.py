@@ -31,8 +31,8 @@ from pathlib import Path
 import pandas as pd
 
 from axiswatch._capture import Capture, write_capture
-from axiswatch._indicator_model import TASK_ENVELOPE_FACTOR
 from axiswatch.datasets import Fault, draw_robot
+from axiswatch.indicators._spreads import TASK_ENVELOPE_FACTOR
 from axiswatch.monitor import MonitorConfig, SQLiteStore, monitor_fleet
 
 __all__ = ["HELD_OUT", "monitor_real_data", "monitor_robot"]

@@ -29,9 +29,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._indicator_model import IndicatorModel, pool_fleet
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import FAULT_KINDS
+from axiswatch.indicators._fleet import pool_fleet
+from axiswatch.indicators._model import IndicatorModel
 from axiswatch_lab._transfer import (
     TransferDesign,
     _profile,

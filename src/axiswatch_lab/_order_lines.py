@@ -36,7 +36,7 @@ Compared on the development robots with the transfer design *without kinematics*
 None passed (docs/evaluation.md, "Order lines without kinematics"): the summaries that find the
 faults add Robot-A false alarms, ``line_share`` is 0 in health and so not scored by the model.
 :func:`baseline_relative_study` compares the product's ``order_lines`` instead (each capture's
-lines against its baseline's own order spectrum, :mod:`axiswatch._order_lines`).
+lines against its baseline's own order spectrum, :mod:`axiswatch.indicators._order_lines`).
 """
 
 from __future__ import annotations
@@ -53,11 +53,12 @@ import pandas as pd
 from scipy.signal import find_peaks
 from threadpoolctl import threadpool_limits
 
-import axiswatch._indicator_model as indicator_model
+import axiswatch.indicators._spreads as indicator_model
 from axiswatch._capture import Capture
-from axiswatch._order_lines import OrderSpectrum
-from axiswatch._order_lines import order_spectrum as product_order_spectrum
-from axiswatch._readings import (
+from axiswatch.datasets._family import SimulatedRobot
+from axiswatch.indicators._order_lines import OrderSpectrum
+from axiswatch.indicators._order_lines import order_spectrum as product_order_spectrum
+from axiswatch.indicators._readings import (
     BAND_FRACTION,
     INDICATORS,
     MIN_BAND_RATE_HZ,
@@ -68,7 +69,6 @@ from axiswatch._readings import (
     motion,
     read_indicators,
 )
-from axiswatch.datasets._family import SimulatedRobot
 from axiswatch_lab._transfer import TransferDesign, robot_transfer
 
 __all__ = [
@@ -102,7 +102,7 @@ CANDIDATES: tuple[str, ...] = tuple(
 
 
 def order_spectrum(m: Motion, band: str = "rate") -> OrderSpectrum | str:
-    """:func:`axiswatch._order_lines.order_spectrum` of a capture's motion, or why there is none.
+    """:func:`axiswatch.indicators._order_lines.order_spectrum` of a capture's motion, or why there is none.
 
     ``band="rate"``: the torque's band ``[0.04, 0.4] x`` the rate, orders that stay in it at every
     steady speed; ``band="wide"``: the torque unfiltered (the product's).

@@ -32,12 +32,12 @@ from threadpoolctl import threadpool_limits
 
 from axiswatch._calibration import alarm_threshold, fit_half_laplace, half_laplace_threshold
 from axiswatch._capture import Capture
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
-from axiswatch._features import FeatureSpec
 from axiswatch._mechanics import INDICATORS, MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
-from axiswatch._stages import FeatureStage, StftStage
 from axiswatch.datasets._robot import FAULT_KINDS, Fault, Task, simulate_capture
 from axiswatch.exceptions import CaptureError
+from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch.paper._features import FeatureSpec
+from axiswatch.paper._stages import FeatureStage, StftStage
 from axiswatch_lab._indicators import OrderStage, ResidualStage, StateStage
 
 __all__ = [

@@ -22,8 +22,8 @@ threshold is the product's (the calibration captures' ratios are about 1 by cons
 the factor can only lower a distance).
 
 :func:`friction_standard_errors` is the pure function (its arithmetic
-:func:`~axiswatch._readings.least_squares_errors`, shared with the product's opt-in
-``whole_moves``). ``python -m axiswatch_lab._reading_errors
+:func:`~axiswatch.indicators._readings.least_squares_errors`, shared with the product's opt-in
+``whole_moves``, i16a). ``python -m axiswatch_lab._reading_errors
 OUT [SEED ...]`` scores ``current`` (the product), ``whole moves``
 (:mod:`axiswatch_lab._whole_moves`), ``friction errors`` and ``whole moves, friction errors`` from
 the same captures (:data:`STUDY`, :mod:`axiswatch_lab._variant_study`); development robots
@@ -39,8 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel, _distance, _transformed
-from axiswatch._readings import (
+from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import (
     FRICTION,
     MOVING_FRACTION,
     Motion,
@@ -49,7 +50,7 @@ from axiswatch._readings import (
     least_squares_errors,
     motion,
 )
-from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch.indicators._spreads import _distance, _transformed
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
 from axiswatch_lab._whole_moves import whole_move_readings
@@ -70,7 +71,7 @@ Taken = tuple[Readings, Readings, dict[str, float]]
 def friction_standard_errors(m: Motion) -> dict[str, float]:
     """Standard errors of the product's Coulomb and viscous coefficients of one capture.
 
-    The same design as :func:`axiswatch._readings._friction` (moving samples: ``|v|`` above
+    The same design as :func:`axiswatch.indicators._readings._friction` (moving samples: ``|v|`` above
     ``MOVING_FRACTION`` of the peak; columns ``sign(v)``, ``v``, the acceleration, 1 and a cubic
     in the position; ``v`` dropped when the speeds are one), ``sqrt(diag(sigma^2 (X'X)^-1))``
     with ``sigma^2`` the residual sum of squares over ``n - p``. NaN where the product reads

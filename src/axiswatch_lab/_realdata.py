@@ -38,12 +38,12 @@ from scipy.signal import butter, hilbert, sosfiltfilt
 from sklearn.metrics import roc_auc_score
 
 from axiswatch._calibration import alarm_threshold
-from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
-from axiswatch._features import FeatureSpec, extract_features
 from axiswatch._mechanics import bearing_lines
 from axiswatch._plotting import new_axes
 from axiswatch.datasets._recorded import Segment, read_dataset
 from axiswatch.exceptions import CalibrationError, DataNotFoundError
+from axiswatch.paper._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch.paper._features import FeatureSpec, extract_features
 from axiswatch_lab._domain_adaptation import (
     CORALDetector,
     EnergyDetector,

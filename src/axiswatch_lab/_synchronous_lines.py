@@ -36,12 +36,12 @@ from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel
 from axiswatch._mechanics import bearing_orders
-from axiswatch._readings import MIN_REVOLUTIONS, Motion, Readings, motion
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
 from axiswatch.datasets._family import SimulatedRobot
 from axiswatch.datasets._robot import Fault
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import MIN_REVOLUTIONS, Motion, Readings, motion
 from axiswatch_lab._order_lines import _simulated_once
 from axiswatch_lab._transfer import TransferDesign, _profile, robot_transfer
 

@@ -25,14 +25,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from axiswatch._indicator_model import IndicatorModel, pool_fleet, pool_fleet_without
-from axiswatch._readings import (
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._fleet import pool_fleet, pool_fleet_without
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import (
     SIGNATURE_MOVING_QUANTILES,
     SIGNATURE_POSITION_QUANTILES,
     Readings,
     read_indicators,
 )
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
 
 __all__ = ["FACTORS", "envelope_study", "scenario_days"]
 

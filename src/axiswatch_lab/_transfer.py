@@ -48,12 +48,13 @@ from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel, pool_fleet, pool_fleet_without
 from axiswatch._profiles import AxisProfile
-from axiswatch._readings import Readings
 from axiswatch.datasets._family import SimulatedRobot, draw_robot, draw_unit
 from axiswatch.datasets._robot import FAULT_KINDS, Fault
 from axiswatch.exceptions import CalibrationError
+from axiswatch.indicators._fleet import pool_fleet, pool_fleet_without
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings
 from axiswatch.monitor._parallel import parallel_map
 
 __all__ = [

@@ -30,9 +30,9 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from axiswatch._capture import Capture
-from axiswatch._indicator_model import IndicatorModel
-from axiswatch._readings import Readings, read_indicators
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, draw_robot
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings, read_indicators
 from axiswatch_lab._indicator_allowance import _models, variant_summary
 from axiswatch_lab._task_envelope import _FIT, scenario_days
 from axiswatch_lab._transfer import (

@@ -17,9 +17,9 @@ The candidate reads the loads on **whole moves** only: the samples of runs of on
 end inside the capture, so every reading averages the same stretch of positions. A direction
 without a whole steady move gives NaN and a reason. No constant is added.
 
-:func:`~axiswatch._readings.whole_move_mask` is the pure function (in the product since the
-opt-in operating point ``whole_moves``); :func:`whole_move_readings` replaces the two loads
-of a product reading with :func:`~axiswatch._readings.drive_loads` over whole moves. ``python -m axiswatch_lab._whole_moves OUT [SEED ...]`` scores the
+:func:`~axiswatch.indicators._readings.whole_move_mask` is the pure function (in the product since the
+opt-in operating point ``whole_moves``, i16a); :func:`whole_move_readings` replaces the two loads
+of a product reading with :func:`~axiswatch.indicators._readings.drive_loads` over whole moves. ``python -m axiswatch_lab._whole_moves OUT [SEED ...]`` scores the
 product (``current``) and the candidate (``whole moves``), :data:`STUDY`, from the same
 captures (:mod:`axiswatch_lab._variant_study`): the transfer design (paired AUROC / ``dr99`` /
 ``far99`` per fault, Robot A) and the monitor study's scenarios scored by the model directly, as
@@ -35,14 +35,14 @@ from pathlib import Path
 import numpy as np
 
 from axiswatch._capture import Capture
-from axiswatch._readings import (
+from axiswatch.datasets import DEVELOPMENT_ROBOTS
+from axiswatch.indicators._readings import (
     MOVING_FRACTION,
     Readings,
     drive_loads,
     motion,
     whole_move_mask,
 )
-from axiswatch.datasets import DEVELOPMENT_ROBOTS
 from axiswatch_lab import _variant_study
 from axiswatch_lab._variant_study import Variant
 

@@ -1,8 +1,8 @@
 """What each indicator's move means for a service engineer: fault, part, action and colour.
 
 The one table (:data:`ADVICE`) from an indicator's code name to words, read by the verdicts and
-the charts. Each row follows what the indicator measures (``axiswatch._readings``,
-``axiswatch._ringing``, ``axiswatch._order_lines``, ``axiswatch._mechanics``). The code names
+the charts. Each row follows what the indicator measures (``axiswatch.indicators._readings``,
+``axiswatch.indicators._ringing``, ``axiswatch.indicators._order_lines``, ``axiswatch._mechanics``). The code names
 stay in the report's details.
 """
 

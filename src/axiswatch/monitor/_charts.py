@@ -16,11 +16,18 @@ import pandas as pd
 
 from axiswatch._mechanics import COLUMNS
 from axiswatch.monitor._advice import indicator_colour
+from axiswatch.monitor._methods import methods
 
 __all__ = ["distance_chart", "plotly_library"]
 
 _CONFIG = {"displaylogo": False, "responsive": True}
 _HALF_DAY = pd.Timedelta(hours=12)
+
+
+def _unit(method: str) -> str:
+    """What a method's stored distance counts (a method no longer registered: spreads)."""
+    preset = methods().get(method)
+    return "healthy spreads" if preset is None else preset.distance_unit
 
 
 def plotly_library() -> str:
@@ -114,13 +121,14 @@ def distance_chart(
     # The method indicators stores its distance in units of the threshold that applied (the
     # threshold is 1): say so, as the indicators' panel does, or "1.55" has no unit.
     titles = [
-        f"distance ({m}) in thresholds" if m == "indicators" else f"distance ({m})" for m in methods
+        f"distance ({m}) in thresholds" if _unit(m) == "thresholds" else f"distance ({m})"
+        for m in methods
     ]
     if indicators:
         # Method ``indicators`` scores a capture in the spreads of the case that applied (own
         # spreads for the baseline's task, the fleet's for a task change): its shifts are drawn
         # in units of that case's threshold, as its distance is.
-        unit = "thresholds" if methods[0] == "indicators" else "healthy spreads"
+        unit = _unit(methods[0])
         titles.append(f"indicators ({methods[0]}): shift from the baseline in {unit}")
     n_panels = len(titles)
     figure = make_subplots(
@@ -222,7 +230,7 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
     # ``mechanics``), over the indicators each capture gives, in units of the threshold of the
     # case that applied (``threshold_spreads``; a task change's shifts in units of each
     # indicator's ``allowance``): a shift of 1 alone reaches the threshold.
-    largest = bool((lead.method == "indicators").any())
+    largest = bool(lead.method.map(_unit).eq("thresholds").any())
     explained = [
         {
             n: {

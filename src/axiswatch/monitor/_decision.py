@@ -171,7 +171,7 @@ def decide(
     rule : DecisionRule
     top_indicator : str or None, default=None
         The indicator that explains most of the distance, in words
-        (:func:`~axiswatch._attribution.describe_top_indicator`); None when there is none.
+        (:func:`~axiswatch.paper._attribution.describe_top_indicator`); None when there is none.
 
     Returns
     -------

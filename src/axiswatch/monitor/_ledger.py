@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
@@ -21,6 +20,7 @@ from axiswatch.monitor.store import (
     StoreOperator,
     StoreWriter,
 )
+from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 
@@ -62,19 +62,15 @@ def insert_baseline(
     """Insert the baseline of ``epoch`` unless another process did; return its id and whether
     this call added it (None: the other process chose another capture).
 
-    The fit's checks (an IndicatorModel's ``baseline_check``, ``fleet_check``) are stored with
+    The fit's checks (a model's ``checks()``) are stored with
     it in the same transaction: every later run reports them until acknowledged, also when the
     run that fitted it is killed right after this commit."""
     file = outcome.job.file
     stat = file.path.stat()
     details: dict[str, Any] = {"rates_hz": outcome.rates_hz}
-    checks: dict[str, str] = {}
-    if outcome.summary is not None:  # an IndicatorModel: what it estimated, from what
-        details["indicator_model"] = outcome.summary
-        for kind in ("baseline", "fleet"):
-            note = outcome.summary.get(f"{kind}_check")
-            if note:
-                checks[kind] = str(note)
+    if outcome.summary is not None:  # what the model estimated, from what
+        details.update(outcome.summary)
+    checks = outcome.checks
     return store.add_baseline(
         NewBaseline(
             robot=file.robot,

@@ -11,15 +11,14 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
-from axiswatch._model import HealthModel
-from axiswatch.monitor._indicators import IndicatorBaseline
+from axiswatch._axis_model import MonitoredModel
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
 from axiswatch.monitor.store import Store
 
 __all__ = ["MODELS_PER_WORKER", "Fitted", "ModelRef", "keep_model", "resolve_model"]
 
-#: A fitted model of the monitor: a HealthModel, or an axis's IndicatorModel (``indicators``).
-Fitted = HealthModel | IndicatorBaseline
+#: A fitted model of the monitor (any method's).
+Fitted = MonitoredModel
 
 #: Fitted models a worker keeps (least recently used dropped first). An LRA model of a 3 s
 #: capture at hop 8 is about 3 MB, a mechanics model a few kB.
@@ -36,7 +35,7 @@ class ModelRef:
         :func:`~axiswatch.monitor._persist.model_digest` of the model's blob.
     store_path : str
         The SQLite store (absolute path) whose ``fitted_models`` table holds the blob.
-    inline : HealthModel or IndicatorBaseline, optional
+    inline : MonitoredModel, optional
         The model itself, sent with every job: a model that cannot be stored (a class outside
         ``_persist.ALLOWED_CLASSES``, e.g. a detector registered by a user) travels as before.
     """

@@ -7,6 +7,7 @@ says. It alone writes the store, one transaction per capture. Workers only score
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import time
@@ -18,7 +19,7 @@ from glob import escape
 from pathlib import Path
 from typing import Any
 
-from axiswatch._features import FeatureSpec
+from axiswatch._axis_model import MonitoredModel
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import ProfileError, StoreError
 from axiswatch.monitor._fleet import (
@@ -34,12 +35,6 @@ from axiswatch.monitor._index import (
     run_caches,
     unchanged_axes,
     verify_budget,
-)
-from axiswatch.monitor._indicators import (
-    IndicatorBaseline,
-    fleet_key,
-    slow_baseline_note,
-    with_fleet,
 )
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
@@ -68,6 +63,7 @@ from axiswatch.monitor.store import (
     now,
     now_us,
 )
+from axiswatch.paper._features import FeatureSpec
 
 __all__ = [
     "DEFAULT_SETTLE_S",
@@ -189,6 +185,11 @@ class _Run:
     def method(self) -> str:
         return self.config.method
 
+    @functools.cached_property
+    def template(self) -> MonitoredModel:
+        """An unfitted model of the configured method: what each fit job copies."""
+        return self.config.model()
+
     def digest(self, path: Path) -> str | None:
         """The file's hash through the index, or None when it cannot be read (recorded as a
         transient rejection, tried again next run)."""
@@ -268,10 +269,10 @@ class _Run:
         IndicatorModel is fitted on the first that give a reading, too); ``refit``: of a stored
         baseline (:attr:`FitJob.refit`)."""
         relative = self.relative(file.path)
-        if not self.config.preset.indicator_model:
-            return FitJob(file, relative, self.config.model(), self.config.profile)
+        if not self.template.fits_calibration:
+            following = ()
         return FitJob(
-            file, relative, self.config.indicator_model(), self.config.profile,
+            file, relative, self.template, self.config.profile,
             calibration=tuple(following),
             relatives=tuple(self.relative(f.path) for f in following),
             calibration_size=self.config.calibration_size,
@@ -404,7 +405,7 @@ def _note_slow_baseline(
     """List a stored indicators baseline slower than 20 Hz under *Baselines to check*: kept and
     scored as before (also when refitted after an upgrade), reported on every run (its folder
     listed again) until it is rebaselined; never an alarm."""
-    slow = slow_baseline_note(rates_hz) if run.config.preset.indicator_model else None
+    slow = run.template.baseline_note(rates_hz)
     if slow is not None:
         run.summary.baseline_checks.append(f"{baseline.path}: {slow}")
         run.problem_axes.add((state.robot, state.axis))
@@ -420,7 +421,7 @@ def _refit_failed(
     if not rates_hz:
         saved = run.caches.saved_model(baseline.id)
         rates_hz = {} if saved is None else saved.rates_hz
-    slow = slow_baseline_note(rates_hz) if run.config.preset.indicator_model else None
+    slow = run.template.baseline_note(rates_hz)
     advice = "" if slow is None else f" ({slow})"
     run.problem(state, f"{why.removesuffix('.')}; the stored baseline cannot be refitted{advice}")
 
@@ -534,7 +535,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
 def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str], _Axis]) -> None:
     """Fit the jobs' baselines; retry an axis's next candidate until one fits or none is left."""
     total = len(by_axis)
-    pooled = run.config.preset.indicator_model
+    pooled = run.template.pooled
     fitted: list[FitOutcome] = []
     while jobs:
         retry: list[FitJob] = []
@@ -559,30 +560,28 @@ def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str],
         _accept_baseline(run, by_axis[(outcome.job.file.robot, outcome.job.file.axis)], outcome)
 
 
-def _own_model(outcome: FitOutcome) -> IndicatorBaseline:
+def _own_model(outcome: FitOutcome) -> MonitoredModel:
     model = outcome.inline if outcome.blob is None else load_model(outcome.blob)
-    assert isinstance(model, IndicatorBaseline)
+    assert model is not None
     return model
 
 
 @dataclass(frozen=True)
-class _StoredIndicators:
-    """An axis's stored IndicatorModel of its active baseline."""
+class _StoredModel:
+    """An axis's stored model of its active baseline."""
 
     robot: str
     axis: str
     baseline_id: int
     saved: SavedModel
-    baseline: IndicatorBaseline
+    baseline: MonitoredModel
 
 
-def _stored_indicator_models(
-    run: _Run, fitting: set[tuple[str, str]]
-) -> dict[str, list[_StoredIndicators]]:
-    """The stored IndicatorModels of the active baselines of every axis the store knows (its
-    folder listed in this run or not), but ``fitting``, by fleet."""
+def _stored_models(run: _Run, fitting: set[tuple[str, str]]) -> dict[str, list[_StoredModel]]:
+    """The stored models of the active baselines of every axis the store knows (its folder
+    listed in this run or not), but ``fitting``, by fleet."""
     source = run.caches.model_source()
-    groups: dict[str, list[_StoredIndicators]] = defaultdict(list)
+    groups: dict[str, list[_StoredModel]] = defaultdict(list)
     if source is None:  # a store that keeps no models: only this run's fits are pooled
         return groups
     for row in run.store.axis_activity().itertuples(index=False):
@@ -596,19 +595,18 @@ def _stored_indicator_models(
         if saved is None or not _still_valid(run, saved, baseline):
             continue
         stored = resolve_model(ModelRef(saved.model_hash, source))
-        if isinstance(stored, IndicatorBaseline):
-            try:
-                profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
-            except ProfileError:
-                continue  # its captures are rejected with the profile's error until it is fixed
-            groups[fleet_key(profile)].append(
-                _StoredIndicators(robot, axis, baseline.id, saved, stored)
-            )
+        try:
+            profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
+        except ProfileError:
+            continue  # its captures are rejected with the profile's error until it is fixed
+        groups[stored.fleet_key(profile)].append(
+            _StoredModel(robot, axis, baseline.id, saved, stored)
+        )
     return groups
 
 
 def _give_prior(
-    run: _Run, stored: Sequence[_StoredIndicators], pooled: Sequence[IndicatorBaseline]
+    run: _Run, stored: Sequence[_StoredModel], pooled: Sequence[MonitoredModel]
 ) -> None:
     """Store ``pooled``, the stored axes fitted without a fleet prior (their fleet had fewer than
     3 axes then) now with their fleet's: their captures are scored with the task-change
@@ -617,12 +615,12 @@ def _give_prior(
     axes it was scored with). A stored distance is in units of the threshold that applied, so the
     threshold the monitor decides with stays 1."""
     for entry, upgraded in zip(stored, pooled, strict=True):
-        if upgraded.model.fleet is None:
+        if not upgraded.fleet_axes():
             return  # fewer than 3 axes, or nothing to pool: no prior for any
         model_key, blob = keep_model(upgraded)
         if blob is None:
             continue
-        check = upgraded.model.fleet_check_
+        check = upgraded.checks().get("fleet")
         # The prior and its check in one transaction: once the prior is stored the axis is
         # never pooled again, so a check left for later would be lost with a killed run.
         with run.store.batch():
@@ -633,43 +631,46 @@ def _give_prior(
                 run.store.record_baseline_check(entry.baseline_id, "fleet", check)
         line = (
             f"{entry.robot}/{entry.axis}: task-change allowances from "
-            f"{upgraded.model.fleet.n_axes} axes of its fleet, from its next run's captures on"
+            f"{upgraded.fleet_axes()} axes of its fleet, from its next run's captures on"
         )
         run.summary.fleet_priors.append(line if check is None else f"{line}; {check}")
 
 
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
-    """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
-    axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
-    stored with an active baseline, each new baseline checked against the others' prior
-    (:func:`~axiswatch.monitor._indicators.with_fleet`). An axis keeps the prior it was fitted
-    with until it is re-baselined (its allowances must not move under its captures); one fitted
-    without a prior, because its fleet had fewer than 3 axes then, gets the prior once its fleet
-    has them (:func:`_give_prior`)."""
+    """The new models with the prior of their fleet: pooled over the own models of the axes of
+    one fleet (the model's ``fleet_key``) fitted in this run or stored with an active baseline,
+    each new baseline checked against the others' prior (the model's ``with_fleet``). An axis
+    keeps the prior it was fitted with until it is re-baselined (its allowances must not move
+    under its captures); one fitted without a prior, because its fleet had fewer than 3 axes
+    then, gets the prior once its fleet has them (:func:`_give_prior`)."""
     if not fitted:
         return fitted
-    groups = _stored_indicator_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
-    new: dict[str, list[tuple[int, IndicatorBaseline]]] = defaultdict(list)
+    groups = _stored_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
+    new: dict[str, list[tuple[int, MonitoredModel]]] = defaultdict(list)
     for position, outcome in enumerate(fitted):
-        key = fleet_key(profile_for(outcome.job.file, run.config.profile))
-        new[key].append((position, _own_model(outcome)))
+        own = _own_model(outcome)
+        new[own.fleet_key(profile_for(outcome.job.file, run.config.profile))].append(
+            (position, own)
+        )
     out = list(fitted)
     stores_models = run.caches.model_source() is not None
     for key, members in new.items():
         # One pool per fleet: the new baselines and the stored ones still without a prior get it
         # together; the stored ones with a prior keep theirs.
-        needing = [g for g in groups[key] if g.baseline.model.fleet is None and stores_models]
-        keeping = [g.baseline.model for g in groups[key] if g not in needing]
-        pooled = with_fleet([*(g.baseline for g in needing), *(b for _, b in members)], keeping)
+        needing = [g for g in groups[key] if not g.baseline.fleet_axes() and stores_models]
+        keeping = [g.baseline for g in groups[key] if g not in needing]
+        pooled = run.template.with_fleet(
+            [*(g.baseline for g in needing), *(b for _, b in members)], keeping
+        )
         _give_prior(run, needing, pooled[: len(needing)])
         for (position, _), baseline in zip(members, pooled[len(needing) :], strict=True):
-            if baseline.model.fleet is None:
+            if not baseline.fleet_axes():
                 continue
             model_key, blob = keep_model(baseline)
             out[position] = dataclasses.replace(
                 fitted[position], model_key=model_key, blob=blob,
                 inline=baseline if blob is None else None,
-                summary={**baseline.model.params(), "fitted_on": list(baseline.paths)},
+                summary=baseline.summary(), checks=baseline.checks(),
             )  # fmt: skip
     return out
 

@@ -41,7 +41,7 @@ __all__ = [
 #: its readings their friction standard errors (``errors``; empty without ``whole_moves``): a
 #: format-7 blob would come back without them, so it is refitted (to the same model, for the
 #: default). 9: a fleet prior's scales are medians over the ordered pairs of its axes, each read
-#: in its baseline's spreads (:func:`~axiswatch._indicator_model.fleet_pair_shifts`), and its
+#: in its baseline's spreads (:func:`~axiswatch.indicators._fleet.fleet_pair_shifts`), and its
 #: ``n_pairs`` counts them; a format-8 model keeps a prior that depends on the order its fleet
 #: was listed in (and counts the pairs one way), so it is refitted and pooled again. 10:
 #: ``gap_ringing``'s windows and the rate floors of the indicators are counted in whole samples
@@ -71,6 +71,16 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.monitor._indicators.IndicatorBaseline",
 )
 
+#: Where a stored name's class lives now. A stored name is part of the blob's format: a class
+#: that moves keeps the name it was stored under, so stored models load and hash as before.
+MOVED_CLASSES: dict[str, str] = {
+    "axiswatch._alignment.LowRankBasis": "axiswatch.paper._alignment.LowRankBasis",
+    "axiswatch._indicator_model.FleetPrior": "axiswatch.indicators._fleet.FleetPrior",
+    "axiswatch._order_lines.OrderProfile": "axiswatch.indicators._order_lines.OrderProfile",
+    "axiswatch._readings.Readings": "axiswatch.indicators._readings.Readings",
+    "axiswatch.monitor._indicators.IndicatorBaseline": "axiswatch.indicators._axis.IndicatorBaseline",
+}
+
 _META = "__meta__"
 _PACKED = "__arrays__"
 #: Byte alignment of each array in the packed member.
@@ -81,7 +91,7 @@ _ALIGN = 16
 def _registry() -> dict[str, Any]:
     classes = {}
     for path in ALLOWED_CLASSES:
-        module, _, name = path.rpartition(".")
+        module, _, name = MOVED_CLASSES.get(path, path).rpartition(".")
         classes[path] = getattr(importlib.import_module(module), name)
     return classes
 

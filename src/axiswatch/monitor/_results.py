@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._attribution import describe_top_indicator
 from axiswatch._mechanics import COLUMNS
 from axiswatch.monitor._feedback import alarm_feedback
 from axiswatch.monitor.store import StoreBackend
+from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 

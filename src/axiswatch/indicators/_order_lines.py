@@ -18,7 +18,7 @@ from scipy.ndimage import median_filter
 from scipy.signal import detrend, get_window
 
 from axiswatch._capture import rate_at_least
-from axiswatch._mechanics import bearing_orders
+from axiswatch.indicators._signals import bearing_orders
 
 __all__ = [
     "OrderProfile",
@@ -122,7 +122,7 @@ def order_spectrum(
     Parameters
     ----------
     position, speed, torque : ndarray of shape (n,)
-        On one time base (:func:`~axiswatch._readings.motion`), position in rad or m.
+        On one time base (:func:`~axiswatch.indicators._readings.motion`), position in rad or m.
     rate_hz : float
     band_hz : (float, float), optional
         The frequency band the torque was filtered to: the order band is then the orders that

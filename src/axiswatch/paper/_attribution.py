@@ -15,9 +15,9 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import check_is_fitted
 
-from axiswatch._detectors import BaselineDetector, IndicatorDetector, PCADetector
-from axiswatch._features import Features
 from axiswatch._mechanics import COLUMNS, LIKELY_FAULTS, MechanicsStage
+from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, PCADetector
+from axiswatch.paper._features import Features
 
 __all__ = [
     "attribute",
@@ -196,7 +196,7 @@ def attribute(
     --------
     >>> import numpy as np
     >>> from axiswatch import FeatureSpec, PCADetector
-    >>> from axiswatch._features import features_from_signals
+    >>> from axiswatch.paper._features import features_from_signals
     >>> rng = np.random.default_rng(0)
     >>> spec = FeatureSpec(signals=("a", "b"), combinations="none", segment_length=16, hop=8)
     >>> quiet = features_from_signals(rng.normal(size=(800, 2)), 100.0, spec)

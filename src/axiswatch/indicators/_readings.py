@@ -18,7 +18,10 @@ from scipy.interpolate import PchipInterpolator
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from axiswatch._capture import Capture, rate_at_least
-from axiswatch._mechanics import (
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
+from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
+from axiswatch.indicators._signals import (
     bearing_lines,
     bearing_orders,
     line_ratio,
@@ -26,9 +29,6 @@ from axiswatch._mechanics import (
     running_rms,
     whole_samples,
 )
-from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
-from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
-from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "FRICTION",
@@ -138,7 +138,7 @@ class Readings:
         The capture's :func:`task_signature` (empty when no motion could be read).
     order_profile : OrderProfile or None
         The torque's order spectrum on the common order grid
-        (:func:`~axiswatch._order_lines.order_profile`), when read (``order_lines=True``) and
+        (:func:`~axiswatch.indicators._order_lines.order_profile`), when read (``order_lines=True``) and
         the capture gives one; a model compares it with its baseline's (``order_lines``).
         Not part of ``==`` (an array has no single truth value).
     errors : dict of str to float

@@ -15,8 +15,14 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.decomposition import PCA
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from axiswatch._alignment import LowRankBasis, LRAResult, low_rank_basis, lra_dense, lra_structured
-from axiswatch._noise import mp_noise_level
+from axiswatch.paper._alignment import (
+    LowRankBasis,
+    LRAResult,
+    low_rank_basis,
+    lra_dense,
+    lra_structured,
+)
+from axiswatch.paper._noise import mp_noise_level
 
 __all__ = ["BaselineDetector", "IndicatorDetector", "LRADetector", "PCADetector"]
 
@@ -258,7 +264,7 @@ class LRADetector(BaselineDetector):
 
     def distance_and_diagnostics(self, X: Any) -> tuple[float, dict[str, float | bool]]:
         """The LRA distance, the eigengap of its eigenproblem and whether a tie was broken
-        (:class:`~axiswatch._alignment.LRAResult`)."""
+        (:class:`~axiswatch.paper._alignment.LRAResult`)."""
         result = self.align(X)
         return float(result.delta), {
             "lra_eigengap": float(result.eigengap),

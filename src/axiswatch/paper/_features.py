@@ -18,8 +18,8 @@ from numpy.typing import NDArray
 from scipy.signal import get_window
 
 from axiswatch._capture import Capture
-from axiswatch._preprocessing import resample_capture
 from axiswatch.exceptions import CaptureError
+from axiswatch.paper._preprocessing import resample_capture
 
 __all__ = [
     "FeatureSpec",

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from scipy.signal import sosfiltfilt
 
 from axiswatch._capture import rate_at_least
-from axiswatch._mechanics import butter_sos, whole_samples
+from axiswatch.indicators._signals import butter_sos, whole_samples
 
 __all__ = [
     "CROSSING_HYSTERESIS",
@@ -159,7 +159,7 @@ def gap_ringing(
     Parameters
     ----------
     time_s, position, speed, acceleration, torque : ndarray of shape (n,)
-        On the torque's instants (:func:`~axiswatch._readings.motion`), SI units or any
+        On the torque's instants (:func:`~axiswatch.indicators._readings.motion`), SI units or any
         consistent ones.
     rate_hz : float
     moving_fraction : float, default=0.1

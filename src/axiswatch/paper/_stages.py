@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
-from axiswatch._features import Features, FeatureSpec, features_from_signals
-from axiswatch._preprocessing import phase_lag, resample_capture
+from axiswatch.paper._features import Features, FeatureSpec, features_from_signals
+from axiswatch.paper._preprocessing import phase_lag, resample_capture
 
 __all__ = ["FeatureStage", "StftStage"]
 
