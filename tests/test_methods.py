@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch.monitor._methods
-from axiswatch.cli import app
+from axiswatch.cli import app, monitor_defaults
 from axiswatch.monitor import MethodPreset, MonitorConfig, methods, register_method
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._results import fleet_rejections, fleet_results
@@ -185,18 +185,20 @@ def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
     assert defaults.threshold_floor() == 0.0
     command = typer.main.get_command(app).commands["monitor"]  # type: ignore[attr-defined]
     options = {p.name: p.default for p in command.params}
-    assert options["method"] == defaults.method
-    assert options["percentile"] == defaults.percentile
-    assert options["calibration"] == defaults.calibration_size
-    assert (options["alarm_k"], options["alarm_n"], options["clear_m"]) == (
+    shown = monitor_defaults()  # what an option left out becomes, and what its help shows
+    assert {name: options[name] for name in shown} == dict.fromkeys(shown)
+    assert shown["method"] == defaults.method
+    assert shown["percentile"] == defaults.percentile
+    assert shown["calibration"] == defaults.calibration_size
+    assert (shown["alarm_k"], shown["alarm_n"], shown["clear_m"]) == (
         defaults.alarm_k,
         defaults.alarm_n,
         defaults.clear_m,
     )
-    assert options["signals"] == ",".join(defaults.features.signals)
-    assert options["hop"] == defaults.features.hop
-    assert options["segment_length"] == defaults.features.segment_length
-    assert options["align"] is defaults.align_phase
+    assert shown["signals"] == ",".join(defaults.features.signals)
+    assert shown["hop"] == defaults.features.hop
+    assert shown["segment_length"] == defaults.features.segment_length
+    assert shown["align"] is defaults.align_phase
     # The same run by both.
     with aw.Store(tmp_path / "library.db") as store:
         monitor_fleet(fleet, store, settle_s=0)
