@@ -34,7 +34,7 @@ import axiswatch as aw
 from axiswatch.datasets._robot import simulate_fleet
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import Store
+from axiswatch.monitor.store import Store
 
 #: Robots simulated; the others are noisy copies of them.
 TEMPLATE_ROBOTS = 3

@@ -42,8 +42,8 @@ import scipy.fft
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-import axiswatch._alignment
 import axiswatch.datasets as awd
+import axiswatch.paper._alignment
 from axiswatch.monitor._methods import DEFAULT_METHOD
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -95,7 +95,9 @@ def case_lra(n_rows: int, quick: bool) -> dict[str, Any]:
     X_t = aw.extract_features(synthetic_capture(seconds, 2)).X[:n_rows]
 
     def fast() -> float:
-        return aw._alignment.lra_structured(aw.low_rank_basis(X_s), aw.low_rank_basis(X_t)).delta
+        return aw.paper._alignment.lra_structured(
+            aw.low_rank_basis(X_s), aw.low_rank_basis(X_t)
+        ).delta
 
     fast_s = _median_time(fast, 1 if quick else 5)
     out: dict[str, Any] = {"case": f"LRA N={n_rows:,} (K={X_s.shape[1]})", "fast_s": fast_s}
@@ -104,7 +106,7 @@ def case_lra(n_rows: int, quick: bool) -> dict[str, Any]:
         return out
     dense_deltas: list[float] = []
     dense_s = _median_time(
-        lambda: dense_deltas.append(aw._alignment.lra_dense(X_s, X_t).delta),
+        lambda: dense_deltas.append(aw.paper._alignment.lra_dense(X_s, X_t).delta),
         1 if n_rows >= 2000 else 3,
     )
     fast_delta = fast()
@@ -166,28 +168,22 @@ def case_job(method: str, quick: bool, *, order_lines: bool = False) -> dict[str
 
     config = MonitorConfig(method=method, order_lines=order_lines)  # type: ignore[arg-type]
     baseline = awd.simulate_capture("heavy", seed=1)
-    model: Any
-    if config.preset.indicator_model:
-        # Fitted on the baseline and K = 5 calibration captures, as the monitor's fit job does.
-        from axiswatch.monitor._indicators import fit_indicator_baseline, read_axis_indicators
-
-        fitting = [baseline] + [awd.simulate_capture("heavy", seed=s) for s in range(3, 8)]
-        model = fit_indicator_baseline(
-            [read_axis_indicators(c, None, order_lines=order_lines) for c in fitting],
-            [f"fit{k}" for k in range(6)],
-            [""] * 6,
-            percentile=config.percentile,
-            order_lines=order_lines,
-        )
-    else:
-        model = config.model().fit(baseline)
+    # Fitted as the monitor's fit job does: a model that fits its calibration captures on the
+    # baseline and K = 5 of them, another on the baseline alone.
+    template = config.model()
+    fitting = [baseline]
+    if template.fits_calibration:
+        fitting += [awd.simulate_capture("heavy", seed=s) for s in range(3, 8)]
+    model: Any = template.fit_read(
+        [template.read(c, None)[0] for c in fitting], [(f"fit{k}", "") for k in range(len(fitting))]
+    )
     key, _ = keep_model(model)
     repeats = 5 if quick else 30
     with tempfile.TemporaryDirectory() as folder, threadpool_limits(1):
         (Path(folder) / "r/a").mkdir(parents=True)
         # Without a fleet an indicators model does not compare another task's capture (it is
         # not scored, in microseconds): its job is timed on a capture of the baseline's task.
-        task = "heavy" if config.preset.indicator_model else "palletize"
+        task = "heavy" if template.fits_calibration else "palletize"
         path = aw.write_capture(
             awd.simulate_capture(task, seed=2), Path(folder) / "r/a/2026-03-02.parquet"
         )
@@ -244,11 +240,15 @@ def case_lra_60s(quick: bool) -> dict[str, Any]:
 
 
 def case_mechanics(quick: bool) -> dict[str, Any]:
-    """The product default (mechanics indicators) on one 3 s simulated capture, against the
-    paper's LRA at the monitor's hop 8 on the same capture, in the same process."""
+    """The former default (the lab's mechanics indicators, through its registered method) on
+    one 3 s simulated capture, against the paper's LRA at the monitor's hop 8 on the same
+    capture, in the same process."""
     baseline = awd.simulate_capture("heavy", seed=1)
     capture = awd.simulate_capture("palletize", seed=2)
-    stage = aw.MechanicsStage().fit(baseline)
+    model = aw.MonitorConfig(method="mechanics").model()
+    assert isinstance(model, aw.HealthModel)
+    assert model.stage is not None
+    stage = model.stage.fit(baseline)
     detector = aw.IndicatorDetector().fit(stage.baseline_rows_)
     lra = aw.HealthModel(aw.FeatureSpec(hop=8), aw.LRADetector()).fit(baseline)
     repeats = 3 if quick else 10
@@ -273,7 +273,8 @@ def case_pool(n_axes: int, quick: bool) -> dict[str, Any]:
     spread by 5 % (a fleet of one robot model on six kinds of task)."""
     import copy
 
-    from axiswatch._indicator_model import _declared, pool_fleet
+    from axiswatch.indicators._fleet import pool_fleet
+    from axiswatch.indicators._spreads import _declared
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from tests import naive

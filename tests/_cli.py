@@ -43,8 +43,7 @@ class Ran:
 def command() -> TyperGroup:
     """The click command tree of ``axiswatch``, with the entry-point groups (``experiment``).
 
-    Built once, and without ``axiswatch.cli.main``'s ``_add_plugins``, which adds the groups to
-    the shared Typer app on every call."""
+    Built once, with every group loaded (the script loads a group when it is used)."""
     tree = typer.main.get_command(app)
     assert isinstance(tree, TyperGroup)
     for entry in entry_points(group=PLUGIN_GROUP):

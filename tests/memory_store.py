@@ -1,7 +1,9 @@
-"""A monitoring store in memory: a test double of the StoreBackend protocol, in plain Python.
+"""A monitoring store in memory: a test double of the StoreWriter protocol, in plain Python.
 
-It passes the contract (tests/test_store_contract.py) and the monitor runs on it to the SQLite
-store's results, which shows that the driver needs nothing of a store but the protocol. One
+It passes the writer's contract (tests/test_store_contract.py) and the monitor runs on it to the
+SQLite store's results, which shows that the driver needs nothing of a store but the protocol.
+Beside the writer it has ``retire_baselines`` (a retired baseline is the writer's concern too)
+and ``score_table`` (what the tests compare). One
 lock makes each write atomic among threads; a write that raises changes nothing, because every
 write computes first and changes the lists last.
 """
@@ -22,7 +24,7 @@ import pandas as pd
 
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import AxisHistory, Decision
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AddedBaseline,
     AlarmState,
     Baseline,
@@ -32,12 +34,10 @@ from axiswatch.monitor._store import (
     NewScore,
     Rejection,
     ScoredFile,
-    _alarmed_baseline,
-    _no_active_baseline,
     now,
     now_us,
-    summary_extras,
 )
+from axiswatch.monitor.store.records import _alarmed_baseline, _no_active_baseline
 
 
 @dataclasses.dataclass
@@ -63,7 +63,7 @@ class _Score:
 
 
 class MemoryStore:
-    """A :class:`~axiswatch.monitor.StoreBackend` held in lists (row order = id order)."""
+    """A :class:`~axiswatch.monitor.store.StoreWriter` held in lists (row order = id order)."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -73,10 +73,7 @@ class MemoryStore:
         self._rejections: list[tuple[Rejection, str]] = []
         self._changed: list[tuple[ChangedFile, str]] = []
         self._requests: list[tuple[str, str, str, int, str | None]] = []
-        self._seen_changes: dict[tuple[str, str, str], str] = {}
         self._activity: dict[tuple[str, str], tuple[int, str, str]] = {}
-        self._request_times: list[str] = []
-        self._acks: list[dict[str, Any]] = []
         #: (baseline id, kind) -> (note, detected_at, acknowledged_at)
         self._checks: dict[tuple[int, str], tuple[str, str, str | None]] = {}
 
@@ -280,7 +277,6 @@ class MemoryStore:
             for b in chosen:
                 self._baselines[self._baselines.index(b)] = dataclasses.replace(b, retired=True)
                 self._requests.append((robot, axis, b.method, b.epoch, from_capture))
-                self._request_times.append(now())
             return [b.method for b in chosen]
 
     # --- reads -----------------------------------------------------------------------------
@@ -373,95 +369,20 @@ class MemoryStore:
             raised = self._raised(b)
             if raised is None:
                 continue
-            acks = [a for a in self._acks if a["score_id"] == raised.id]
-            ack = acks[-1] if acks else None
             found.append(
                 AlarmState(
                     b.robot, b.axis, b.method, b.id, raised.id, raised.capture,
-                    raised.captured_at.isoformat(),
-                    ack["acknowledged_by"] if ack else None,
-                    ack["note"] if ack else None,
-                    ack["acknowledged_at"] if ack else None,
+                    raised.captured_at.isoformat(), None, None, None,
                 )
             )  # fmt: skip
         return sorted(found, key=lambda a: (a.robot, a.axis, a.method))
 
-    def acknowledge(
-        self,
-        robot: str,
-        axis: str,
-        *,
-        by: str,
-        note: str,
-        method: str | None = None,
-        rebaseline: bool = False,
-    ) -> list[str]:
-        for name, value in (("by", by), ("note", note)):
-            if not value.strip():
-                raise ValueError(f"The '{name}' parameter must not be empty. Got {value!r}.")
-        label = f"robot '{robot}' axis '{axis}'" + (f" method '{method}'" if method else "")
-        with self._lock:
-            latest: dict[str, Baseline] = {}
-            own = [
-                b
-                for b in self._baselines
-                if (b.robot, b.axis) == (robot, axis) and method in (None, b.method)
-            ]
-            for b in own:
-                if b.method not in latest or b.epoch > latest[b.method].epoch:
-                    latest[b.method] = b
-            baselines = [latest[m] for m in sorted(latest) if rebaseline or not latest[m].retired]
-            if not baselines:
-                raise StoreError(f"{label} has no active baseline in store '{self.location}'.")
-            chosen = []
-            for b in baselines:
-                raised = self._raised(b)
-                chosen.append((b, None if raised is None else raised.id))
-            if not rebaseline:
-                chosen = [c for c in chosen if c[1] is not None]
-                if not chosen:
-                    raise StoreError(
-                        f"{label} is not in alarm: nothing to acknowledge (after maintenance, "
-                        "re-baseline it: axiswatch ack --rebaseline)."
-                    )
-            stamp = now()
-            for b, score_id in chosen:
-                self._acks.append(
-                    {
-                        "robot": robot,
-                        "axis": axis,
-                        "method": b.method,
-                        "score_id": score_id,
-                        "rebaseline": rebaseline,
-                        "acknowledged_by": by,
-                        "note": note,
-                        "acknowledged_at": stamp,
-                    }
-                )
-            return [b.method for b, _ in chosen]
+    # --- tables ----------------------------------------------------------------------------
 
     def acknowledgements(self, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
-        captures = {r.id: r.capture for r in self._scores}
-        rows = [
-            (
-                a["robot"], a["axis"], a["method"], captures.get(a["score_id"]),
-                a["rebaseline"], a["acknowledged_by"], a["note"], a["acknowledged_at"],
-            )
-            for a in self._acks
-            if robot in (None, a["robot"]) and axis in (None, a["axis"])
-        ]  # fmt: skip
-        columns = [
-            "robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note",
-            "acknowledged_at",
-        ]  # fmt: skip
-        return pd.DataFrame(rows, columns=columns).astype({"rebaseline": bool})
-
-    def rebaseline_requests(self) -> pd.DataFrame:
-        rows = [(*r, t) for r, t in zip(self._requests, self._request_times, strict=True)]
-        columns = ["robot", "axis", "method", "retired_epoch", "from_capture", "requested_at"]
-        return pd.DataFrame(rows, columns=columns)
-
-    # --- tables ----------------------------------------------------------------------------
+        """None: this double records no acknowledgement (the operator's protocol)."""
+        columns = ["robot", "axis", "method", "capture", "rebaseline", "acknowledged_by", "note"]
+        return pd.DataFrame(columns=[*columns, "acknowledged_at", "verdict"])
 
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         epochs = {b.id: b.epoch for b in self._baselines}
@@ -497,65 +418,6 @@ class MemoryStore:
             {"alarm": bool, "over": bool, "distance": np.float64, "threshold": np.float64}
         )
 
-    def summary_table(self) -> pd.DataFrame:
-        rows = []
-        active = sorted(
-            (b for b in self._baselines if not b.retired),
-            key=lambda b: (b.robot, b.axis, b.method),
-        )
-        for b in active:
-            own = [r for r in self._scores if r.baseline_id == b.id]
-            rows.append(
-                {
-                    "robot": b.robot,
-                    "axis": b.axis,
-                    "method": b.method,
-                    "epoch": b.epoch,
-                    "baseline": b.capture,
-                    "threshold": b.threshold,
-                    "scored": sum(r.role != "baseline" for r in own),
-                    "over": sum(r.over for r in own),
-                    "alarms": sum(r.alarm and not self._last_alarm(b.id, r.id) for r in own),
-                    "last_capture": own[-1].capture,
-                    "last_distance": own[-1].distance,
-                    "last_alarm": self._last_alarm(b.id),
-                    "rejected": sum(
-                        (r.robot, r.axis, r.method) == (b.robot, b.axis, b.method)
-                        for r, _ in self._rejections
-                    ),
-                }
-            )
-        columns = [
-            "robot", "axis", "method", "epoch", "baseline", "threshold", "scored", "over",
-            "alarms", "last_capture", "last_distance", "last_alarm", "rejected",
-        ]  # fmt: skip
-        return summary_extras(pd.DataFrame(rows, columns=columns), active, self.alarms())
-
-    def rejection_table(self) -> pd.DataFrame:
-        rows = [
-            (r.robot, r.axis, r.capture, r.method, r.path, r.error, stamp, r.acknowledged_at,
-             r.removed_at)
-            for r, stamp in self._rejections
-        ]  # fmt: skip
-        rows.sort(key=lambda row: (row[0], row[1], row[4], row[3]))
-        columns = [
-            "robot", "axis", "capture", "method", "path", "error", "rejected_at", "acknowledged_at",
-            "removed_at",
-        ]  # fmt: skip
-        return pd.DataFrame(rows, columns=columns)
-
-    def changed_file_table(self) -> pd.DataFrame:
-        rows = sorted(
-            (
-                (c.robot, c.axis, c.path, stamp,
-                 self._seen_changes.get((c.path, c.scored_hash, c.current_hash)))
-                for c, stamp in self._changed
-            ),
-            key=lambda row: row[2],
-        )  # fmt: skip
-        columns = ["robot", "axis", "path", "detected_at", "acknowledged_at"]
-        return pd.DataFrame(rows, columns=columns)
-
     # --- standing problems and axis activity ---------------------------------------------------
 
     def resolve_transient(self, method: str, seen_before: str) -> None:
@@ -566,36 +428,17 @@ class MemoryStore:
                 if not (r.method == method and r.transient and at < seen_before)
             ]
 
-    def _chosen(self, r: Rejection, paths: Sequence[str], method: str | None) -> bool:
-        return (method is None or r.method == method) and (not paths or r.path in paths)
-
     def retry_rejections(self, paths: Sequence[str], method: str | None = None) -> int:
+        def chosen(r: Rejection) -> bool:
+            return (method is None or r.method == method) and (not paths or r.path in paths)
+
         with self._lock:
-            kept = [(r, at) for r, at in self._rejections if not self._chosen(r, paths, method)]
+            kept = [(r, at) for r, at in self._rejections if not chosen(r)]
             count = len(self._rejections) - len(kept)
             self._rejections = kept
             return count
 
-    def acknowledge_problems(self, paths: Sequence[str], at: str, method: str | None = None) -> int:
-        count = 0
-        with self._lock:
-            for index, (r, stamp) in enumerate(self._rejections):
-                if r.acknowledged_at is None and self._chosen(r, paths, method):
-                    self._rejections[index] = (dataclasses.replace(r, acknowledged_at=at), stamp)
-                    count += 1
-            for c, _ in self._changed:
-                key = (c.path, c.scored_hash, c.current_hash)
-                if key not in self._seen_changes and (not paths or c.path in paths):
-                    self._seen_changes[key] = at
-                    count += 1
-            for check in self._active_checks(method):
-                if check.acknowledged_at is None and (not paths or check.path in paths):
-                    key = (check.baseline_id, check.kind)
-                    self._checks[key] = (check.note, check.detected_at, at)
-                    count += 1
-        return count
-
-    def _active_checks(self, method: str | None) -> list[BaselineCheck]:
+    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
         checks = []
         for (baseline_id, kind), (note, detected_at, acknowledged_at) in self._checks.items():
             b = self._baseline(baseline_id)
@@ -608,11 +451,8 @@ class MemoryStore:
                 )  # fmt: skip
         return sorted(checks, key=lambda c: (c.robot, c.axis, c.method, c.kind))
 
-    def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:
-        return self._active_checks(method)
-
     def changed_file_acknowledged(self, change: ChangedFile) -> bool:
-        return (change.path, change.scored_hash, change.current_hash) in self._seen_changes
+        return False  # acknowledging is the operator's, which this double is not
 
     def record_axis_activity(self, seen: Sequence[tuple[str, str, int, str]], at: str) -> None:
         with self._lock:
@@ -630,44 +470,6 @@ class MemoryStore:
         rows = [(*key, *value) for key, value in sorted(self._activity.items())]
         columns = ["robot", "axis", "n_files", "newest_capture", "last_seen_at"]
         return pd.DataFrame(rows, columns=columns)
-
-    def latest_bad_data(self) -> pd.DataFrame:
-        found: dict[tuple[str, str, str], list[Rejection]] = {}
-        for r, _ in self._rejections:
-            if r.kind == "bad data" and r.removed_at is None:
-                found.setdefault((r.robot, r.axis, r.method), []).append(r)
-        rows = []
-        for key, bad in sorted(found.items()):
-            unseen = [r.capture for r in bad if r.acknowledged_at is None]
-            seen = [r for r in bad if r.acknowledged_at is not None]
-            rows.append(
-                (
-                    *key,
-                    max(unseen, default=None),
-                    max((r.capture for r in seen), default=None),
-                    max((str(r.acknowledged_at) for r in seen), default=None),
-                )
-            )
-        columns = ["robot", "axis", "method", "bad_capture", "seen_capture", "seen_at"]
-        return pd.DataFrame(rows, columns=columns)
-
-    def problem_table(self, method: str | None = None) -> pd.DataFrame:
-        rows = [
-            (r.kind, r.method, r.path, r.error, at, r.acknowledged_at, r.removed_at)
-            for r, at in self._rejections
-            if method is None or r.method == method
-        ] + [
-            (
-                "changed", "", c.path, "content changed after it was scored", at,
-                self._seen_changes.get((c.path, c.scored_hash, c.current_hash)), None,
-            )
-            for c, at in self._changed
-        ] + [
-            ("baseline check", c.method, c.path, c.note, c.detected_at, c.acknowledged_at, None)
-            for c in self._active_checks(method)
-        ]  # fmt: skip
-        columns = ["kind", "method", "path", "error", "since", "acknowledged_at", "removed_at"]
-        return pd.DataFrame(sorted(rows, key=lambda r: (r[2], r[0], r[1])), columns=columns)
 
 
 def _json(details: dict[str, Any], *, sort_keys: bool) -> str:

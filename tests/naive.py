@@ -496,7 +496,7 @@ def gap_ringing_naive(
     hysteresis: float = 0.1,
     reference: str = "away",
 ) -> float:
-    """:func:`axiswatch._ringing.gap_ringing`, sample by sample: normal equations for the fit,
+    """:func:`axiswatch.indicators._ringing.gap_ringing`, sample by sample: normal equations for the fit,
     loops for the passages, the windows and the median (the filters are SciPy's)."""
     from scipy.signal import butter, sosfiltfilt
 

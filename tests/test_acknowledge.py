@@ -12,9 +12,10 @@ from typer.testing import CliRunner
 from axiswatch.cli import app
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._monitor import monitor_fleet
+from axiswatch.monitor._report import write_report
 from axiswatch.monitor._results import fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import SCHEMA_VERSION, Store
+from axiswatch.monitor.store import SCHEMA_VERSION, Store
 from tests.test_monitor import faulty_copy
 
 runner = CliRunner()
@@ -37,18 +38,25 @@ def _monitor(fleet: Path, store: Path) -> object:
     return runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--method", "pca"])
 
 
-def test_monitor_says_why_each_axis_is_in_alarm(alarmed: tuple[Path, Path]) -> None:
-    """The run's last lines name each axis in alarm with the report's reason (what the
-    distance and threshold are), not only the axis."""
+def test_monitor_ends_with_the_verdict_of_each_axis_needing_attention(
+    alarmed: tuple[Path, Path],
+) -> None:
+    """The run's last lines are the report's first screen: each axis needing attention with
+    its verdict (state, fault, what to do, since when, how sure), then the calm ones counted."""
     fleet, store = alarmed
     again = _monitor(fleet, store)
     assert again.exit_code == 4, again.output
-    tail = again.output.strip().splitlines()[-2:]
-    assert tail[0] == "ALARM (pca) on robot01/axis1"
-    assert tail[1].startswith("  robot01/axis1: ALARM since 2026-03-10 (1 capture in alarm): ")
+    tail = again.output.strip().split("\nNeeds attention (pca): 1 of 2 axes\n")[1]
     with Store(store) as opened:
         last = opened.score_table(robot="robot01", axis="axis1").iloc[-1]
-    assert f"Distance {last.distance:.4g} > threshold {last.threshold:.4g} (99th pct" in tail[1]
+    level = last.distance / last.threshold
+    assert level >= 2.0  # one capture far over the alarm level: confirmed by its margin
+    text = " ".join(tail.split())
+    assert text.startswith("ACT NOW robot01/axis1 Signals unlike the baseline's. What to do: ")
+    assert "Over the alarm level on its last capture only (2026-03-10)." in text
+    shown = f"{level:.1f}" if level < 100 else f"{level:.0f}"
+    assert f"How sure: {shown} times the alarm level, confirmed by a large margin." in text
+    assert text.endswith("1 axis OK.")
 
 
 def test_an_acknowledged_alarm_does_not_exit_4_until_it_is_raised_again(
@@ -62,7 +70,8 @@ def test_an_acknowledged_alarm_does_not_exit_4_until_it_is_raised_again(
     seen = _monitor(fleet, store)
     assert seen.exit_code == 0, seen.output
     assert "robot01/axis1 since 2026-03-10.parquet: seen by ana at " in seen.output
-    assert "ALARM (pca)" not in seen.output
+    assert "  WATCH  robot01/axis1 " in seen.output  # seen: no longer act now
+    assert "ana saw it on " in seen.output
     with Store(store) as opened:
         row = fleet_summary(opened).query("axis == 'axis1'").iloc[0]
     assert (row.state, row.alarm_since, row.acknowledged_by) == (
@@ -77,7 +86,7 @@ def test_an_acknowledged_alarm_does_not_exit_4_until_it_is_raised_again(
     faulty_copy(axis / "2026-03-09.parquet", axis / "2026-03-12.parquet")
     raised = _monitor(fleet, store)
     assert raised.exit_code == 4, raised.output
-    assert "ALARM (pca) on robot01/axis1" in raised.output
+    assert "  ACT NOW  robot01/axis1 " in raised.output
     with Store(store) as opened:
         (alarm,) = opened.alarms("pca")
         listed = opened.acknowledgements()
@@ -167,3 +176,54 @@ def test_a_version_1_store_gains_the_acknowledgements_table(tmp_path: Path) -> N
     with sqlite3.connect(path) as connection:
         versions = [v for (v,) in connection.execute("SELECT version FROM schema_version")]
     assert versions == [1, 2]
+
+
+def test_ack_keeps_the_engineers_verdict_and_shows_it(
+    alarmed: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """`ack --false-alarm` (and its two siblings) is stored and shown by `ack --list`,
+    `results`, the report and the monitor's summary; two verdicts at once are refused."""
+    fleet, store = alarmed
+    base = ["ack", "--store", str(store), "--robot", "robot01", "--axis", "axis1", "--by", "ana"]
+    both = runner.invoke(app, [*base, "--note", "x", "--false-alarm", "--task-changed"])
+    assert both.exit_code == 2
+    assert "give at most one verdict; got --false-alarm, --task-changed" in " ".join(
+        both.output.replace("│", " ").split()
+    )
+    done = runner.invoke(app, [*base, "--note", "new gripper, heavier", "--false-alarm"])
+    assert done.exit_code == 0, done.output
+    assert "robot01/axis1: acknowledged (pca) by ana: false-alarm." in done.output
+    listed = runner.invoke(app, ["ack", "--store", str(store), "--list"])
+    assert "false-alarm" in listed.output
+    shown = runner.invoke(app, ["results", "--store", str(store), "--axis", "axis1"])
+    header, *rows = shown.output.splitlines()
+    assert "feedback" in header.split()
+    assert [r.split()[2] for r in rows if "false-alarm" in r] == ["2026-03-10.parquet"]
+    seen = _monitor(fleet, store)
+    assert "ana marked a false alarm on " in seen.output
+    with Store(store) as opened:
+        page = write_report(opened, tmp_path / "report").read_text(encoding="utf-8")
+    attention = page.split("<section id='attention'>")[1].split("<details id='healthy'>")[0]
+    assert "ana marked a false alarm on " in attention
+    assert "alarm acknowledged: marked a false alarm (pca)" in page  # the axis's history
+
+
+def test_a_store_made_before_verdicts_gains_the_column_and_loses_nothing(
+    alarmed: tuple[Path, Path],
+) -> None:
+    _, store = alarmed
+    with Store(store) as opened:
+        opened.acknowledge("robot01", "axis1", by="ana", note="seen")
+    with sqlite3.connect(store) as db:
+        db.execute("ALTER TABLE acknowledgements DROP COLUMN verdict")
+    with Store(store, read_only=True) as old:  # read as it is, without the column
+        assert old.acknowledgements()[["acknowledged_by", "verdict"]].values.tolist() == [
+            ["ana", None]
+        ]
+        assert [a.verdict for a in old.alarms()] == [None]
+    with Store(store) as opened:
+        opened.acknowledge("robot01", "axis1", by="bo", note="worn", verdict="fault-confirmed")
+        table = opened.acknowledgements()
+    assert table.acknowledged_by.tolist() == ["ana", "bo"]
+    assert table.verdict.isna().tolist() == [True, False]
+    assert table.verdict.iloc[1] == "fault-confirmed"

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-import axiswatch._alignment
-import axiswatch._alignment as aw_alignment
+import axiswatch.paper._alignment
+import axiswatch.paper._alignment as aw_alignment
 
 from .naive import lra_delta
 
@@ -132,7 +132,7 @@ def test_low_rank_representation_minimises_objective(rng: np.random.Generator) -
     def objective(R: np.ndarray) -> float:
         return 0.5 * np.linalg.norm(X - R @ X) ** 2 + lam * np.linalg.norm(R, "nuc")
 
-    R = aw._alignment.low_rank_representation(X, lam)
+    R = aw.paper._alignment.low_rank_representation(X, lam)
     best = objective(R)
     for _ in range(50):
         perturbation = rng.normal(size=R.shape) * 1e-3
@@ -161,7 +161,7 @@ def test_shape_mismatch_and_nan() -> None:
     ):
         aw.lra_embedding(np.ones((10, 3)), np.ones((9, 3)))
     with pytest.raises(ValueError, match=r"same shape \(rows are paired\)"):
-        aw._alignment.lra_dense(np.ones((10, 3)), np.ones((9, 3)))
+        aw.paper._alignment.lra_dense(np.ones((10, 3)), np.ones((9, 3)))
     with pytest.raises(ValueError, match=r"X_t contains NaN"):
         aw.lra_embedding(np.ones((10, 3)), np.full((10, 3), np.nan))
     with pytest.raises(ValueError, match=r"X_s must have shape \(n_rows, n_features\)"):
@@ -171,9 +171,9 @@ def test_shape_mismatch_and_nan() -> None:
 def test_structured_rejects_mismatched_bases() -> None:
     a = aw.low_rank_basis(np.eye(4) * 3)
     with pytest.raises(ValueError, match=r"same number of rows"):
-        aw._alignment.lra_structured(a, aw.low_rank_basis(np.eye(5) * 3))
+        aw.paper._alignment.lra_structured(a, aw.low_rank_basis(np.eye(5) * 3))
     with pytest.raises(ValueError, match=r"different noise levels"):
-        aw._alignment.lra_structured(a, aw.low_rank_basis(np.eye(4) * 3, noise_level=2.0))
+        aw.paper._alignment.lra_structured(a, aw.low_rank_basis(np.eye(4) * 3, noise_level=2.0))
     with pytest.raises(ValueError, match=r"'noise_level' parameter must be a float > 0"):
         aw.low_rank_basis(np.eye(4), noise_level=-1.0)
 
@@ -221,8 +221,8 @@ def test_gram_basis_equals_direct_svd(singular_values: np.ndarray, seed: int) ->
                 reference.vectors @ ((reference.vectors.T @ probe) * reference.weights[:, None]),
                 atol=1e-9,
             )
-        expected = aw._alignment.lra_structured(*svd, mu=mu, n_components=d).delta
-        got = aw._alignment.lra_structured(*gram, mu=mu, n_components=d).delta
+        expected = aw.paper._alignment.lra_structured(*svd, mu=mu, n_components=d).delta
+        got = aw.paper._alignment.lra_structured(*gram, mu=mu, n_components=d).delta
         assert abs(got - expected) <= _delta_tolerance(expected)
 
 
@@ -231,10 +231,10 @@ def test_gram_basis_equals_direct_svd_on_real_features(lab_features: list[np.nda
         source = aw.low_rank_basis(lab_features[0], lam, method="svd")
         fast_source = aw.low_rank_basis(lab_features[0], lam, method="gram")
         for X_t in lab_features[1:5]:
-            expected = aw._alignment.lra_structured(
+            expected = aw.paper._alignment.lra_structured(
                 source, aw.low_rank_basis(X_t, lam, method="svd")
             ).delta
-            got = aw._alignment.lra_structured(
+            got = aw.paper._alignment.lra_structured(
                 fast_source, aw.low_rank_basis(X_t, lam, method="gram")
             ).delta
             assert abs(got - expected) <= _delta_tolerance(expected)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-import axiswatch._attribution
-import axiswatch._features
+import axiswatch.paper._attribution
+import axiswatch.paper._features
 
 _SPEC = aw.FeatureSpec(
     signals=("a", "b", "c"), combinations="none", segment_length=32, hop=32, padding="valid"
@@ -30,8 +30,8 @@ def _signals(rng: np.random.Generator, *, burst: bool) -> np.ndarray:
 @pytest.fixture(scope="module")
 def disturbed() -> tuple[aw.Features, aw.Features]:
     rng = np.random.default_rng(7)
-    baseline = aw._features.features_from_signals(_signals(rng, burst=False), _RATE, _SPEC)
-    test = aw._features.features_from_signals(_signals(rng, burst=True), _RATE, _SPEC)
+    baseline = aw.paper._features.features_from_signals(_signals(rng, burst=False), _RATE, _SPEC)
+    test = aw.paper._features.features_from_signals(_signals(rng, burst=True), _RATE, _SPEC)
     return baseline, test
 
 
@@ -53,7 +53,9 @@ def test_pca_contributions_match_the_quadratic_form(rng: np.random.Generator) ->
     by_hand = [
         sum(difference[r, j] * (difference[r] @ P @ P.T)[j] for r in range(20)) for j in range(6)
     ]
-    np.testing.assert_allclose(aw._attribution.pca_contributions(Xs, Xt, P), by_hand, rtol=1e-12)
+    np.testing.assert_allclose(
+        aw.paper._attribution.pca_contributions(Xs, Xt, P), by_hand, rtol=1e-12
+    )
 
 
 @pytest.mark.parametrize(
@@ -96,10 +98,10 @@ def test_too_many_bands(disturbed: tuple[aw.Features, aw.Features]) -> None:
 
 def test_difference_spectrogram_plot(disturbed: tuple[aw.Features, aw.Features]) -> None:
     baseline, test = disturbed
-    cube = aw._attribution.difference_spectrogram(baseline, test)
+    cube = aw.paper._attribution.difference_spectrogram(baseline, test)
     assert cube.shape == (3, baseline.X.shape[0], 17)
     np.testing.assert_array_equal(cube[1, :, 3], test.X[:, 17 + 3] - baseline.X[:, 17 + 3])
-    ax = aw._attribution.plot_difference_spectrogram(baseline, test, hop_s=32 / _RATE)
+    ax = aw.paper._attribution.plot_difference_spectrogram(baseline, test, hop_s=32 / _RATE)
     assert ax.get_xlabel() == "time (s)"
     assert [t.get_text().split("\n")[0] for t in ax.get_yticklabels()] == ["a", "b", "c"]
 

@@ -7,7 +7,7 @@ import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import axiswatch as aw
-import axiswatch._alignment
+import axiswatch.paper._alignment
 
 from .naive import lra_delta, pca_distance
 
@@ -89,12 +89,12 @@ def test_not_fitted() -> None:
 def test_baseline_basis_is_computed_once(
     rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import axiswatch._detectors as detectors
+    import axiswatch.paper._detectors as detectors
 
     calls: list[int] = []
     real = detectors.low_rank_basis
 
-    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw._alignment.LowRankBasis:
+    def counting(X: np.ndarray, noise_level: float = 1.0) -> aw.paper._alignment.LowRankBasis:
         calls.append(X.shape[0])
         return real(X, noise_level)
 

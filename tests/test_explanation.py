@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-from axiswatch._attribution import LIKELY_FAULTS, describe_top_indicator
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.monitor._decision import DecisionRule, stored_threshold
+from axiswatch.paper._attribution import LIKELY_FAULTS, describe_top_indicator
 from tests.naive import indicator_terms
 
 

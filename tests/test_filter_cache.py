@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter
 
-from axiswatch._mechanics import butter_sos
+from axiswatch.indicators._signals import butter_sos
 
 
 def test_cached_designs_equal_scipys_and_are_shared() -> None:

@@ -19,17 +19,17 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 from axiswatch._capture import capture_to_frame
-from axiswatch._readings import Readings, read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.monitor import MonitorConfig, SQLiteStore
-from axiswatch.monitor._attention import AxisAttention, triage
-from axiswatch.monitor._fleet import FleetFile
-from axiswatch.monitor._indicators import (
+from axiswatch.indicators._axis import (
     IndicatorBaseline,
     check_monitor_rate,
     fit_indicator_baseline,
 )
+from axiswatch.indicators._readings import Readings, read_indicators
+from axiswatch.monitor import MonitorConfig, SQLiteStore
+from axiswatch.monitor._attention import AxisAttention, triage
+from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._methods import MethodPreset
 from axiswatch.monitor._models import ModelRef
@@ -44,7 +44,7 @@ from tests.memory_store import MemoryStore
 
 runner = CliRunner()
 
-#: A development robot of the family (docs/evaluation.md, "Transfer"): a 50 Hz wrist axis.
+#: A development robot of the family (lab/docs/decision-log.md, "Transfer"): a 50 Hz wrist axis.
 ROBOT_SEED = 4
 AXES = 4
 DAYS = 9
@@ -530,12 +530,14 @@ def _attention_list(page: str) -> str:
 
 
 def test_indicators_has_no_detector_or_stage() -> None:
-    with pytest.raises(ValueError, match="do not apply to the method 'indicators'"):
+    with pytest.raises(ValueError, match="'detector' parameter is for the method 'lra', 'pca'"):
         MonitorConfig(method="indicators", detector=aw.PCADetector())
-    with pytest.raises(ValueError, match="has no HealthModel"):
-        MonitorConfig(method="indicators").model()
-    with pytest.raises(ValueError, match="needs a 'detector' factory, or indicator_model=True"):
+    with pytest.raises(ValueError, match="'stage' parameter is for the method 'lra'"):
+        MonitorConfig(method="indicators", stage=aw.StftStage())
+    with pytest.raises(ValueError, match="needs a 'model' factory or a 'detector' factory"):
         MethodPreset()
+    with pytest.raises(ValueError, match="not both"):
+        MethodPreset(model=lambda config: config.model(), detector=lambda config: aw.PCADetector())
     with pytest.raises(ValueError, match="one entry per capture"):
         fit_indicator_baseline([Readings({})], [], [], percentile=99.0)
 
@@ -753,10 +755,10 @@ def test_an_axis_without_a_fleet_does_not_compare_another_task(tmp_path: Path) -
     store = MemoryStore()
     summary = monitor_fleet(root, store, MonitorConfig(), settle_s=0)
     assert summary.new_baselines == 1
-    rejected = fleet_rejections(store)
-    assert sorted(rejected["capture"]) == [f"2026-03-{d:02d}.parquet" for d in (7, 8, 9)]
-    assert all(": not scored: motion unlike the baseline's task" in e for e in rejected["error"])
-    assert all("rebaseline the axis on its new task" in e for e in rejected["error"])
+    errors = {r.capture: r.error for r in store.rejections("indicators")}
+    assert sorted(errors) == [f"2026-03-{d:02d}.parquet" for d in (7, 8, 9)]
+    assert all(": not scored: motion unlike the baseline's task" in e for e in errors.values())
+    assert all("rebaseline the axis on its new task" in e for e in errors.values())
     scores = store.score_table()
     monitored = scores[(scores["role"] == "monitor") & scores["distance"].notna()]
     assert list(monitored["capture"]) == ["2026-03-10.parquet"]
@@ -865,7 +867,7 @@ def _slow_baseline_before_an_upgrade(
     """Store r1/a1's baseline from 7 slow captures (``day``: :func:`_slow_capture_writer`) as a
     version from before the 20 Hz floor did, in an older model format: the next run refits it
     (an upgrade, run in a new process)."""
-    import axiswatch.monitor._indicators as indicators
+    import axiswatch.indicators._axis as indicators
     import axiswatch.monitor._models
     import axiswatch.monitor._persist
 
@@ -885,7 +887,7 @@ def test_a_stored_baseline_below_20_hz_is_kept_and_reported_every_run(
 ) -> None:
     # A store from before the 20 Hz floor of new baselines: its axis was fitted on stamps in
     # milliseconds read as seconds (0.05 Hz). Its model is kept; every run says to rebaseline.
-    import axiswatch.monitor._indicators as indicators
+    import axiswatch.indicators._axis as indicators
 
     root = tmp_path / "fleet"
     day = _slow_capture_writer(root)

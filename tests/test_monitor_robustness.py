@@ -21,6 +21,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -203,6 +204,40 @@ def test_rejection_under_other_parameters_is_retried_when_they_change(
     fixed = _monitor(fleet, store)
     assert fixed.returncode == 0, fixed.stdout
     assert "1 new baseline(s), 4 capture(s) scored" in fixed.stdout
+
+
+def test_rejections_are_retried_when_the_axis_profile_is_added_or_fixed(tmp_path: Path) -> None:
+    # Before: the rejections were kept for the unchanged capture files, so the run after the
+    # profile was added (as the message advises) printed the same error; nothing said how to
+    # try again.
+    root = tmp_path / "fleet"
+    awd.simulate_fleet(
+        root, n_robots=1, n_axes=1, n_days=5, task_change_days=(), faults=[],
+        duration_s=0.5, file_format="csv",
+    )  # fmt: skip
+    for path in (root / AXIS).glob("*.csv"):  # the controller's name of the time column
+        path.write_text(path.read_text().replace("time,", "Timestamp,", 1))
+    settle(root)
+    store = tmp_path / "s.db"
+    first = _monitor(root, store, "--settle", "0")
+    assert first.returncode == 8, first.stdout + first.stderr
+    assert "missing column 'time'" in first.stdout
+    assert (
+        "A rejected capture is tried again when its file, the options or its axis profile "
+        f"change; to try again now: axiswatch rejections --store {store} --retry"
+    ) in first.stdout
+    profile = root / "robot01" / "robot.toml"
+    profile.write_text('[columns]\n"Zeit" = "time"\n')  # added, but wrong
+    wrong = _monitor(root, store, "--settle", "0")
+    assert wrong.returncode == 8, wrong.stdout
+    assert "0 capture(s) scored" in wrong.stdout
+    profile.write_text('[columns]\n"Timestamp" = "time"\n')  # fixed
+    fixed = _monitor(root, store, "--settle", "0")
+    assert fixed.returncode == 0, fixed.stdout
+    assert "1 new baseline(s), 4 capture(s) scored" in fixed.stdout
+    assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
+    again = _monitor(root, store, "--settle", "0")  # an unchanged profile changes nothing
+    assert (again.returncode, "0 capture(s) scored" in again.stdout) == (0, True), again.stdout
 
 
 def test_rejections_are_listed_acknowledged_and_retried(fleet: Path, tmp_path: Path) -> None:
@@ -497,9 +532,9 @@ def test_ctrl_c_mid_run_is_one_line_exit_130_and_the_next_run_ends_it(
 # --- row 7: a wrong Dask address -------------------------------------------------------------
 
 
-@pytest.fixture
-def chatter() -> Iterator[int]:
-    """A TCP port that answers every connection with bytes that are no Dask message."""
+@contextmanager
+def _answering(answer: bytes) -> Iterator[int]:
+    """A TCP port that answers every connection with ``answer`` (no Dask message)."""
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen()
@@ -512,7 +547,7 @@ def chatter() -> Iterator[int]:
                 connection, _ = server.accept()
             except TimeoutError:
                 continue
-            connection.sendall(b"\xff" * 64 + b"HTTP/1.1 400 Bad Request\r\n\r\n")
+            connection.sendall(answer)
             time.sleep(0.5)
             connection.close()
 
@@ -522,6 +557,12 @@ def chatter() -> Iterator[int]:
     stop.set()
     thread.join()
     server.close()
+
+
+@pytest.fixture
+def chatter() -> Iterator[int]:
+    with _answering(b"\xff" * 64 + b"HTTP/1.1 400 Bad Request\r\n\r\n") as port:
+        yield port
 
 
 def _free_port() -> int:
@@ -545,6 +586,22 @@ def test_wrong_dask_address_fails_within_the_timeout_with_one_line(
         assert result.stderr.startswith(f"error: no Dask scheduler answered at '{address}'")
         assert result.stderr.count("\n") == 1, result.stderr
         assert not store.exists()
+
+
+def test_another_service_on_the_dask_port_is_named_in_one_line(fleet: Path, tmp_path: Path) -> None:
+    # Before: an HTTP answer's first bytes, read as a Dask frame length, gave "Unable to
+    # allocate 3.07 EiB for an array ..." as the reason.
+    pytest.importorskip("distributed")
+    store = tmp_path / "s.db"
+    with _answering(b"HTTP/1.1 400 Bad Request\r\n\r\n") as port:
+        address = f"tcp://127.0.0.1:{port}"
+        result = _process("monitor", fleet, "--store", store, "--dask", address, timeout=120)
+    assert result.returncode == 1
+    assert result.stderr == (
+        f"error: no Dask scheduler answered at '{address}': another service answers there "
+        "(its answer is no Dask message); check the host and port of the scheduler.\n"
+    )
+    assert not store.exists()
 
 
 # --- row 8: a corrupt store, a full disk -----------------------------------------------------

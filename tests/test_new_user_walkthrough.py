@@ -1,5 +1,5 @@
-"""What a service engineer new to axiswatch stumbled on, following the README with real
-recordings (lane i21u): each message below misled or left out what it was about."""
+"""What a service engineer new to axiswatch stumbled on, following the README and the monitor
+manual with real recordings: each message below misled or left out what it was about."""
 
 from __future__ import annotations
 
@@ -15,11 +15,11 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch.monitor as awm
-from axiswatch._indicator_model import IndicatorAssessment
-from axiswatch._readings import read_indicators
 from axiswatch.cli import app
 from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
+from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._readings import read_indicators
 from axiswatch.monitor._charts import distance_chart
 from tests.conftest import settle
 
@@ -159,7 +159,7 @@ def test_a_second_run_says_its_file_count_covers_only_the_folders_it_listed(
 
 def test_report_help_names_the_one_file_it_writes(tmp_path: Path) -> None:
     # Before: "--out: Folder for index.html and the PNG figures.", but the report is one file,
-    # index.html, with its charts inline (README, "The report").
+    # index.html, with its charts inline (docs/monitor.md, "The report").
     shown = _plain(runner.invoke(app, ["report", "--help"], terminal_width=200).output)
     assert "PNG" not in shown
     assert "one self-contained file, index.html" in shown

@@ -7,7 +7,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-from axiswatch._noise import marchenko_pastur_median, mp_noise_level
+from axiswatch.paper._noise import marchenko_pastur_median, mp_noise_level
 from tests import naive
 
 

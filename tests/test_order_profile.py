@@ -11,8 +11,9 @@ import pytest
 from typer.testing import CliRunner
 
 from axiswatch import AxisProfile, Capture, IndicatorModel, write_capture
-from axiswatch._indicator_model import pool_fleet
-from axiswatch._order_lines import (
+from axiswatch.cli import app
+from axiswatch.indicators._fleet import pool_fleet
+from axiswatch.indicators._order_lines import (
     CELLS_PER_DECADE,
     MIN_COMMON_CELLS,
     TOP_LINES,
@@ -22,8 +23,7 @@ from axiswatch._order_lines import (
     order_profile,
     order_reference,
 )
-from axiswatch._readings import read_indicators
-from axiswatch.cli import app
+from axiswatch.indicators._readings import read_indicators
 from axiswatch.monitor import MonitorConfig, SQLiteStore
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model

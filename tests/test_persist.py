@@ -25,7 +25,7 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
 from axiswatch.monitor._results import fleet_results
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import NewBaseline, SavedModel, Store
+from axiswatch.monitor.store import NewBaseline, SavedModel, Store
 
 
 def _fitted(method: str) -> aw.HealthModel:

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 import axiswatch as aw
-import axiswatch._preprocessing
+import axiswatch.paper._preprocessing
 from axiswatch import CaptureError
 
 from .naive import pchip_upsample
@@ -59,7 +59,7 @@ def test_matches_written_out_fritsch_carlson(values: np.ndarray, factor: int) ->
 
 
 def test_paper_factor_inserts_seven_points() -> None:
-    out = aw.upsample_pchip(np.arange(4.0), aw._preprocessing.integer_factor(250.0, 2000.0))
+    out = aw.upsample_pchip(np.arange(4.0), aw.paper._preprocessing.integer_factor(250.0, 2000.0))
     assert out.size == 25
     np.testing.assert_allclose(out, np.arange(25) / 8)
 
@@ -74,12 +74,12 @@ def test_irregular_time_spreads_points_inside_each_interval() -> None:
 
 def test_rate_that_does_not_divide() -> None:
     with pytest.raises(CaptureError, match=r"rate 300 Hz does not divide the target rate 2000 Hz"):
-        aw._preprocessing.integer_factor(300.0, 2000.0)
+        aw.paper._preprocessing.integer_factor(300.0, 2000.0)
 
 
 def test_non_positive_rate() -> None:
     with pytest.raises(CaptureError, match=r"rates must be positive"):
-        aw._preprocessing.integer_factor(0.0, 2000.0)
+        aw.paper._preprocessing.integer_factor(0.0, 2000.0)
 
 
 def test_non_increasing_time() -> None:

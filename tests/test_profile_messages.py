@@ -10,7 +10,7 @@ import pytest
 from axiswatch.datasets._robot import simulate_fleet
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import Store
+from axiswatch.monitor.store import Store
 from tests.conftest import settle
 
 CAPTURE = "robot01/axis1/2026-03-01.parquet"

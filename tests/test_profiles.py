@@ -292,7 +292,7 @@ def test_encoder_counts_read_as_the_same_capture_in_rad(tmp_path: Path) -> None:
     np.testing.assert_allclose(
         read_counts.signals["position"], read_rad.signals["position"], rtol=1e-12
     )
-    from axiswatch._readings import read_indicators
+    from axiswatch.indicators._readings import read_indicators
 
     expected = read_indicators(read_rad, **in_rad.kinematics())
     got = read_indicators(read_counts, **in_counts.kinematics())

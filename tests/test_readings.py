@@ -7,7 +7,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import axiswatch as aw
-from axiswatch._readings import motion, read_indicators
+from axiswatch.indicators._readings import motion, read_indicators
 from tests import naive
 
 
@@ -166,7 +166,7 @@ def test_whole_samples_is_the_exact_nearest_count_away_from_halves() -> None:
     at a half, upward whatever the last bit of the rate."""
     from fractions import Fraction
 
-    from axiswatch._mechanics import whole_samples
+    from axiswatch.indicators._signals import whole_samples
 
     rng = np.random.default_rng(0)
     pairs = zip(rng.uniform(0.001, 1.0, 500), rng.uniform(20.0, 4000.0, 500), strict=True)

@@ -1,11 +1,12 @@
-"""README.md's examples as written: its Python blocks run, its command lines name commands and
-options that exist (the cheap ones run on a small simulated fleet), its TOML reads.
+"""The README's and the manuals' examples as written: their Python blocks run, their command
+lines name commands and options that exist (the cheap ones run on a small simulated fleet), their
+TOML reads.
 
-Each fenced block of README.md is preceded by a marker, ``<!-- tested: tests/...::name -->``
-(executed by that test), ``<!-- checked: tests/...::name -->`` (its commands and options are
-checked, not run) or ``<!-- not run: why -->``; the section "Monitor your own robot" is run by
-tests/test_readme_own_robot.py. A new block without a marker fails
-:func:`test_every_block_is_accounted_for`.
+Each fenced block of the documents in :data:`DOCS` is preceded by a marker,
+``<!-- tested: tests/...::name -->`` (executed by that test), ``<!-- checked: tests/...::name -->``
+(its commands and options are checked, not run) or ``<!-- not run: why -->``. The section
+"Monitor your own robot" of docs/monitor.md is run by tests/test_readme_own_robot.py. A new block
+without a marker fails :func:`test_every_block_is_accounted_for`.
 """
 
 from __future__ import annotations
@@ -29,39 +30,67 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch.monitor as awm
-from axiswatch.cli import PLUGIN_GROUP, app
+from axiswatch.cli import PLUGIN_GROUP, app, monitor_defaults
 from tests.conftest import settle
+from tests.test_profile_command import _controller_export
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-TEXT = README.read_text(encoding="utf-8")
-FLAT = " ".join(TEXT.split())  # the prose with its line breaks as spaces
+MANUAL = ROOT / "docs" / "monitor.md"
+#: The documents whose blocks and prose are tested: the README, then the manuals it links.
+DOCS = (
+    README,
+    MANUAL,
+    ROOT / "docs" / "library.md",
+    ROOT / "docs" / "evaluation.md",
+    ROOT / "docs" / "contributing.md",
+)
+TEXTS = {doc: doc.read_text(encoding="utf-8") for doc in DOCS}
+#: The documents whose prose names real commands, options and API names (contributing.md's
+#: prose names the classes its sketches would add).
+PROSE = DOCS[:-1]
+FLAT = " ".join(" ".join(text.split()) for text in TEXTS.values())  # line breaks as spaces
 THIS = "tests/test_readme_examples.py"
 FENCE = re.compile(r"^( *)```(\w*)\n(.*?)^\1```", flags=re.MULTILINE | re.DOTALL)
 MARKER = re.compile(r"<!-- (tested|checked|not run): ([^>]*?) -->\n$")
+OWN_ROBOT = "## Monitor your own robot"
 runner = CliRunner()
 
 
-def _marked() -> list[tuple[str, str, str]]:
-    """(kind, what, body) of every fenced block outside "Monitor your own robot"."""
-    own = TEXT.index("## Monitor your own robot")
-    end = TEXT.index("\n## ", own + 1)
+def _section(doc: Path, heading: str) -> str:
+    """The text of ``doc`` from ``heading`` to the next heading of its level or above."""
+    text = TEXTS[doc]
+    level = heading.split(" ", 1)[0]
+    after = text.split(heading, 1)[1]
+    return re.split(rf"\n#{{1,{len(level)}}} ", after, maxsplit=1)[0]
+
+
+def _marked() -> list[tuple[str, str, str, Path]]:
+    """(kind, what, body, document) of every fenced block outside "Monitor your own robot"."""
     found = []
-    for fence in FENCE.finditer(TEXT):
-        if own <= fence.start() < end:
-            continue
-        before = TEXT[: fence.start()].rsplit("\n", 2)
-        marker = MARKER.search("\n".join(before[-2:]))
-        kind, what = marker.groups() if marker else ("", "")
-        found.append((kind, what, fence.group(3)))
+    for doc, text in TEXTS.items():
+        own = text.find(OWN_ROBOT)
+        end = text.index("\n## ", own + 1) if own >= 0 else -1
+        for fence in FENCE.finditer(text):
+            if own <= fence.start() < end:
+                continue
+            before = text[: fence.start()].rsplit("\n", 2)
+            marker = MARKER.search("\n".join(before[-2:]))
+            kind, what = marker.groups() if marker else ("", "")
+            found.append((kind, what, fence.group(3), doc))
     return found
+
+
+def _found(name: str) -> tuple[str, Path]:
+    """The body of the block marked as tested or checked by ``name``, and its document."""
+    blocks = [(body, doc) for _, what, body, doc in _marked() if what == f"{THIS}::{name}"]
+    assert len(blocks) == 1, f"the documents have {len(blocks)} blocks marked {name}"
+    return blocks[0]
 
 
 def _block(name: str) -> str:
     """The body of the block marked as tested or checked by ``name`` in this module."""
-    bodies = [body for _, what, body in _marked() if what == f"{THIS}::{name}"]
-    assert len(bodies) == 1, f"README.md has {len(bodies)} blocks marked {name}"
-    return bodies[0]
+    return _found(name)[0]
 
 
 def _cli() -> Any:
@@ -93,7 +122,7 @@ def _options(command: Any) -> dict[str, Any]:
 
 
 def _resolve(words: list[str]) -> tuple[Any, list[str]]:
-    """The command a README line names and the words after its name (``...`` stops)."""
+    """The command a documented line names and the words after its name (``...`` stops)."""
     command = CLI
     while hasattr(command, "commands") and words and words[0] != "...":
         assert words[0] in command.commands, f"no command {words[0]!r} in {command.name!r}"
@@ -102,7 +131,7 @@ def _resolve(words: list[str]) -> tuple[Any, list[str]]:
 
 
 def _check_line(line: str) -> None:
-    """Every option of a README command line exists on its command (``--a/--no-a``: both)."""
+    """Every option of a documented command line exists on its command (``--a/--no-a``: both)."""
     words = [w.strip("[]") for w in shlex.split(line, comments=True)]
     command, rest = _resolve(words[1:] if words[0] == "axiswatch" else words)
     known = _options(command)
@@ -129,12 +158,14 @@ def _command_lines(body: str) -> list[str]:
 
 def test_every_block_is_accounted_for() -> None:
     blocks = _marked()
-    fence_lines = re.findall(r"^ *```", TEXT, flags=re.MULTILINE)
     own_robot = 5  # tests/test_readme_own_robot.py counts them
-    assert len(blocks) == 12
-    assert len(fence_lines) == 2 * (len(blocks) + own_robot)
-    for kind, what, body in blocks:
-        assert kind, f"README block without a marker: {body[:60]!r}"
+    for doc, text in TEXTS.items():
+        fence_lines = re.findall(r"^ *```", text, flags=re.MULTILINE)
+        mine = sum(1 for *_, where in blocks if where == doc)
+        assert len(fence_lines) == 2 * (mine + own_robot * (doc == MANUAL)), doc.name
+    assert sum(1 for block in blocks if block[0] == "tested") >= 7
+    for kind, what, body, doc in blocks:
+        assert kind, f"{doc.name}: block without a marker: {body[:60]!r}"
         if kind != "not run":
             module, _, name = what.partition("::")
             assert module == THIS, what
@@ -177,10 +208,10 @@ def test_library_in_one_screen(
     shutil.copy(small_fleet / "axiswatch.toml", tmp_path / "fleet" / "axiswatch.toml")
     monkeypatch.chdir(tmp_path)
     healthy = [Path("fleet/robot1/axis4") / p.name for p in files[1:6]]
-    block = _block("test_library_in_one_screen")
+    block, doc = _found("test_library_in_one_screen")
     names: dict[str, Any] = {"__name__": "readme", "healthy_paths": healthy}
     with threadpool_limits(1):
-        exec(compile(block, str(README), "exec"), names)
+        exec(compile(block, str(doc), "exec"), names)
 
     verdict, model = names["verdict"], names["model"]
     assert verdict.threshold == model.threshold_
@@ -200,12 +231,12 @@ def test_library_in_one_screen(
 def test_monitoring_a_fleet_from_python(
     demo_fleet: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    block = _block("test_monitoring_a_fleet_from_python")
+    block, doc = _found("test_monitoring_a_fleet_from_python")
     assert 'method="indicators"' in block
     assert aw.MonitorConfig().method == "indicators"
     names: dict[str, Any] = {"__name__": "readme"}
     with threadpool_limits(1):
-        exec(compile(block, str(README), "exec"), names)
+        exec(compile(block, str(doc), "exec"), names)
 
     summary = names["summary"]
     alarms, rejected, exit_code = summary.alarms, summary.rejected, summary.exit_code
@@ -220,13 +251,99 @@ def test_monitoring_a_fleet_from_python(
     assert (demo_fleet / "demo" / "report" / "index.html").is_file()
 
 
+def test_use_it_from_python(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The README's library example on one axis's captures, under the names it reads."""
+    axis = tmp_path / "fleet" / "robot1" / "axis4"
+    axis.mkdir(parents=True)
+    for path in sorted((small_fleet / "robot01" / "axis1").glob("*.parquet")):
+        shutil.copy(path, axis / path.name)
+    shutil.copy(small_fleet / "axiswatch.toml", tmp_path / "fleet" / "axiswatch.toml")
+    monkeypatch.chdir(tmp_path)
+    block, doc = _found("test_use_it_from_python")
+    names: dict[str, Any] = {"__name__": "readme"}
+    with threadpool_limits(1):
+        exec(compile(block, str(doc), "exec"), names)
+
+    model, verdict, files = names["model"], names["verdict"], names["files"]
+    assert [path.name for path in files] == sorted(path.name for path in axis.iterdir())
+    assert model.profile.name == "simulated-axis"  # found at fleet/axiswatch.toml
+    assert verdict.scored
+    assert verdict.alarm == (verdict.distance > verdict.threshold)
+    assert not verdict.alarm  # a healthy axis on its own task
+    assert isinstance(verdict.reason(), str)
+
+
+def test_watch_a_fleet_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The README's session in order, on the demo's fleet cut to 8 days of 0.5 s captures."""
+    monkeypatch.chdir(tmp_path)
+    lines = _command_lines(_block("test_watch_a_fleet_folder"))
+    assert [shlex.split(line, comments=True)[1] for line in lines] == [
+        "simulate", "monitor", "results", "report",
+    ]  # fmt: skip
+    simulate, monitor, results, report = lines
+    done = _invoke(simulate, "--days", "8", "--duration", "0.5")
+    assert done.exit_code == 0, done.output
+    assert {p.parent.parent.name for p in Path("demo/fleet").glob("*/*/*.parquet")} == {
+        "robot01", "robot02", "robot03",
+    }  # fmt: skip  # "3 robots with 2 axes each"
+    assert len(list(Path("demo/fleet").glob("*/*"))) == 3 * 2
+    settle(Path("demo/fleet"))
+    with threadpool_limits(1):
+        done = _invoke(monitor, "--no-progress")
+        assert done.exit_code in (0, 4, 8, 12), done.output
+        assert done.output.startswith("indicators: 48 capture files"), done.output
+        with aw.Store("demo/fleet.db", read_only=True) as store:
+            scored = len(store.score_table())
+        # "run monitor again when new files arrive: it scores only what is new"
+        again = _invoke(monitor, "--no-progress")
+        assert again.exit_code == done.exit_code, again.output
+        with aw.Store("demo/fleet.db", read_only=True) as store:
+            assert len(store.score_table()) == scored
+    done = _invoke(results)
+    assert done.exit_code == 0, done.output
+    assert "robot02" in done.output
+    assert "robot01" not in done.output  # one axis's scores
+    done = _invoke(report)
+    assert done.exit_code == 0, done.output
+    assert Path("demo/report/index.html").is_file()
+
+
+def test_your_own_robots_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The README's own-files session on a controller-style export of two axes per file."""
+    monkeypatch.chdir(tmp_path)
+    lines = _command_lines(_block("test_your_own_robots_files"))
+    assert [shlex.split(line, comments=True)[1] for line in lines] == [
+        "profile", "monitor", "report",
+    ]  # fmt: skip
+    profile, monitor, report = lines
+    exports = _controller_export(Path("exports/cell1"), days=7)
+    words = shlex.split(profile.removeprefix(".venv/bin/"), comments=True)
+    pattern = next(word for word in words if "*" in word)
+    assert sorted(Path().glob(pattern)) == sorted(exports)
+    profile_line = " ".join(word for word in words if word != pattern)
+    done = _invoke(profile_line, *map(str, exports))
+    assert done.exit_code == 0, done.output
+    assert sorted(p.parent.name for p in Path("fleet").glob("*/*/axis.toml")) == ["A1", "A2"]
+    settle(Path("fleet"))
+    with threadpool_limits(1):
+        done = _invoke(monitor, "--no-progress")
+    assert done.exit_code == 0, done.output
+    assert "14 capture files, 2 new baseline(s), 12 capture(s) scored" in done.output
+    assert "Rejected" not in done.output
+    done = _invoke(report)
+    assert done.exit_code == 0, done.output
+    assert Path("report/index.html").is_file()
+
+
 # -- command lines ---------------------------------------------------------------------------------
 
 
 def _fenced_lines() -> list[str]:
     return [
         line
-        for kind, _, body in _marked()
+        for kind, _, body, _ in _marked()
         if kind in ("tested", "checked")
         for line in _command_lines(body)
     ]
@@ -255,21 +372,22 @@ def test_fenced_optional_values_are_the_defaults() -> None:
     assert shown >= 6
 
 
-def _prose() -> str:
-    """README.md with its fenced blocks blanked (their ``#`` lines are no headings)."""
-    return FENCE.sub(lambda m: "\n" * m.group(0).count("\n"), TEXT)
+def _prose(text: str) -> str:
+    """A document with its fenced blocks blanked (their ``#`` lines are no headings)."""
+    return FENCE.sub(lambda m: "\n" * m.group(0).count("\n"), text)
 
 
 def _spans() -> Iterator[tuple[str, str]]:
     """(section heading, code span) of every inline code span of the prose (a span may wrap)."""
-    prose = _prose()
-    headings = [
-        (-1, ""),
-        *((m.start(), m.group(1)) for m in re.finditer(r"^#{2,3} (.*)$", prose, re.M)),
-    ]
-    for span in re.finditer(r"`([^`]+)`", prose):
-        section = [title for start, title in headings if start < span.start()][-1]
-        yield section, " ".join(span.group(1).split())
+    for doc in PROSE:
+        prose = _prose(TEXTS[doc])
+        headings = [
+            (-1, ""),
+            *((m.start(), m.group(1)) for m in re.finditer(r"^#{2,3} (.*)$", prose, re.M)),
+        ]
+        for span in re.finditer(r"`([^`]+)`", prose):
+            section = [title for start, title in headings if start < span.start()][-1]
+            yield section, " ".join(span.group(1).split())
 
 
 COMMANDS = {"monitor", "results", "report", "rebaseline", "rejections", "ack", "backup", "demo"}
@@ -288,14 +406,18 @@ def test_inline_command_lines_name_existing_options() -> None:
 
 #: The commands whose options a section's prose names alone (`--settle 10`).
 SECTION_COMMANDS = {
-    "Recorded data": {"gearbox", "cwru"},
-    "Monitor your own robot": {"monitor"},
+    "Watch a fleet folder": {"monitor"},
     "Monitoring a fleet": {leaf.name for leaf in _leaves()},  # `--help`: every command
     "Delivering capture files": {"monitor"},
+    "Monitor your own robot": {"monitor"},
     "What `monitor` does (defaults)": {"monitor"},
     "Rejected captures and exit status": {"monitor"},
     "The store (SQLite)": {"monitor", "results"},
     "What the demo shows (honestly)": {"monitor"},
+    "Real data": {"monitor"},
+    "Options that are off by default": {"monitor"},
+    "An opt-in operating point: `--whole-moves`": {"monitor", "transfer"},
+    "The paper's methods on recorded data": {"gearbox", "cwru"},
 }
 #: Sections that give an option's default as `--name value`.
 DEFAULT_SECTIONS = {
@@ -303,7 +425,7 @@ DEFAULT_SECTIONS = {
     "What `monitor` does (defaults)",
     "Rejected captures and exit status",
 }
-#: Options shown with a value that is not their default: the README says "off by default".
+#: Options shown with a value that is not their default: the manual says "off by default".
 EXAMPLE_VALUES = {"--task-envelope": None}
 
 
@@ -332,14 +454,16 @@ def test_options_in_the_prose_exist_with_the_defaults_it_gives() -> None:
         if section not in DEFAULT_SECTIONS or not value or value.isupper():
             continue
         (param,) = owners
+        # monitor's options default to None: the monitor's own default, shown in its help
+        default = monitor_defaults().get(param.name) if param.default is None else param.default
         if name in EXAMPLE_VALUES:
             assert param.default == EXAMPLE_VALUES[name], span
         elif "|" in value:  # the choices, the default first
             choices = value.split("|")
             assert set(choices) <= set(awm.methods()), span
-            assert param.default == choices[0], span
+            assert default == choices[0], span
         else:
-            assert _same(param.default, value), f"{span!r}: the default is {param.default!r}"
+            assert _same(default, value), f"{span!r}: the default is {default!r}"
     assert checked >= 25
 
 
@@ -408,7 +532,7 @@ def test_monitoring_a_fleet_commands(tmp_path: Path, monkeypatch: pytest.MonkeyP
     assert Path("demo/report/index.html").is_file()  # the comment's promise
 
     # No alarm on robot02/axis1 in 8 days (its bearing defect starts on day 20): `ack` refuses
-    # an axis that is not in alarm, with one line, as the README says.
+    # an axis that is not in alarm, with one line, as the manual says.
     done = _invoke(ack)
     assert done.exit_code == 1
     assert "not in alarm" in done.output
@@ -432,14 +556,14 @@ def test_monitoring_a_fleet_commands(tmp_path: Path, monkeypatch: pytest.MonkeyP
     for line in _command_lines(_block("test_rejections_commands")):
         done = _invoke(line.replace("--store S", "--store demo/fleet.db").replace("[PATH ...]", ""))
         assert done.exit_code == 0, done.output
-    # The store's tables are the README's table of them.
+    # The store's tables are the manual's table of them.
     with sqlite3.connect("demo/fleet.db") as connection:
         tables = {
             row[0]
             for row in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")
         }
         (version,) = connection.execute("SELECT version FROM schema_version").fetchone()
-    store = TEXT.split("### The store (SQLite)", 1)[1].split("\n#", 1)[0]
+    store = _section(MANUAL, "## The store (SQLite)")
     assert tables == set(re.findall(r"^\| `(\w+)` \|", store, flags=re.MULTILINE))
     assert f"the schema version ({version};" in store
     # `axiswatch rebaseline --store S --robot R --axis A`
@@ -464,7 +588,7 @@ def test_rejections_commands() -> None:
 
 def test_the_own_robot_profile_reads_as_described(tmp_path: Path) -> None:
     """The TOML of "Monitor your own robot", step 2, through tomllib and AxisProfile."""
-    section = TEXT.split("## Monitor your own robot", 1)[1]
+    section = _section(MANUAL, OWN_ROBOT)
     (toml,) = re.findall(r'write_text\(\n    """(.*?)"""', section, flags=re.DOTALL)
     data = tomllib.loads(toml)
     assert data["units"] == {"time": "ms", "position": "deg"}
@@ -503,7 +627,8 @@ def test_fleet_layout_example() -> None:
 
 def test_layout_names_existing_modules() -> None:
     body = _block("test_layout_names_existing_modules")
-    product = [ROOT / "src" / "axiswatch" / part for part in ("", "monitor", "datasets")]
+    parts = ("", "indicators", "paper", "monitor", "datasets")
+    product = [ROOT / "src" / "axiswatch" / part for part in parts]
     modules = {p.stem for folder in product for p in folder.glob("_*.py")} - {
         "__init__",
         "__main__",

@@ -1,4 +1,4 @@
-"""README "Monitor your own robot": its code blocks run as written, in order."""
+"""The monitor manual's "Monitor your own robot": its code blocks run as written, in order."""
 
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ from pathlib import Path
 import pytest
 from threadpoolctl import threadpool_limits
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+MANUAL = Path(__file__).resolve().parents[1] / "docs" / "monitor.md"
 
 
 def _blocks() -> list[str]:
-    text = README.read_text(encoding="utf-8")
+    text = MANUAL.read_text(encoding="utf-8")
     section = text.split("## Monitor your own robot", 1)[1].split("\n## ", 1)[0]
     return re.findall(r"```python\n(.*?)```", section, flags=re.DOTALL)
 
@@ -26,6 +26,6 @@ def test_readme_example_runs_as_written(tmp_path: Path, monkeypatch: pytest.Monk
     namespace: dict[str, object] = {"__name__": "readme"}
     with threadpool_limits(1):
         for block in _blocks():
-            exec(compile(block, str(README), "exec"), namespace)
+            exec(compile(block, str(MANUAL), "exec"), namespace)
     assert (tmp_path / "fleet" / "cell4" / "J2" / "2026-01-08.csv").is_file()
     assert not list((tmp_path / "fleet").rglob("*.tmp"))

@@ -47,3 +47,18 @@ def test_slow_twin_every_file_is_counted_once() -> None:
         expected[reason] = expected.get(reason, 0) + 1
     assert counted == expected
     assert [line.partition(": ")[2] for line in folded] == list(expected)  # first-seen order
+
+
+def test_reasons_that_differ_only_in_numbers_are_one_reason() -> None:
+    # Unix milliseconds read as seconds: each file's line names its own first stamp, so a first
+    # run of a year of captures printed about a hundred lines for one cause.
+    lines = [
+        "r/a/d1.csv: column 'time' starts at 1.767e+12 s; are the stamps in ms?",
+        "r/a/d2.csv: column 'time' starts at 1.768e+12 s; are the stamps in ms?",
+        "r/a/d3.csv: empty file",
+    ]
+    assert fold_same_reason(lines) == [
+        "r/a/d1.csv (and 1 more capture files with this reason, numbers aside): column 'time' "
+        "starts at 1.767e+12 s; are the stamps in ms?",
+        "r/a/d3.csv: empty file",
+    ]

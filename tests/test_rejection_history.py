@@ -19,7 +19,7 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._report import write_report
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
-from axiswatch.monitor._store import Rejection, Store, now
+from axiswatch.monitor.store import Rejection, Store, now
 from tests.conftest import settle
 from tests.test_store_contract import BACKENDS
 

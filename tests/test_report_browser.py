@@ -22,19 +22,16 @@ from tests import _cli
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 
-#: Ground truth of the demo (README, "What the demo shows"): the simulator's faulty axes, and
-#: the parts an indicator of the default method may name for their fault (a friction rise raises
-#: the friction and the drive-load readings; the bearing is the one named in the demo's profile).
-FAULTY = {
-    "robot02/axis1": ("bearing motor_inner_race",),
-    "robot03/axis2": ("friction", "drive load"),
-}
-#: A healthy axis the default calls over its threshold at the demo's last capture (README, "What
-#: the demo shows": robot02/axis2, Coulomb friction 1.25 x its task-change allowance on 03-30).
-#: Since i17a the fleet prior reads every pair of axes both ways and does not depend on the order
-#: of the robot folders; read one way (main a3707e2) the demo listed it in 3 of the 6 orders of
-#: its robot folders, not in the order they have.
-FALSE_ALARMS = {"robot02/axis2": ("friction",)}
+#: Ground truth of the demo (docs/monitor.md, "What the demo shows"): the simulator's faulty
+#: axes, and words their verdict's fault must hold (the bearing is the demo profile's).
+FAULTY = {"robot02/axis1": "bearing", "robot03/axis2": "friction"}
+#: What the first screen must not show: indicator code names and statistics terms.
+CODE_OR_STATISTICS = re.compile(
+    r"coulomb_friction|viscous_friction|load_forward|load_backward|impulsiveness|gap_ringing|"
+    r"bearing_lines|tooth_lines|order_lines|reversal_bursts|spread|half-Laplace|percentile|"
+    r"\bpct\b|allowance",
+    re.IGNORECASE,
+)
 
 
 def _chromium() -> str:
@@ -76,22 +73,28 @@ def test_console_errors_are_seen(tmp_path: Path) -> None:
 
 
 class _FirstScreen(HTMLParser):
-    """The items of the attention list, and every chart ``<div>`` and whether Plotly drew it."""
+    """The items of the attention list in order, their kinds and states, every chart ``<div>``
+    and whether Plotly drew it, and the page's visible text (set by :func:`_probe`)."""
 
     def __init__(self) -> None:
         super().__init__()
         self.items: dict[str, str] = {}
         self.kinds: dict[str, str] = {}
+        self.states: dict[str, str] = {}
         self.charts: dict[str, bool] = {}
+        self.visible = ""
         self._item: str | None = None
         self._depth = 0
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         found = dict(attrs)
+        if tag == "html":
+            self.visible = str(found.get("data-visible-text") or "")
         if tag == "li" and found.get("data-axis"):
             self._item = str(found["data-axis"])
             self.items[self._item] = ""
             self.kinds[self._item] = str(found.get("data-kind"))
+            self.states[self._item] = str(found.get("data-state"))
             self._depth = 0
         elif self._item is not None and tag == "li":
             self._depth += 1
@@ -111,6 +114,18 @@ class _FirstScreen(HTMLParser):
             self.items[self._item] += data
 
 
+def _probe(page: Path, folder: Path) -> Path:
+    """A copy of ``page`` that keeps, once loaded, the text a reader sees (``innerText``:
+    nothing folded, no script) on its ``<html>`` element, where ``--dump-dom`` shows it."""
+    probe = folder / "probe.html"
+    script = (
+        "<script>window.addEventListener('load', function () { document.documentElement"
+        ".setAttribute('data-visible-text', document.body.innerText); });</script>"
+    )
+    probe.write_text(page.read_text(encoding="utf-8").replace("</body>", script + "</body>"))
+    return probe
+
+
 @pytest.fixture(scope="module")
 def demo_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     _chromium()  # skip before the half-minute demo when there is no browser
@@ -126,20 +141,40 @@ def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: 
     # Nothing is fetched: no script, style or image from elsewhere.
     assert not re.search(r"""<(script|link|img)[^>]+(src|href)\s*=""", page)
 
-    loaded = _browse("--virtual-time-budget=10000", "--dump-dom", demo_report.as_uri())
+    probe = _probe(demo_report, demo_report.parent.parent)
+    loaded = _browse(
+        "--virtual-time-budget=10000", "--window-size=1366,900", "--dump-dom", probe.as_uri()
+    )
     assert loaded.returncode == 0, loaded.stderr[-2000:]
     assert _console(loaded) == []
 
     screen = _FirstScreen()
     screen.feed(loaded.stdout)
-    assert set(screen.items) == set(FAULTY) | set(FALSE_ALARMS), screen.items
-    for axis, components in {**FAULTY, **FALSE_ALARMS}.items():
-        line = screen.items[axis]
-        assert screen.kinds[axis] == "alarm", (axis, screen.kinds[axis])
-        # The indicator that moved, the part it watches, and by how much.
-        assert any(f"({component}) " in line for component in components), line
-        assert "spreads from its baseline" in line, line
-        assert "since 2026-03-" in line, line
+    # The two faulty axes first, each to act on now: the fault and the part in words, an action.
+    order = list(screen.items)
+    assert set(order[:2]) == set(FAULTY), screen.states
+    for axis, fault in FAULTY.items():
+        text = " ".join(screen.items[axis].split())
+        assert screen.states[axis] == "act now", (axis, screen.states[axis])
+        headline = text.split(" What to do: ")[0]
+        assert fault in headline.lower(), text
+        assert "Suspected: " in headline, text
+        for said in ("What to do: ", "Over the alarm level since 2026-03-", "How sure: "):
+            assert said in text, (said, text)
+        assert "confirmed by" in text, text
+    # Below them, any excursion of a healthy axis is marked unconfirmed, never "act now".
+    for axis in order[2:]:
+        assert screen.states[axis] != "act now", (axis, screen.states[axis])
+        if screen.kinds[axis] == "alarm":
+            assert screen.states[axis] == "watch, unconfirmed", (axis, screen.states[axis])
+            assert "unconfirmed until the next capture" in screen.items[axis]
+    # The demo's healthy robot02/axis2 is over its alarm level on its last capture only.
+    assert screen.states.get("robot02/axis2") == "watch, unconfirmed", screen.states
+    # What a reader sees first holds no code name and no statistics term.
+    first = screen.visible[:1500]
+    assert "Needs attention now (3)" in first, first
+    assert "robot02/axis2" in first, first
+    assert not CODE_OR_STATISTICS.search(first), CODE_OR_STATISTICS.search(first)
     # Every axis has its lead chart and the paper's methods chart, each drawn by Plotly.
     assert len(screen.charts) == 12, sorted(screen.charts)
     assert all(screen.charts.values()), screen.charts
@@ -148,7 +183,7 @@ def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: 
     shot = ARTIFACTS / "report_first_screen.png"
     shot.unlink(missing_ok=True)
     taken = _browse(
-        "--virtual-time-budget=10000", "--window-size=1280,1400", f"--screenshot={shot}",
+        "--virtual-time-budget=10000", "--window-size=1366,900", f"--screenshot={shot}",
         demo_report.as_uri(),
     )  # fmt: skip
     assert taken.returncode == 0, taken.stderr[-2000:]
@@ -158,15 +193,16 @@ def test_demo_first_screen_names_the_faulty_axes_and_charts_render(demo_report: 
 
 @pytest.mark.slow
 def test_readme_quotes_the_demo(demo_report: Path) -> None:
-    """README.md quotes the demo's stored reasons ("The store") and the alarm line `monitor`
-    prints ("Rejected captures and exit status"): they are what the demo gives."""
+    """The monitor manual quotes the demo's stored reasons ("The store") and the verdict
+    `monitor` prints ("Rejected captures and exit status"): they are what the demo gives."""
     from typer.testing import CliRunner
 
     from axiswatch.cli import app
     from axiswatch.monitor._results import fleet_results
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
 
-    readme = " ".join((ARTIFACTS.parent / "README.md").read_text(encoding="utf-8").split())
+    manual = ARTIFACTS.parent / "docs" / "monitor.md"
+    readme = " ".join(manual.read_text(encoding="utf-8").split())
     out = demo_report.parent.parent
     with Store(out / "fleet.db", read_only=True) as store:
         reasons = fleet_results(store)["reason"].dropna().tolist()
@@ -174,13 +210,13 @@ def test_readme_quotes_the_demo(demo_report: Path) -> None:
     assert len(quoted) == 2
     for reason in quoted:
         assert any(r.startswith(reason.removesuffix(" ...")) for r in reasons), reason
-    (line,) = re.findall(r"`(robot02/axis1: ALARM since [^`]*)`", readme)
+    (verdict,) = re.findall(r"`(ACT NOW robot02/axis1 [^`]*)`", readme)
     shown = CliRunner().invoke(
         app,
         ["monitor", str(out / "fleet"), "--store", str(out / "fleet.db"), "--settle", "0"],
     )
     assert shown.exit_code == 4, shown.output
-    assert f"  {line}\n" in shown.output
+    assert verdict in " ".join(shown.output.split())
 
 
 def test_an_acknowledged_rejection_leaves_the_first_screen(
@@ -189,7 +225,7 @@ def test_an_acknowledged_rejection_leaves_the_first_screen(
     # Before: the page read no acknowledgement of a rejection and listed both acknowledged
     # axes (robot01/axis1, the misnamed folder robot 2/) as bad data.
     from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._store import Store
+    from axiswatch.monitor.store import Store
     from tests.test_report import acknowledged_rejections
 
     _chromium()

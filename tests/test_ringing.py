@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from axiswatch._readings import Motion, motion, read_indicators
-from axiswatch._ringing import (
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._readings import Motion, motion, read_indicators
+from axiswatch.indicators._ringing import (
     CROSSING_HYSTERESIS,
     MIN_RINGING_RATE_HZ,
     gap_crossings,
     gap_ringing,
     sign_passages,
 )
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
 from tests import naive
 
 #: The reading's two option sets: every sign change against the motion's level, and the

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor._store import SCHEMA_VERSION, SQLiteStore, Store
+from axiswatch.monitor.store import SCHEMA_VERSION, SQLiteStore, Store
 
 
 def _query(path: Path, sql: str) -> list[tuple[object, ...]]:

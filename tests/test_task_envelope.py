@@ -11,25 +11,27 @@ import pytest
 
 import axiswatch as aw
 from axiswatch._calibration import alarm_threshold
-from axiswatch._indicator_model import (
-    TASK_ENVELOPE_FACTOR,
-    IndicatorModel,
-    pool_fleet,
-    task_envelope,
-)
-from axiswatch._readings import motion, read_indicators, signature_distance, task_signature
 from axiswatch.datasets import Fault, draw_robot
-from axiswatch.monitor import MonitorConfig
-from axiswatch.monitor._indicators import (
+from axiswatch.indicators._axis import (
     assess_capture,
     fit_indicator_baseline,
     read_axis_indicators,
     threshold_units,
     with_fleet,
 )
+from axiswatch.indicators._fleet import pool_fleet
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import (
+    motion,
+    read_indicators,
+    signature_distance,
+    task_signature,
+)
+from axiswatch.indicators._spreads import TASK_ENVELOPE_FACTOR, task_envelope
+from axiswatch.monitor import MonitorConfig
 from tests import naive
 
-#: A development robot of the family (docs/evaluation.md, "Transfer"): a 50 Hz wrist axis.
+#: A development robot of the family (lab/docs/decision-log.md, "Transfer"): a 50 Hz wrist axis.
 ROBOT_SEED = 4
 SAME = "same task as the baseline: own spreads"
 
@@ -201,9 +203,9 @@ def test_the_envelope_is_off_by_default(fleet: list[IndicatorModel]) -> None:
 
 
 def test_the_monitor_takes_the_envelope_for_the_indicators_method_only() -> None:
-    assert MonitorConfig(method="indicators").indicator_model().task_envelope_factor is None
+    assert MonitorConfig(method="indicators").model().model.task_envelope_factor is None
     config = MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
-    assert config.indicator_model().task_envelope_factor == TASK_ENVELOPE_FACTOR
+    assert config.model().model.task_envelope_factor == TASK_ENVELOPE_FACTOR
     assert config.params()["task_envelope"] == TASK_ENVELOPE_FACTOR
     assert "task_envelope" not in MonitorConfig(method="indicators").params()
     with pytest.raises(ValueError, match="'task_envelope' parameter must be None or a float > 0"):

@@ -20,13 +20,11 @@ import pytest
 from typer.testing import CliRunner
 
 import axiswatch as aw
-from axiswatch._indicator_model import (
-    IndicatorModel,
-    pool_fleet,
-    pool_fleet_without,
-    reference_errors,
-)
-from axiswatch._readings import (
+from axiswatch.cli import app
+from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._fleet import pool_fleet, pool_fleet_without
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import (
     FRICTION,
     MOVING_FRACTION,
     Readings,
@@ -34,8 +32,7 @@ from axiswatch._readings import (
     read_indicators,
     whole_move_mask,
 )
-from axiswatch.cli import app
-from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
+from axiswatch.indicators._spreads import reference_errors
 from axiswatch.monitor import MonitorConfig, SQLiteStore, _persist
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model
@@ -452,7 +449,7 @@ def test_the_monitor_option_reaches_the_model_and_the_command_is_the_librarys(
 ) -> None:
     on = _scores(task_change_fleet, MonitorConfig(whole_moves=True))
     off = _scores(task_change_fleet, MonitorConfig())
-    assert MonitorConfig(whole_moves=True).indicator_model().whole_moves
+    assert MonitorConfig(whole_moves=True).model().model.whole_moves
     assert MonitorConfig(whole_moves=True).params()["whole_moves"] is True
     assert "whole_moves" not in MonitorConfig().params()  # earlier stores still match
     # The option changes what is scored: the loads of robot 4 move with the capture's phase.

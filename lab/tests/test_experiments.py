@@ -125,7 +125,7 @@ def test_robot_b_paper_features_barely_see_a_growing_bearing_fault() -> None:
 
 def test_robot_a_default_raises_no_false_alarm_through_task_changes() -> None:
     # Reduced Robot A (48 days, the four tasks, changes on days 15, 27, 38), the product default
-    # only; the full 190-day run also gives 0 (docs/evaluation.md).
+    # only; the full 190-day run also gives 0 (lab/docs/decision-log.md).
     table = robot_a(n_days=48, task_change_days=(15, 27, 38), methods={})
     summary = alarm_summary(table).set_index("method").loc["mechanics"]
     assert summary.n_days == 42

@@ -1,4 +1,4 @@
-"""Reduced paired evaluation, asserting what the fuller runs measured (docs/evaluation.md)."""
+"""Reduced paired evaluation, asserting what the fuller runs measured (lab/docs/decision-log.md)."""
 
 from __future__ import annotations
 

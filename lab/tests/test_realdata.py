@@ -1,6 +1,6 @@
 """Reduced real-data experiments (skipped when ../shared/data is absent), and the protocol's errors.
 
-The margins come from the full runs reported in docs/evaluation.md; the reduced runs keep the
+The margins come from the full runs reported in lab/docs/decision-log.md; the reduced runs keep the
 baseline condition's recording, one other load and few methods so they take seconds.
 """
 

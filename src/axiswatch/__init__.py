@@ -1,11 +1,8 @@
 """axiswatch: predictive maintenance of robot axes that does not cry wolf when the task changes.
 
-The library: a capture of one axis (position, speed, torque) becomes features (the paper's |STFT|,
-or the product default's physical indicators, :class:`IndicatorModel`); a detector compares them
-with a healthy baseline (PCA subspace distance, the paper's Low Rank Alignment, or indicator
-spreads); a half-Laplace fit of healthy distances gives the alarm threshold. The fleet service is
-:mod:`axiswatch.monitor`, simulators and recorded-data readers are :mod:`axiswatch.datasets`; the
-research experiments are a separate distribution in ``lab/``.
+A model is fitted on a healthy baseline of one axis and assesses each new capture: distance,
+threshold, alarm and reason. The default is :class:`IndicatorModel`, the paper's method
+:class:`HealthModel`. :mod:`axiswatch.monitor` runs a fleet, :mod:`axiswatch.datasets` has data.
 
 >>> import axiswatch as aw
 >>> from axiswatch.datasets import simulate_capture
@@ -17,70 +14,120 @@ research experiments are a separate distribution in ``lab/``.
 True
 """
 
-from axiswatch._alignment import (
-    low_rank_basis,
-    lra_embedding,
-)
-from axiswatch._attribution import (
-    attribute,
-)
-from axiswatch._calibration import (
-    HalfLaplaceFit,
-    Threshold,
-    alarm_threshold,
-    fit_half_laplace,
-    half_laplace_threshold,
-)
-from axiswatch._capture import (
-    DEFAULT_SIGNALS,
-    Capture,
-    as_capture,
-    read_capture,
-    write_capture,
-)
-from axiswatch._detectors import (
-    BaselineDetector,
-    IndicatorDetector,
-    LRADetector,
-    PCADetector,
-)
-from axiswatch._features import (
-    Features,
-    FeatureSpec,
-    extract_features,
-    stft_features,
-)
-from axiswatch._formats import (
-    register_format,
-)
-from axiswatch._indicator_model import IndicatorModel
-from axiswatch._model import (
-    Assessment,
-    HealthModel,
-)
-from axiswatch._preprocessing import (
-    align_phase,
-    phase_lag,
-    resample_capture,
-    upsample_pchip,
-)
-from axiswatch._profiles import AxisProfile
-from axiswatch._stages import (
-    FeatureStage,
-    StftStage,
-)
-from axiswatch.exceptions import (
-    AxiswatchError,
-    CalibrationError,
-    CaptureError,
-    DataNotFoundError,
-    StoreError,
-)
-from axiswatch.monitor import (
-    MonitorConfig,
-    Store,
-    monitor_fleet,
-)
+from importlib import import_module as _import_module
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
+
+if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
+    from axiswatch._axis_model import Assessment
+    from axiswatch._calibration import (
+        HalfLaplaceFit,
+        Threshold,
+        alarm_threshold,
+        fit_half_laplace,
+        half_laplace_threshold,
+    )
+    from axiswatch._capture import (
+        DEFAULT_SIGNALS,
+        Capture,
+        as_capture,
+        read_capture,
+        write_capture,
+    )
+    from axiswatch._formats import (
+        register_format,
+    )
+    from axiswatch._profiles import AxisProfile
+    from axiswatch.exceptions import (
+        AxiswatchError,
+        CalibrationError,
+        CaptureError,
+        DataNotFoundError,
+        StoreError,
+    )
+    from axiswatch.indicators import INDICATORS
+    from axiswatch.indicators._model import IndicatorModel
+    from axiswatch.monitor import (
+        MonitorConfig,
+        Store,
+        monitor_fleet,
+    )
+    from axiswatch.paper._alignment import (
+        low_rank_basis,
+        lra_embedding,
+    )
+    from axiswatch.paper._attribution import (
+        attribute,
+    )
+    from axiswatch.paper._detectors import (
+        BaselineDetector,
+        IndicatorDetector,
+        LRADetector,
+        PCADetector,
+    )
+    from axiswatch.paper._features import (
+        Features,
+        FeatureSpec,
+        extract_features,
+        stft_features,
+    )
+    from axiswatch.paper._model import HealthModel
+    from axiswatch.paper._preprocessing import (
+        align_phase,
+        phase_lag,
+        resample_capture,
+        upsample_pchip,
+    )
+    from axiswatch.paper._stages import (
+        FeatureStage,
+        StftStage,
+    )
+
+#: Public name -> the module it is imported from, on first use (PEP 562): ``import axiswatch``
+#: stays light, and a command imports SciPy, scikit-learn or pandas only when it needs them.
+_EXPORTS: dict[str, str] = {
+    "Assessment": "axiswatch._axis_model",
+    "AxisProfile": "axiswatch._profiles",
+    "AxiswatchError": "axiswatch.exceptions",
+    "BaselineDetector": "axiswatch.paper._detectors",
+    "CalibrationError": "axiswatch.exceptions",
+    "Capture": "axiswatch._capture",
+    "CaptureError": "axiswatch.exceptions",
+    "DEFAULT_SIGNALS": "axiswatch._capture",
+    "DataNotFoundError": "axiswatch.exceptions",
+    "FeatureSpec": "axiswatch.paper._features",
+    "FeatureStage": "axiswatch.paper._stages",
+    "Features": "axiswatch.paper._features",
+    "HalfLaplaceFit": "axiswatch._calibration",
+    "HealthModel": "axiswatch.paper._model",
+    "INDICATORS": "axiswatch.indicators",
+    "IndicatorDetector": "axiswatch.paper._detectors",
+    "IndicatorModel": "axiswatch.indicators._model",
+    "LRADetector": "axiswatch.paper._detectors",
+    "MonitorConfig": "axiswatch.monitor",
+    "PCADetector": "axiswatch.paper._detectors",
+    "StftStage": "axiswatch.paper._stages",
+    "Store": "axiswatch.monitor",
+    "StoreError": "axiswatch.exceptions",
+    "Threshold": "axiswatch._calibration",
+    "alarm_threshold": "axiswatch._calibration",
+    "align_phase": "axiswatch.paper._preprocessing",
+    "as_capture": "axiswatch._capture",
+    "attribute": "axiswatch.paper._attribution",
+    "extract_features": "axiswatch.paper._features",
+    "fit_half_laplace": "axiswatch._calibration",
+    "half_laplace_threshold": "axiswatch._calibration",
+    "low_rank_basis": "axiswatch.paper._alignment",
+    "lra_embedding": "axiswatch.paper._alignment",
+    "monitor_fleet": "axiswatch.monitor",
+    "phase_lag": "axiswatch.paper._preprocessing",
+    "read_capture": "axiswatch._capture",
+    "register_format": "axiswatch._formats",
+    "resample_capture": "axiswatch.paper._preprocessing",
+    "stft_features": "axiswatch.paper._features",
+    "upsample_pchip": "axiswatch.paper._preprocessing",
+    "write_capture": "axiswatch._capture",
+}
 
 __version__ = "0.1.0"
 
@@ -99,6 +146,7 @@ __all__ = [
     "Features",
     "HalfLaplaceFit",
     "HealthModel",
+    "INDICATORS",
     "IndicatorDetector",
     "IndicatorModel",
     "LRADetector",
@@ -128,10 +176,25 @@ __all__ = [
 ]
 
 
-# Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private module);
-# pickles then refer to it too, which every class listed here can be loaded from.
-for _name in __all__:
-    _public = globals()[_name]
-    if isinstance(_public, type) and _public.__module__.startswith(f"{__name__}._"):
-        _public.__module__ = __name__
-del _name, _public
+#: Subpackages reachable as attributes (``axiswatch.monitor.Store``) before they are imported.
+_SUBPACKAGES: tuple[str, ...] = ("datasets", "exceptions", "indicators", "monitor", "paper")
+
+
+def __getattr__(name: str) -> _Any:
+    """Import a public name's module on first use and keep the name here."""
+    if name in _SUBPACKAGES:
+        return _import_module(f"{__name__}.{name}")
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_import_module(_EXPORTS[name]), name)
+    # Reprs and tracebacks show the public path (``axiswatch.HealthModel``, not the private
+    # module); pickles then refer to it too, which every class listed here can be loaded from.
+    library = tuple(f"{__name__}.{part}" for part in ("_", "indicators.", "paper."))
+    if isinstance(value, type) and value.__module__.startswith(library):
+        value.__module__ = __name__
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

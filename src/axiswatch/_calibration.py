@@ -1,12 +1,8 @@
 """Alarm threshold from healthy distances: a half-Laplace fit (paper, end of "Proposed Method").
 
-The paper models the distance of healthy captures by the positive half of a
-Laplace distribution with location 0. That is the exponential distribution, whose maximum
-likelihood scale is the mean distance; a threshold at percentile ``q`` is ``-b log(1 - q/100)``.
-
-:func:`alarm_threshold` is the one rule every user of a threshold applies (the health model, the
-monitor and every study): the percentile of the fit, raised to a floor where one is given (what
-healthy task changes do to the distance, which same-task calibration captures cannot show).
+A half-Laplace at location 0 is an exponential with scale ``b``, the mean distance. The
+threshold at percentile ``q`` is ``-b log(1 - q/100)``, raised to a floor where one is given.
+:func:`alarm_threshold` is the one rule every user of a threshold applies.
 """
 
 from __future__ import annotations

@@ -1,16 +1,7 @@
 """Capture file formats: one registry from file suffix to reader and writer.
 
-Every format reads a file into the project's table form, and writes that form back: a
-:class:`pandas.DataFrame` with column ``time`` (seconds, strictly increasing) and one column per
-signal, blank (NaN) where a slower signal has no sample, plus the capture's metadata (a mapping of
-str to str). :func:`~axiswatch.read_capture` validates the table whatever file it came from, so a
-new format is a reader and a writer registered with :func:`register_format`; the fleet monitor
-finds captures by the registered suffixes (:func:`capture_suffixes`).
-
-Built in: ``.parquet`` (metadata as JSON under the schema key ``axiswatch``), ``.csv`` (no
-metadata) and ``.npz`` (the recorded-data layout of :mod:`axiswatch.datasets`: arrays
-``signals`` ``[n_channels, n_samples]``, ``channels``, ``fs`` in Hz or NaN when unknown, and an
-optional JSON ``meta``; every channel at one rate, the start time not kept).
+Built in: ``.parquet``, ``.csv`` and ``.npz``. A new format is a reader and a writer registered
+with :func:`register_format`. The table form: docs/internals.md, "Capture formats".
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
-"""Figures of the library (matplotlib imported lazily): a distance trend with its threshold.
+"""Figures of the library: a distance trend with its threshold.
 
-Used by :mod:`axiswatch.monitor._report`; the research figures are in ``axiswatch_lab._plots``.
-Importing this module does not import matplotlib. Each function takes its table and an optional
-``ax`` (or axes); without one it draws on a new :class:`matplotlib.figure.Figure` of its own, made
-without pyplot, so no backend is chosen or switched for the user and nothing is shown.
+Matplotlib is imported lazily. Each function takes an optional ``ax``. Without one it draws on
+its own figure, made without pyplot, so no backend is chosen or switched.
 """
 
 from __future__ import annotations

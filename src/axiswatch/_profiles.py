@@ -1,31 +1,7 @@
-"""AxisProfile: what the library must know about an axis that its capture files do not say.
+"""AxisProfile: what the library must know about an axis that its files do not say.
 
-Pipeline stage 0b (issue 13). Every field is optional: a profile maps a controller's column names
-to the roles ``time``, ``position``, ``speed`` and ``torque``, declares units (time stamps in
-``s``, ``ms``, ``us`` or ``ns``, relative or absolute such as Unix time; position in ``rad``,
-``deg``, ``rev``, ``m``, ``mm`` or raw encoder ``counts`` with ``counts_per_revolution``, speed in
-the same unit per second; the torque is read as
-given, it may be a current) and the axis's kinematics (gear ratio, the gear stages whose teeth
-and the bearings whose races the indicators watch). It is a TOML file::
-
-    name = "cobot-j2"                 # axes of one name are pooled as a fleet
-    [columns]                         # file column -> role
-    "Timestamp" = "time"
-    "J2_ActPos" = "position"
-    "J2_Current" = "torque"
-    [units]
-    time = "ms"
-    position = "deg"
-    [kinematics]
-    gear_ratio = 101.0                # motor turns per turn of the position
-    [kinematics.gear_stages]          # motor turns per turn of a watched gear
-    output = 5.0
-    [kinematics.bearing_orders]       # defect frequency in orders of the motor speed
-    motor_inner_race = 5.43
-
-Fleet lookup (:func:`find_profile`): ``ROOT/<robot>/<axis>/axis.toml``, then
-``ROOT/<robot>/robot.toml``, then ``ROOT/axiswatch.toml``; the first that exists is the axis's
-profile (no merging: a file says all there is to say about the axes it covers).
+Column names, units and kinematics, from a TOML file. Every field is optional. The monitor
+manual's "Monitor your own robot" shows one. The full form: docs/internals.md, "Axis profiles".
 """
 
 from __future__ import annotations
@@ -41,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._capture import (
+from axiswatch._timebase import (
     check_increasing,
     check_stamp_unit,
     date_stamps,
@@ -181,7 +157,7 @@ class AxisProfile:
         ``position_unit="counts"`` and only then.
     resample_irregular : bool, default=False
         Put irregularly stamped rows (a PLC logging every 39-55 ms) on a uniform grid at their
-        step (:func:`~axiswatch._capture.sampling_period`), by linear interpolation, instead of
+        step (:func:`~axiswatch._timebase.sampling_period`), by linear interpolation, instead of
         rejecting the file.
     gear_ratio : float, optional
         Motor turns per turn of the position; enables the kinematic lines.
@@ -437,7 +413,7 @@ class AxisProfile:
         """The file's table in the project's format: roles as column names, time in seconds from
         the first stamp, position in rad (or m) and speed per second; with
         ``resample_irregular``, on a uniform grid every ``step_s`` seconds (default: the rows'
-        own :func:`~axiswatch._capture.sampling_period`)."""
+        own :func:`~axiswatch._timebase.sampling_period`)."""
         renamed = frame.rename(columns={c: self.role_of(str(c)) for c in frame.columns})
         duplicated = renamed.columns[renamed.columns.duplicated()].tolist()
         if duplicated:

@@ -1,6 +1,6 @@
 """Distribution detectors, and domain-adaptation baselines from skada, behind the detector interface.
 
-Pipeline stage 4 (beside :mod:`axiswatch._detectors`). Three detectors, each a
+Pipeline stage 4 (beside :mod:`axiswatch.paper._detectors`). Three detectors, each a
 :class:`~axiswatch.BaselineDetector` (``fit(X_baseline)``, ``distance(X_test)``):
 
 * :class:`EnergyDetector` (this project's change to the paper's PCA distance): the *energy

@@ -32,9 +32,10 @@ from axiswatch import (
 from axiswatch.exceptions import CaptureError
 from axiswatch_lab._product import (
     BEARING_OFFSETS,
+    WHOLE_ORDERS,
+    _NuisanceFree,
     bearing_orders,
     butter_sos,
-    line_ratio,
     pearson_kurtosis,
     running_rms,
     whole_samples,
@@ -138,7 +139,7 @@ def viscous_friction(
     The motor's work over the window is ``c_move * |dq| + F_v * integral(speed^2 dt)``; ``c_move``
     is free per move (Coulomb friction, gravity and payload), ``F_v`` is shared and returned.
     Gravity thus enters as its mean torque over the move; its variation along a long move is not
-    modelled and biases ``F_v`` somewhat (docs/evaluation.md).
+    modelled and biases ``F_v`` somewhat (lab/docs/decision-log.md).
 
     Parameters
     ----------
@@ -394,15 +395,15 @@ class MechanicsStage(FeatureStage):
             moving = (sign == direction) & (np.abs(speed) > self.moving_fraction * peak)
             if moving.sum() < 8 * (len(tooth) + 8):
                 continue
+            # One projection of the whole orders serves the tooth and the bearing lines.
+            free = _NuisanceFree(band[moving], angle[moving], WHOLE_ORDERS, None)
             rows[r] = [
                 viscous_friction(position, speed, torque, rate, direction=direction),
                 pearson_kurtosis(normalised[moving]),
                 _bursts(smooth, band, rate, (sign == direction) & (np.abs(speed) > 0.1 * peak)),
                 # Tooth orders are 1 / tooth_period_revs apart: the neighbours sit half-way.
-                line_ratio(band[moving], angle[moving], tooth, [0.5 / self.tooth_period_revs]),
-                line_ratio(
-                    band[moving], angle[moving], bearing_orders(self.bearing_order), BEARING_OFFSETS
-                ),
+                free.line_ratio(tooth, [0.5 / self.tooth_period_revs]),
+                free.line_ratio(bearing_orders(self.bearing_order), BEARING_OFFSETS),
             ]
         return rows
 
@@ -559,6 +560,7 @@ def register() -> None:
                 detector=_detector,
                 stage=_stage,
                 task_change_scale=MECHANICS_TASK_CHANGE_SCALE,
+                stores_indicators=True,
                 summary="the former default: physical indicators in scales measured on the "
                 "project's simulator (needs >= 600 Hz; kept for comparison)",
             ),

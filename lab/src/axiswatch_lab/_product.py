@@ -5,41 +5,27 @@ need its private helpers. Every such import goes through this module (an import 
 checks it), and a refactor of the product edits the lab here only.
 """
 
-import axiswatch._indicator_model as indicator_model
-from axiswatch._attribution import LIKELY_FAULTS, describe_top_indicator
-from axiswatch._indicator_model import (
-    MAD_TO_SD,
+import axiswatch.indicators._spreads as indicator_model
+from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._axis import fit_indicator_baseline, read_axis_indicators, with_fleet
+from axiswatch.indicators._fleet import (
     MIN_AXES,
     MIN_PAIRS,
-    MIN_READINGS,
-    ORDER_LINES,
-    TASK_ENVELOPE_FACTOR,
     FleetPrior,
-    IndicatorAssessment,
-    _centre_without,
-    _declared,
-    _distance,
     _task_change_scales,
-    _transformed,
     fleet_difference,
     fleet_pair_shifts,
-    leave_one_out_distances,
     own_pair_allowances,
     pool_fleet,
     pool_fleet_without,
 )
-from axiswatch._mechanics import (
-    BEARING_OFFSETS,
-    bearing_lines,
-    bearing_orders,
-    butter_sos,
-    line_ratio,
-    pearson_kurtosis,
-    running_rms,
-    whole_samples,
+from axiswatch.indicators._order_lines import (
+    CELLS_PER_DECADE,
+    OrderProfile,
+    OrderSpectrum,
+    order_spectrum,
 )
-from axiswatch._order_lines import CELLS_PER_DECADE, OrderProfile, OrderSpectrum, order_spectrum
-from axiswatch._readings import (
+from axiswatch.indicators._readings import (
     BAND_FRACTION,
     FRICTION,
     INDICATORS,
@@ -61,9 +47,32 @@ from axiswatch._readings import (
     signature_distance,
     whole_move_mask,
 )
-from axiswatch._ringing import CROSSING_HYSTERESIS, gap_ringing
-from axiswatch.monitor._indicators import fit_indicator_baseline, read_axis_indicators, with_fleet
+from axiswatch.indicators._ringing import CROSSING_HYSTERESIS, gap_ringing
+from axiswatch.indicators._signals import (
+    BEARING_OFFSETS,
+    WHOLE_ORDERS,
+    _NuisanceFree,
+    bearing_lines,
+    bearing_orders,
+    butter_sos,
+    line_ratio,
+    pearson_kurtosis,
+    running_rms,
+    whole_samples,
+)
+from axiswatch.indicators._spreads import (
+    MAD_TO_SD,
+    MIN_READINGS,
+    ORDER_LINES,
+    TASK_ENVELOPE_FACTOR,
+    _centre_without,
+    _declared,
+    _distance,
+    _transformed,
+    leave_one_out_distances,
+)
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
+from axiswatch.paper._attribution import LIKELY_FAULTS, describe_top_indicator
 
 __all__ = [
     "BAND_FRACTION",
@@ -85,6 +94,7 @@ __all__ = [
     "SIGNATURE_MOVING_QUANTILES",
     "SIGNATURE_POSITION_QUANTILES",
     "TASK_ENVELOPE_FACTOR",
+    "WHOLE_ORDERS",
     "FleetPrior",
     "Indicator",
     "IndicatorAssessment",
@@ -93,6 +103,7 @@ __all__ = [
     "OrderProfile",
     "OrderSpectrum",
     "Readings",
+    "_NuisanceFree",
     "_band",
     "_centre_without",
     "_declared",

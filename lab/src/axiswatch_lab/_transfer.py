@@ -1,4 +1,4 @@
-"""The transfer study (issue 13): does the indicator default hold on robots it was not tuned on?
+"""The transfer study: does the indicator default hold on robots it was not tuned on?
 
 Research code (``axiswatch experiment transfer``). Per simulated robot of
 :mod:`axiswatch._family` (the development robots while choosing, the held-out robots to report):

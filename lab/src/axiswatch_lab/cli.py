@@ -259,7 +259,7 @@ def experiment_transfer(
         ),
     ] = 0.0,
 ) -> None:
-    """Transfer study (issue 13): held-out simulated robots and the real data sets."""
+    """Transfer study: held-out simulated robots and the real data sets."""
     from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
     from axiswatch_lab._transfer import (
         FAST_DESIGN,
@@ -383,7 +383,7 @@ def experiment_ceiling(
         ),
     ] = 5,
 ) -> None:
-    """A supervised ceiling (issue 13): cross-validated classifiers, faulty vs healthy captures."""
+    """A supervised ceiling: cross-validated classifiers, faulty vs healthy captures."""
     from axiswatch_lab._transfer import TransferDesign
     from axiswatch_lab.studies.supervised_ceiling import ceiling_study, ceiling_summary
 

@@ -117,7 +117,7 @@ def test_with_fewer_than_three_others_the_mean_falls_back_to_the_fleet_with_itse
 
 def _two_noises(seed: int, friction: float, gravity: float) -> IndicatorModel:
     """The drive loads of :func:`_axis` alone, the forward load four times noisier than the
-    backward one (2.0 against 0.5), as the drive of robot 5 in docs/evaluation.md."""
+    backward one (2.0 against 0.5), as the drive of robot 5 in lab/docs/decision-log.md."""
     rng = np.random.default_rng(seed)
     read = []
     for _ in range(6):

@@ -1,15 +1,7 @@
 """A family of simulated robot axes: each robot draws its own mechanics, controller and logger.
 
-Data for the transfer study (issue 13): a method must be chosen on some robots and judged on
-others it was never tuned on. :func:`draw_robot` turns a seed into a :class:`SimulatedRobot`:
-an :class:`~axiswatch.AxisSpec` (gear ratio and stages, bearing geometry, friction law with
-Coulomb, viscous, Stribeck and temperature terms, stiffness and so resonance, gravity load of an
-arm or a wrist axis, controller gains, logging rates from 20 Hz to 4 kHz with the position as fast
-as the torque or slower, quantisation and noise), six tasks (minimum-jerk and constant-speed
-moves, payloads, and one task logged as one-direction strokes, as a triggered logger records a
-valve or a shuttle) and how its faults develop (a friction fault that is Coulomb-only,
-viscous-only or both). The seeds are split once, here, into :data:`DEVELOPMENT_ROBOTS` (every
-choice of a method is made on them) and :data:`HELD_OUT_ROBOTS` (only reported).
+:func:`draw_robot` turns a seed into a :class:`SimulatedRobot`. The seeds split once into
+:data:`DEVELOPMENT_ROBOTS` and :data:`HELD_OUT_ROBOTS`. See docs/internals.md, "The robot family".
 """
 
 from __future__ import annotations

@@ -1,24 +1,7 @@
-"""Synthetic data: the paper's lab-generated dataset.
+"""Synthetic data: the paper's lab-generated dataset (paper, "Lab Generated Dataset").
 
-Pipeline side-stage (data for experiments and demos). Paper, "Lab Generated Dataset":
-
-    O1: position = 2 sin(2 pi 9 n),  speed = 10 sin(2 pi 10 n),  torque = sin(2 pi 10 n) + 0.05 sin(2 pi 300 n)
-    O2: position = 2 sin(2 pi 4 n),  speed = 10 sin(2 pi 5 n),   torque = sin(2 pi 5 n)  + 0.05 sin(2 pi 300 n)
-    anomaly (day 4, samples 150..209): torque = sin(2 pi 10 n) + 0.3 sin(2 pi 100 n) + 0.3 sin(2 pi n)
-
-plus N(0, 1e-4) noise, 300 samples a day. The paper leaves three gaps, each a parameter here:
-
-* the time base of ``n``: with integer ``n`` every term is identically 0. ``n = k / sample_rate_hz``;
-  the default 300 Hz makes a day exactly one second, so every term holds whole cycles (the
-  "stationary" reading; the 300 Hz ripple then vanishes, being sampled at its own zeros). 2000 Hz
-  (the robots' rate; a day is 0.15 s and holds 1.35 position cycles) is the "literal" reading.
-* the 10th day: the listed sequence has 9 entries; the default repeats O1 (the robot stays on the
-  first operation), so the ten days are O1 O1 O1 A O1 O2 O2 O2 O1 O1.
-* the phase at which each day starts: by default every day restarts at ``n = 0``;
-  ``continuous_time=True`` lets time run on across days.
-
-The noise is a standard deviation of 1e-4 as the paper's text says (``N(0, 1e-4)`` could also be
-read as a variance: pass ``noise_std=1e-2``).
+The paper leaves three gaps: the time base, the 10th day, each day's phase. Each is a
+parameter here. docs/paper-notes.md gives the choices and what they change.
 """
 
 from __future__ import annotations

@@ -1,19 +1,7 @@
 """Recorded datasets: folders of ``.npz`` recordings cut into capture-sized segments.
 
-Pipeline stage 0 (beside :mod:`axiswatch._capture`). A dataset folder holds
-
-* ``index.csv``: one row per recording (``recording_id``, ``condition_id``, ``health``, ...);
-* one ``<recording_id>.npz`` per recording with ``signals`` (float, ``[n_channels, n_samples]``),
-  ``channels`` (names), ``fs`` (Hz; NaN when the source does not state it), optionally ``units``
-  and ``meta`` (a JSON object);
-* optionally ``days.csv``: segments ``day_id, recording_id, start, stop, condition_id, health,
-  role, expected_alarm`` (samples ``start`` to ``stop - 1`` of the recording). Without it every
-  recording is one segment.
-
-Any named channels at any rate are accepted. When ``fs`` is NaN (the gearbox rig, whose rate no
-source states) the recording is given :data:`NOMINAL_RATE_HZ` = 1 Hz: frequencies are then in
-cycles per sample, a *relative* Hz axis (0 to 0.5), and every file of such a dataset must share
-the unknown rate for features to be comparable (the gearbox's provenance says they do).
+A folder holds ``index.csv``, one ``.npz`` per recording and optionally ``days.csv``.
+docs/internals.md, "Recorded datasets", gives the layout and the nominal 1 Hz rate.
 """
 
 from __future__ import annotations

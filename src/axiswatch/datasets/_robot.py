@@ -1,34 +1,7 @@
 """A physically motivated simulator of one robot axis running pick-and-place tasks.
 
-Pipeline side-stage (data for the Robot A / Robot B experiments, the fleet demo and tests); the
-paper's robot data is confidential, so its figs. 3-4 are reproduced on this simulator.
-
-Model (all quantities referred to the link side of the gearbox; the motor angle is
-``GEAR_RATIO`` times the link-side motor angle ``q_m``):
-
-* motor: inertia ``J_m``, Coulomb + viscous friction ``F_c tanh(w_m / w_s) + F_v w_m``, a
-  gear-mesh torque ripple ``A sin(MESH_ORDER * motor angle)``;
-* gearbox: stiffness ``k`` and damping ``c`` with a backlash dead zone of half-width ``b``
-  between ``q_m`` and the link angle ``q_l`` (no torque is transmitted inside the gap);
-* link: inertia ``J_l`` plus the payload ``m_p L^2`` while it is carried, gravity
-  ``g (m_l l_c + m_p L) cos(q_l)``;
-* controller: PD on the motor encoder plus a feed-forward of the nominal (healthy, rigid) model
-  along a minimum-jerk pick-and-place reference.
-
-Measured: ``position`` (motor encoder, link side, rad) at 250 Hz; ``speed`` (rad/s) and
-``torque`` (the commanded motor torque, N m, link side) at 2 kHz; each with Gaussian sensor noise.
-Integration: semi-implicit Euler at 4 kHz (two steps per 2 kHz sample) after a 0.25 s warm-up,
-so a capture starts on a settled trajectory.
-
-Faults grow with a severity in [0, 1]:
-
-* ``backlash``: the gap's half-width grows from 0.3 mrad to 0.3 + 6 mrad;
-* ``friction``: motor-side Coulomb friction x (1 + 3 s) and viscous friction x (1 + 2 s);
-* ``tooth``: one damaged tooth of the intermediate gear (``TOOTH_STAGE_RATIO`` motor turns per
-  gear turn, ``TOOTH_COUNT`` teeth): a torque impact opposing the motion each time it meshes,
-  i.e. once per gear revolution;
-* ``bearing``: an inner-race defect of the motor bearing: impacts at ``BEARING_ORDER`` per motor
-  revolution, amplitude-modulated once per revolution as the defect passes the load zone.
+The paper's robot data is confidential, so its figs. 3-4 are reproduced on this simulator.
+docs/internals.md, "The simulated axis", gives the model, the sensors and the faults.
 """
 
 from __future__ import annotations

@@ -1,49 +1,71 @@
 """The fleet service: monitor a folder of capture files, remember every score, raise alarms.
 
-``monitor_fleet(root, store, config)`` discovers ``ROOT/<robot>/<axis>/<capture>`` files, fits each
-axis's baseline, calibrates its threshold, scores new captures and records the results in a
-store; ``fleet_summary``, ``fleet_results`` and ``write_report`` read them back.
-
-A store is any :class:`StoreBackend` (the protocol, in domain words); ``Store(path)`` opens the
-product's, :class:`SQLiteStore`. A method of the monitor is a :class:`MethodPreset` registered by
-name (:func:`register_method`; built in: ``indicators``, the default, ``lra`` and ``pca``).
+:func:`monitor_fleet` scores new captures into a store. :func:`fleet_summary`,
+:func:`fleet_results` and :func:`write_report` read them back. docs/monitor.md is the manual.
 """
 
-from axiswatch.monitor._fleet import (
-    FleetFile,
-    discover_fleet,
-    parse_capture_time,
-)
-from axiswatch.monitor._ledger import (
-    rebaseline,
-)
-from axiswatch.monitor._methods import (
-    MethodPreset,
-    methods,
-    register_method,
-)
-from axiswatch.monitor._monitor import (
-    MonitorSummary,
-    monitor_fleet,
-)
-from axiswatch.monitor._parallel import (
-    parallel_map,
-)
-from axiswatch.monitor._report import (
-    write_report,
-)
-from axiswatch.monitor._results import (
-    fleet_results,
-    fleet_summary,
-)
-from axiswatch.monitor._scoring import (
-    MonitorConfig,
-)
-from axiswatch.monitor._store import (
-    SQLiteStore,
-    Store,
-    StoreBackend,
-)
+from importlib import import_module as _import_module
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
+
+if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
+    from axiswatch.monitor._fleet import (
+        FleetFile,
+        discover_fleet,
+        parse_capture_time,
+    )
+    from axiswatch.monitor._ledger import (
+        rebaseline,
+    )
+    from axiswatch.monitor._methods import (
+        MethodPreset,
+        methods,
+        register_method,
+    )
+    from axiswatch.monitor._monitor import (
+        MonitorSummary,
+        monitor_fleet,
+    )
+    from axiswatch.monitor._parallel import (
+        parallel_map,
+    )
+    from axiswatch.monitor._report import (
+        write_report,
+    )
+    from axiswatch.monitor._results import (
+        fleet_results,
+        fleet_summary,
+    )
+    from axiswatch.monitor._scoring import (
+        MonitorConfig,
+    )
+    from axiswatch.monitor.store import (
+        SQLiteStore,
+        Store,
+        StoreBackend,
+    )
+
+#: Public name -> the module it is imported from, on first use (PEP 562): the CLI imports
+#: the scoring stack only for a command that scores.
+_EXPORTS: dict[str, str] = {
+    "FleetFile": "axiswatch.monitor._fleet",
+    "MethodPreset": "axiswatch.monitor._methods",
+    "MonitorConfig": "axiswatch.monitor._scoring",
+    "MonitorSummary": "axiswatch.monitor._monitor",
+    "SQLiteStore": "axiswatch.monitor.store",
+    "Store": "axiswatch.monitor.store",
+    "StoreBackend": "axiswatch.monitor.store",
+    "discover_fleet": "axiswatch.monitor._fleet",
+    "fleet_results": "axiswatch.monitor._results",
+    "fleet_summary": "axiswatch.monitor._results",
+    "methods": "axiswatch.monitor._methods",
+    "monitor_fleet": "axiswatch.monitor._monitor",
+    "parallel_map": "axiswatch.monitor._parallel",
+    "parse_capture_time": "axiswatch.monitor._fleet",
+    "rebaseline": "axiswatch.monitor._ledger",
+    "register_method": "axiswatch.monitor._methods",
+    "write_report": "axiswatch.monitor._report",
+}
 
 __all__ = [
     "FleetFile",
@@ -64,3 +86,16 @@ __all__ = [
     "register_method",
     "write_report",
 ]
+
+
+def __getattr__(name: str) -> _Any:
+    """Import a public name's module on first use and keep the name here."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -1,32 +1,7 @@
-"""Which axes need a service engineer now, and one line each on why: the report's first screen.
+"""Which axes need a service engineer now, and one line each on why.
 
-Pipeline side-stage of the report; pure functions of what the store holds (no SQL, no files).
-For one method (the product default when the store has it) every axis gets a kind, ranked:
-
-0. ``alarm``: in alarm and nobody acknowledged it, the strongest (distance over threshold) first;
-1. ``bad data``: captures rejected, not replaced by a scored file of the same path and not
-   acknowledged (``axiswatch rejections --ack PATH``: an acknowledged rejection stays on the
-   axis's line, "seen on ...", but no longer needs attention, as in the monitor's exit status),
-   files changed after they were scored (unless acknowledged, likewise), or no baseline at all
-   (an axis whose only rejections are acknowledged, such as a misnamed folder's, is
-   ``calibrating``). A rejected file a monitor run found gone from the fleet folder (deleted or
-   moved away: ``Rejection.removed_at``) is history: on the line as "removed on ...", never a
-   problem, as in the monitor's exit status;
-2. ``baseline check``: a stored check of its active baseline (``StoreBackend.baseline_checks``:
-   the capture disagrees with its calibration captures, or the baseline with its fleet's) that
-   nobody acknowledged (``axiswatch rejections --ack PATH``). Like bad data it says the axis's
-   scores may not mean what they seem until a person looks; an acknowledged check stays on the
-   axis's line ("seen on ...") but no longer needs attention, as in the monitor's exit status;
-3. ``stale``: its last capture lies more than ``stale_factor`` of its usual capture interval
-   (the median gap between its captures) behind the newest capture of the fleet. Measured
-   against the fleet, not the wall clock, so that an archive read later is not all stale;
-4. ``acknowledged``: in alarm, seen by someone (``axiswatch ack``) and not raised again since;
-
-and ``ok`` or ``calibrating`` (nothing to do) otherwise. An axis with several problems is listed
-once under its most urgent kind, its line naming all of them. A check in the last score's
-details that the store does not hold (a baseline stored before the table ``baseline_checks``,
-or the slow-baseline note, computed on every run) is named on the line as before, without
-changing the kind: nothing in the store could mark it seen.
+The report's first screen, as pure functions of what the store holds. The kinds, most urgent
+first: alarm, bad data, baseline check, stale, acknowledged. docs/internals.md, "Attention".
 """
 
 from __future__ import annotations
@@ -38,8 +13,8 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._attribution import describe_top_indicator
-from axiswatch.monitor._store import AlarmState, BaselineCheck
+from axiswatch.monitor.store import AlarmState, BaselineCheck
+from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 
@@ -255,7 +230,7 @@ def triage(
                     f"newest ({behind / usual:.0f} x its usual interval of {usual})."
                 )
         if info is not None and info.get("state") == "stale" and "stale" not in problems:
-            # The monitor's own notion (issue 11): no new capture file for longer than its
+            # The monitor's own notion of stale: no new capture file for longer than its
             # --stale-after, by the wall clock, whatever the dates of the captures say.
             problems.append("stale")
             lines.append(f"Stale: no new capture file since {_day(str(info['last_seen']))}.")

@@ -1,10 +1,7 @@
-"""Interactive trend charts of the report (Plotly; its JavaScript is embedded in the page once).
+"""Interactive trend charts of the report, drawn by Plotly.
 
-Pipeline side-stage of the report. Each function takes rows of
-:func:`~axiswatch.monitor._results.fleet_results` and returns an HTML ``<div>`` that draws itself with
-``Plotly.newPlot`` when the page holds the library (:func:`plotly_library`), so the report is one
-file that opens from a file share with no server and no network. Zoom, pan and hover (capture,
-value, reason) come from Plotly; nothing here draws pixels.
+Each function returns an HTML ``<div>`` that draws itself from the page's one inline copy of
+plotly.js, so the report opens from a file share with no server.
 """
 
 from __future__ import annotations
@@ -17,10 +14,19 @@ from typing import Any
 
 import pandas as pd
 
+from axiswatch.monitor._advice import indicator_colour
+from axiswatch.monitor._methods import methods
+
 __all__ = ["distance_chart", "plotly_library"]
 
 _CONFIG = {"displaylogo": False, "responsive": True}
 _HALF_DAY = pd.Timedelta(hours=12)
+
+
+def _unit(method: str) -> str:
+    """What a method's stored distance counts (a method no longer registered: spreads)."""
+    preset = methods().get(method)
+    return "healthy spreads" if preset is None else preset.distance_unit
 
 
 def plotly_library() -> str:
@@ -114,13 +120,14 @@ def distance_chart(
     # The method indicators stores its distance in units of the threshold that applied (the
     # threshold is 1): say so, as the indicators' panel does, or "1.55" has no unit.
     titles = [
-        f"distance ({m}) in thresholds" if m == "indicators" else f"distance ({m})" for m in methods
+        f"distance ({m}) in thresholds" if _unit(m) == "thresholds" else f"distance ({m})"
+        for m in methods
     ]
     if indicators:
         # Method ``indicators`` scores a capture in the spreads of the case that applied (own
         # spreads for the baseline's task, the fleet's for a task change): its shifts are drawn
         # in units of that case's threshold, as its distance is.
-        unit = "thresholds" if methods[0] == "indicators" else "healthy spreads"
+        unit = _unit(methods[0])
         titles.append(f"indicators ({methods[0]}): shift from the baseline in {unit}")
     n_panels = len(titles)
     figure = make_subplots(
@@ -222,7 +229,7 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
     # ``mechanics``), over the indicators each capture gives, in units of the threshold of the
     # case that applied (``threshold_spreads``; a task change's shifts in units of each
     # indicator's ``allowance``): a shift of 1 alone reaches the threshold.
-    largest = bool((lead.method == "indicators").any())
+    largest = bool(lead.method.map(_unit).eq("thresholds").any())
     explained = [
         {
             n: {
@@ -248,7 +255,8 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
         figure.add_trace(
             go.Scatter(
                 x=scored.when[keep], y=[e["spreads"] for e in values], mode="lines+markers",
-                name=name, marker={"size": 4}, line={"width": 1},
+                name=name, marker={"size": 4, "color": indicator_colour(name)},
+                line={"width": 1, "color": indicator_colour(name)},
                 # The deficit column mirrors the friction's: hidden until asked for (legend).
                 visible="legendonly" if name == "viscous_friction_deficit" else True,
                 customdata=[

@@ -1,12 +1,7 @@
-"""The monitor's decision for one capture: a pure function of the axis's history and its distance.
+"""The monitor's decision for one capture: a pure function of the axis's history and distance.
 
-Pipeline stage between the scoring jobs and the store. :func:`decide` turns what the store holds
-about an axis (:class:`AxisHistory`), the new capture's distance and the rules
-(:class:`DecisionRule`) into the capture's role, threshold, whether it is over, the alarm state
-and a reason a service engineer can read (:class:`Decision`). It reads and writes nothing: the
-store calls it inside the transaction that writes the capture
-(:meth:`~axiswatch.monitor.StoreBackend.record_score`), so a killed run resumes exactly and two
-processes on one store never disagree.
+:func:`decide` gives the role, threshold, over, alarm state and reason. The store calls it
+inside the transaction that writes the capture, so a killed run resumes exactly.
 """
 
 from __future__ import annotations
@@ -176,7 +171,7 @@ def decide(
     rule : DecisionRule
     top_indicator : str or None, default=None
         The indicator that explains most of the distance, in words
-        (:func:`~axiswatch._attribution.describe_top_indicator`); None when there is none.
+        (:func:`~axiswatch.paper._attribution.describe_top_indicator`); None when there is none.
 
     Returns
     -------

@@ -1,30 +1,7 @@
 """A fleet on disk: ``ROOT/<robot>/<axis>/<capture>.<ext>``, discovered and ordered by date.
 
-Pipeline side-stage of the monitor (it only looks at names, never at file contents).
-
-Rules (documented in the README):
-
-* a capture file ends in a registered capture suffix, ``.parquet``, ``.csv`` or ``.npz`` by default
-  (any case; :func:`axiswatch.register_format` adds one); other files are not captures and are
-  ignored, as are hidden files and folders (name starting with ``.``) and files directly in
-  ``ROOT`` (``labels.csv``, notes);
-* ``<robot>`` and ``<axis>`` are identifiers: 1-64 letters, digits, ``_``, ``-`` or ``.``,
-  starting with a letter or digit;
-* ``<capture>`` starts with an ISO date ``YYYY-MM-DD`` or date-time ``YYYY-MM-DDTHH-MM-SS``
-  (``:`` or nothing also accepted between hours, minutes and seconds; ``T``, ``_`` or a space
-  before the time); anything after it (``_run2``) is free;
-* a capture file at another depth, or with a name breaking these rules, is a *layout problem*:
-  the monitor stores it as rejected, with the reason, and goes on; a robot or axis folder whose
-  name is not an identifier is one problem (naming the folder and how many capture files it
-  holds), stored until the folder is renamed;
-* symbolic links to folders are followed (a link back to a folder already read, a loop, is
-  reported and not read twice); a folder that cannot be listed and a link whose target is
-  missing (an unmounted share) are *folder problems* (``capture == ""``), reported every run;
-* files being delivered under a temporary name (``.name.csv``, ``name.csv.tmp``,
-  ``name.parquet.partial``) are not captures; a capture file modified less than ``settle_s``
-  seconds ago is *waiting* (:func:`split_settled`), scored by a later run.
-
-Captures of one axis are ordered by their date-time, then by file name.
+It looks only at names, never at contents. The rules are the monitor manual's "Fleet layout".
+Captures of one axis are ordered by date-time, then by file name.
 """
 
 from __future__ import annotations

@@ -1,21 +1,7 @@
-"""Incremental discovery: a run's cost follows the new files, not the history kept in the folder.
+"""Incremental discovery: a run's cost follows the new files, not the history in the folder.
 
-Pipeline side-stage of the monitor, a layer over ``_fleet`` (which knows the layout rules):
-
-* **File index** (:class:`FileIndex`): the store keeps each hashed file's size, ``mtime_ns`` and
-  SHA-256; a file whose size and modification time are unchanged is never hashed again.
-* **Axis folders**: when a run has handled every file of an axis folder, the store keeps the
-  folder's modification time. Adding, removing or renaming a file changes it; a folder whose
-  time is unchanged is not listed again (:func:`unchanged_axes`), so a run with nothing new
-  costs one ``stat`` per axis, whatever the history.
-* **Verification of kept files** (:meth:`FileIndex.verify`): a file rewritten in place leaves
-  its folder's time alone, so each run compares a slice of the indexed files with the disk
-  (size and modification time; the hash only where they differ), least recently verified
-  first: :func:`verify_budget` files a run (``VERIFY_PER_AXIS`` per axis folder, at least
-  ``VERIFY_MIN``), so every kept file is checked once every ``ceil(n_files / budget)`` runs
-  (a year of daily captures: every ~90 runs) at a cost that grows with the fleet, like a day's
-  run, and not with its history. A changed file that was scored
-  is reported (``changed_files``), and its axis folder is listed again.
+A file index, unchanged axis folders skipped, and kept files verified a slice per run.
+docs/internals.md, "Incremental discovery", gives the budget.
 """
 
 from __future__ import annotations
@@ -25,7 +11,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from axiswatch.monitor._scoring import file_hash
-from axiswatch.monitor._store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreBackend
+from axiswatch.monitor.store import IndexedFile, RunCaches, SavedModel, ScoredFile, StoreWriter
 
 __all__ = [
     "VERIFY_MIN",
@@ -78,12 +64,12 @@ def unchanged_axes(
 
 
 class MemoryCaches:
-    """:class:`~axiswatch.monitor._store.RunCaches` for one run, in memory, for a store without
+    """:class:`~axiswatch.monitor.store.RunCaches` for one run, in memory, for a store without
     its own: nothing is kept between runs (every baseline refitted, every folder listed), and
     the index starts from what the store says of every scored file, all verified each run (the
     behaviour before the caches existed). Models travel with the jobs."""
 
-    def __init__(self, store: StoreBackend) -> None:
+    def __init__(self, store: StoreWriter) -> None:
         self._store = store
         self._scored = store.scored_files()
         self._index = {
@@ -136,7 +122,7 @@ class MemoryCaches:
         return None
 
 
-def run_caches(store: StoreBackend) -> RunCaches:
+def run_caches(store: StoreWriter) -> RunCaches:
     """The store's own caches, or :class:`MemoryCaches` for a store without them."""
     return store if isinstance(store, RunCaches) else MemoryCaches(store)
 

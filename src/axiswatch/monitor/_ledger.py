@@ -1,10 +1,7 @@
 """The axis ledger: every change of a store's state the monitor makes, in domain words.
 
-Pipeline stage below the monitor's driver. Each function is one atomic write of a
-:class:`~axiswatch.monitor.StoreBackend`. A capture's role (calibration, monitor, excluded), the
-threshold and the alarm state are decided by the pure :func:`~axiswatch.monitor._decision.decide`
-*inside* the store's transaction that writes the capture, from what the store holds at that
-moment; so a killed run resumes exactly, and two processes on one store never disagree.
+Each function is one atomic write of a :class:`~axiswatch.monitor.StoreBackend`. The decision
+is made inside the store's transaction, from what the store holds at that moment.
 """
 
 from __future__ import annotations
@@ -12,17 +9,18 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from axiswatch._attribution import describe_top_indicator
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
 from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AddedBaseline,
     NewBaseline,
     NewScore,
     Rejection,
-    StoreBackend,
+    StoreOperator,
+    StoreWriter,
 )
+from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 
@@ -33,7 +31,7 @@ def params_json(config: MonitorConfig) -> str:
 
 
 def reject(
-    store: StoreBackend,
+    store: StoreWriter,
     method: str,
     robot: str,
     axis: str,
@@ -59,24 +57,20 @@ def reject(
 
 
 def insert_baseline(
-    store: StoreBackend, outcome: FitOutcome, epoch: int, config: MonitorConfig
+    store: StoreWriter, outcome: FitOutcome, epoch: int, config: MonitorConfig
 ) -> AddedBaseline | None:
     """Insert the baseline of ``epoch`` unless another process did; return its id and whether
     this call added it (None: the other process chose another capture).
 
-    The fit's checks (an IndicatorModel's ``baseline_check``, ``fleet_check``) are stored with
+    The fit's checks (a model's ``checks()``) are stored with
     it in the same transaction: every later run reports them until acknowledged, also when the
     run that fitted it is killed right after this commit."""
     file = outcome.job.file
     stat = file.path.stat()
     details: dict[str, Any] = {"rates_hz": outcome.rates_hz}
-    checks: dict[str, str] = {}
-    if outcome.summary is not None:  # an IndicatorModel: what it estimated, from what
-        details["indicator_model"] = outcome.summary
-        for kind in ("baseline", "fleet"):
-            note = outcome.summary.get(f"{kind}_check")
-            if note:
-                checks[kind] = str(note)
+    if outcome.summary is not None:  # what the model estimated, from what
+        details.update(outcome.summary)
+    checks = outcome.checks
     return store.add_baseline(
         NewBaseline(
             robot=file.robot,
@@ -100,8 +94,16 @@ def insert_baseline(
     )
 
 
-def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConfig) -> bool:
-    """Decide and write one capture's result (or its rejection); True when this call wrote it."""
+def commit_score(
+    store: StoreWriter,
+    outcome: ScoreOutcome,
+    config: MonitorConfig,
+    rejection_key: str | None = None,
+) -> bool:
+    """Decide and write one capture's result (or its rejection); True when this call wrote it.
+
+    ``rejection_key``: what a rejection depends on (default: the parameters' hash); the monitor
+    adds its axis profile's."""
     job = outcome.job
     file = job.file
     if outcome.error is not None:
@@ -114,7 +116,7 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
             outcome.file_hash,
             outcome.error,
             kind=outcome.kind,
-            params_hash=params_hash(config),
+            params_hash=rejection_key or params_hash(config),
             transient=outcome.transient,
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
@@ -144,7 +146,7 @@ def commit_score(store: StoreBackend, outcome: ScoreOutcome, config: MonitorConf
 
 
 def rebaseline(
-    store: StoreBackend,
+    store: StoreOperator,
     robot: str,
     axis: str,
     *,
@@ -155,7 +157,7 @@ def rebaseline(
 
     Parameters
     ----------
-    store : StoreBackend
+    store : StoreOperator
     robot, axis : str
     method : str or None, default=None
         Only this method's baseline; default every method the axis has.

@@ -1,28 +1,26 @@
-"""The monitor's methods: a table of named presets that turn a method name into model objects.
+"""The monitor's methods: named presets, each a factory of a fresh model of an axis.
 
-Pipeline stage below :class:`~axiswatch.monitor.MonitorConfig`. A method is a
-:class:`MethodPreset`: factories of its detector and (optionally) its feature stage, and the
-half-Laplace scale of healthy task changes that sets its threshold floor. The monitor
-(``MonitorConfig(method=...)``) and the CLI (``axiswatch monitor --method``) read the table, so a
-new detector or stage reaches both through :func:`register_method`, called in its own module (or
-in a package that declares the module under the entry-point group ``axiswatch.methods``: it is
-imported the first time the table is read).
-
-Built in: ``indicators`` (the product default: :class:`~axiswatch.IndicatorModel` per axis,
-fitted on the baseline and the calibration captures, with its fleet's prior:
-``axiswatch.monitor._indicators``; no number of its decision comes from a simulator), and the paper's
-``lra`` and ``pca``. The lab registers the former default, ``mechanics``, through the entry point.
+Built in: ``indicators`` (the default) and the paper's ``lra`` and ``pca``. A new method is
+registered with :func:`register_method`, or under the entry-point group ``axiswatch.methods``
+(the lab's ``mechanics`` is). The model is any :class:`~axiswatch._axis_model.MonitoredModel`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from axiswatch._axis_model import MonitoredModel
 from axiswatch._calibration import half_laplace_threshold
-from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
-from axiswatch._stages import FeatureStage
+from axiswatch.indicators._axis import IndicatorBaseline
+from axiswatch.indicators._fleet import MIN_AXES
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._spreads import MIN_READINGS
+from axiswatch.paper._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch.paper._model import HealthModel
+from axiswatch.paper._stages import FeatureStage
 
 if TYPE_CHECKING:
     from axiswatch.monitor._scoring import MonitorConfig
@@ -36,14 +34,15 @@ __all__ = [
     "register_method",
 ]
 
-#: The product default: ``MonitorConfig()`` and ``axiswatch monitor``. ``indicators`` since
-#: 2026-11-23 (issue 13): it scores captures at any rate >= 20 Hz and estimates every spread and
-#: allowance from the axis and its fleet; ``mechanics`` rejects captures below 600 Hz and its
-#: scales come from the project's simulator (docs/evaluation.md, "Through the monitor").
+#: The product default: ``MonitorConfig()`` and ``axiswatch monitor``. It scores captures at any
+#: rate >= 20 Hz and estimates every spread and allowance from the axis and its fleet.
 DEFAULT_METHOD = "indicators"
 
 #: Entry-point group whose modules register methods when imported.
 METHOD_GROUP = "axiswatch.methods"
+
+#: Options of :class:`~axiswatch.monitor.MonitorConfig` that only some methods read.
+METHOD_OPTIONS = ("detector", "stage", "task_envelope", "order_lines", "whole_moves")
 
 
 def _no_stage(config: MonitorConfig) -> FeatureStage | None:
@@ -52,46 +51,85 @@ def _no_stage(config: MonitorConfig) -> FeatureStage | None:
 
 @dataclass(frozen=True)
 class MethodPreset:
-    """How a method name becomes the model objects of the monitor.
+    """How a method name becomes a fresh, unfitted model of an axis.
 
     Parameters
     ----------
+    model : callable (MonitorConfig) -> MonitoredModel, optional
+        A fresh, unfitted model for a configuration
+        (:class:`~axiswatch._axis_model.MonitoredModel`). Default: the paper's
+        :class:`~axiswatch.HealthModel` of ``detector`` and ``stage``.
     detector : callable (MonitorConfig) -> BaselineDetector, optional
-        A fresh, unfitted detector for a configuration (None only with ``indicator_model``).
+        The detector of the default model (give ``model`` or ``detector``, not both).
     stage : callable (MonitorConfig) -> FeatureStage or None, optional
-        A fresh feature stage, or None for the |STFT| features of ``MonitorConfig.features``
-        (with phase alignment). Default: none.
+        The default model's feature stage, or None for the |STFT| features of
+        ``MonitorConfig.features`` (with phase alignment). Default: none.
+    params : callable (MonitorConfig) -> dict, optional
+        The parameters stored with every baseline (a changed value refits it). Default: the
+        default model's detector, features and stage.
     task_change_scale : float or None, default=None
         Half-Laplace scale of the distances of healthy *task changes* measured in development;
         the threshold floor is its ``percentile`` (None: no floor).
     summary : str, default=""
         One line for ``--help``.
-    indicator_model : bool, default=False
-        The method has no detector and no stage: each axis gets an
-        :class:`~axiswatch.IndicatorModel` fitted on its baseline and ``K`` calibration captures
-        together, with the fleet prior of its profile (``axiswatch.monitor._indicators``).
+    options : frozenset of str, default=frozenset()
+        The options of ``METHOD_OPTIONS`` the method reads (``detector`` and ``stage`` for the
+        default model); a configuration that sets another is refused.
+    distance_unit : str, default="healthy spreads"
+        What a stored distance counts, for the report's axes.
+    stores_indicators : bool, default=False
+        Whether its scores carry each indicator's shift (``details["indicators"]``), which the
+        report charts below the distance.
 
     Examples
     --------
     >>> from axiswatch import PCADetector
     >>> preset = MethodPreset(detector=lambda config: PCADetector(n_components=3))
-    >>> preset.threshold_floor(99.0) is None
-    True
+    >>> preset.threshold_floor(99.0) is None, sorted(preset.accepts)
+    (True, ['detector', 'stage'])
     """
 
+    model: Callable[[MonitorConfig], MonitoredModel] | None = None
     detector: Callable[[MonitorConfig], BaselineDetector] | None = None
     stage: Callable[[MonitorConfig], FeatureStage | None] = _no_stage
+    params: Callable[[MonitorConfig], dict[str, Any]] | None = None
     task_change_scale: float | None = None
     summary: str = ""
-    indicator_model: bool = False
+    options: frozenset[str] = frozenset()
+    distance_unit: str = "healthy spreads"
+    stores_indicators: bool = False
 
     def __post_init__(self) -> None:
-        if (self.detector is None) != self.indicator_model:
+        if (self.model is None) == (self.detector is None):
             raise ValueError(
-                "A method preset needs a 'detector' factory, or indicator_model=True (and then "
-                f"no detector). Got detector={self.detector!r}, "
-                f"indicator_model={self.indicator_model!r} instead."
+                "A method preset needs a 'model' factory or a 'detector' factory (for the "
+                f"paper's HealthModel), not both. Got model={self.model!r}, "
+                f"detector={self.detector!r} instead."
             )
+        unknown = sorted(set(self.options) - set(METHOD_OPTIONS))
+        if unknown:
+            raise ValueError(
+                f"The 'options' parameter must name options of {METHOD_OPTIONS}. "
+                f"Got {unknown} instead."
+            )
+
+    @property
+    def accepts(self) -> frozenset[str]:
+        """The options of ``METHOD_OPTIONS`` the method reads."""
+        own = {"detector", "stage"} if self.detector is not None else set()
+        return frozenset(self.options) | own
+
+    def make(self, config: MonitorConfig) -> MonitoredModel:
+        """A fresh, unfitted model for ``config``."""
+        if self.model is not None:
+            return self.model(config)
+        return _health_model(self, config)
+
+    def stored_params(self, config: MonitorConfig) -> dict[str, Any]:
+        """What is stored with every baseline: the common parameters and the method's."""
+        if self.params is not None:
+            return self.params(config)
+        return _health_params(self, config)
 
     def threshold_floor(self, percentile: float) -> float | None:
         """The ``percentile`` of the task-change fit, or None without one."""
@@ -100,13 +138,96 @@ class MethodPreset:
         return half_laplace_threshold(self.task_change_scale, percentile)
 
 
+def _health_model(preset: MethodPreset, config: MonitorConfig) -> HealthModel:
+    """The paper's HealthModel of the preset's (or the configuration's) detector and stage."""
+    stage = preset.stage(config) if config.stage is None else config.stage
+    detector = config.detector
+    if detector is None:
+        assert preset.detector is not None
+        detector = preset.detector(config)
+    floor = preset.threshold_floor(config.percentile)
+    return HealthModel(
+        config.features,
+        detector,
+        percentile=config.percentile,
+        align_phase=config.align_phase,
+        min_threshold=0.0 if floor is None else floor,
+        stage=stage,
+    )
+
+
+def _common_params(config: MonitorConfig) -> dict[str, Any]:
+    return {
+        "percentile": config.percentile,
+        "calibration_size": config.calibration_size,
+        "alarm": {"k": config.alarm_k, "n": config.alarm_n, "clear_m": config.clear_m},
+    }
+
+
+def _health_params(preset: MethodPreset, config: MonitorConfig) -> dict[str, Any]:
+    """Features, detector and (for a stage method) the stage and the threshold floor; the key is
+    absent otherwise, so stores made before it still match."""
+    model = _health_model(preset, config)
+    params = {
+        "method": config.method,
+        "detector": model.detector.get_params(),
+        "features": dataclasses.asdict(config.features),
+        "align_phase": config.align_phase and model.stage is None,
+        **_common_params(config),
+    }
+    if model.stage is not None:
+        params["stage"] = {"name": type(model.stage).__name__, **vars(model.stage)}
+        params["threshold_floor"] = model.min_threshold
+    if config.profile is not None:  # absent otherwise, so stores made before it still match
+        params["profile"] = config.profile.source
+    return params
+
+
+def _indicators_model(config: MonitorConfig) -> IndicatorBaseline:
+    """An unfitted :class:`~axiswatch.IndicatorModel` at the monitor's percentile."""
+    return IndicatorBaseline(
+        IndicatorModel(
+            percentile=config.percentile,
+            task_envelope_factor=config.task_envelope,
+            order_lines=config.order_lines,
+            whole_moves=config.whole_moves,
+        )
+    )
+
+
+def _indicator_params(config: MonitorConfig) -> dict[str, Any]:
+    params: dict[str, Any] = {
+        "method": config.method,
+        "model": {
+            "name": "IndicatorModel",
+            "min_readings": MIN_READINGS,
+            "fleet_min_axes": MIN_AXES,
+        },
+        **_common_params(config),
+    }
+    if config.profile is not None:
+        params["profile"] = config.profile.source
+    # Each absent when off: earlier stores still match.
+    if config.task_envelope is not None:
+        params["task_envelope"] = config.task_envelope
+    if config.order_lines:
+        params["order_lines"] = True
+    if config.whole_moves:
+        params["whole_moves"] = True
+    return params
+
+
 def _lra(config: MonitorConfig) -> BaselineDetector:
     return LRADetector(noise_level=config.lra_noise_level)
 
 
 _METHODS: dict[str, MethodPreset] = {
     "indicators": MethodPreset(
-        indicator_model=True,
+        model=_indicators_model,
+        params=_indicator_params,
+        options=frozenset({"task_envelope", "order_lines", "whole_moves"}),
+        distance_unit="thresholds",
+        stores_indicators=True,
         summary="physical indicators at any rate >= 20 Hz, in spreads of the axis's own "
         "calibration captures and of its fleet (default, docs/evaluation.md)",
     ),

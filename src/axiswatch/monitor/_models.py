@@ -1,29 +1,24 @@
 """Fitted models between the driver, the store and the workers: shipped once, kept where used.
 
-Pipeline side-stage of the monitor. The driver never sends a fitted model with a job: a job
-carries a :class:`ModelRef` (the model's content hash and the store that holds it), and each
-worker process keeps the models it has used or fitted in a small cache keyed by that hash,
-reading a missing one from the store once (read-only). A model is therefore deserialised at
-most once per worker and run, whatever the number of captures it scores, and a model fitted in
-a worker is never read back there.
+A job carries a :class:`ModelRef`, the model's hash and its store. Each worker caches the models
+it has used, so a model is read at most once per worker and run.
+A worker opens the store only to read a model, and closes it at once.
 """
 
 from __future__ import annotations
 
-import os
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
-from axiswatch._model import HealthModel
-from axiswatch.monitor._indicators import IndicatorBaseline
+from axiswatch._axis_model import MonitoredModel
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
-from axiswatch.monitor._store import Store
+from axiswatch.monitor.store import Store
 
 __all__ = ["MODELS_PER_WORKER", "Fitted", "ModelRef", "keep_model", "resolve_model"]
 
-#: A fitted model of the monitor: a HealthModel, or an axis's IndicatorModel (``indicators``).
-Fitted = HealthModel | IndicatorBaseline
+#: A fitted model of the monitor (any method's).
+Fitted = MonitoredModel
 
 #: Fitted models a worker keeps (least recently used dropped first). An LRA model of a 3 s
 #: capture at hop 8 is about 3 MB, a mechanics model a few kB.
@@ -40,7 +35,7 @@ class ModelRef:
         :func:`~axiswatch.monitor._persist.model_digest` of the model's blob.
     store_path : str
         The SQLite store (absolute path) whose ``fitted_models`` table holds the blob.
-    inline : HealthModel or IndicatorBaseline, optional
+    inline : MonitoredModel, optional
         The model itself, sent with every job: a model that cannot be stored (a class outside
         ``_persist.ALLOWED_CLASSES``, e.g. a detector registered by a user) travels as before.
     """
@@ -51,7 +46,6 @@ class ModelRef:
 
 
 _cache: OrderedDict[str, Fitted] = OrderedDict()
-_stores: dict[tuple[int, str], tuple[int, Store]] = {}
 
 
 def keep_model(model: Fitted, *, params: dict[str, Any] | None = None) -> tuple[str, bytes | None]:
@@ -73,18 +67,15 @@ def _remember(key: str, model: Fitted) -> None:
         _cache.popitem(last=False)
 
 
-def _read_only(store_path: str) -> Store:
-    # One connection per process and store (a forked worker must not use its parent's), and per
-    # file: a store deleted and made anew at the same path (a long-lived process, a notebook)
-    # gets a new connection instead of reading the old file's models through the old one.
-    key = (os.getpid(), store_path)
-    file_id = os.stat(store_path).st_ino
-    opened = _stores.get(key)
-    if opened is None or opened[0] != file_id:
-        if opened is not None:
-            opened[1].close()
-        opened = _stores[key] = (file_id, Store(store_path, read_only=True))
-    return opened[1]
+def _stored_blob(store_path: str, key: str) -> bytes | None:
+    """The blob of a stored model, read through a connection closed at once.
+
+    A worker never holds the store open: a connection kept between runs kept the store's
+    write-ahead log alive, and a backup restored over the file then met the old file's log
+    ("database disk image is malformed"). A model is read once per worker, so opening is cheap.
+    """
+    with Store(store_path, read_only=True) as store:
+        return store.model_blob(key)
 
 
 def resolve_model(ref: ModelRef) -> Fitted:
@@ -101,7 +92,7 @@ def resolve_model(ref: ModelRef) -> Fitted:
     if model is not None:
         _cache.move_to_end(ref.key)
         return model
-    blob = _read_only(ref.store_path).model_blob(ref.key)
+    blob = _stored_blob(ref.store_path, ref.key)
     if blob is None:
         raise LookupError(
             f"store '{ref.store_path}' holds no fitted model {ref.key[:12]}; run monitor again."

@@ -1,37 +1,14 @@
 """Monitor a fleet: per robot axis a baseline, a calibrated threshold, scores and alarm states.
 
-Pipeline top stage (below the CLI). For every robot axis found under ``ROOT`` (see ``_fleet``) and
-one detection method:
-
-1. **Baseline** (the paper's commissioning capture): the first capture that can be read, or the
-   one named by ``MonitorConfig.baseline``; after :func:`rebaseline`, the capture named then, or
-   the next capture that arrives. A capture that raised an alarm is never a baseline.
-2. **Calibration**: the next ``calibration_size`` usable captures (default 5) are assumed
-   healthy; the threshold is the ``percentile`` (default 99) of the half-Laplace fit of their
-   distances (paper, end of "Proposed Method"). Five is the fewest that still gives the fit a
-   sample (its scale is the mean distance, whose relative standard error is 1/sqrt(5) = 45 %)
-   while keeping the first week of a new robot free of alarms; raise it where captures are
-   cheap. A capture alarmed under an earlier baseline is never used for calibration. The
-   method ``indicators`` fits its model on the baseline and these captures together, with the
-   prior of the axis's fleet (``_indicators``); their distances are leave-one-out ones.
-3. **Scoring**: every later capture gets its distance to the baseline, whether it is over the
-   threshold, and the alarm state: raised when ``alarm_k`` of the last ``alarm_n`` captures are
-   over (``k = n = 1`` by default, as in the paper), cleared after ``clear_m`` clean captures in a
-   row (default 1).
-
-The driver process alone writes the store (any :class:`~axiswatch.monitor.StoreBackend`; the
-driver holds no SQL), one transaction per capture, committed in capture order per axis; the store
-calls the pure :func:`~axiswatch.monitor._decision.decide` inside that transaction, from what it
-holds at that moment. Scoring itself (read, features, distance) runs on the workers of one
-:class:`axiswatch.monitor._parallel.WorkerPool` per run, which keep the fitted models (stored in
-the store, not refitted: ``_persist``, ``_models``); unchanged axis folders are not listed and
-unchanged files not hashed again (``_index``). Hence a killed run resumes exactly, and a second
-process on the same store skips what the first has written.
+The driver: baseline, calibration and scoring as the monitor manual's "What monitor does"
+says. It alone writes the store, one transaction per capture. Workers only score.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import hashlib
 import json
 import time
 from collections import defaultdict
@@ -42,7 +19,7 @@ from glob import escape
 from pathlib import Path
 from typing import Any
 
-from axiswatch._features import FeatureSpec
+from axiswatch._axis_model import MonitoredModel
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import ProfileError, StoreError
 from axiswatch.monitor._fleet import (
@@ -58,12 +35,6 @@ from axiswatch.monitor._index import (
     run_caches,
     unchanged_axes,
     verify_budget,
-)
-from axiswatch.monitor._indicators import (
-    IndicatorBaseline,
-    fleet_key,
-    slow_baseline_note,
-    with_fleet,
 )
 from axiswatch.monitor._ledger import commit_score, insert_baseline, params_json, reject
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
@@ -81,16 +52,18 @@ from axiswatch.monitor._scoring import (
     profile_for,
     score_capture,
 )
-from axiswatch.monitor._store import (
+from axiswatch.monitor.store import (
     AlarmState,
     Baseline,
     ChangedFile,
+    Rejection,
     RunCaches,
     SavedModel,
-    StoreBackend,
+    StoreWriter,
     now,
     now_us,
 )
+from axiswatch.paper._features import FeatureSpec
 
 __all__ = [
     "DEFAULT_SETTLE_S",
@@ -104,7 +77,7 @@ __all__ = [
 Progress = Callable[[str, int, int], None]
 
 #: Seconds a capture file must go unmodified before it is scored (a file still being written
-#: is not a capture yet); deliver files atomically (README) and this wait costs nothing.
+#: is not a capture yet); deliver files atomically (docs/monitor.md) and this wait costs nothing.
 DEFAULT_SETTLE_S = 10.0
 #: Silence after which an axis is *stale*: no new capture file for this long.
 DEFAULT_STALE_AFTER = timedelta(days=3)
@@ -190,7 +163,7 @@ class _Run:
     changed), the workers, what the store held when it started, and the summary being built."""
 
     root: Path
-    store: StoreBackend
+    store: StoreWriter
     config: MonitorConfig
     pool: WorkerPool
     caches: RunCaches
@@ -199,6 +172,7 @@ class _Run:
     summary: MonitorSummary
     params: str
     params_hash: str = ""
+    profile_hashes: dict[tuple[str, str], str] = field(default_factory=dict)
     owners: dict[Path, FleetFile] = field(default_factory=dict)
     unreadable_paths: set[Path] = field(default_factory=set)
     stored_models: list[_Axis] = field(default_factory=list)  # scored without a refit
@@ -210,6 +184,11 @@ class _Run:
     @property
     def method(self) -> str:
         return self.config.method
+
+    @functools.cached_property
+    def template(self) -> MonitoredModel:
+        """An unfitted model of the configured method: what each fit job copies."""
+        return self.config.model()
 
     def digest(self, path: Path) -> str | None:
         """The file's hash through the index, or None when it cannot be read (recorded as a
@@ -248,6 +227,20 @@ class _Run:
         self.caches.save_model(baseline_id, saved, outcome.blob)
         return ModelRef(outcome.model_key, source)
 
+    def rejection_key(self, robot: str, axis: str) -> str:
+        """What a rejection of the axis's captures depends on: the parameters, and the content
+        of the axis profile that applied (none, or a malformed one: its error). Adding or fixing
+        the profile changes it, and the captures are read again."""
+        key = (robot, axis)
+        if key not in self.profile_hashes:
+            try:
+                profile = self.config.profile or AxisProfile.find(self.root, robot, axis)
+                text = repr(profile)
+            except (ProfileError, OSError) as exc:  # its captures are rejected with this error
+                text = str(exc)
+            self.profile_hashes[key] = hashlib.sha256(text.encode()).hexdigest()[:16]
+        return f"{self.params_hash}+{self.profile_hashes[key]}"
+
     def unreadable(self, file: FleetFile, reason: str) -> None:
         relative = self.relative(file.path)
         reject(
@@ -276,10 +269,10 @@ class _Run:
         IndicatorModel is fitted on the first that give a reading, too); ``refit``: of a stored
         baseline (:attr:`FitJob.refit`)."""
         relative = self.relative(file.path)
-        if not self.config.preset.indicator_model:
-            return FitJob(file, relative, self.config.model(), self.config.profile)
+        if not self.template.fits_calibration:
+            following = ()
         return FitJob(
-            file, relative, self.config.indicator_model(), self.config.profile,
+            file, relative, self.template, self.config.profile,
             calibration=tuple(following),
             relatives=tuple(self.relative(f.path) for f in following),
             calibration_size=self.config.calibration_size,
@@ -412,7 +405,7 @@ def _note_slow_baseline(
     """List a stored indicators baseline slower than 20 Hz under *Baselines to check*: kept and
     scored as before (also when refitted after an upgrade), reported on every run (its folder
     listed again) until it is rebaselined; never an alarm."""
-    slow = slow_baseline_note(rates_hz) if run.config.preset.indicator_model else None
+    slow = run.template.baseline_note(rates_hz)
     if slow is not None:
         run.summary.baseline_checks.append(f"{baseline.path}: {slow}")
         run.problem_axes.add((state.robot, state.axis))
@@ -428,7 +421,7 @@ def _refit_failed(
     if not rates_hz:
         saved = run.caches.saved_model(baseline.id)
         rates_hz = {} if saved is None else saved.rates_hz
-    slow = slow_baseline_note(rates_hz) if run.config.preset.indicator_model else None
+    slow = run.template.baseline_note(rates_hz)
     advice = "" if slow is None else f" ({slow})"
     run.problem(state, f"{why.removesuffix('.')}; the stored baseline cannot be refitted{advice}")
 
@@ -512,7 +505,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
             digest,
             str(outcome.error),
             kind=outcome.kind,
-            params_hash=run.params_hash,
+            params_hash=run.rejection_key(file.robot, file.axis),
             transient=outcome.transient,
         )
         if not outcome.transient:
@@ -542,7 +535,7 @@ def _accept_baseline(run: _Run, state: _Axis, outcome: FitOutcome) -> FitJob | N
 def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str], _Axis]) -> None:
     """Fit the jobs' baselines; retry an axis's next candidate until one fits or none is left."""
     total = len(by_axis)
-    pooled = run.config.preset.indicator_model
+    pooled = run.template.pooled
     fitted: list[FitOutcome] = []
     while jobs:
         retry: list[FitJob] = []
@@ -567,30 +560,28 @@ def _fit_baselines(run: _Run, jobs: list[FitJob], by_axis: dict[tuple[str, str],
         _accept_baseline(run, by_axis[(outcome.job.file.robot, outcome.job.file.axis)], outcome)
 
 
-def _own_model(outcome: FitOutcome) -> IndicatorBaseline:
+def _own_model(outcome: FitOutcome) -> MonitoredModel:
     model = outcome.inline if outcome.blob is None else load_model(outcome.blob)
-    assert isinstance(model, IndicatorBaseline)
+    assert model is not None
     return model
 
 
 @dataclass(frozen=True)
-class _StoredIndicators:
-    """An axis's stored IndicatorModel of its active baseline."""
+class _StoredModel:
+    """An axis's stored model of its active baseline."""
 
     robot: str
     axis: str
     baseline_id: int
     saved: SavedModel
-    baseline: IndicatorBaseline
+    baseline: MonitoredModel
 
 
-def _stored_indicator_models(
-    run: _Run, fitting: set[tuple[str, str]]
-) -> dict[str, list[_StoredIndicators]]:
-    """The stored IndicatorModels of the active baselines of every axis the store knows (its
-    folder listed in this run or not), but ``fitting``, by fleet."""
+def _stored_models(run: _Run, fitting: set[tuple[str, str]]) -> dict[str, list[_StoredModel]]:
+    """The stored models of the active baselines of every axis the store knows (its folder
+    listed in this run or not), but ``fitting``, by fleet."""
     source = run.caches.model_source()
-    groups: dict[str, list[_StoredIndicators]] = defaultdict(list)
+    groups: dict[str, list[_StoredModel]] = defaultdict(list)
     if source is None:  # a store that keeps no models: only this run's fits are pooled
         return groups
     for row in run.store.axis_activity().itertuples(index=False):
@@ -604,19 +595,18 @@ def _stored_indicator_models(
         if saved is None or not _still_valid(run, saved, baseline):
             continue
         stored = resolve_model(ModelRef(saved.model_hash, source))
-        if isinstance(stored, IndicatorBaseline):
-            try:
-                profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
-            except ProfileError:
-                continue  # its captures are rejected with the profile's error until it is fixed
-            groups[fleet_key(profile)].append(
-                _StoredIndicators(robot, axis, baseline.id, saved, stored)
-            )
+        try:
+            profile = run.config.profile or AxisProfile.find(run.root, robot, axis)
+        except ProfileError:
+            continue  # its captures are rejected with the profile's error until it is fixed
+        groups[stored.fleet_key(profile)].append(
+            _StoredModel(robot, axis, baseline.id, saved, stored)
+        )
     return groups
 
 
 def _give_prior(
-    run: _Run, stored: Sequence[_StoredIndicators], pooled: Sequence[IndicatorBaseline]
+    run: _Run, stored: Sequence[_StoredModel], pooled: Sequence[MonitoredModel]
 ) -> None:
     """Store ``pooled``, the stored axes fitted without a fleet prior (their fleet had fewer than
     3 axes then) now with their fleet's: their captures are scored with the task-change
@@ -625,12 +615,12 @@ def _give_prior(
     axes it was scored with). A stored distance is in units of the threshold that applied, so the
     threshold the monitor decides with stays 1."""
     for entry, upgraded in zip(stored, pooled, strict=True):
-        if upgraded.model.fleet is None:
+        if not upgraded.fleet_axes():
             return  # fewer than 3 axes, or nothing to pool: no prior for any
         model_key, blob = keep_model(upgraded)
         if blob is None:
             continue
-        check = upgraded.model.fleet_check_
+        check = upgraded.checks().get("fleet")
         # The prior and its check in one transaction: once the prior is stored the axis is
         # never pooled again, so a check left for later would be lost with a killed run.
         with run.store.batch():
@@ -641,43 +631,46 @@ def _give_prior(
                 run.store.record_baseline_check(entry.baseline_id, "fleet", check)
         line = (
             f"{entry.robot}/{entry.axis}: task-change allowances from "
-            f"{upgraded.model.fleet.n_axes} axes of its fleet, from its next run's captures on"
+            f"{upgraded.fleet_axes()} axes of its fleet, from its next run's captures on"
         )
         run.summary.fleet_priors.append(line if check is None else f"{line}; {check}")
 
 
 def _with_fleet_priors(run: _Run, fitted: list[FitOutcome]) -> list[FitOutcome]:
-    """The new IndicatorModels with the prior of their fleet: pooled over the own models of the
-    axes of one profile (:func:`~axiswatch.monitor._indicators.fleet_key`) fitted in this run or
-    stored with an active baseline, each new baseline checked against the others' prior
-    (:func:`~axiswatch.monitor._indicators.with_fleet`). An axis keeps the prior it was fitted
-    with until it is re-baselined (its allowances must not move under its captures); one fitted
-    without a prior, because its fleet had fewer than 3 axes then, gets the prior once its fleet
-    has them (:func:`_give_prior`)."""
+    """The new models with the prior of their fleet: pooled over the own models of the axes of
+    one fleet (the model's ``fleet_key``) fitted in this run or stored with an active baseline,
+    each new baseline checked against the others' prior (the model's ``with_fleet``). An axis
+    keeps the prior it was fitted with until it is re-baselined (its allowances must not move
+    under its captures); one fitted without a prior, because its fleet had fewer than 3 axes
+    then, gets the prior once its fleet has them (:func:`_give_prior`)."""
     if not fitted:
         return fitted
-    groups = _stored_indicator_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
-    new: dict[str, list[tuple[int, IndicatorBaseline]]] = defaultdict(list)
+    groups = _stored_models(run, {(o.job.file.robot, o.job.file.axis) for o in fitted})
+    new: dict[str, list[tuple[int, MonitoredModel]]] = defaultdict(list)
     for position, outcome in enumerate(fitted):
-        key = fleet_key(profile_for(outcome.job.file, run.config.profile))
-        new[key].append((position, _own_model(outcome)))
+        own = _own_model(outcome)
+        new[own.fleet_key(profile_for(outcome.job.file, run.config.profile))].append(
+            (position, own)
+        )
     out = list(fitted)
     stores_models = run.caches.model_source() is not None
     for key, members in new.items():
         # One pool per fleet: the new baselines and the stored ones still without a prior get it
         # together; the stored ones with a prior keep theirs.
-        needing = [g for g in groups[key] if g.baseline.model.fleet is None and stores_models]
-        keeping = [g.baseline.model for g in groups[key] if g not in needing]
-        pooled = with_fleet([*(g.baseline for g in needing), *(b for _, b in members)], keeping)
+        needing = [g for g in groups[key] if not g.baseline.fleet_axes() and stores_models]
+        keeping = [g.baseline for g in groups[key] if g not in needing]
+        pooled = run.template.with_fleet(
+            [*(g.baseline for g in needing), *(b for _, b in members)], keeping
+        )
         _give_prior(run, needing, pooled[: len(needing)])
         for (position, _), baseline in zip(members, pooled[len(needing) :], strict=True):
-            if baseline.model.fleet is None:
+            if not baseline.fleet_axes():
                 continue
             model_key, blob = keep_model(baseline)
             out[position] = dataclasses.replace(
                 fitted[position], model_key=model_key, blob=blob,
                 inline=baseline if blob is None else None,
-                summary={**baseline.model.params(), "fitted_on": list(baseline.paths)},
+                summary=baseline.summary(), checks=baseline.checks(),
             )  # fmt: skip
     return out
 
@@ -763,16 +756,18 @@ def _score_in_order(run: _Run, planned: Iterable[ScoreJob], *, expected: int | N
                 queue = queue_of[jobs[index].baseline_id]
                 while queue and queue[0] in pending:
                     ready = pending.pop(queue.pop(0))
-                    if commit_score(run.store, ready, run.config) and ready.error is None:
+                    key = run.rejection_key(ready.job.file.robot, ready.job.file.axis)
+                    if commit_score(run.store, ready, run.config, key) and ready.error is None:
                         run.summary.scored += 1
         count += len(group)
         run.report("captures", first + count, first + len(jobs))
     run.done["captures"] += len(jobs)
 
 
-def _holds(run: _Run, params: str | None) -> bool:
-    """A rejection made under ``params`` holds for this run's parameters."""
-    return params is None or params == run.params_hash
+def _holds(run: _Run, rejection: Rejection) -> bool:
+    """A rejection holds for this run's parameters and its axis's profile."""
+    made_under = rejection.params_hash
+    return made_under is None or made_under == run.rejection_key(rejection.robot, rejection.axis)
 
 
 def _standing_rejections(run: _Run) -> list[str]:
@@ -797,9 +792,12 @@ def _standing_rejections(run: _Run) -> list[str]:
             ):
                 run.store.mark_rejection_removed(rejection, None)
         # Point queries: a run's cost must not follow the history of scores.
-        if not _holds(run, rejection.params_hash) or run.caches.was_scored(
-            rejection.path, rejection.file_hash, run.method
-        ):
+        scored = run.caches.was_scored(rejection.path, rejection.file_hash, run.method)
+        if not _holds(run, rejection):
+            if scored:  # made under other options or another profile, and scored since
+                run.store.retry_rejections([rejection.path], run.method)
+            continue
+        if scored:
             continue
         if not rejection.transient and not (
             path.is_file() and run.digest(path) == rejection.file_hash
@@ -833,7 +831,7 @@ _AXES_PER_PLAN = 64
 
 def monitor_fleet(
     root: str | Path,
-    store: StoreBackend,
+    store: StoreWriter,
     config: MonitorConfig | None = None,
     *,
     workers: int = 1,
@@ -849,7 +847,7 @@ def monitor_fleet(
     ----------
     root : str or Path
         Fleet folder ``ROOT/<robot>/<axis>/<capture>.<ext>``.
-    store : StoreBackend
+    store : StoreWriter
         Where results go (and what was done before): ``Store(path)``, or another backend.
     config : MonitorConfig, optional
         Default ``MonitorConfig()``: the product default, as ``axiswatch monitor``.
@@ -936,7 +934,7 @@ def monitor_fleet(
         run.rejected = {
             (r.path, r.file_hash)
             for r in store.rejections(run.method)
-            if not r.transient and _holds(run, r.params_hash)
+            if not r.transient and _holds(run, r)
         }
         run.alarmed = store.alarmed_captures(run.method)
 
@@ -1149,7 +1147,7 @@ def _activity(files: Sequence[FleetFile]) -> list[tuple[str, str, int, str]]:
     ]
 
 
-def _stale_axes(store: StoreBackend, now_utc: datetime, stale_after: timedelta) -> list[str]:
+def _stale_axes(store: StoreWriter, now_utc: datetime, stale_after: timedelta) -> list[str]:
     """Axes without a new capture file for longer than ``stale_after``, one line each."""
     lines = []
     for row in store.axis_activity().itertuples(index=False):

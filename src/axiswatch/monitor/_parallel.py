@@ -1,10 +1,7 @@
 """Run one function over many items: serially, on local processes, or on a Dask cluster.
 
-The fleet's scoring is embarrassingly parallel (one capture file at a time), so the layer is one
-function, :func:`parallel_map`, that yields ``(index, result)`` pairs as results complete; the
-caller (the monitor) keeps writing its store from the driver process only. ``fn`` and the items
-must be picklable for processes and for a cluster (a module-level function, paths, small
-objects): send file paths, not arrays, and let the workers read the files.
+:func:`parallel_map` yields ``(index, result)`` pairs as they complete. ``fn`` and the items must
+pickle: send file paths, not arrays, and let the workers read the files.
 """
 
 from __future__ import annotations
@@ -217,7 +214,10 @@ class WorkerPool:
         slots = max(1, sum(client.nthreads().values()))
 
         def wait_one(futures: set[Any]) -> Iterable[Any]:
-            return list(distributed.wait(list(futures), return_when="FIRST_COMPLETED").done)
+            # wait() looks for the current client: a client made from an address is not the
+            # default one (set_as_default=False), so it is made current for the call.
+            with client.as_current():
+                return list(distributed.wait(list(futures), return_when="FIRST_COMPLETED").done)
 
         submitted: list[Any] = []
 
@@ -356,8 +356,7 @@ def connect_dask(address: str, timeout_s: float = DASK_CONNECT_TIMEOUT_S) -> Any
     ------
     ConnectionError
         If no Dask scheduler answers at ``address`` within ``timeout_s`` seconds (nothing
-        listens, a firewall drops the packets, or another service answers: its bytes read as a
-        Dask message can ask for gigabytes, a ``MemoryError``).
+        listens, a firewall drops the packets), or another service answers there.
     ImportError
         If ``dask.distributed`` is not installed.
     """
@@ -386,8 +385,15 @@ def connect_dask(address: str, timeout_s: float = DASK_CONNECT_TIMEOUT_S) -> Any
         return distributed.Client(  # type: ignore[no-untyped-call]
             address, timeout=timeout_s, set_as_default=False
         )
-    except Exception as exc:  # whatever answered, it is not a usable scheduler
+    except OSError as exc:  # nothing answered in time, or the connection was refused or reset
         text = (str(exc).splitlines() or [""])[0] or type(exc).__name__
         raise ConnectionError(
             f"no Dask scheduler answered at '{address}' within {timeout_s:g} s: {text}"
+        ) from None
+    except Exception:  # its bytes read as a Dask message: any error, none of them useful
+        # The decoding error says nothing to a user: an HTTP answer read as a frame length
+        # asked for "3.07 EiB".
+        raise ConnectionError(
+            f"no Dask scheduler answered at '{address}': another service answers there "
+            "(its answer is no Dask message); check the host and port of the scheduler."
         ) from None

@@ -1,24 +1,7 @@
 """Fitted models as plain data: NumPy arrays and JSON, never pickle.
 
-Pipeline side-stage of the monitor: a fitted :class:`~axiswatch.HealthModel` (its stage,
-detector, features and calibration, however nested) becomes one ``.npz`` blob that the store
-keeps beside its baseline, and comes back bit for bit, so a stored model scores exactly as the
-freshly fitted one did.
-
-The walk is generic, so a stage that gains or renames fitted state needs no change here: every
-instance attribute of an object (the parameters set in ``__init__`` and the scikit-learn-style
-fitted state ending in ``_``) is written, recursively:
-
-* ``ndarray`` (any plain dtype: no objects, no structured records) -> its bytes, unchanged, in
-  the blob's one packed ``uint8`` member, with its dtype, shape and offset in the JSON;
-* ``None``, ``bool``, ``int``, ``str``, ``float`` (``repr`` round-trips a float64 exactly;
-  NaN and infinities are written as strings) and NumPy scalars -> JSON;
-* ``tuple``, ``list``, ``dict`` with string keys -> JSON containers of encoded values;
-* an object whose class is in :data:`ALLOWED_CLASSES` -> its class's path and its attributes.
-
-Loading builds only classes of that registry (``cls.__new__`` and the stored attributes, as
-pickle does, but no other code can be named by the file), reads the ``.npz`` with
-``allow_pickle=False`` and each array with ``np.frombuffer`` (which cannot run code). Anything else is refused when saving, with the attribute's path.
+A fitted model becomes one ``.npz`` blob and comes back bit for bit. Loading builds only the
+classes of :data:`ALLOWED_CLASSES`. The encoding: docs/internals.md, "Stored models".
 """
 
 from __future__ import annotations
@@ -58,11 +41,11 @@ __all__ = [
 #: its readings their friction standard errors (``errors``; empty without ``whole_moves``): a
 #: format-7 blob would come back without them, so it is refitted (to the same model, for the
 #: default). 9: a fleet prior's scales are medians over the ordered pairs of its axes, each read
-#: in its baseline's spreads (:func:`~axiswatch._indicator_model.fleet_pair_shifts`), and its
+#: in its baseline's spreads (:func:`~axiswatch.indicators._fleet.fleet_pair_shifts`), and its
 #: ``n_pairs`` counts them; a format-8 model keeps a prior that depends on the order its fleet
 #: was listed in (and counts the pairs one way), so it is refitted and pooled again. 10:
 #: ``gap_ringing``'s windows and the rate floors of the indicators are counted in whole samples
-#: and compared within the rate's tolerance (:func:`~axiswatch._mechanics.whole_samples`,
+#: and compared within the rate's tolerance (:func:`~axiswatch.indicators._signals.whole_samples`,
 #: :func:`~axiswatch._capture.rate_at_least`), so a format-9 model's centre and spreads of
 #: ``gap_ringing`` were read with windows a sample longer or shorter: it is refitted.
 PERSIST_FORMAT = 10
@@ -87,6 +70,16 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.monitor._indicators.IndicatorBaseline",
 )
 
+#: Where a stored name's class lives now. A stored name is part of the blob's format: a class
+#: that moves keeps the name it was stored under, so stored models load and hash as before.
+MOVED_CLASSES: dict[str, str] = {
+    "axiswatch._alignment.LowRankBasis": "axiswatch.paper._alignment.LowRankBasis",
+    "axiswatch._indicator_model.FleetPrior": "axiswatch.indicators._fleet.FleetPrior",
+    "axiswatch._order_lines.OrderProfile": "axiswatch.indicators._order_lines.OrderProfile",
+    "axiswatch._readings.Readings": "axiswatch.indicators._readings.Readings",
+    "axiswatch.monitor._indicators.IndicatorBaseline": "axiswatch.indicators._axis.IndicatorBaseline",
+}
+
 _META = "__meta__"
 _PACKED = "__arrays__"
 #: Byte alignment of each array in the packed member.
@@ -97,7 +90,7 @@ _ALIGN = 16
 def _registry() -> dict[str, Any]:
     classes = {}
     for path in ALLOWED_CLASSES:
-        module, _, name = path.rpartition(".")
+        module, _, name = MOVED_CLASSES.get(path, path).rpartition(".")
         classes[path] = getattr(importlib.import_module(module), name)
     return classes
 

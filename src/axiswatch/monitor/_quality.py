@@ -1,33 +1,7 @@
 """Data quality of a capture: a verdict of its own, judged before any mechanical one.
 
-Pipeline stage of the monitor's jobs, between reading a capture and featurizing it. A capture
-whose data cannot tell anything about the axis's mechanics (the robot stood still, a sensor was
-stuck, a logger glitch wrote an absurd number) must be neither a maintenance alarm nor a quiet
-healthy score: the monitor stores it as rejected with kind ``bad data`` and the reason.
-
-Rules, in this order (the first that applies is the verdict):
-
-``out of range``
-    a sample with ``|value| > OUT_OF_RANGE`` (1e6): no position (rad, deg, mm), speed or torque
-    of a robot axis reaches it in any unit it is logged in; non-finite values are already
-    rejected by :func:`axiswatch.read_capture`.
-``flat/stuck signal``
-    a signal with one value throughout, or whose longest run of one repeated value covers at
-    least ``STUCK_SHARE`` (half) of its samples: a frozen sensor repeats its last reading. A
-    run of the position or the speed is a *standstill*, not a frozen sensor, when the other
-    motion signal agrees over the same time span (a speed of exactly 0 while the position holds
-    one value), or when there is no other motion signal to contradict it and the run is a
-    speed of exactly 0: the axis stood still for part of the capture and moved in the rest,
-    which the methods read (issue 13: a capture of a moving axis is scored).
-``no motion``
-    (only with the baseline's reference) position spanning less than ``MIN_MOTION_SHARE`` (5 %)
-    of the baseline's span: the robot was idle during the capture.
-
-The thresholds are stated, not fitted: a half-frozen signal or a twentyfold smaller motion are far
-outside what healthy captures of one task show (simulated captures: no repeated sample at all,
-spans within a few per cent). A torque that repeats one value for more than half a capture is
-called stuck whatever the motion (a drive's current is never exactly constant while it holds or
-moves an axis).
+Bad data is never an alarm nor a healthy score. Rules, first match wins: ``out of range``,
+``flat/stuck signal``, ``no motion``. Each is in docs/internals.md, "Data quality".
 """
 
 from __future__ import annotations

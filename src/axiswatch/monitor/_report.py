@@ -1,23 +1,7 @@
 """The HTML report of a monitoring store: the service engineer's view.
 
-Pipeline side-stage (reads the store, writes one file). ``index.html`` is self-contained: the
-charts' library (plotly.js) is embedded once, inline, so the page opens from a file share with no
-server and no network. From top to bottom:
-
-1. **Needs attention now**: the axes in alarm, with bad data, with a baseline to check (a stored
-   check nobody acknowledged), stale or with an acknowledged alarm
-   (:func:`axiswatch.monitor._attention.triage`), ranked, one engineer's line each (what moved, by how
-   much against its healthy spread, since when, what it likely means), each a link to its axis;
-   the healthy axes folded underneath with their last capture. The product default (mechanics)
-   leads; the paper's methods (PCA, LRA) are in a folded section of their own.
-2. **Axes**: per axis its line, an interactive trend of the distance and of each indicator
-   (healthy band, threshold, baseline and calibration periods, task changes where known, alarms;
-   zoom, and hover for capture, value and reason), and a short history of events (baseline,
-   threshold, alarms raised and cleared, acknowledgements, baselines to check and their
-   acknowledgement, re-baselines).
-3. Rejected captures and files changed after scoring (with when each was acknowledged,
-   ``rejections --ack``, and when a rejected file was found removed from the fleet folder: kept
-   as history, needing no attention).
+One self-contained ``index.html``: needs attention now, then each axis, then rejected captures.
+The monitor manual's "The report" describes each part.
 """
 
 from __future__ import annotations
@@ -31,11 +15,15 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch.monitor._attention import METHOD_ORDER, AxisAttention, lead_method, triage
+from axiswatch.monitor._advice import indicator_colour
+from axiswatch.monitor._attention import METHOD_ORDER, lead_method, triage
 from axiswatch.monitor._charts import distance_chart, plotly_library
+from axiswatch.monitor._feedback import ACK_VERDICTS
 from axiswatch.monitor._methods import DEFAULT_METHOD
+from axiswatch.monitor._methods import methods as registered_methods
 from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._store import BaselineCheck, StoreBackend
+from axiswatch.monitor._verdict import Verdict, axis_verdicts
+from axiswatch.monitor.store import BaselineCheck, StoreBackend
 
 __all__ = ["write_report"]
 
@@ -49,12 +37,16 @@ td:first-child, th:first-child, td.text { text-align: left; }
 .meta, .note { color: #555; font-size: 0.9em; }
 ol.attention { padding-left: 1.5em; }
 ol.attention li { margin: 0.4em 0; padding: 0.3em 0.5em; border-left: 5px solid #999; }
-li.alarm { border-color: #c00 !important; background: #fbe3e3; }
+li.act-now { border-color: #c00 !important; background: #fbe3e3; }
 li.bad-data { border-color: #d80 !important; background: #fdf0d8; }
-li.baseline-check { border-color: #b60 !important; background: #fbeedd; }
-li.stale { border-color: #a70 !important; background: #f6f0e0; }
-li.acknowledged { border-color: #888 !important; background: #eee; }
+li.watch { border-color: #c90 !important; background: #fdf8e3; }
+li.unconfirmed { border-style: dashed !important; background: #fefcf2; }
 .kind { font-weight: bold; text-transform: uppercase; font-size: 0.8em; margin-right: 0.5em; }
+.fault { font-weight: bold; }
+.swatch { display: inline-block; width: 0.8em; height: 0.8em; margin: 0 0.3em; }
+ol.attention div { margin: 0.15em 0; }
+details.why { margin: 0.2em 0; font-size: 0.85em; color: #555; }
+details.why summary { font-weight: normal; }
 .all-clear { padding: 0.5em; background: #e3f4e3; border-left: 5px solid #393; }
 details { margin: 0.8em 0; }
 summary { cursor: pointer; font-weight: bold; }
@@ -107,6 +99,12 @@ _LEGEND = (
 )
 
 
+def _stores_indicators(method: str) -> bool:
+    """Whether a method's scores carry its indicators' shifts (one no longer registered: no)."""
+    preset = registered_methods().get(method)
+    return preset is not None and preset.stores_indicators
+
+
 def _esc(value: Any) -> str:
     return html.escape("" if value is None else str(value))
 
@@ -137,24 +135,44 @@ def _table(frame: pd.DataFrame, *, text: tuple[str, ...] = ()) -> str:
     return f"<table><tr>{header}</tr>{''.join(body)}</table>"
 
 
-def _link(item: AxisAttention) -> str:
-    return f"<a href='#{_esc(item.anchor)}'>{_esc(item.robot)}/{_esc(item.axis)}</a>"
+def _anchor(verdict: Verdict) -> str:
+    """The id of the axis's section in the report."""
+    return f"{verdict.robot}-{verdict.axis}"
 
 
-def _first_screen(items: list[AxisAttention], method: str) -> list[str]:
-    urgent = [i for i in items if i.needs_attention]
-    calm = [i for i in items if not i.needs_attention]
+def _link(verdict: Verdict) -> str:
+    return f"<a href='#{_esc(_anchor(verdict))}'>{_esc(verdict.robot)}/{_esc(verdict.axis)}</a>"
+
+
+def _verdict_html(verdict: Verdict) -> str:
+    """The verdict's sentences (those the terminal prints), the technical line folded."""
+    first, *rest = verdict.sentences() or [""]
+    swatch = (
+        f"<span class='swatch' style='background:{indicator_colour(verdict.indicator)}'></span>"
+        if verdict.indicator is not None
+        else ""
+    )
+    lines = "".join(f"<div>{_esc(text)}</div>" for text in rest)
+    return f"{swatch}<span class='fault'>{_esc(first)}</span>{lines}" + (
+        f"<details class='why'><summary>Details</summary>{_esc(verdict.details)}</details>"
+        if verdict.details
+        else ""
+    )
+
+
+def _first_screen(verdicts: list[Verdict], method: str) -> list[str]:
+    urgent = [v for v in verdicts if v.needs_attention]
+    calm = [v for v in verdicts if not v.needs_attention]
     parts = [f"<section id='attention'><h2>Needs attention now ({len(urgent)})</h2>"]
     if urgent:
         parts.append("<ol class='attention'>")
-        for item in urgent:
-            css = item.kind.replace(" ", "-")
+        for verdict in urgent:
+            css = verdict.state.replace(" ", "-") + ("" if verdict.confirmed else " unconfirmed")
             parts.append(
-                f"<li class='{css}' data-axis='{_esc(item.robot)}/{_esc(item.axis)}' "
-                f"data-kind='{_esc(item.kind)}'><span class='kind'>{_esc(item.kind)}</span>"
-                f"{_link(item)} &mdash; {_esc(item.line)} "
-                f"<span class='note'>Last capture {_esc(_when(item.last_capture_at) or 'none')}.</span>"
-                "</li>"
+                f"<li class='{css}' data-axis='{_esc(verdict.robot)}/{_esc(verdict.axis)}' "
+                f"data-kind='{_esc(verdict.kind)}' data-state='{_esc(verdict.label)}'>"
+                f"<span class='kind'>{_esc(verdict.label)} </span>{_link(verdict)} "
+                f"{_verdict_html(verdict)}</li>"
             )
         parts.append("</ol>")
     else:
@@ -167,11 +185,12 @@ def _first_screen(items: list[AxisAttention], method: str) -> list[str]:
         f"{'axis' if len(calm) == 1 else 'axes'})</summary>"
         "<table><tr><th>axis</th><th>state</th><th>last capture</th><th>note</th></tr>"
     )
-    for item in calm:
+    for verdict in calm:
         parts.append(
-            f"<tr><td>{_link(item)}</td><td class='text'>{_esc(item.kind)}</td>"
-            f"<td class='text'>{_esc(_when(item.last_capture_at))}</td>"
-            f"<td class='text'>{_esc(item.line)}</td></tr>"
+            f"<tr><td>{_link(verdict)}</td><td class='text'>{_esc(verdict.label)}</td>"
+            f"<td class='text'>{_esc(_when(verdict.last_capture_at))}</td>"
+            f"<td class='text'>{_esc(' '.join(verdict.sentences()))} "
+            f"<span class='note'>{_esc(verdict.details)}</span></td></tr>"
         )
     parts.append("</table></details></section>")
     return parts
@@ -206,6 +225,9 @@ def _events(
             previous = bool(row.alarm)
     for ack in acks.itertuples(index=False):
         what = "re-baseline after maintenance" if ack.rebaseline else "alarm acknowledged"
+        verdict = getattr(ack, "verdict", None)
+        if isinstance(verdict, str):
+            what += f": {ACK_VERDICTS.get(verdict, verdict)}"
         seen = f" (alarm raised by {ack.capture})" if isinstance(ack.capture, str) else ""
         events.append(
             (
@@ -306,7 +328,8 @@ def write_report(
         return page
     items = triage(summary, results, rejections, changed, alarms, method=lead, checks=checks,
                    stale_factor=stale_factor)  # fmt: skip
-    parts += _first_screen(items, lead)
+    verdicts = axis_verdicts(items, results, alarms)
+    parts += _first_screen(verdicts, lead)
     others = [m for m in methods if m != lead]
     if others:
         note = f"<p class='note'>{_esc(_PAPER_NOTE)}</p>" if set(others) & _PAPER_METHODS else ""
@@ -323,15 +346,18 @@ def write_report(
             )
             parts += [f"<h3>{_esc(method)}</h3>", _table(frame, text=("state", "line"))]
         parts.append("</details>")
-    parts += ["<h2>Axes</h2>", f"<p class='note'>{_esc(_LEGEND)}</p>"]
-    by_axis = {(i.robot, i.axis): i for i in items}
-    axes = sorted(by_axis, key=lambda k: items.index(by_axis[k]))
-    for robot, axis in axes:
-        item = by_axis[(robot, axis)]
+    parts += [
+        "<h2>Axes</h2>",
+        "<details id='legend'><summary>How to read the charts</summary>"
+        f"<p class='note'>{_esc(_LEGEND)}</p></details>",
+    ]
+    for verdict in verdicts:
+        robot, axis = verdict.robot, verdict.axis
         own = results[(results.robot == robot) & (results.axis == axis)]
         parts.append(
-            f"<section class='axis' id='{_esc(item.anchor)}'><h3>{_esc(robot)} / {_esc(axis)} "
-            f"<span class='note'>({_esc(item.kind)})</span></h3><p>{_esc(item.line)}</p>"
+            f"<section class='axis' id='{_esc(_anchor(verdict))}'><h3>{_esc(robot)} / "
+            f"{_esc(axis)} <span class='note'>({_esc(verdict.label)})</span></h3>"
+            f"<div>{_verdict_html(verdict)}</div>"
         )
         events: list[tuple[str, str]] = []
         fault_dates: list[str] = []
@@ -344,7 +370,7 @@ def write_report(
         if not lead_rows.empty:
             parts.append(
                 distance_chart(
-                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=lead in ("mechanics", "indicators"),
+                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=_stores_indicators(lead),
                     events=events, fault_dates=fault_dates,
                 )
             )  # fmt: skip

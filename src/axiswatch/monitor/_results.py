@@ -1,6 +1,6 @@
 """Reading a monitoring store: results per capture, the fleet summary, rejections.
 
-Pipeline stage below the report and the CLI; it only reads.
+The report and the CLI read through it. It only reads.
 """
 
 from __future__ import annotations
@@ -12,8 +12,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._attribution import LIKELY_FAULTS, describe_top_indicator
-from axiswatch.monitor._store import StoreBackend
+from axiswatch.monitor._feedback import alarm_feedback
+from axiswatch.monitor.store import StoreBackend
+from axiswatch.paper._attribution import LIKELY_FAULTS, describe_top_indicator
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
@@ -27,7 +28,9 @@ def fleet_results(
     (JSON), ``path`` (relative to the fleet folder), ``top_indicator`` (for the indicator
     methods, over the threshold or in alarm: ``indicators``, the indicator that set the distance,
     the part it watches and its shift; ``mechanics``, the one with the largest share of the
-    distance and its likely meaning; None otherwise). Baseline rows are included
+    distance and its likely meaning; None otherwise), ``feedback`` (on the captures of an
+    acknowledged alarm: the engineer's verdict, ``seen`` without one; None otherwise:
+    :func:`~axiswatch.monitor._feedback.alarm_feedback`). Baseline rows are included
     (role ``baseline``, no distance).
     """
     frame = store.score_table(robot=robot, axis=axis)
@@ -37,6 +40,7 @@ def fleet_results(
         _top_indicator(json.loads(details)) if flagged else None
         for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
     ]
+    frame["feedback"] = alarm_feedback(frame, store.acknowledgements(robot, axis))
     return frame
 
 

@@ -7,40 +7,33 @@ and returns an outcome or an error record: it never raises for a bad capture.
 
 from __future__ import annotations
 
-import copy
-import dataclasses
 import hashlib
 import json
 import math
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
+from axiswatch._axis_model import MonitoredModel
 from axiswatch._capture import read_capture
-from axiswatch._detectors import BaselineDetector
-from axiswatch._features import FeatureSpec
-from axiswatch._indicator_model import MIN_AXES, MIN_READINGS, IndicatorModel
-from axiswatch._model import HealthModel
 from axiswatch._profiles import AxisProfile
-from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
 from axiswatch.monitor._decision import DecisionRule
 from axiswatch.monitor._fleet import FleetFile
-from axiswatch.monitor._indicators import (
-    IndicatorBaseline,
-    assess_capture,
-    check_monitor_rate,
-    fit_indicator_baseline,
-    indicator_details,
-    read_axis_indicators,
-    slow_baseline_note,
-    threshold_units,
+from axiswatch.monitor._methods import (
+    DEFAULT_METHOD,
+    METHOD_OPTIONS,
+    MethodPreset,
+    method_preset,
+    methods,
 )
-from axiswatch.monitor._methods import DEFAULT_METHOD, MethodPreset, method_preset
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
+from axiswatch.paper._detectors import BaselineDetector
+from axiswatch.paper._features import FeatureSpec
+from axiswatch.paper._stages import FeatureStage
 
 __all__ = [
     "MONITOR_FEATURES",
@@ -105,7 +98,7 @@ class MonitorConfig:
     task_envelope : float > 0 or None, default=None
         Method ``"indicators"``: apply the fleet's task-change allowance only to captures whose
         motion is not the baseline's task, with this envelope factor
-        (:data:`~axiswatch._indicator_model.TASK_ENVELOPE_FACTOR` was chosen on the development
+        (:data:`~axiswatch.indicators._spreads.TASK_ENVELOPE_FACTOR` was chosen on the development
         robots); None: every capture is scored with the allowance. Off by default: on the real
         hydraulic actuators it raised 55 false alarms in 297 healthy captures
         (docs/evaluation.md, "Through the monitor").
@@ -148,22 +141,22 @@ class MonitorConfig:
     whole_moves: bool = False
 
     def __post_init__(self) -> None:
-        method_preset(self.method)
-        for name in ("order_lines", "whole_moves"):
-            if getattr(self, name) and not self.preset.indicator_model:
-                raise ValueError(
-                    f"The '{name}' parameter is for the method 'indicators' only. Got "
-                    f"{name}=True for the method {self.method!r} instead."
-                )
+        preset = method_preset(self.method)
+        for name in METHOD_OPTIONS:
+            if getattr(self, name) in (None, False) or name in preset.accepts:
+                continue
+            readers = [m for m, p in methods().items() if name in p.accepts]
+            which = ", ".join(map(repr, readers)) or "no method"
+            raise ValueError(
+                f"The '{name}' parameter is for the method {which} only. Got {name}="
+                f"{getattr(self, name)!r} for the method {self.method!r} instead."
+            )
         if self.task_envelope is not None and not (
-            self.preset.indicator_model
-            and math.isfinite(self.task_envelope)
-            and self.task_envelope > 0
+            math.isfinite(self.task_envelope) and self.task_envelope > 0
         ):
             raise ValueError(
-                "The 'task_envelope' parameter must be None or a float > 0, for the method "
-                f"'indicators' only. Got {self.task_envelope!r} for the method "
-                f"{self.method!r} instead."
+                "The 'task_envelope' parameter must be None or a float > 0. "
+                f"Got {self.task_envelope!r} instead."
             )
         if not (0.0 < self.percentile < 100.0):
             raise ValueError(
@@ -183,59 +176,21 @@ class MonitorConfig:
         if self.clear_m < 1:
             raise ValueError(f"The 'clear_m' parameter must be >= 1. Got {self.clear_m!r} instead.")
         _check_features(self.features)
-        if self.preset.indicator_model and (self.detector is not None or self.stage is not None):
-            raise ValueError(
-                f"The 'detector' and 'stage' parameters do not apply to the method "
-                f"{self.method!r} (an IndicatorModel per axis); leave them None or choose a "
-                "detector method such as 'pca'."
-            )
 
     @property
     def preset(self) -> MethodPreset:
         """The registered preset of ``method``."""
         return method_preset(self.method)
 
-    def model(self) -> HealthModel:
-        """A fresh, unfitted health model of the configured method (detector, stage, floor).
-
-        Raises
-        ------
-        ValueError
-            For a method without a detector (``"indicators"``: :meth:`indicator_model`).
-        """
-        stage = self.preset.stage(self) if self.stage is None else self.stage
-        detector = self.detector
-        if detector is None:
-            if self.preset.detector is None:
-                raise ValueError(
-                    f"The method {self.method!r} has no HealthModel (no detector); its model is "
-                    "MonitorConfig.indicator_model()."
-                )
-            detector = self.preset.detector(self)
-        return HealthModel(
-            self.features,
-            detector,
-            percentile=self.percentile,
-            align_phase=self.align_phase,
-            min_threshold=self.threshold_floor(),
-            stage=stage,
-        )
-
-    def indicator_model(self) -> IndicatorModel:
-        """A fresh, unfitted :class:`~axiswatch.IndicatorModel` at the monitor's percentile (the
-        ``"indicators"`` method's model of each axis).
+    def model(self) -> MonitoredModel:
+        """A fresh, unfitted model of an axis for the configured method (its preset's factory).
 
         Examples
         --------
-        >>> MonitorConfig(method="indicators", percentile=95.0).indicator_model().percentile
+        >>> MonitorConfig(method="indicators", percentile=95.0).model().model.percentile
         95.0
         """
-        return IndicatorModel(
-            percentile=self.percentile,
-            task_envelope_factor=self.task_envelope,
-            order_lines=self.order_lines,
-            whole_moves=self.whole_moves,
-        )
+        return self.preset.make(self)
 
     def threshold_floor(self) -> float:
         """Least threshold: the ``percentile`` of the half-Laplace fit of healthy task changes
@@ -255,45 +210,9 @@ class MonitorConfig:
         )
 
     def params(self) -> dict[str, Any]:
-        """JSON-ready parameters: features, detector, calibration and alarm rule (and the stage,
-        for a stage method: the key is absent otherwise, so stores made before it still match)."""
-        if self.preset.indicator_model:
-            params: dict[str, Any] = {
-                "method": self.method,
-                "model": {
-                    "name": "IndicatorModel",
-                    "min_readings": MIN_READINGS,
-                    "fleet_min_axes": MIN_AXES,
-                },
-                "percentile": self.percentile,
-                "calibration_size": self.calibration_size,
-                "alarm": {"k": self.alarm_k, "n": self.alarm_n, "clear_m": self.clear_m},
-            }
-            if self.profile is not None:
-                params["profile"] = self.profile.source
-            if self.task_envelope is not None:  # absent otherwise: earlier stores still match
-                params["task_envelope"] = self.task_envelope
-            if self.order_lines:  # absent otherwise: earlier stores still match
-                params["order_lines"] = True
-            if self.whole_moves:  # absent otherwise: earlier stores still match
-                params["whole_moves"] = True
-            return params
-        model = self.model()
-        params = {
-            "method": self.method,
-            "detector": model.detector.get_params(),
-            "features": dataclasses.asdict(self.features),
-            "align_phase": self.align_phase and model.stage is None,
-            "percentile": self.percentile,
-            "calibration_size": self.calibration_size,
-            "alarm": {"k": self.alarm_k, "n": self.alarm_n, "clear_m": self.clear_m},
-        }
-        if model.stage is not None:
-            params["stage"] = {"name": type(model.stage).__name__, **vars(model.stage)}
-            params["threshold_floor"] = self.threshold_floor()
-        if self.profile is not None:  # absent otherwise, so stores made before it still match
-            params["profile"] = self.profile.source
-        return params
+        """JSON-ready parameters stored with every baseline: the method's and the decision
+        rule's (a stored baseline made under other parameters is refitted)."""
+        return self.preset.stored_params(self)
 
 
 def _check_features(spec: FeatureSpec) -> None:
@@ -411,20 +330,20 @@ _DATA_ERRORS = (CaptureError, OSError)
 class FitJob:
     """Fit a baseline from one capture file (``model``: unfitted, :meth:`MonitorConfig.model`).
 
-    An :class:`~axiswatch.IndicatorModel` (:meth:`MonitorConfig.indicator_model`) is fitted on
-    the baseline and the first ``calibration_size`` of the ``calibration`` files that give a
-    reading (``relatives``: their paths below the fleet folder).
+    A model that ``fits_calibration`` is fitted on the baseline and the first
+    ``calibration_size`` of the ``calibration`` files it can read (``relatives``: their paths
+    below the fleet folder).
     """
 
     file: FleetFile
     relative: str
-    model: HealthModel | IndicatorModel
+    model: MonitoredModel
     profile: AxisProfile | None = None
     calibration: tuple[FleetFile, ...] = ()
     relatives: tuple[str, ...] = ()
     calibration_size: int = 0
-    #: Of a stored baseline (after an upgrade, new options of the library): the 20 Hz floor of
-    #: new baselines is not applied, a slower one is kept and noted (``slow_baseline_note``).
+    #: Of a stored baseline (after an upgrade, new options of the library): the model's checks
+    #: of new baselines are not applied, a stored one is kept and noted (``baseline_note``).
     refit: bool = False
 
 
@@ -437,7 +356,7 @@ class FitOutcome:
     job: FitJob
     model_key: str
     blob: bytes | None
-    inline: HealthModel | IndicatorBaseline | None
+    inline: MonitoredModel | None
     rates_hz: dict[str, float]
     file_hash: str
     features_hash: str
@@ -447,95 +366,62 @@ class FitOutcome:
     reference: QualityReference | None = None
     waiting: str | None = None
     summary: dict[str, Any] | None = None
+    checks: dict[str, str] = field(default_factory=dict)
 
 
 def fit_baseline(job: FitJob) -> FitOutcome:
-    """Read the baseline capture and fit the health model on it (a ``parallel_map`` job)."""
-    if isinstance(job.model, IndicatorModel):
-        return _fit_indicators(job, job.model)
-    path = job.file.path
-    try:
-        digest = file_hash(path)
-        capture = read_capture(
-            path, job.model.features.signals, profile=profile_for(job.file, job.profile)
-        )
-        problem = data_quality_problem(capture)
-        if problem is not None:
-            error = _bad_data(job.relative, problem)
-            return FitOutcome(job, "", None, None, {}, digest, "", error, "bad data")
-        model = copy.deepcopy(job.model).fit(capture)
-    except _DATA_ERRORS as exc:
-        kind, transient = _failure_kind(exc)
-        error = _one_line(exc, path, job.relative)
-        return FitOutcome(job, "", None, None, {}, "", "", error, kind, transient)
-    features_hash = hashlib.sha256(model.baseline_features_.X.tobytes()).hexdigest()
-    key, blob = keep_model(model)
-    inline = model if blob is None else None
-    return FitOutcome(
-        job, key, blob, inline, dict(capture.rates_hz), digest, features_hash, None,
-        reference=QualityReference.of(capture),
-    )  # fmt: skip
-
-
-def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
-    """The baseline and the next readable captures, read and fitted as one IndicatorModel; an
-    outcome ``waiting`` while fewer than ``calibration_size`` captures give a reading."""
+    """Read the baseline capture and the captures after it the model needs, and fit the model
+    (a ``parallel_map`` job); an outcome ``waiting`` while fewer than ``calibration_size`` of
+    them can be read."""
+    template = job.model
     path = job.file.path
     try:
         profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
-        capture = read_capture(path, profile=profile)
+        capture = read_capture(path, template.signals, profile=profile)
         if not job.refit:
-            check_monitor_rate(capture)
+            template.check_baseline(capture)
         problem = data_quality_problem(capture)
         if problem is not None:
             error = _bad_data(job.relative, problem)
             return FitOutcome(job, "", None, None, {}, digest, "", error, "bad data")
-        baseline = read_axis_indicators(
-            capture, profile, order_lines=template.order_lines, whole_moves=template.whole_moves
-        )
+        baseline, why = template.read(capture, profile)
     except _DATA_ERRORS as exc:
         kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)
         return FitOutcome(job, "", None, None, {}, "", "", error, kind, transient)
-    if not baseline.available():
-        reasons = "; ".join(f"{k} {v}" for k, v in baseline.reasons.items())
-        error = f"{job.relative}: not a baseline, no indicator can be read ({reasons})"
+    if why is not None:
+        error = f"{job.relative}: not a baseline, {why}"
         return FitOutcome(job, "", None, None, {}, digest, "", error, "not scored")
     reference = QualityReference.of(capture)
-    readings, hashes, paths = [baseline], [digest], [job.relative]
+    size = job.calibration_size if template.fits_calibration else 0
+    read, names = [baseline], [(digest, job.relative)]
     unusable: list[str] = []  # why, for the axis's line while it waits
     for file, relative in zip(job.calibration, job.relatives, strict=True):
-        if len(readings) > job.calibration_size:
+        if len(read) > size:
             break
-        # Skipped as the score job will skip it: bad data, or no reading at all.
+        # Skipped as the score job will skip it: bad data, or nothing the model can read.
         try:
             calibration = read_capture(
-                file.path, expected_rates_hz=capture.rates_hz, profile=profile
+                file.path, template.signals, expected_rates_hz=capture.rates_hz, profile=profile
             )
             problem = data_quality_problem(calibration, reference)
             if problem is not None:
                 unusable.append(_bad_data(relative, problem))
                 continue
-            read = read_axis_indicators(
-                calibration,
-                profile,
-                order_lines=template.order_lines,
-                whole_moves=template.whole_moves,
-            )
-            if read.available():
-                readings.append(read)
-                hashes.append(file_hash(file.path))
-                paths.append(relative)
+            taken, why = template.read(calibration, profile)
+            if why is None:
+                read.append(taken)
+                names.append((file_hash(file.path), relative))
             else:
-                unusable.append(f"{relative}: no indicator can be read")
+                unusable.append(f"{relative}: {why}")
         except _DATA_ERRORS as exc:
             unusable.append(_one_line(exc, file.path, relative))
             continue
-    if len(readings) <= job.calibration_size:
+    if len(read) <= size:
         waiting = (
-            f"{job.file.robot}/{job.file.axis}: calibrating, {len(readings) - 1} of "
-            f"{job.calibration_size} captures after the baseline {job.relative} give a reading; "
+            f"{job.file.robot}/{job.file.axis}: calibrating, {len(read) - 1} of "
+            f"{size} captures after the baseline {job.relative} give a reading; "
             "the indicators baseline is set once all have arrived"
         )
         if unusable:
@@ -546,24 +432,19 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
         rates = dict(capture.rates_hz)  # of the baseline: a stored one's line names them
         return FitOutcome(job, "", None, None, rates, digest, "", None, waiting=waiting)
     try:
-        fitted = fit_indicator_baseline(
-            readings,
-            hashes,
-            paths,
-            percentile=template.percentile,
-            task_envelope_factor=template.task_envelope_factor,
-            order_lines=template.order_lines,
-            whole_moves=template.whole_moves,
-        )
+        fitted = template.fit_read(read, names)
     except CalibrationError as exc:
         error = f"{job.relative}: not a baseline: {exc}"
         return FitOutcome(job, "", None, None, {}, digest, "", error, "not scored")
-    rows = json.dumps([r.values for r in readings], sort_keys=True, default=str)
+    except _DATA_ERRORS as exc:
+        kind, transient = _failure_kind(exc)
+        error = _one_line(exc, path, job.relative)
+        return FitOutcome(job, "", None, None, {}, "", "", error, kind, transient)
     key, blob = keep_model(fitted)
     return FitOutcome(
         job, key, blob, fitted if blob is None else None, dict(capture.rates_hz), digest,
-        hashlib.sha256(rows.encode()).hexdigest(), None, reference=reference,
-        summary={**fitted.model.params(), "fitted_on": paths},
+        fitted.fingerprint(), None, reference=reference, summary=fitted.summary(),
+        checks=fitted.checks(),
     )  # fmt: skip
 
 
@@ -604,58 +485,23 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         size, mtime = stat.st_size, stat.st_mtime_ns
         digest = file_hash(path)
         model = resolve_model(job.model)
-        if isinstance(model, IndicatorBaseline):
-            return _score_indicators(job, model, digest, size, mtime)
-        capture = read_capture(
-            path,
-            model.features.signals,
-            expected_rates_hz=job.rates_hz,
-            profile=profile_for(job.file, job.profile),
-        )
+        profile = profile_for(job.file, job.profile)
+        capture = read_capture(path, model.signals, expected_rates_hz=job.rates_hz, profile=profile)
         problem = data_quality_problem(capture, job.reference)
         if problem is not None:
             error = _bad_data(job.relative, problem)
             return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "bad data")
-        features, lag = model.featurize(capture)
-        details: dict[str, Any] = {
-            "phase_lag_samples": int(lag),
-            "phase_lag_s": float(lag / features.rate_hz),
-            "n_rows": int(features.X.shape[0]),
-        }
-        detector = model.detector_
-        distance, diagnostics = detector.distance_and_diagnostics(features.X)
-        details.update(diagnostics)
-        # A stage that can say why (the lab's ``mechanics``) adds each indicator's share.
-        explain = getattr(model.stage_, "explain", None)
-        explanation = None if explain is None else explain(detector, features.X)
-        if explanation is not None:
-            details["indicators"] = explanation
+        assessment = model.score(capture, digest, profile)
     except _DATA_ERRORS as exc:
         kind, transient = _failure_kind(exc)
         error = _one_line(exc, path, job.relative)
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, kind, transient)
-    return ScoreOutcome(job, digest, size, mtime, distance, details, None)
-
-
-def _score_indicators(
-    job: ScoreJob, model: IndicatorBaseline, digest: str, size: int, mtime: int
-) -> ScoreOutcome:
-    """Score one capture with the axis's IndicatorModel (errors raised as in score_capture)."""
-    profile = profile_for(job.file, job.profile)
-    capture = read_capture(job.file.path, expected_rates_hz=job.rates_hz, profile=profile)
-    problem = data_quality_problem(capture, job.reference)
-    if problem is not None:
-        error = _bad_data(job.relative, problem)
-        return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "bad data")
-    assessment = assess_capture(model, capture, digest, profile)
     if not assessment.scored:
-        # Not an alarm and not a healthy score: no indicator of the model could be read.
+        # Not an alarm and not a healthy score: nothing the model reads could be read.
         error = f"{job.relative}: {assessment.reason()}"
         return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "not scored")
-    left_out = digest in model.file_hashes
-    details = indicator_details(model, assessment, left_out=left_out)
-    slow = slow_baseline_note(capture.rates_hz)  # the baseline's rate, to 0.1 %
-    if slow is not None and not details.get("baseline_check"):
-        details["baseline_check"] = slow
-    distance = threshold_units(assessment)
-    return ScoreOutcome(job, digest, size, mtime, distance, details, None)
+    details = dict(assessment.details)
+    note = model.baseline_note(capture.rates_hz)  # the baseline's rate, to 0.1 %
+    if note is not None and not details.get("baseline_check"):
+        details["baseline_check"] = note
+    return ScoreOutcome(job, digest, size, mtime, assessment.distance, details, None)

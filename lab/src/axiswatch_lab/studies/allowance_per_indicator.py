@@ -1,4 +1,4 @@
-"""Per-indicator task-change allowance against the fleet's one scalar (issue 13, i13d).
+"""Per-indicator task-change allowance against the fleet's one scalar.
 
 Research study ("Transfer" and "Through the monitor", docs/evaluation.md). The fleet's
 task-change allowance of :class:`~axiswatch.IndicatorModel` is one number: the percentile of a
@@ -27,7 +27,7 @@ The alternatives scored here, each from the same readings:
   MAD is far too small when the tasks' centres form clusters); the scalar allowance is refitted
   in those spreads; ``pairwise spreads, per-indicator``: both changes.
 
-Added by i13h (allowances from an axis's own pairs, docs/evaluation.md "Allowances from an
+Added for the allowances from an axis's own pairs (lab/docs/decision-log.md, "Allowances from an
 axis's own pairs"):
 
 * ``fleet only``: the product's rule before the own pairs (the study's reference), its
@@ -36,7 +36,7 @@ axis's own pairs"):
 * ``own pairs, at least the fleet's``: per axis, ``A_i = max(A_i(fleet), A_i(own))``, where
   ``A_i(own)`` is the same half-Laplace rule (``median / ln 2``, the fleet's Bonferroni level)
   fitted to the ``|z_i|`` of the axis's centre against each other axis's centre
-  (:func:`~axiswatch._indicator_model.own_pair_allowances`, the product's since it was chosen):
+  (:func:`~axiswatch.indicators._fleet.own_pair_allowances`, the product's since it was chosen):
   an axis whose task is unlike the fleet's gets a larger allowance, a normal axis about the
   fleet's;
 * ``own pairs``: ``A_i(own)`` alone (smaller than the fleet's on an axis in the fleet's middle).

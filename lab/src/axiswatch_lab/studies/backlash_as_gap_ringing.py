@@ -1,7 +1,7 @@
-"""Backlash as the drive's ringing after the gear crosses its gap: the study (issue 13, i14a).
+"""Backlash as the drive's ringing after the gear crosses its gap: the study.
 
 Research study (docs/evaluation.md, "Backlash as ringing after the gap crossings"). It chose
-:func:`axiswatch._ringing.gap_ringing` (the product's ``gap_ringing`` reading since) over the
+:func:`axiswatch.indicators._ringing.gap_ringing` (the product's ``gap_ringing`` reading since) over the
 former backlash indicator ``reversal_bursts`` (bursts within +-0.02 s of the *commanded*
 torque's sign changes, in the band ``[0.04, 0.4] x rate``, needing 100 Hz). Two candidates of
 the reading (:data:`CANDIDATES`) and three variants of the readings (:data:`VARIANTS`: the former
@@ -75,7 +75,7 @@ REVERSAL_BURSTS = Indicator(
 
 
 def reversal_bursts_before(m: Motion) -> tuple[float, str | None]:
-    """``reversal_bursts`` as :func:`~axiswatch._readings.read_indicators` read it before
+    """``reversal_bursts`` as :func:`~axiswatch.indicators._readings.read_indicators` read it before
     ``gap_ringing`` replaced it (NaN and the reason where it could not be read)."""
     peak = float(np.max(np.abs(m.speed))) if m.speed.size else 0.0
     moving = np.abs(m.speed) > MOVING_FRACTION * peak
@@ -95,7 +95,7 @@ def reversal_bursts_before(m: Motion) -> tuple[float, str | None]:
 
 
 def candidate_ringing(m: Motion, candidate: str) -> tuple[float, str | None]:
-    """:func:`~axiswatch._ringing.gap_ringing` of a motion with a candidate's options."""
+    """:func:`~axiswatch.indicators._ringing.gap_ringing` of a motion with a candidate's options."""
     return gap_ringing(
         m.time_s,
         m.position,

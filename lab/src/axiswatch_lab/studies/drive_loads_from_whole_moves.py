@@ -1,4 +1,4 @@
-"""Drive loads read from whole moves only (issue 13, i15a; lab study).
+"""Drive loads read from whole moves only (lab study).
 
 Research study (docs/evaluation.md, "Drive loads from whole moves"). The product's
 ``load_forward`` / ``load_backward`` (:func:`~axiswatch.read_indicators`) are the mean of
@@ -17,7 +17,7 @@ The candidate reads the loads on **whole moves** only: the samples of runs of on
 end inside the capture, so every reading averages the same stretch of positions. A direction
 without a whole steady move gives NaN and a reason. No constant is added.
 
-:func:`~axiswatch._readings.whole_move_mask` is the pure function (in the product since the
+:func:`~axiswatch.indicators._readings.whole_move_mask` is the pure function (in the product since the
 opt-in operating point ``whole_moves``, i16a); :func:`whole_move_readings` replaces the two loads
 of a product reading with :func:`~axiswatch._readings.drive_loads` over whole moves. ``python -m axiswatch_lab.studies.drive_loads_from_whole_moves OUT [SEED ...]`` scores the
 product (``current``) and the candidate (``whole moves``), :data:`STUDY`, from the same

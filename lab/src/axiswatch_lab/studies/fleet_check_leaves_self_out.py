@@ -1,11 +1,11 @@
 """The fleet check of a baseline: against the other axes (leave-self-out) or the whole fleet.
 
-Research study of issue 13, item 2 (docs/evaluation.md, "Through the monitor", "A worn axis in
+Research study (lab/docs/decision-log.md, "Through the monitor", "A worn axis in
 the fleet"). Each axis's :class:`~axiswatch.IndicatorModel` is fitted as the monitor fits it
-(:func:`~axiswatch.monitor._indicators.fit_indicator_baseline` on the baseline and ``K = 5``
+(:func:`~axiswatch.indicators._axis.fit_indicator_baseline` on the baseline and ``K = 5``
 calibration captures) and its baseline is checked against its fleet two ways:
 
-* ``leave-self-out``: what the monitor does (:func:`~axiswatch.monitor._indicators.with_fleet`):
+* ``leave-self-out``: what the monitor does (:func:`~axiswatch.indicators._axis.with_fleet`):
   against the prior of the other axes when 3 remain, else of all;
 * ``itself included``: the rule before: against the prior of all the axes, the checked one
   included.
@@ -180,7 +180,7 @@ def inverse_variance_weight(models: Sequence[IndicatorModel]) -> float:
 def drive_friction_prior(
     models: Sequence[IndicatorModel], index: int, forward_weight: float = 0.5
 ) -> FleetPrior | None:
-    """:func:`~axiswatch._indicator_model.pool_fleet_without` of the models seen through
+    """:func:`~axiswatch.indicators._fleet.pool_fleet_without` of the models seen through
     :func:`drive_friction_view`: what the ``index``-th axis is checked against."""
     viewed = []
     for model in models:
@@ -226,7 +226,7 @@ def growth_difference(
     prior: FleetPrior,
     percentile: float,
 ) -> float:
-    """:func:`~axiswatch._indicator_model.fleet_difference` with every indicator one-sided:
+    """:func:`~axiswatch.indicators._fleet.fleet_difference` with every indicator one-sided:
     only a centre above the fleet's counts (the candidate ``growth only``)."""
     _, shifts = fleet_difference(centre, within, prior, percentile)
     scales = _task_change_scales({n: within[n] for n in shifts}, prior, percentile)

@@ -1,9 +1,9 @@
-"""Coulomb and viscous friction read only where the least squares can tell them apart (i15e; lab).
+"""Coulomb and viscous friction read only where the least squares can tell them apart (lab study).
 
 Research study (docs/evaluation.md, "Friction only where it is identified"). The product reads
 ``coulomb_friction`` and ``viscous_friction`` by least squares of the moving torque on
 ``sign(v)``, ``v``, the acceleration, 1 and a cubic in the position
-(:func:`axiswatch._readings._friction`); it drops ``v`` only when ``std|v| <= 0.1 mean|v|``. On
+(:func:`axiswatch.indicators._readings._friction`); it drops ``v`` only when ``std|v| <= 0.1 mean|v|``. On
 a task of constant-speed moves ``|v|`` is nearly one value, ``v`` is nearly ``c sign(v)`` and
 the two coefficients trade off from capture to capture (development robots 4, 6 and 7: Robot
 A's 12 friction days), yet the speeds' spread left by the ramps keeps that test from firing.

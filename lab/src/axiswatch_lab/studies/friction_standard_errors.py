@@ -1,4 +1,4 @@
-"""A friction reading as uncertain as its own least squares says (issue 13, i15a; lab study).
+"""A friction reading as uncertain as its own least squares says (lab study).
 
 Research study (docs/evaluation.md, "Drive loads from whole moves", second candidate). The
 product reads ``coulomb_friction`` and ``viscous_friction`` by least squares of the torque on
@@ -71,7 +71,7 @@ Taken = tuple[Readings, Readings, dict[str, float]]
 def friction_standard_errors(m: Motion) -> dict[str, float]:
     """Standard errors of the product's Coulomb and viscous coefficients of one capture.
 
-    The same design as :func:`axiswatch._readings._friction` (moving samples: ``|v|`` above
+    The same design as :func:`axiswatch.indicators._readings._friction` (moving samples: ``|v|`` above
     ``MOVING_FRACTION`` of the peak; columns ``sign(v)``, ``v``, the acceleration, 1 and a cubic
     in the position; ``v`` dropped when the speeds are one), ``sqrt(diag(sigma^2 (X'X)^-1))``
     with ``sigma^2`` the residual sum of squares over ``n - p``. NaN where the product reads

@@ -1,5 +1,5 @@
-"""How the model combines its indicators: per-indicator AUROC and combination rules (issue 13,
-i14c; lab only).
+"""How the model combines its indicators: per-indicator AUROC and combination rules
+(lab only).
 
 Research study (docs/evaluation.md, "Combining the indicators"). :class:`~axiswatch.IndicatorModel`
 scores a capture of another task by the *largest* shift over its indicators in allowance units,

@@ -1,4 +1,4 @@
-"""An axis without a fleet: what a task change does when nothing says what one does (issue 13).
+"""An axis without a fleet: what a task change does when nothing says what one does.
 
 Research study ("An axis without a fleet", docs/evaluation.md). An axis with fewer than 3 axes
 of its profile has no fleet prior, so no task-change allowance: its captures are scored in its

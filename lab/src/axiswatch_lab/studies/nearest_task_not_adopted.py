@@ -1,12 +1,12 @@
-"""Nearest task (i20n, issue 13): score a task change against the fleet axis that runs that task.
+"""Nearest task: score a task change against the fleet axis that runs that task.
 
 Research code (``axiswatch experiment nearest-task``); nothing here is in the product. The
 default (:class:`~axiswatch.IndicatorModel` with a fleet prior) scores a capture of another task
 against the *baseline's* centre, in spreads widened by the fleet's task-change spread and
 allowance. The variant studied here uses what the fleet knows about the new task itself:
 
-* **match**: a capture's motion (:attr:`~axiswatch._readings.Readings.signature`) is *held* by a
-  fleet axis when its :func:`~axiswatch._readings.signature_distance` from the axis's
+* **match**: a capture's motion (:attr:`~axiswatch.indicators._readings.Readings.signature`) is *held* by a
+  fleet axis when its :func:`~axiswatch.indicators._readings.signature_distance` from the axis's
   ``task_reference_`` is at most the axis's ``task_envelope_`` (the product's envelope,
   ``TASK_ENVELOPE_FACTOR`` x the largest leave-one-out signature distance of its fitting
   captures).
@@ -19,11 +19,11 @@ allowance. The variant studied here uses what the fleet knows about the new task
   envelope (their reference signatures). They are what a user has to learn a healthy *unit*
   change on one task from.
 * **unit-change prior** (:func:`unit_change_prior`), the estimator of :func:`pool_fleet
-  <axiswatch._indicator_model.pool_fleet>` restricted to those pairs: per indicator the
+  <axiswatch.indicators._fleet.pool_fleet>` restricted to those pairs: per indicator the
   unit-change spread ``s_u = 1.4826 x median |c_a - c_b|`` over the same-task pairs that read it
   (the standard deviation of the difference of two units' centres, as ``pool_fleet``'s ``s_t``
   is that of two axes' centres; the difference is symmetric about 0, so its MAD is about 0;
-  NaN with fewer than 3 pairs); then :func:`~axiswatch._indicator_model.fleet_pair_shifts` with
+  NaN with fewer than 3 pairs); then :func:`~axiswatch.indicators._fleet.fleet_pair_shifts` with
   ``s_u`` in place of ``s_t``, kept on the same-task ordered pairs only (each pair both ways),
   gives each indicator's ``|z|`` and each ordered pair's largest shift; the allowance scales are
   ``median / ln 2`` of those (an indicator read on fewer than ``MIN_PAIRS`` = 3 ordered pairs
@@ -200,9 +200,9 @@ def unit_change_prior(
 ) -> FleetPrior | None:
     """What a healthy unit change on one task does to each indicator, from same-task pairs.
 
-    :func:`~axiswatch._indicator_model.pool_fleet`'s estimator on the same-task pairs only (the
+    :func:`~axiswatch.indicators._fleet.pool_fleet`'s estimator on the same-task pairs only (the
     module docstring): ``s_u`` in place of the task-change spread, the allowance scales from the
-    ordered same-task pairs' shifts (:func:`~axiswatch._indicator_model.fleet_pair_shifts`).
+    ordered same-task pairs' shifts (:func:`~axiswatch.indicators._fleet.fleet_pair_shifts`).
 
     Parameters
     ----------

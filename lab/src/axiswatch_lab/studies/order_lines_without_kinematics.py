@@ -1,4 +1,4 @@
-"""Order lines without kinematics (issue 13, item 3; i13e): candidates and their study.
+"""Order lines without kinematics: candidates and their study.
 
 Research code. Without an :class:`~axiswatch.AxisProfile`'s kinematics no line indicator is read
 (the ``tooth_lines:*`` / ``bearing_lines:*`` need the gear ratio and the components' orders).
@@ -36,7 +36,7 @@ Compared on the development robots with the transfer design *without kinematics*
 None passed (docs/evaluation.md, "Order lines without kinematics"): the summaries that find the
 faults add Robot-A false alarms, ``line_share`` is 0 in health and so not scored by the model.
 :func:`baseline_relative_study` compares the product's ``order_lines`` instead (each capture's
-lines against its baseline's own order spectrum, :mod:`axiswatch._order_lines`).
+lines against its baseline's own order spectrum, :mod:`axiswatch.indicators._order_lines`).
 """
 
 from __future__ import annotations
@@ -102,7 +102,7 @@ CANDIDATES: tuple[str, ...] = tuple(
 
 
 def order_spectrum(m: Motion, band: str = "rate") -> OrderSpectrum | str:
-    """:func:`axiswatch._order_lines.order_spectrum` of a capture's motion, or why there is none.
+    """:func:`axiswatch.indicators._order_lines.order_spectrum` of a capture's motion, or why there is none.
 
     ``band="rate"``: the torque's band ``[0.04, 0.4] x`` the rate, orders that stay in it at every
     steady speed; ``band="wide"``: the torque unfiltered (the product's).

@@ -1,4 +1,4 @@
-"""A supervised ceiling of fault detection on the transfer study's captures (issue 13, i19b).
+"""A supervised ceiling of fault detection on the transfer study's captures.
 
 Research study (docs/evaluation.md, "A supervised ceiling"). Issue 13 asks every fault's AUROC
 to reach 0.95 against healthy captures of other tasks; the default and even its own-task oracle
@@ -178,7 +178,7 @@ def order_bands(profile: OrderProfile | None) -> dict[str, float]:
     Examples
     --------
     >>> import numpy as np
-    >>> from axiswatch._order_lines import OrderProfile
+    >>> from axiswatch.indicators._order_lines import OrderProfile
     >>> profile = OrderProfile(first_cell=94, values=np.array([0.1, 0.9, np.nan, 0.3]))
     >>> order_bands(profile)  # cells 94-95 in [10 ** (84 / 48), 10 ** (96 / 48)), 96-97 above
     {'order[56-1e+02]': 0.9, 'order[1e+02-1.8e+02]': 0.3}

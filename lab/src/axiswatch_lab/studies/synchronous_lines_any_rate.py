@@ -1,5 +1,5 @@
-"""Angle-synchronous (equivalent-time) lines of a tooth or bearing fault at any logging rate
-(issue 13, i14b): how far they can be seen.
+"""Angle-synchronous (equivalent-time) lines of a tooth or bearing fault at any logging rate:
+how far they can be seen.
 
 Research study (docs/evaluation.md, "Synchronous lines at any logging rate"). The product's
 kinematic lines (``tooth_lines:*``, ``bearing_lines:*``) band-pass the torque and need the

@@ -1,6 +1,6 @@
 """Choosing the task envelope of the ``indicators`` method on the development robots.
 
-Research study of issue 13 ("Through the monitor", docs/evaluation.md). The scenarios of
+Research study ("Through the monitor", docs/evaluation.md). The scenarios of
 :mod:`axiswatch_lab.studies.through_the_monitor` (per robot 4 axes on tasks 0-3, the baseline and
 ``K = 5`` calibration captures; *healthy*: 4 captures of the own task, then 4 each of two other
 tasks; *fault*: 8 captures of the own task, axis 0's with a friction fault of severity 0.6), read

@@ -1,6 +1,6 @@
 """The ``indicators`` and ``mechanics`` methods through the monitor, on data never tuned on.
 
-Research study of issue 13 ("Through the monitor", docs/evaluation.md). Every fleet folder is
+Research study ("Through the monitor", docs/evaluation.md). Every fleet folder is
 written in the project's capture format into a scratch folder and scored by
 :func:`axiswatch.monitor.monitor_fleet` exactly as ``axiswatch monitor --method M`` would (one
 worker, an in-memory store); nothing of the methods is chosen here.

@@ -1,17 +1,7 @@
-"""A default for LRA's ``lambda`` from the baseline's own noise level (Marchenko-Pastur edge).
+"""A default for LRA's ``lambda`` from the baseline's own noise (Marchenko-Pastur edge).
 
-Pipeline stage 3 helper. The low-rank representation keeps the singular values of ``X`` above
-``sqrt(lambda)`` (paper eqs. 3-4); the paper's ``lambda = 1`` ties that cut to the feature scale.
-If ``X = S + E`` with ``E`` of i.i.d. entries of standard deviation ``sigma``, the singular values of
-``E`` fill the Marchenko-Pastur bulk whose upper edge is ``sigma (sqrt(N) + sqrt(K))``; a singular
-value above the edge is structure, one below it is indistinguishable from noise. ``sigma`` is
-estimated robustly from the median singular value (Gavish & Donoho, "The optimal hard threshold
-for singular values is 4/sqrt(3)", IEEE Trans. Inf. Theory 60(8), 2014, eq. 10):
-``sigma = s_med / sqrt(max(N, K) mu_beta)`` with ``mu_beta`` the median of the Marchenko-Pastur law
-of aspect ratio ``beta = min(N, K) / max(N, K)``. Then ``lambda = (sigma (sqrt(N) + sqrt(K)))^2``.
-
-Caveat (measured in docs/paper-notes.md): |STFT| rows with ``hop=1`` overlap almost entirely, so
-the entries of ``E`` are far from independent and the estimate is a heuristic, not a guarantee.
+Paper eqs. 3-4 keep singular values above ``sqrt(lambda)``. The noise ``sigma`` follows Gavish &
+Donoho (2014), eq. 10. The derivation and its caveat are in docs/internals.md, "LRA solvers".
 """
 
 from __future__ import annotations

@@ -1,17 +1,7 @@
-"""Why an alarm fired: the share of a capture's distance carried by each channel and frequency band.
+"""Why an alarm fired: the share of a capture's distance carried by each channel and band.
 
-Pipeline stage 4b (reads a fitted detector and two feature matrices). The features of one channel
-are split into ``n_bands`` contiguous frequency bands of (nearly) equal numbers of bins; every
-(channel, band) cell gets a share of the distance ``d`` of the test capture to the baseline.
-
-* **Exact decomposition** for the PCA detector (paper, "Detection": ``d = ||X_s P - X_t P||_F^2``).
-  With ``D = X_s - X_t`` (rows paired) and the projector ``Q = P P^T``,
-  ``d = sum_rows D Q D^T = sum_j c_j`` with ``c_j = sum_rows D_j (D Q)_j``, so the contributions of
-  the columns in a cell add up to exactly ``d`` (a cell can be negative when it cancels another).
-* **Occlusion** for every other detector (LRA, energy, CORAL, SA), whose distance does not split
-  into a sum over columns: the cell's columns of the test are replaced by the baseline's (its
-  leading rows) and the share is ``(d - d_occluded) / d``, the part of the distance that goes away
-  when that cell looks like the baseline again. These shares need not add up to 1.
+It is exact for PCA (paper, "Detection"), by occlusion for every other detector.
+The decomposition is in docs/internals.md, "Attribution".
 """
 
 from __future__ import annotations
@@ -25,8 +15,8 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import check_is_fitted
 
-from axiswatch._detectors import BaselineDetector, PCADetector
-from axiswatch._features import Features
+from axiswatch.paper._detectors import BaselineDetector, PCADetector
+from axiswatch.paper._features import Features
 
 __all__ = [
     "LIKELY_FAULTS",
@@ -161,7 +151,7 @@ def attribute(
     --------
     >>> import numpy as np
     >>> from axiswatch import FeatureSpec, PCADetector
-    >>> from axiswatch._features import features_from_signals
+    >>> from axiswatch.paper._features import features_from_signals
     >>> rng = np.random.default_rng(0)
     >>> spec = FeatureSpec(signals=("a", "b"), combinations="none", segment_length=16, hop=8)
     >>> quiet = features_from_signals(rng.normal(size=(800, 2)), 100.0, spec)

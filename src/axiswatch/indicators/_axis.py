@@ -1,56 +1,33 @@
 """The monitor's ``indicators`` method: an :class:`~axiswatch.IndicatorModel` per axis baseline.
 
-Pipeline stage of the monitor's jobs for the method ``indicators`` (issue 13). The HealthModel
-methods fit a model on the baseline capture alone and calibrate the threshold on the next ``K``
-captures' distances; an IndicatorModel needs those captures' *readings* for its within-task
-spreads. So, with the decision rule and the store unchanged:
-
-1. the fit job reads the baseline and the next ``K`` captures after it that give a reading (the
-   captures the monitor then decides as its calibration captures) and fits the model on all
-   ``K + 1`` (:func:`fit_indicator_baseline`); an axis with fewer such captures waits;
-2. the driver pools the fitted models of the axes of one profile into a fleet prior
-   (:func:`~axiswatch.pool_fleet`, >= 3 axes) before it stores them (:func:`with_fleet`); each
-   axis's baseline is checked against the prior of the *other* axes when 3 remain
-   (:func:`~axiswatch._indicator_model.pool_fleet_without`: a worn axis must not set the
-   allowances it is checked against);
-3. a score job gives a capture the model was fitted on its *leave-one-out* assessment
-   (:meth:`~axiswatch.IndicatorModel.assess_fitting`, in the axis's own spreads); any other
-   capture is assessed against the centre (:func:`assess_capture`), in the own spreads when its
-   motion is the baseline's task and, when the task changed, in units of each indicator's
-   task-change allowance from the fleet;
-4. the score stored is the distance **in units of the threshold that applied**
-   (:func:`threshold_units`): the calibration captures' are their own-spread distances over the
-   own threshold, so the half-Laplace fit of the ``K`` that
-   :func:`~axiswatch.monitor._decision.decide` makes is exactly 1 (the fit is proportional to
-   the distances) and a monitored capture is over the threshold exactly when the model says so,
-   whichever case applied. The details keep the distance in spreads, the threshold in spreads
-   and which case applied.
-
-A reading that is unavailable is never an alarm: a capture gives the indicators it can, and one
-that gives none of the model's is recorded as not scored, with the reasons.
+Fit on the baseline and ``K`` calibration captures, pooled with the axis's fleet, scored in
+units of the threshold that applied. docs/internals.md, "The method indicators".
 """
 
 from __future__ import annotations
 
 import copy
+import hashlib
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
+from axiswatch._axis_model import Assessment, MonitoredModel
 from axiswatch._capture import Capture, rate_at_least
-from axiswatch._indicator_model import (
+from axiswatch._profiles import AxisProfile
+from axiswatch.exceptions import CalibrationError, CaptureError
+from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._fleet import (
     LEAVE_SELF_OUT_MAX_AXES,
     FleetPrior,
-    IndicatorAssessment,
-    IndicatorModel,
     pool_fleet,
     pool_fleet_without,
 )
-from axiswatch._profiles import AxisProfile
-from axiswatch._readings import Readings, read_indicators
-from axiswatch._ringing import MIN_RINGING_RATE_HZ
-from axiswatch.exceptions import CalibrationError, CaptureError
+from axiswatch.indicators._model import IndicatorModel
+from axiswatch.indicators._readings import Readings, read_indicators
+from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ
 
 __all__ = [
     "MIN_MONITOR_RATE_HZ",
@@ -83,8 +60,102 @@ class IndicatorBaseline:
     """
 
     model: IndicatorModel
-    file_hashes: tuple[str, ...]
-    paths: tuple[str, ...]
+    file_hashes: tuple[str, ...] = ()
+    paths: tuple[str, ...] = ()
+
+    #: What the monitor reads of a file: every column (the profile names them).
+    signals: ClassVar[tuple[str, ...] | None] = None
+    #: The calibration captures' readings set the within-task spreads.
+    fits_calibration: ClassVar[bool] = True
+    #: New baselines wait for their fleet's prior.
+    pooled: ClassVar[bool] = True
+
+    def fit(
+        self, baseline: Capture, calibration: Sequence[Capture] = (), *, fleet: Sequence[Any] = ()
+    ) -> IndicatorBaseline:
+        """:meth:`IndicatorModel.fit` of a copy of the model, pooled with ``fleet`` (fitted
+        baselines of the other axes of its profile) when given."""
+        model = copy.deepcopy(self.model).fit(baseline, calibration)
+        fitted = IndicatorBaseline(model)
+        return fitted.with_fleet([fitted], fleet)[0] if fleet else fitted
+
+    def assess(self, capture: Capture) -> IndicatorAssessment:
+        """:meth:`IndicatorModel.assess`."""
+        return self.model.assess(capture)
+
+    def check_baseline(self, capture: Capture) -> None:
+        """:func:`check_monitor_rate`."""
+        check_monitor_rate(capture)
+
+    def baseline_note(self, rates_hz: Mapping[str, float]) -> str | None:
+        """:func:`slow_baseline_note`."""
+        return slow_baseline_note(rates_hz)
+
+    def read(self, capture: Capture, profile: AxisProfile | None) -> tuple[Readings, str | None]:
+        """The capture's readings (:func:`read_axis_indicators`), and why none can be used."""
+        read = read_axis_indicators(
+            capture, profile, order_lines=self.model.order_lines, whole_moves=self.model.whole_moves
+        )
+        if read.available():
+            return read, None
+        reasons = "; ".join(f"{k} {v}" for k, v in read.reasons.items())
+        return read, f"no indicator can be read ({reasons})"
+
+    def fit_read(
+        self, read: Sequence[Readings], names: Sequence[tuple[str, str]]
+    ) -> IndicatorBaseline:
+        """:func:`fit_indicator_baseline` with this model's parameters."""
+        model = self.model
+        return fit_indicator_baseline(
+            read,
+            [file_hash for file_hash, _ in names],
+            [path for _, path in names],
+            percentile=model.percentile,
+            task_envelope_factor=model.task_envelope_factor,
+            order_lines=model.order_lines,
+            whole_moves=model.whole_moves,
+        )
+
+    def fingerprint(self) -> str:
+        """SHA-256 of the readings fitted on."""
+        rows = json.dumps([r.values for r in self.model.fit_readings_], sort_keys=True, default=str)
+        return hashlib.sha256(rows.encode()).hexdigest()
+
+    def summary(self) -> dict[str, Any]:
+        """The model's parameters and the captures it was fitted on."""
+        return {"indicator_model": {**self.model.params(), "fitted_on": list(self.paths)}}
+
+    def score(self, capture: Capture, file_hash: str, profile: AxisProfile | None) -> Assessment:
+        """:func:`assess_capture` in units of the threshold that applied
+        (:func:`threshold_units`), with :func:`indicator_details`."""
+        assessment = assess_capture(self, capture, file_hash, profile)
+        if not assessment.scored:
+            # Not an alarm and not a healthy score: no indicator of the model could be read.
+            return Assessment(math.nan, 1.0, False, explanation=assessment.reason())
+        details = indicator_details(self, assessment, left_out=file_hash in self.file_hashes)
+        distance = threshold_units(assessment)
+        return Assessment(distance, 1.0, distance > 1.0, leading=assessment.top, details=details)
+
+    def fleet_key(self, profile: AxisProfile | None) -> str:
+        """:func:`fleet_key`."""
+        return fleet_key(profile)
+
+    def fleet_axes(self) -> int:
+        """Axes of the model's fleet prior (0 without one)."""
+        return 0 if self.model.fleet is None else self.model.fleet.n_axes
+
+    def checks(self) -> dict[str, str]:
+        """The model's ``baseline_check_`` and ``fleet_check_`` that are set."""
+        found = {
+            kind: getattr(self.model, f"{kind}_check_", None) for kind in ("baseline", "fleet")
+        }
+        return {kind: str(note) for kind, note in found.items() if note}
+
+    def with_fleet(
+        self, models: Sequence[IndicatorBaseline], others: Sequence[IndicatorBaseline]
+    ) -> list[IndicatorBaseline]:
+        """:func:`with_fleet` of the baselines ``models`` and the stored ``others``."""
+        return with_fleet(models, [other.model for other in others])
 
     def allowance(self) -> float | None:
         """The fleet's one task-change allowance at the model's percentile, in spreads: that of
@@ -93,7 +164,7 @@ class IndicatorBaseline:
         return None if fleet is None else fleet.allowance(self.model.percentile)
 
 
-#: The lowest rate the monitor reads indicators at (README: "any rate from 20 Hz"): that of
+#: The lowest rate the monitor reads indicators at (docs/monitor.md: "any rate from 20 Hz"): that of
 #: ``gap_ringing``, the indicator that needs the least.
 MIN_MONITOR_RATE_HZ = MIN_RINGING_RATE_HZ
 
@@ -265,7 +336,7 @@ def with_fleet(
     list of IndicatorBaseline
         In order, each model a copy scored with the prior of the whole fleet and checked
         (``fleet_check_``) against the prior of the fleet without it
-        (:func:`~axiswatch._indicator_model.pool_fleet_without`), or, with fewer than 3 other
+        (:func:`~axiswatch.indicators._fleet.pool_fleet_without`), or, with fewer than 3 other
         axes, against the whole fleet's (its notes say so).
 
     Raises
@@ -397,3 +468,7 @@ def indicator_details(
         if text is not None:
             details[check] = text
     return details
+
+
+if TYPE_CHECKING:  # checked by mypy: what the monitor fits and scores of the product default
+    _CONFORMS: type[MonitoredModel] = IndicatorBaseline

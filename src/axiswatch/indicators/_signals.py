@@ -1,10 +1,4 @@
-"""Signal primitives of the indicators: angle-locked lines, filters, running RMS, kurtosis.
-
-The torque's band is regressed on sines and cosines of the motor angle at the orders a fault
-would excite, after the whole orders (gear mesh, ripple) are regressed out: the F statistic of
-that regression, over the same statistic at neighbouring orders no fault excites
-(:func:`line_ratio`), reads a tooth or bearing line whatever the speed.
-"""
+"""Signal primitives of the indicators: angle-locked line statistics, filters, running RMS."""
 
 from __future__ import annotations
 
@@ -20,6 +14,7 @@ from scipy.signal import butter
 
 __all__ = [
     "BEARING_OFFSETS",
+    "GRAM_MIN_RCOND",
     "WHOLE_ORDERS",
     "angle_locked_f",
     "bearing_lines",

@@ -1,61 +1,35 @@
-"""A health model of one robot axis: features + detector + calibrated threshold.
+"""A health model of one robot axis: features, a detector and a calibrated threshold.
 
-The public one-screen API::
-
-    model = HealthModel(detector=LRADetector()).fit(baseline_capture)
-    model.calibrate(healthy_captures, percentile=99)
-    verdict = model.assess(new_capture)   # distance, threshold, alarm
-
-It only composes the lower stages: a :class:`~axiswatch.FeatureStage`, a
-:class:`~axiswatch.BaselineDetector` and :func:`~axiswatch.alarm_threshold`.
+It composes a :class:`~axiswatch.FeatureStage`, a :class:`~axiswatch.BaselineDetector` and
+:func:`~axiswatch.alarm_threshold`. docs/library.md shows it in one screen.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Literal
+import hashlib
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 from sklearn.base import clone
 
+from axiswatch._axis_model import Assessment, MonitoredModel
 from axiswatch._calibration import (
     HalfLaplaceFit,
     Threshold,
     alarm_threshold,
 )
 from axiswatch._capture import Capture
-from axiswatch._detectors import BaselineDetector, LRADetector, PCADetector
-from axiswatch._features import Features, FeatureSpec
-from axiswatch._stages import FeatureStage, StftStage
+from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError
+from axiswatch.paper._detectors import BaselineDetector, LRADetector, PCADetector
+from axiswatch.paper._features import Features, FeatureSpec
+from axiswatch.paper._stages import FeatureStage, StftStage
 
-__all__ = ["Assessment", "HealthModel"]
-
-
-@dataclass(frozen=True)
-class Assessment:
-    """Verdict on one capture.
-
-    Attributes
-    ----------
-    distance : float
-    threshold : float
-    alarm : bool
-        ``distance > threshold``.
-    pvalue : float
-        Probability of a distance at least this large for a healthy capture, under the fit.
-    phase_lag : int
-        Samples the capture was shifted by to line up with the baseline (0 without alignment).
-    """
-
-    distance: float
-    threshold: float
-    alarm: bool
-    pvalue: float
-    phase_lag: int
+__all__ = ["HealthModel"]
 
 
 class HealthModel:
@@ -164,8 +138,25 @@ class HealthModel:
         features = self.stage_.transform(capture)
         return features, features.phase_lag
 
-    def fit(self, baseline: Capture) -> HealthModel:
-        """Take ``baseline`` as the healthy reference (the paper's commissioning capture)."""
+    #: The monitor fits on the baseline alone and calibrates from the next captures' distances.
+    fits_calibration: ClassVar[bool] = False
+    #: Each axis's model is its own: no fleet prior.
+    pooled: ClassVar[bool] = False
+
+    @property
+    def signals(self) -> tuple[str, ...]:
+        """The columns read from a capture file."""
+        return self.features.signals
+
+    def fit(
+        self, baseline: Capture, calibration: Sequence[Capture] = (), *, fleet: Sequence[Any] = ()
+    ) -> HealthModel:
+        """Take ``baseline`` as the healthy reference (the paper's commissioning capture) and,
+        when given, :meth:`calibrate` on ``calibration``; ``fleet`` is not used."""
+        self._fit(baseline)
+        return self.calibrate(calibration) if len(calibration) else self
+
+    def _fit(self, baseline: Capture) -> HealthModel:
         self.stage_: FeatureStage = (
             StftStage(self.features, align=self.align_phase)
             if self.stage is None
@@ -216,3 +207,72 @@ class HealthModel:
             pvalue=self.calibration_.pvalue(distance),
             phase_lag=lag,
         )
+
+    # --- what the monitor needs (axiswatch._axis_model.MonitoredModel) ---------------------
+
+    def check_baseline(self, capture: Capture) -> None:
+        """Every capture the reader accepts can be a baseline."""
+
+    def baseline_note(self, rates_hz: Mapping[str, float]) -> str | None:
+        """No stored baseline needs replacing for its rates."""
+        return None
+
+    def read(self, capture: Capture, profile: AxisProfile | None) -> tuple[Capture, str | None]:
+        """The capture itself: the model reads it when it is fitted."""
+        return capture, None
+
+    def fit_read(self, read: Sequence[Capture], names: Sequence[tuple[str, str]]) -> HealthModel:
+        """A fitted copy on the baseline (``read[0]``)."""
+        return copy.deepcopy(self)._fit(read[0])
+
+    def fingerprint(self) -> str:
+        """SHA-256 of the baseline's features."""
+        return hashlib.sha256(self.baseline_features_.X.tobytes()).hexdigest()
+
+    def summary(self) -> None:
+        """Nothing beyond the stored model."""
+        return None
+
+    def score(self, capture: Capture, file_hash: str, profile: AxisProfile | None) -> Assessment:
+        """Distance and the detector's diagnostics; the threshold is NaN until calibrated (the
+        monitor calibrates from its calibration captures' distances)."""
+        features, lag = self.featurize(capture)
+        details: dict[str, Any] = {
+            "phase_lag_samples": int(lag),
+            "phase_lag_s": float(lag / features.rate_hz),
+            "n_rows": int(features.X.shape[0]),
+        }
+        detector = self.detector_
+        distance, diagnostics = detector.distance_and_diagnostics(features.X)
+        details.update(diagnostics)
+        # A stage that can say why (the lab's ``mechanics``) adds each indicator's share.
+        explain = getattr(self.stage_, "explain", None)
+        explanation = None if explain is None else explain(detector, features.X)
+        if explanation is not None:
+            details["indicators"] = explanation
+        threshold = getattr(self, "threshold_", math.nan)
+        return Assessment(
+            distance, threshold, bool(distance > threshold), phase_lag=lag, details=details
+        )
+
+    def fleet_key(self, profile: AxisProfile | None) -> str:
+        """No fleet: every axis on its own."""
+        return ""
+
+    def fleet_axes(self) -> int:
+        """No fleet prior."""
+        return 0
+
+    def checks(self) -> dict[str, str]:
+        """No check of the baseline."""
+        return {}
+
+    def with_fleet(
+        self, models: Sequence[HealthModel], others: Sequence[HealthModel]
+    ) -> list[HealthModel]:
+        """``models`` unchanged: nothing is learnt from the fleet."""
+        return list(models)
+
+
+if TYPE_CHECKING:  # checked by mypy: the paper's model is a model of an axis, monitored too
+    _CONFORMS: type[MonitoredModel] = HealthModel

@@ -1,52 +1,7 @@
 """Low Rank Alignment (LRA): a joint embedding of baseline and test features.
 
-Pipeline stage 3. Paper, section "Proposed Method", eqs. (2)-(8), after Boucher, Carey, Mahadevan
-& Dyar, "Aligning mixed manifolds", AAAI 2015.
-
-Notation. ``X_s, X_t`` are ``N x K`` feature matrices (rows are samples). The low-rank
-representation of ``X`` minimises ``1/2 ||X - R X||_F^2 + lambda ||R||_*``; ``R`` is ``N x N`` and
-acts on the rows, and its closed form (Favaro et al. 2011) is ``R = V (I - lambda S^-2) V^T``
-where ``S`` holds the singular values of ``X`` above ``sqrt(lambda)`` and ``V`` the matching left
-singular vectors of ``X`` (the paper's right-singular vectors of ``X^T``); ``lambda = 1`` is the
-paper's form. With ``R = blockdiag(R_s, R_t)`` and the correspondence ``C = [[0, I], [I, 0]]``
-whose Laplacian is ``L = [[I, -I], [-I, I]]``, the embedding ``F = [F_s; F_t]`` holds the
-eigenvectors of
-
-    M = (1 - mu) (I - R)^T (I - R) + 2 mu L                                   (paper eq. 7)
-
-for the ``d`` smallest eigenvalues after the trivial (smallest) one, and
-``delta = ||F_s - F_t||_F``.
-
-Exact structured solver. Because ``R`` is symmetric, ``(I - R)^T (I - R) = I - U`` with
-``U = V diag(1 - lambda^2 / s^4) V^T``, a matrix of rank ``r`` (the number of kept singular
-values). In the orthogonal basis ``Q = [[I, I], [I, -I]] / sqrt(2)`` of symmetric and
-antisymmetric combinations of source and target rows, ``Q L Q = blockdiag(0, 2 I)`` and
-
-    Q M Q = (1 - mu) I + blockdiag(0, 4 mu I)
-            - (1 - mu)/2 [[U_s + U_t, U_s - U_t], [U_s - U_t, U_s + U_t]].
-
-Let ``B`` (``N x k``) be an orthonormal basis of ``W = span(V_s) + span(V_t)``, ``k <= r_s + r_t``.
-``U_s`` and ``U_t`` vanish on the complement of ``W``, so ``Q M Q`` splits into
-
-* a ``2k x 2k`` block on ``W (+) W``: the same formula with ``U`` replaced by ``B^T U B``;
-* eigenvalue ``1 - mu`` with multiplicity ``N - k`` (vectors ``[a; a]/sqrt(2)``, ``a`` orthogonal
-  to ``W``): source and target rows coincide, so they add 0 to ``delta^2``;
-* eigenvalue ``1 + 3 mu`` with multiplicity ``N - k`` (vectors ``[b; -b]/sqrt(2)``): each adds
-  exactly 2 to ``delta^2``.
-
-An eigenvector ``Q [y1; y2]`` has ``F_s - F_t = sqrt(2) y2``, so
-``delta^2 = sum over selected eigenvectors f of f^T L f = 2 ||y2||^2``. The cost is
-``O(N K^2)`` per matrix for its basis (:func:`low_rank_basis`: the ``K x K`` Gram matrix, then a
-Rayleigh-Ritz step; the baseline's is computed once) plus ``O(N k^2 + k^3)`` for the alignment
-(``B`` from ``V_s`` and the part of ``V_t`` outside it, Cholesky QR instead of Householder); no
-``N x N`` matrix is formed, memory grows linearly in ``N``.
-
-Degenerate eigenvalues. ``delta`` depends only on the span of the selected eigenvectors, not on
-their signs. When an eigenvalue cluster (eigenvalues within ``degeneracy_tol``) straddles a cut,
-the span is not determined by ``M``; both solvers then take, inside the cluster, the eigenvectors
-with the smallest correspondence cost ``f^T L f`` first (the limit of ``M + eps L`` as ``eps -> 0+``),
-so ``delta`` is defined in every case. Every result reports ``eigengap``: the smaller gap at the
-two cuts. Where it is below ``degeneracy_tol`` the tie-break was used (``tie_broken``).
+Paper, section "Proposed Method", eqs. (2)-(8), after Boucher et al., AAAI 2015. The exact
+structured solver and its tie-break are derived in docs/internals.md, "LRA solvers".
 """
 
 from __future__ import annotations

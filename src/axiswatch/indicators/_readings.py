@@ -1,57 +1,7 @@
 """Physical indicators of an axis that adapt to the capture: its rate, units and motion.
 
-Pipeline stage 2d (issue 13), the successor of ``_mechanics`` for captures the project's
-simulator never made. Every window, band and gap is set in seconds or hertz and derived from the
-capture's own rate; every indicator declares what it needs (:data:`INDICATORS`), and a capture
-that cannot give it gets NaN and the reason, while the others are read. Readings carry a sign
-(a friction coefficient may come out negative on a gravity-loaded axis: that is a reading, not
-an error). Only a capture from which no motion can be read at all is refused.
-
-Indicators (the signal called torque may be a motor current or a pressure difference):
-
-* ``coulomb_friction``, ``viscous_friction``: least squares of the torque while moving
-  (``|speed|`` above 10 % of its peak) on ``sign(speed)``, ``speed``, the acceleration and a
-  cubic in the position (gravity and payload as a smooth function of where the axis is, the same
-  in both directions). Needs motion in both directions; the viscous term also needs moves at
-  more than one speed (on constant-speed moves of one speed it is not separable from Coulomb's,
-  and the Coulomb reading is then the friction at that speed).
-* ``load_forward``, ``load_backward``: the mean of ``torque * sign(speed)`` over the steady
-  motion (above half the peak speed) in each direction: friction plus the mean gravity and
-  payload there; the friction reading of a stroke that moves one way only.
-* ``impulsiveness``: kurtosis of the torque's band ``[0.04, 0.4] x rate`` while moving, divided
-  by its own running RMS over 0.1 s (at least 8 samples). Needs a rate of 100 Hz or more (a
-  band from 4 Hz) and 1 s of motion.
-* ``gap_ringing`` (backlash): :func:`~axiswatch._ringing.gap_ringing`, the drive's ringing at
-  its resonance (5-50 Hz, a physical range, not the rate's share) from 0.05 s before to 0.3 s
-  after each estimated sign change of the torque the gear transmits, over the same ringing away
-  from those windows. Needs a rate of 20 Hz or more and a gap crossing while moving. It replaced
-  ``reversal_bursts`` (bursts at the *commanded* torque's sign changes, within 0.02 s, in the
-  rate's band: backlash AUROC 0.46 against 0.58 on the development robots).
-* kinematic lines (with an :class:`~axiswatch.AxisProfile` giving a gear ratio):
-  ``tooth_lines:<stage>`` for every gear stage and ``bearing_lines:<name>`` for every bearing,
-  :func:`~axiswatch._mechanics.line_ratio` at the component's orders. Need the component's
-  highest order to fall inside the band at the median moving speed and 20 motor revolutions.
-  Without kinematics the kinematic lines are not read; the order spectrum is
-  (``order_lines=True``: :mod:`axiswatch._order_lines`), and a model compares it with its
-  baseline's own (``order_lines``: new or grown lines, docs/evaluation.md, "Order lines against
-  the baseline's own order spectrum").
-
-With ``whole_moves=True`` (an opt-in operating point, not the default: docs/evaluation.md, "An
-opt-in operating point: ``--whole-moves``") the drive loads are read over the steady samples of
-the *whole moves* only (:func:`whole_move_mask`: runs of one direction that start and end inside
-the capture; a direction without one gets NaN and "needs a whole steady move"). A capture starts
-at a random phase of the task cycle: a move it cuts covers only part of the stroke, and its mean
-gravity torque moves with the phase (on development robot 2 one task's healthy load took three
-values, 0, 6 and 12 N m). The readings then also carry the least-squares standard errors of the
-two friction coefficients (:attr:`Readings.errors`, :func:`least_squares_errors` of the same
-design and solve), which :class:`~axiswatch.IndicatorModel` uses to widen the spread of a
-friction reading looser than its baseline's (on constant-speed moves ``sign(v)`` and ``v`` are
-nearly collinear and the two coefficients trade off from capture to capture).
-
-The band as a fraction of the rate, the 10 % motion threshold and the cubic were set a priori;
-reading the drive loads on every capture, the kinematic band set by the speed, the tooth
-orders and ``gap_ringing`` were chosen on the development robots of :mod:`axiswatch.datasets` (docs/evaluation.md,
-"Transfer", gives what the alternatives gave there).
+Friction, drive loads, impulsiveness, gap ringing and kinematic lines. Each declares what it
+needs. A capture that cannot give one gets NaN and the reason. See docs/internals.md, "Readings".
 """
 
 from __future__ import annotations
@@ -68,7 +18,10 @@ from scipy.interpolate import PchipInterpolator
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from axiswatch._capture import Capture, rate_at_least
-from axiswatch._mechanics import (
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
+from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
+from axiswatch.indicators._signals import (
     bearing_lines,
     bearing_orders,
     line_ratio,
@@ -76,9 +29,6 @@ from axiswatch._mechanics import (
     running_rms,
     whole_samples,
 )
-from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
-from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
-from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "FRICTION",
@@ -107,7 +57,7 @@ MIN_BAND_MOTION_S = 0.5
 #: order resolution (about 1 / revolutions) is set by the motor angle's *span*, which a
 #: back-and-forth task keeps smaller than its travel: 7-9 revolutions of span for 26-30
 #: travelled on development robots 3 and 7, so 0.11-0.14 order there, not 0.1 (open, see
-#: docs/evaluation.md "Not done / open").
+#: lab/docs/decision-log.md, "Not done / open").
 MIN_REVOLUTIONS = 10.0
 #: Share of the peak speed above which the axis counts as moving.
 MOVING_FRACTION = 0.1
@@ -188,7 +138,7 @@ class Readings:
         The capture's :func:`task_signature` (empty when no motion could be read).
     order_profile : OrderProfile or None
         The torque's order spectrum on the common order grid
-        (:func:`~axiswatch._order_lines.order_profile`), when read (``order_lines=True``) and
+        (:func:`~axiswatch.indicators._order_lines.order_profile`), when read (``order_lines=True``) and
         the capture gives one; a model compares it with its baseline's (``order_lines``).
         Not part of ``==`` (an array has no single truth value).
     errors : dict of str to float

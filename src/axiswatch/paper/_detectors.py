@@ -1,17 +1,7 @@
-"""Detectors: distance between a test capture's features and the healthy baseline's.
+"""Detectors: the distance between a test capture's features and the healthy baseline's.
 
-Pipeline stage 4. Both detectors follow one small interface, a scikit-learn estimator:
-
-* ``fit(X)`` stores the baseline features ``X`` of shape ``(n_rows, n_features)``;
-* ``distance(X)`` returns the paper's distance of a test feature matrix to the baseline;
-* ``transform(X)`` returns the test rows in the detector's subspace.
-
-Each detector states its row policy (``row_policy``): ``"paired"`` rows are paired by index, as
-in the paper (``X_s P - X_t P`` and the correspondence ``C``), and when a test matrix has a
-different number of rows than the baseline the first ``min(n_baseline, n_test)`` rows of both
-are compared; ``"set"`` rows are a set of readings (all kept, whatever their number). A detector
-may report diagnostics beside its distance (``distance_and_diagnostics``; LRA's eigengap). A new
-method is one subclass of :class:`BaselineDetector` implementing ``_fit`` and ``_distance``.
+Each detector is a scikit-learn estimator: ``fit(X)``, ``distance(X)``, ``transform(X)``. A new
+method subclasses :class:`BaselineDetector`. Row policies: docs/internals.md, "Detectors".
 """
 
 from __future__ import annotations
@@ -25,8 +15,14 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.decomposition import PCA
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from axiswatch._alignment import LowRankBasis, LRAResult, low_rank_basis, lra_dense, lra_structured
-from axiswatch._noise import mp_noise_level
+from axiswatch.paper._alignment import (
+    LowRankBasis,
+    LRAResult,
+    low_rank_basis,
+    lra_dense,
+    lra_structured,
+)
+from axiswatch.paper._noise import mp_noise_level
 
 __all__ = ["BaselineDetector", "IndicatorDetector", "LRADetector", "PCADetector"]
 
@@ -268,7 +264,7 @@ class LRADetector(BaselineDetector):
 
     def distance_and_diagnostics(self, X: Any) -> tuple[float, dict[str, float | bool]]:
         """The LRA distance, the eigengap of its eigenproblem and whether a tie was broken
-        (:class:`~axiswatch._alignment.LRAResult`)."""
+        (:class:`~axiswatch.paper._alignment.LRAResult`)."""
         result = self.align(X)
         return float(result.delta), {
             "lra_eigengap": float(result.eigengap),

@@ -1,10 +1,7 @@
 """Resampling of a capture's signals onto one common rate (paper, section "Pre-processing").
 
-Pipeline stage 1. The paper upsamples the 250 Hz position signal to the 2 kHz of speed and torque
-by inserting 7 points between each pair of samples and filling them with monotone piecewise cubic
-(Fritsch-Carlson, PCHIP) interpolation. :func:`upsample_pchip` is the general form: any integer
-factor; :func:`resample_capture` applies it to every slower signal of a capture and stacks the
-result as ``(n_samples, n_channels)``.
+The paper upsamples 250 Hz position to 2 kHz with monotone cubic (PCHIP) interpolation.
+:func:`upsample_pchip` takes any integer factor. :func:`resample_capture` stacks the signals.
 """
 
 from __future__ import annotations

@@ -1,17 +1,7 @@
 """|STFT| features of a capture (paper, section "Feature Extraction").
 
-Pipeline stage 2. A row of the feature matrix is one STFT time slice (a "sample" in the paper);
-its columns are the magnitudes of every frequency bin of every channel, channel by channel. A
-capture thus becomes ``X`` of shape ``(n_rows, n_features)`` with
-``n_features = n_channels * (segment_length // 2 + 1)``.
-
-"Combinations" (the paper computes the STFT "of the three signals and their combinations" without
-saying which): here a combination is the sample-wise product of two signals. Products are the
-simplest combinations that carry information the separate spectra do not: ``speed * torque`` is
-the mechanical power, and a product's spectrum holds the sum and difference frequencies that
-couple two signals (a torque ripple locked to the motion shows up there, whatever the task). Sums
-and differences of signals would add nothing a linear method cannot already form from the
-separate spectra' complex values, and are therefore not offered.
+A row is one STFT time slice. Columns are every bin of every channel, channel by channel. A
+"combination" is the sample-wise product of two signals (docs/paper-notes.md).
 """
 
 from __future__ import annotations
@@ -28,8 +18,8 @@ from numpy.typing import NDArray
 from scipy.signal import get_window
 
 from axiswatch._capture import Capture
-from axiswatch._preprocessing import resample_capture
 from axiswatch.exceptions import CaptureError
+from axiswatch.paper._preprocessing import resample_capture
 
 __all__ = [
     "FeatureSpec",

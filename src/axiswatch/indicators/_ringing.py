@@ -1,32 +1,7 @@
-"""Backlash as the drive's ringing after the gear crosses its gap (issue 13).
+"""Backlash as the drive's ringing after the gear crosses its gap.
 
-Pipeline stage 2d, one indicator of :mod:`axiswatch._readings` (``gap_ringing``). Where the
-torque a gearbox transmits changes sign, the motor crosses the backlash gap, strikes the other
-flank and the drive rings at its own resonance (a few to some tens of Hz, for a few tenths of a
-second), whatever the logging rate. The transmitted torque is not measured; it lies between two
-estimates made from the capture, and the crossings of both are used:
-
-* the **rigid part** of a least-squares fit of the torque (inertia x acceleration + a cubic in
-  the position: the torque less its friction terms): the gear's torque if the motor had no
-  inertia;
-* the **commanded torque** low-passed at :data:`CROSSING_SMOOTHING_HZ`: the gear's torque if the
-  motor had neither inertia nor friction.
-
-Each counts a crossing only where it passes through ``+-`` :data:`CROSSING_HYSTERESIS` of its
-largest magnitude (a wrist cruising at constant speed has an inertial torque that is noise about
-zero, and no gap crossing at each wiggle). The **residual** (the torque less the whole fit:
-saturated ``sign(speed)``, speed, acceleration, position cubic) band-passed to
-:data:`RINGING_BAND_HZ` keeps the resonance and drops the rigid motion and its friction. The
-reading is the residual's mean square over the moving samples within :data:`RINGING_WINDOW_S` of
-a crossing over its mean square over the moving samples away from every window: a ratio of one
-signal's powers, free of the torque's unit and of the task's torque scale, about 1 when the
-crossings ring no more than the rest of the motion.
-
-Every constant is a physical range or a few periods of it, stated where it is defined, never the
-logging rate's share (the band of ``reversal_bursts``, ``[0.04, 0.4] x rate``, is 160-1600 Hz at
-4 kHz: far above a 15 Hz ring). Chosen on the development robots (docs/evaluation.md, "Backlash
-as ringing after the gap crossings", which also gives the first candidate's figures: every sign
-change and the robust level of the whole motion; ``hysteresis=0`` and ``reference="motion"``).
+The ``gap_ringing`` indicator: the residual's power near estimated crossings over its power
+elsewhere. docs/internals.md, "Gap ringing", gives the two crossing estimates and the band.
 """
 
 from __future__ import annotations
@@ -40,7 +15,7 @@ from numpy.typing import NDArray
 from scipy.signal import sosfiltfilt
 
 from axiswatch._capture import rate_at_least
-from axiswatch._mechanics import butter_sos, whole_samples
+from axiswatch.indicators._signals import butter_sos, whole_samples
 
 __all__ = [
     "CROSSING_HYSTERESIS",
@@ -184,7 +159,7 @@ def gap_ringing(
     Parameters
     ----------
     time_s, position, speed, acceleration, torque : ndarray of shape (n,)
-        On the torque's instants (:func:`~axiswatch._readings.motion`), SI units or any
+        On the torque's instants (:func:`~axiswatch.indicators._readings.motion`), SI units or any
         consistent ones.
     rate_hz : float
     moving_fraction : float, default=0.1
@@ -194,7 +169,7 @@ def gap_ringing(
     reference : {"away", "motion"}, default="away"
         The level the ringing is divided by: the residual's mean square over the moving samples
         outside every window, or the square of its robust level over all moving samples
-        (``1.4826 x`` its median absolute value; the first candidate of docs/evaluation.md).
+        (``1.4826 x`` its median absolute value; the first candidate of lab/docs/decision-log.md).
 
     Returns
     -------

@@ -1,9 +1,7 @@
 """The feature-stage interface: a capture becomes a feature matrix a detector can compare.
 
-A stage is fitted on the baseline capture and transforms every capture into
-:class:`~axiswatch.Features` (rows of comparable situations, columns of measurements). The
-paper's |STFT| features are :class:`StftStage`; research stages live in the lab
-(``axiswatch_lab``).
+The paper's |STFT| features are :class:`StftStage`. A stage may say why a capture has its
+distance through an optional ``explain(detector, X)`` method (the lab's ``mechanics`` does).
 """
 
 from __future__ import annotations
@@ -15,8 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
-from axiswatch._features import Features, FeatureSpec, features_from_signals
-from axiswatch._preprocessing import phase_lag, resample_capture
+from axiswatch.paper._features import Features, FeatureSpec, features_from_signals
+from axiswatch.paper._preprocessing import phase_lag, resample_capture
 
 __all__ = ["FeatureStage", "StftStage"]
 

@@ -1,37 +1,7 @@
 """Order lines against the baseline's own order spectrum, without kinematics.
 
-Pipeline stage 2e (issue 13, item 3). Without an :class:`~axiswatch.AxisProfile`'s kinematics
-no component's order is known, but a fault of a rotating part (a damaged tooth, a bearing
-defect) still adds *angle-locked* lines: lines at fixed orders of the axis's position, whatever
-its speed. So the torque's order spectrum against the measured position is read on every
-capture that allows it, and a capture is compared with the order spectrum of the axis's own
-baseline: a line that is new, or has grown, is what a healthy axis's mesh and ripple lines (in
-the baseline too) are not.
-
-* :func:`order_spectrum`: over each run of steady motion (``|speed|`` above half its peak, one
-  direction), the torque is resampled onto a uniform grid of the position angle, fine enough
-  that the highest frequency left in the torque at the slowest steady speed is below the grid's
-  Nyquist order (nothing aliases into the band); each run is Hann-windowed, its periodogram
-  zero-padded to the longest run's grid and averaged over the runs. Orders are cycles per
-  ``2 pi`` of position (per revolution on a rotary axis). Its floor is a running median over
-  :data:`FLOOR_CELLS` resolution cells of the median run: a line is what stands above its
-  neighbours, not above the band's colour.
-* :func:`order_profile`: the spectrum on a grid of orders common to every capture
-  (:data:`CELLS_PER_DECADE` logarithmic cells), each cell's **power over its floor** in
-  decades: a line's energy over the noise energy of its cell, which does not depend on how
-  finely a capture resolves the cell (the runs' lengths change with the task).
-* :func:`order_reference`: the median profile of the captures a model is fitted on, each cell
-  taking the largest of itself and its two neighbours (a line may fall on a cell's edge).
-* :func:`grown_lines`: how much the :data:`TOP_LINES` cells that grew most grew against the
-  reference, in decades (mean of their growth): one number per capture that the
-  :class:`~axiswatch.IndicatorModel` centres and scales like any indicator (``order_lines``).
-
-Needs a torque rate >= 100 Hz and steady runs that resolve :data:`MIN_CELLS` order cells in the
-band; a capture that cannot give it gets the reason, never an error. The band's bounds and
-every window follow from the capture's rate and speeds; :data:`MIN_CELLS`, :data:`FLOOR_CELLS`,
-:data:`LOW_CELLS`, :data:`CELLS_PER_DECADE`, :data:`TOP_LINES` and :data:`MIN_COMMON_CELLS` were
-set a priori (the first three in the lab's kinematics-free study, docs/evaluation.md, "Order
-lines without kinematics"), not measured on any data.
+A fault of a rotating part adds lines at fixed orders of the position. New or grown lines
+become one indicator, ``order_lines``. Each step: docs/internals.md, "Order lines".
 """
 
 from __future__ import annotations
@@ -48,7 +18,7 @@ from scipy.ndimage import median_filter
 from scipy.signal import detrend, get_window
 
 from axiswatch._capture import rate_at_least
-from axiswatch._mechanics import bearing_orders
+from axiswatch.indicators._signals import bearing_orders
 
 __all__ = [
     "OrderProfile",
@@ -152,7 +122,7 @@ def order_spectrum(
     Parameters
     ----------
     position, speed, torque : ndarray of shape (n,)
-        On one time base (:func:`~axiswatch._readings.motion`), position in rad or m.
+        On one time base (:func:`~axiswatch.indicators._readings.motion`), position in rad or m.
     rate_hz : float
     band_hz : (float, float), optional
         The frequency band the torque was filtered to: the order band is then the orders that
@@ -409,7 +379,7 @@ def component_at(
         or a ripple, healthy).
     bearings : mapping of str to float
         Name -> defect order of the motor speed; its lines are
-        :func:`~axiswatch._mechanics.bearing_orders`.
+        :func:`~axiswatch.indicators._signals.bearing_orders`.
 
     Returns
     -------

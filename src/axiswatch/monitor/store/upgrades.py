@@ -1,0 +1,300 @@
+"""The SQLite store's schema, and the upgrades a store made by an earlier version gets on open.
+
+Tables (schema version 2):
+
+``baselines``
+    one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
+    its features, the monitor parameters (JSON), the library version, the calibrated threshold
+    and half-Laplace fit (JSON, once calibration is complete), and when it was retired.
+``rebaselines``
+    requests to start a new epoch (``from_capture``: the new baseline, or NULL for "the next
+    capture that arrives").
+``scores``
+    one row per capture and baseline: role (``baseline``, ``calibration``, ``monitor`` or
+    ``excluded``), distance, threshold, whether it is over the threshold, the alarm state after
+    it, a reason a service engineer can read and a JSON ``details`` column (phase lag, eigengap,
+    ...). The row id is the scoring order.
+``rejections``
+    capture files that could not be used, with the error; keyed by file content hash, so a
+    repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
+    folder's row derived from its line) is what an acknowledgement is of. ``removed_at`` (added
+    on open, empty): when a run found the rejected file gone from the fleet folder; the row is
+    kept as history and needs no attention (cleared when the same content is back).
+``changed_files``
+    files whose content changed after they were scored (reported, never silently re-scored).
+``baseline_checks``
+    per baseline and kind (``baseline``: its capture disagrees with the calibration captures
+    after it; ``fleet``: it differs from its fleet's) the note a person must see, written in the
+    transaction that adds the baseline (or gives it its fleet's prior), and when someone
+    acknowledged it. A store made before the table gains it, empty, when it is opened: its
+    baselines have no stored checks.
+
+Caches (created when missing, so a store made before them gains them when opened; deleting
+their rows loses no result, only time):
+
+``fitted_models``
+    the fitted model of a baseline (``monitor._persist``: arrays and JSON, never pickle) with
+    the baseline file's hash, the parameters and the library version it was fitted with; used
+    only while all three still match.
+``file_index``
+    path, size, ``mtime_ns`` and SHA-256 of every capture file hashed: a file whose size and
+    modification time are unchanged is never hashed again. ``verified_run`` is the run that
+    last compared the file with the disk (kept files are verified a slice at a time).
+``axis_folders``
+    per axis folder and method, its modification time when a run last finished the axis: a
+    folder whose time is unchanged holds no new, removed or renamed file, and is not listed.
+``acknowledgements`` (schema version 2)
+    who saw an alarm, when, and what they noted: the alarm is named by the score that raised
+    it, so an alarm that clears and is raised again needs a new acknowledgement; a
+    re-baseline after maintenance is recorded here too. A version-1 store gains the table when
+    it is opened (nothing else changes).
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+from axiswatch.exceptions import StoreError
+from axiswatch.monitor._fleet import misnamed_folder_key
+
+__all__ = ["SCHEMA_VERSION", "create_or_check", "upgrade"]
+
+SCHEMA_VERSION = 2
+
+_ACKNOWLEDGEMENTS = """
+CREATE TABLE acknowledgements (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    score_id INTEGER REFERENCES scores (id),
+    rebaseline INTEGER NOT NULL,
+    acknowledged_by TEXT NOT NULL,
+    note TEXT NOT NULL,
+    acknowledged_at TEXT NOT NULL
+)
+"""
+
+_SCHEMA = (
+    """
+CREATE TABLE schema_version (version INTEGER NOT NULL);
+CREATE TABLE baselines (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    epoch INTEGER NOT NULL,
+    capture TEXT NOT NULL,
+    captured_at TEXT NOT NULL,
+    path TEXT NOT NULL,
+    file_hash TEXT NOT NULL,
+    features_hash TEXT NOT NULL,
+    params TEXT NOT NULL,
+    library_version TEXT NOT NULL,
+    threshold REAL,
+    calibration TEXT,
+    created_at TEXT NOT NULL,
+    retired_at TEXT,
+    UNIQUE (robot, axis, method, epoch)
+);
+CREATE TABLE rebaselines (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    retired_epoch INTEGER NOT NULL,
+    from_capture TEXT,
+    requested_at TEXT NOT NULL
+);
+CREATE TABLE scores (
+    id INTEGER PRIMARY KEY,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    capture TEXT NOT NULL,
+    captured_at TEXT NOT NULL,
+    path TEXT NOT NULL,
+    file_hash TEXT NOT NULL,
+    file_size INTEGER NOT NULL,
+    file_mtime_ns INTEGER NOT NULL,
+    role TEXT NOT NULL CHECK (role IN ('baseline', 'calibration', 'monitor', 'excluded')),
+    distance REAL,
+    threshold REAL,
+    over INTEGER NOT NULL,
+    alarm INTEGER NOT NULL,
+    reason TEXT NOT NULL,
+    details TEXT NOT NULL,
+    scored_at TEXT NOT NULL,
+    UNIQUE (baseline_id, capture)
+);
+CREATE INDEX scores_axis ON scores (robot, axis, method);
+CREATE TABLE rejections (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    capture TEXT NOT NULL,
+    path TEXT NOT NULL,
+    file_hash TEXT NOT NULL,
+    error TEXT NOT NULL,
+    rejected_at TEXT NOT NULL,
+    UNIQUE (method, path, file_hash)
+);
+CREATE TABLE changed_files (
+    id INTEGER PRIMARY KEY,
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    capture TEXT NOT NULL,
+    path TEXT NOT NULL,
+    scored_hash TEXT NOT NULL,
+    current_hash TEXT NOT NULL,
+    detected_at TEXT NOT NULL,
+    UNIQUE (path, scored_hash, current_hash)
+);
+"""
+    + _ACKNOWLEDGEMENTS
+)
+
+_CACHES = """
+CREATE TABLE IF NOT EXISTS fitted_models (
+    baseline_id INTEGER PRIMARY KEY REFERENCES baselines (id),
+    file_hash TEXT NOT NULL,
+    params TEXT NOT NULL,
+    library_version TEXT NOT NULL,
+    model_hash TEXT NOT NULL,
+    model BLOB NOT NULL,
+    rates_hz TEXT NOT NULL,
+    saved_at TEXT NOT NULL,
+    reference TEXT
+);
+CREATE INDEX IF NOT EXISTS fitted_models_hash ON fitted_models (model_hash);
+CREATE TABLE IF NOT EXISTS file_index (
+    path TEXT PRIMARY KEY,
+    size INTEGER NOT NULL,
+    mtime_ns INTEGER NOT NULL,
+    hash TEXT NOT NULL,
+    verified_run INTEGER NOT NULL
+);
+DROP INDEX IF EXISTS file_index_verified;
+CREATE INDEX IF NOT EXISTS file_index_verified_path ON file_index (verified_run, path);
+CREATE TABLE IF NOT EXISTS axis_folders (
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    method TEXT NOT NULL,
+    params TEXT NOT NULL,
+    mtime_ns INTEGER NOT NULL,
+    PRIMARY KEY (robot, axis, method)
+);
+CREATE INDEX IF NOT EXISTS scores_latest ON scores (baseline_id, role, id);
+CREATE INDEX IF NOT EXISTS scores_path ON scores (path);
+CREATE INDEX IF NOT EXISTS scores_alarmed ON scores (method) WHERE alarm=1;
+CREATE TABLE IF NOT EXISTS runs (id INTEGER PRIMARY KEY, started_at TEXT NOT NULL);
+"""
+
+#: Additive upgrades applied on open, each (table, column, declaration): older readers ignore
+#: them, so the schema version stays.
+_ADDED_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("rejections", "kind", "TEXT"),
+    ("rejections", "params_hash", "TEXT"),
+    ("rejections", "transient", "INTEGER NOT NULL DEFAULT 0"),
+    ("rejections", "acknowledged_at", "TEXT"),
+    ("changed_files", "acknowledged_at", "TEXT"),
+    ("rejections", "reason_key", "TEXT"),
+    ("rejections", "removed_at", "TEXT"),
+    ("acknowledgements", "verdict", "TEXT"),
+)
+#: Tables added on open to a store made before them (empty: nothing before is lost).
+_BASELINE_CHECKS = """
+CREATE TABLE IF NOT EXISTS baseline_checks (
+    id INTEGER PRIMARY KEY,
+    baseline_id INTEGER NOT NULL REFERENCES baselines (id),
+    kind TEXT NOT NULL,
+    note TEXT NOT NULL,
+    detected_at TEXT NOT NULL,
+    acknowledged_at TEXT,
+    UNIQUE (baseline_id, kind)
+)
+"""
+_AXIS_ACTIVITY = """
+CREATE TABLE IF NOT EXISTS axis_activity (
+    robot TEXT NOT NULL,
+    axis TEXT NOT NULL,
+    n_files INTEGER NOT NULL,
+    newest_capture TEXT NOT NULL,
+    last_seen_at TEXT NOT NULL,
+    PRIMARY KEY (robot, axis)
+)
+"""
+
+
+def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
+    """Create the schema in an empty store, or check an existing store's version (a version-1
+    store gains the acknowledgements table); add the caches it lacks. Returns the version."""
+    tables = {
+        row[0] for row in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")
+    }
+    if not tables:
+        for statement in _SCHEMA.split(";"):
+            if statement.strip():
+                connection.execute(statement)
+        connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
+        _ensure_caches(connection)
+        return SCHEMA_VERSION
+    if "schema_version" not in tables:
+        raise StoreError(
+            f"store '{location}' is an SQLite file without an axiswatch schema "
+            f"(tables {sorted(tables)}); use a new file for the store."
+        )
+    version = connection.execute("SELECT max(version) FROM schema_version").fetchone()[0]
+    if version == 1:  # version 2 only adds the acknowledgements table
+        connection.execute(_ACKNOWLEDGEMENTS)
+        connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
+        version = SCHEMA_VERSION
+    if version != SCHEMA_VERSION:
+        raise StoreError(
+            f"store '{location}' has schema version {version}; this axiswatch reads "
+            f"version {SCHEMA_VERSION}."
+        )
+    _ensure_caches(connection)
+    return int(version)
+
+
+def _ensure_caches(connection: sqlite3.Connection) -> None:
+    indexed = connection.execute(
+        "SELECT 1 FROM sqlite_master WHERE type='table' AND name='file_index'"
+    ).fetchone()
+    for statement in _CACHES.split(";"):
+        if statement.strip():
+            connection.execute(statement)
+    present = {row[1] for row in connection.execute("PRAGMA table_info(fitted_models)")}
+    if "reference" not in present:  # a store made before the column: refitted once
+        connection.execute("ALTER TABLE fitted_models ADD COLUMN reference TEXT")
+    if indexed is None:
+        # A store made before the index: its scored files enter it as they were scored,
+        # so that a later change in place is still found.
+        connection.execute(
+            "INSERT OR IGNORE INTO file_index (path, size, mtime_ns, hash, verified_run) "
+            "SELECT path, file_size, file_mtime_ns, file_hash, 0 FROM scores ORDER BY id"
+        )
+
+
+def upgrade(connection: sqlite3.Connection) -> None:
+    """The additive upgrades: columns and tables added since, and the keys they derive."""
+    for table, column, declaration in _ADDED_COLUMNS:
+        present = {row[1] for row in connection.execute(f"PRAGMA table_info({table})")}
+        if column not in present:
+            connection.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
+    # A misnamed folder's rejection stored before its reason_key (the column is added
+    # empty): the key from its line, in this transaction, so that an acknowledgement
+    # made before the upgrade still holds when the next run stores the key.
+    for row_id, error in connection.execute(
+        "SELECT id, error FROM rejections WHERE reason_key IS NULL AND kind='layout' AND capture=''"
+    ).fetchall():
+        key = misnamed_folder_key(error)
+        if key is not None:
+            connection.execute("UPDATE rejections SET reason_key=? WHERE id=?", (key, row_id))
+    connection.execute(_AXIS_ACTIVITY)
+    connection.execute(_BASELINE_CHECKS)

@@ -1,0 +1,174 @@
+"""`axiswatch profile` to a first verdict; a help a person can read; a start without heavy imports."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import typer
+
+import axiswatch
+from axiswatch.cli import app
+from axiswatch.datasets import AxisSpec, simulate_capture
+from tests._cli import run
+
+START_MS = 1_772_344_800_000  # 2026-03-01 06:00 UTC
+#: Modules a command imports only when it needs them.
+HEAVY = ("scipy.signal", "sklearn", "pandas", "matplotlib", "plotly", "dask", "pyarrow")
+
+
+def _controller_export(folder: Path, days: int = 7) -> list[Path]:
+    """A controller's trace: one file per capture holding axes A1 and A2, semicolons, decimal
+    commas, a units row, Unix milliseconds, degrees and motor currents, no date in the name."""
+    folder.mkdir(parents=True)
+    spec = AxisSpec(fast_rate_hz=1000.0, position_rate_hz=1000.0)
+    paths = []
+    for day in range(days):
+        columns = {}
+        for axis, task in (("A1", "short_fast"), ("A2", "heavy")):
+            capture = simulate_capture(task, seed=10 * day + int(axis[1]), spec=spec)
+            n = capture.signals["torque"].size
+            columns[f"{axis}_Pos_deg"] = np.degrees(capture.signals["position"][:n])
+            columns[f"{axis}_Cur_A"] = capture.signals["torque"] / 0.8
+        stamps = START_MS + day * 86_400_000 + np.arange(n)
+        frame = pd.DataFrame({"Zeitstempel": stamps, **columns})
+        header, rest = frame.to_csv(sep=";", decimal=",", index=False).split("\n", 1)
+        path = folder / f"Trace_{day + 1:04d}.csv"
+        path.write_text(f"{header}\nms;Grad;A;Grad;A\n{rest}", encoding="utf-8")
+        paths.append(path)
+    return paths
+
+
+def test_a_controller_export_reaches_a_verdict_in_one_profile_and_one_monitor_run(
+    tmp_path: Path,
+) -> None:
+    exports = _controller_export(tmp_path / "exports" / "cell1")
+    fleet = tmp_path / "fleet"
+    profiled = run("profile", *exports, "--fleet", fleet, env={"COLUMNS": "200"})
+    assert profiled.returncode == 0, profiled.stdout + profiled.stderr
+    assert "Zeitstempel (unix ms)" in profiled.stdout
+    assert "A2_Pos_deg" in profiled.stdout
+    assert "in deg" in profiled.stdout
+    assert "Files not placed" not in profiled.stdout
+    monitored = run("monitor", fleet, "--store", tmp_path / "s.db", "--settle", "0")
+    assert monitored.returncode == 0, monitored.stdout + monitored.stderr
+    assert "14 capture files, 2 new baseline(s), 12 capture(s) scored" in monitored.stdout
+    assert "Rejected" not in monitored.stdout
+    states = [line.split()[:4] for line in monitored.stdout.splitlines() if "cell1" in line]
+    assert states == [["cell1", "A1", "indicators", "ok"], ["cell1", "A2", "indicators", "ok"]]
+    again = run("profile", *exports, "--fleet", fleet)  # new exports: run again, nothing lost
+    assert "linked 0 capture file(s)" in again.stdout
+    assert "kept" in again.stdout
+
+
+def test_profile_names_each_file_it_cannot_place(tmp_path: Path) -> None:
+    (good,) = _controller_export(tmp_path / "cell1", days=1)
+    notes = tmp_path / "cell1" / "notes.csv"
+    notes.write_text("Note;Text\na;b\nc;d\ne;f\n", encoding="utf-8")
+    shown = run("profile", good, notes)
+    assert shown.returncode == 0, shown.stderr
+    assert f"{notes}: no time column" in shown.stdout
+    assert "Nothing written" in shown.stdout
+
+
+def _help_lines(*command: str) -> list[str]:
+    shown = run(*command, env={"COLUMNS": "80"})
+    assert shown.returncode == 0, shown.stderr
+    return shown.stdout.splitlines()
+
+
+def test_monitor_help_fits_a_screen_and_research_knobs_are_in_advanced() -> None:
+    lines = _help_lines("monitor", "--help")
+    assert len(lines) <= 60
+    assert max(map(len, lines)) <= 80
+    knobs = ("--hop", "--segment-length", "--lra-noise-level", "--align", "--task-envelope",
+             "--order-lines", "--whole-moves")  # fmt: skip
+    assert not any(knob in line for line in lines for knob in knobs)
+    advanced = "\n".join(_help_lines("monitor", "--advanced"))
+    assert all(knob in advanced for knob in knobs)
+    assert "[default: 8]" in advanced  # --hop's default, read from the monitor's config
+
+
+@pytest.mark.parametrize(
+    "command",
+    [(), ("monitor",), ("profile",), ("results",), ("report",), ("rejections",), ("ack",),
+     ("rebaseline",), ("backup",), ("demo",), ("simulate",), ("simulate", "fleet")],
+)  # fmt: skip
+def test_every_command_has_a_short_help_without_bool_metavars(command: tuple[str, ...]) -> None:
+    lines = _help_lines(*command, "-h")
+    assert lines[0].startswith("Usage: axiswatch")
+    assert not any("<bool>" in line for line in lines)
+
+
+def test_version() -> None:
+    shown = run("--version")
+    assert (shown.returncode, shown.stdout) == (0, f"axiswatch {axiswatch.__version__}\n")
+
+
+def test_research_knobs_still_work(tmp_path: Path) -> None:
+    shown = run("monitor", tmp_path, "--store", tmp_path / "s.db", "--hop", "0")
+    assert shown.returncode == 2
+    assert "hop" in shown.stderr
+
+
+@pytest.mark.parametrize(
+    "code",
+    [
+        "import axiswatch",
+        "import sys; sys.argv = ['axiswatch', '--help']\n"
+        "from axiswatch.cli import main\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass",
+    ],
+    ids=["import", "help"],
+)
+def test_heavy_modules_are_imported_only_by_the_commands_that_need_them(code: str) -> None:
+    check = f"{code}\nimport sys\nprint(sorted(m for m in {HEAVY!r} if m in sys.modules))"
+    shown = subprocess.run(
+        [sys.executable, "-c", check], capture_output=True, text=True, check=True
+    )
+    assert shown.stdout.splitlines()[-1] == "[]"
+
+
+def _unit_row_in_degrees(k: int, t: np.ndarray) -> str:
+    body = "".join(f"{v:.2f},{np.sin(v):.4f},{np.cos(v):.4f}\n" for v in t / 100.0)
+    return "time,position,torque\ns,deg,Nm\n" + body
+
+
+def _unix_milliseconds(k: int, t: np.ndarray) -> str:
+    start = START_MS + k * 86_400_000
+    body = "".join(f"{start + v},{np.sin(v / 100):.4f},{np.cos(v / 100):.4f}\n" for v in t * 10)
+    return "time,position,torque\n" + body
+
+
+@pytest.mark.parametrize("write", [_unit_row_in_degrees, _unix_milliseconds])
+def test_a_first_run_of_400_files_with_one_cause_prints_one_line_for_them(
+    tmp_path: Path, write: Callable[[int, np.ndarray], str]
+) -> None:
+    # Unix milliseconds without a profile: each file's reason names its own first stamp, and a
+    # first run of 400 daily captures printed 97 lines of rejections.
+    axis = tmp_path / "fleet" / "r1" / "a1"
+    axis.mkdir(parents=True)
+    t = np.arange(50)
+    for k in range(400):
+        day = np.datetime64("2025-01-01") + k  # in the past: a future date is another cause
+        (axis / f"{day}.csv").write_text(write(k, t), encoding="utf-8")
+    shown = run("monitor", tmp_path / "fleet", "--store", tmp_path / "s.db", "--settle", "0")
+    assert shown.returncode == 8
+    lines = (shown.stdout + shown.stderr).splitlines()
+    assert "Rejected captures (400):" in lines
+    assert len(lines) <= 8
+    assert any("(and 399 more capture files with this reason" in line for line in lines)
+
+
+def test_a_plugin_group_loads_when_it_is_used() -> None:
+    # `axiswatch --help` names the group without importing it (checked above); using it loads it.
+    tree = typer.main.get_command(app)
+    context = typer.Context(tree)
+    assert "experiment" not in tree.commands  # type: ignore[attr-defined]
+    assert "experiment" in tree.list_commands(context)  # type: ignore[attr-defined]
+    assert tree.get_command(context, "experiment").name == "experiment"  # type: ignore[attr-defined]

@@ -1,0 +1,164 @@
+"""Detecting an axis profile from capture files: layout, time stamps, roles by name and content."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from axiswatch._profile_detection import detect_file, guess_roles, sniff_csv, stamp_kind
+from axiswatch.exceptions import ProfileError
+from axiswatch.monitor._layout_plan import apply_plan, plan_layout
+
+START_MS = 1_772_344_800_000  # 2026-03-01 06:00 UTC
+
+
+def _rows(n: int = 200) -> dict[str, np.ndarray]:
+    t = np.arange(n) / 1000.0
+    rng = np.random.default_rng(0)
+    return {
+        "position": np.degrees(np.sin(2 * np.pi * t)),
+        "current": 3.0 * np.cos(2 * np.pi * t) + rng.normal(scale=0.3, size=n),
+    }
+
+
+def test_sniff_reads_a_european_export_and_windows_1252() -> None:
+    data = "Zeit;Winkel;Strom\nms;°;A\n0;1,5;0,2\n".encode("cp1252")
+    layout, text = sniff_csv(data)
+    assert (layout.encoding, layout.separator, layout.decimal) == ("cp1252", ";", ",")
+    assert dict(layout.units) == {"Zeit": "ms", "Winkel": "°", "Strom": "A"}
+    assert text.startswith("Zeit;Winkel")
+
+
+@pytest.mark.parametrize(
+    ("stamps", "unit_word", "expected"),
+    [
+        ([START_MS / 1000.0, START_MS / 1000.0 + 0.001], None, ("unix", "s")),
+        ([START_MS, START_MS + 1], None, ("unix", "ms")),
+        ([START_MS * 1000, START_MS * 1000 + 1000], None, ("unix", "us")),
+        ([START_MS * 1_000_000, START_MS * 1_000_000 + 10**6], None, ("unix", "ns")),
+        (["2026-03-01T06:00:00.000", "2026-03-01T06:00:00.001"], None, ("iso", "s")),
+        ([0, 1, 2], None, ("relative", "ms")),
+        ([0.0, 0.001, 0.002], None, ("relative", "s")),
+        ([0, 1, 2], "s", ("relative", "s")),  # the units row wins over the step
+    ],
+)
+def test_stamp_kind(stamps: list[object], unit_word: str | None, expected: tuple[str, str]) -> None:
+    assert stamp_kind(pd.Series(stamps), unit_word) == expected
+
+
+def test_roles_by_name_per_axis_with_german_words() -> None:
+    values = _rows()
+    frame = pd.DataFrame({
+        "Zeit": np.arange(200), "A1_Winkel": values["position"], "A1_Strom": values["current"],
+        "A2_Lage_Grad": values["position"], "A2_Drehmoment": values["current"],
+        "A2_Drehzahl": values["current"],
+    })  # fmt: skip
+    roles = guess_roles(frame, {}, "Zeit")
+    assert {axis: {r: c for r, (c, _) in slot.items()} for axis, slot in roles.items()} == {
+        "A1": {"position": "A1_Winkel", "torque": "A1_Strom"},
+        "A2": {"position": "A2_Lage_Grad", "torque": "A2_Drehmoment", "speed": "A2_Drehzahl"},
+    }
+
+
+def test_roles_by_content_when_the_names_say_nothing() -> None:
+    values = _rows()
+    frame = pd.DataFrame({"t": np.arange(200), "ch1": values["current"], "ch2": values["position"]})
+    roles = guess_roles(frame, {}, "t")
+    assert roles[""]["position"] == ("ch2", "content")
+    assert roles[""]["torque"] == ("ch1", "content")
+
+
+def _export(path: Path, *, names: tuple[str, str] = ("A2_Pos_deg", "A2_Cur_A")) -> Path:
+    values = _rows()
+    frame = pd.DataFrame(
+        {"Timestamp": START_MS + np.arange(200), names[0]: values["position"],
+         names[1]: values["current"]}
+    )  # fmt: skip
+    text = frame.to_csv(sep=";", decimal=",", index=False)
+    header, rest = text.split("\n", 1)
+    path.write_text(f"{header}\nms;deg;A\n{rest}", encoding="utf-8")
+    return path
+
+
+def test_a_controller_export_is_detected(tmp_path: Path) -> None:
+    guess = detect_file(_export(tmp_path / "trace.csv"))
+    assert guess.problem is None
+    assert (guess.time_column, guess.time_kind, guess.time_unit) == ("Timestamp", "unix", "ms")
+    (axis,) = guess.axes
+    assert axis.axis == "A2"
+    assert dict(axis.columns) == {"A2_Pos_deg": "position", "A2_Cur_A": "torque"}
+    assert axis.position_unit == "deg"
+    assert axis.rates_hz["torque"] == pytest.approx(1000.0, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("text", "reason"),
+    [
+        ("a;b\n1;2\n", "fewer than 2 rows"),
+        ("Note;Value\nx;1\ny;2\nz;3\n", "no time column"),
+        ("time;A1_Pos_deg\n0;1\n1;2\n2;3\n", "no axis with both a position and a torque"),
+    ],
+)
+def test_files_it_cannot_place_say_why(tmp_path: Path, text: str, reason: str) -> None:
+    path = tmp_path / "x.csv"
+    path.write_text(text, encoding="utf-8")
+    guess = detect_file(path)
+    assert guess.problem is not None
+    assert reason in guess.problem
+
+
+def test_the_plan_names_files_it_leaves_out_and_never_overwrites(tmp_path: Path) -> None:
+    exports = tmp_path / "cell1"
+    exports.mkdir()
+    good = _export(exports / "trace.csv")
+    relative = exports / "relative.csv"
+    relative.write_text(
+        good.read_text().replace(str(START_MS), "0", 1).replace(str(START_MS + 1), "1", 1)
+    )
+    fleet = tmp_path / "fleet"
+    plan = plan_layout([detect_file(good), detect_file(relative)], fleet)
+    assert [p for p, *_ in plan.placed] == [good]
+    (left_out,) = plan.unplaced
+    assert left_out[0] == relative
+    assert "no date in its name" in left_out[1]
+    toml = fleet / "cell1" / "A2" / "axis.toml"
+    assert apply_plan(plan)[0] == f"wrote {toml}"
+    assert (fleet / "cell1" / "A2" / f"2026-03-01T06-00-00_{good.name}").is_file()
+    toml.write_text('name = "mine"\n', encoding="utf-8")
+    with pytest.raises(
+        ProfileError, match=r"nothing written: .*axis.toml exists with other content"
+    ):
+        apply_plan(plan)
+    assert toml.read_text(encoding="utf-8") == 'name = "mine"\n'
+
+
+def test_a_position_without_a_unit_is_read_in_rad_and_said_so(tmp_path: Path) -> None:
+    values = _rows()
+    path = tmp_path / "2026-03-01.csv"
+    pd.DataFrame(
+        {"Timestamp": START_MS + np.arange(200), "J2_ActPos": values["position"],
+         "J2_Current": values["current"]}
+    ).to_csv(path, index=False)  # fmt: skip
+    (axis,) = detect_file(path).axes
+    assert (axis.axis, axis.position_unit, axis.unit_assumed) == ("J2", "rad", True)
+    assert any('position = "deg"' in note for note in axis.notes)
+
+
+def test_a_speed_is_kept_only_in_the_positions_unit_per_second(tmp_path: Path) -> None:
+    values = _rows()
+    frame = pd.DataFrame({
+        "Zeit": START_MS + np.arange(200), "A1_Pos": values["position"],
+        "A1_Vel": values["current"], "A1_Cur": values["current"],
+        "A2_Pos": values["position"], "A2_Drehzahl": values["current"],
+        "A2_Strom": values["current"],
+    })  # fmt: skip
+    header, rest = frame.to_csv(sep=";", index=False).split("\n", 1)
+    path = tmp_path / "trace.csv"
+    path.write_text(f"{header}\nms;deg;deg/s;A;deg;U/min;A\n{rest}", encoding="utf-8")
+    first, second = detect_file(path).axes
+    assert dict(first.columns) == {"A1_Pos": "position", "A1_Vel": "speed", "A1_Cur": "torque"}
+    assert dict(second.columns) == {"A2_Pos": "position", "A2_Strom": "torque"}
+    assert any("'A2_Drehzahl' left out" in note for note in second.notes)
