@@ -19,13 +19,22 @@ Rules, in this order (the first that applies is the verdict):
     one value), or when there is no other motion signal to contradict it and the run is a
     speed of exactly 0: the axis stood still for part of the capture and moved in the rest,
     which the methods read (issue 13: a capture of a moving axis is scored).
+``glitch``
+    a position, speed or torque sample farther than ``GLITCH_SPANS`` (2) times the signal's
+    range from each of its neighbours (:func:`isolated_glitches`): no motion of the capture
+    goes there and back within one sample, a logger or a transmission does.
 ``no motion``
     (only with the baseline's reference) position spanning less than ``MIN_MOTION_SHARE`` (5 %)
     of the baseline's span: the robot was idle during the capture.
+``scale changed``
+    (only with the baseline's reference) the torque (any signal but the position and the speed)
+    spanning ``SCALE_CHANGE`` (5) times more or less than the baseline's while the motion spans
+    within ``SAME_MOTION`` (2) times the baseline's: a change of unit (N m to mN m, A to mA).
 
 The thresholds are stated, not fitted: a half-frozen signal or a twentyfold smaller motion are far
 outside what healthy captures of one task show (simulated captures: no repeated sample at all,
-spans within a few per cent). A torque that repeats one value for more than half a capture is
+spans within a few per cent). A fault changes a torque by tens of per cent; the torque units a
+logger writes differ by 8.85 (lbf in per N m) or more; a fivefold change sits between them. A torque that repeats one value for more than half a capture is
 called stuck whatever the motion (a drive's current is never exactly constant while it holds or
 moves an axis).
 """
@@ -40,17 +49,30 @@ from numpy.typing import NDArray
 from axiswatch._capture import Capture
 
 __all__ = [
+    "GLITCH_SPANS",
     "MIN_MOTION_SHARE",
     "OUT_OF_RANGE",
+    "SAME_MOTION",
+    "SCALE_CHANGE",
     "STUCK_SHARE",
     "QualityReference",
     "data_quality_problem",
+    "isolated_glitches",
     "longest_run",
 ]
 
 OUT_OF_RANGE = 1e6
 STUCK_SHARE = 0.5
 MIN_MOTION_SHARE = 0.05
+GLITCH_SPANS = 2.0
+SCALE_CHANGE = 5.0
+SAME_MOTION = 2.0
+#: Neighbours on each side whose median a glitch departs from (besides the next samples).
+GLITCH_NEIGHBOURS = 3
+#: Signals judged for glitches: the motion and the load. Vibration (an accelerometer's
+#: channel) is impulsive by nature: a bearing's impacts last a sample or two.
+GLITCH_SIGNALS = ("position", "speed", "torque")
+MOTION = ("position", "speed")
 
 
 @dataclass(frozen=True)
@@ -78,6 +100,86 @@ def longest_run(values: NDArray[np.float64]) -> tuple[int, int]:
     lengths = np.diff(np.concatenate([starts, [values.size]]))
     best = int(np.argmax(lengths))
     return int(lengths[best]), int(starts[best])
+
+
+def signal_range(values: NDArray[np.float64]) -> float:
+    """The range of the middle 98 % of the samples (a few glitches leave it as it is)."""
+    low, high = np.percentile(values, [1.0, 99.0])
+    return float(high - low)
+
+
+def isolated_glitches(values: NDArray[np.float64], spans: float = GLITCH_SPANS) -> NDArray[np.intp]:
+    """Samples farther than ``spans`` times :func:`signal_range` from each of their neighbours.
+
+    A Hampel-type test made one-sample wide: sample ``i`` departs, in one direction, from the
+    samples next to it and from the medians of the ``GLITCH_NEIGHBOURS`` samples on each side
+    (one side only at the capture's ends). Two or more such samples in a row are an event, not
+    a glitch, and are kept; so is a step, where the sample sits on one side.
+
+    Examples
+    --------
+    >>> values = np.sin(np.arange(200) / 20.0)
+    >>> values[50] = 40.0
+    >>> isolated_glitches(values).tolist()
+    [50]
+    """
+    size = values.size
+    width = GLITCH_NEIGHBOURS
+    if size < 3:
+        return np.empty(0, dtype=np.intp)
+    limit = spans * signal_range(values)
+    step = np.diff(values)
+    # Candidates first (far from both next samples, or from the one next sample at an end):
+    # the medians are computed for a handful of samples, not for every one of a long capture.
+    up = np.concatenate([[np.nan], step])  # values[i] - values[i - 1]
+    down = np.concatenate([-step, [np.nan]])  # values[i] - values[i + 1]
+    far = np.where(np.isnan(up), down, np.where(np.isnan(down), up, 0.0))
+    both = np.sign(up) == np.sign(down)
+    far = np.where(both, np.sign(up) * np.minimum(np.abs(up), np.abs(down)), far)
+    found = []
+    for index in np.flatnonzero(np.abs(far) > limit):
+        sides = [
+            side
+            for side in (
+                values[max(0, index - width) : index],
+                values[index + 1 : index + 1 + width],
+            )
+            if side.size
+        ]
+        gaps = [values[index] - float(np.median(side)) for side in sides]
+        if all(np.sign(gap) == np.sign(far[index]) and abs(gap) > limit for gap in gaps):
+            found.append(index)
+    return np.asarray(found, dtype=np.intp)
+
+
+def _factor(ratio: float) -> str:
+    """``1,000`` or ``1/1,000``."""
+    return f"{ratio:,.0f}" if ratio >= 1 else f"1/{1 / ratio:,.0f}"
+
+
+def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
+    """The ``scale changed`` verdict (module docstring), or None."""
+    motion = [name for name in MOTION if name in capture.signals and reference.spans.get(name)]
+    if not motion:
+        return None  # nothing tells whether the motion is the baseline's
+    moved = float(np.ptp(capture.signals[motion[0]])) / reference.spans[motion[0]]
+    if not 1.0 / SAME_MOTION <= moved <= SAME_MOTION:
+        return None  # another motion may need another torque: the model judges it
+    for name, values in capture.signals.items():
+        expected = reference.spans.get(name, 0.0)
+        if name in MOTION or expected <= 0:
+            continue
+        span = float(np.ptp(values))
+        ratio = span / expected
+        if ratio >= SCALE_CHANGE or ratio <= 1.0 / SCALE_CHANGE:
+            factor = _factor(ratio)
+            return (
+                f"scale changed: signal '{name}' scale changed by {factor}x (it spans "
+                f"{span:.4g}, the baseline's {expected:.4g}, while the {motion[0]} spans "
+                f"{moved:.2g}x the baseline's): a change of unit, not a fault (a fault changes "
+                "it by tens of per cent); a new baseline reads the new scale"
+            )
+    return None
 
 
 def _standstill(capture: Capture, name: str, start: int, run: int) -> bool:
@@ -113,8 +215,8 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
     Returns
     -------
     str or None
-        ``"<verdict>: <reason>"`` with the verdict ``out of range``, ``flat/stuck signal`` or
-        ``no motion``.
+        ``"<verdict>: <reason>"`` with the verdict ``out of range``, ``flat/stuck signal``,
+        ``glitch``, ``no motion`` or ``scale changed``.
 
     Examples
     --------
@@ -138,6 +240,19 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
         run, start = longest_run(values)
         if run == values.size:
             return f"flat/stuck signal: '{name}' is {values[0]:.6g} throughout ({run} samples)"
+    for name in GLITCH_SIGNALS:
+        if name not in capture.signals:
+            continue
+        values = capture.signals[name]
+        glitches = isolated_glitches(values)
+        if glitches.size:
+            first = int(glitches[0])
+            return (
+                f"glitch: signal '{name}' reads {values[first]:.4g} at sample {first}, alone "
+                f"and more than {GLITCH_SPANS:g} times the signal's range "
+                f"({signal_range(values):.4g}) from its neighbours ({glitches.size} such "
+                "sample(s); a logger or transmission glitch?)"
+            )
     if reference is not None and "position" in capture.signals:
         span = float(np.ptp(capture.signals["position"]))
         expected = reference.spans.get("position", 0.0)
@@ -146,6 +261,10 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
                 f"no motion: position spans {span:.4g}, {100 * span / expected:.2g} % of the "
                 f"baseline's {expected:.4g} (the robot was idle during the capture?)"
             )
+    if reference is not None:
+        changed = _scale_change(capture, reference)
+        if changed is not None:
+            return changed
     for name, values in capture.signals.items():
         run, start = longest_run(values)
         if run >= STUCK_SHARE * values.size and not _standstill(capture, name, start, run):
