@@ -142,9 +142,10 @@ def _write(axis: Path, name: str, kind: str, draw: st.DataObject) -> None:
         spread = float(np.percentile(values, 99) - np.percentile(values, 1))
         jump = draw.draw(st.sampled_from([-300.0, -3.0, 3.0, 30.0]), label="spreads")
         frame.loc[at, signal] = float(values.median()) + jump * spread
-    elif kind == "unit":
-        factor = draw.draw(st.sampled_from([1e3, 1e-3, 100.0, 0.01]), label="factor")
-        frame["torque"] = frame["torque"] * factor
+    elif kind == "unit":  # N m to mN m or N cm, rad/s to deg/s, and back
+        name = draw.draw(st.sampled_from(["torque", "speed"]), label="unit of")
+        factor = draw.draw(st.sampled_from([1e3, 1e-3, 100.0, 0.01, 57.3, 1 / 57.3]), label="by")
+        frame[name] = frame[name] * factor
     elif kind == "stuck":
         frame.loc[present, signal] = frame.loc[present, signal].iloc[0]
     elif kind == "idle":

@@ -35,7 +35,7 @@ def moving() -> aw.Capture:
 
 
 def _with(capture: aw.Capture, name: str, values: np.ndarray) -> aw.Capture:
-    return aw.as_capture({**capture.signals, name: values}, capture.rates_hz)
+    return aw.as_capture({**capture.signals, name: values}, {**capture.rates_hz, name: 2000.0})
 
 
 def test_each_verdict_and_a_usable_capture(moving: aw.Capture) -> None:
@@ -113,15 +113,25 @@ def test_a_torque_in_another_unit_is_a_scale_change_a_larger_move_is_not(
 ) -> None:
     reference = QualityReference.of(moving)
     torque = moving.signals["torque"]
-    for factor, said in ((1000.0, "1,000x"), (1e-3, "1/1,000x"), (8.85, "9x")):
+    for factor, said in ((1000.0, "1,000x"), (1e-3, "1/1,000x"), (57.3, "57x")):
         scaled = _with(moving, "torque", factor * torque)
         assert str(data_quality_problem(scaled, reference)).startswith(
             f"scale changed: signal 'torque' scale changed by {said} (it spans "
         )
-    # A fault's tens of per cent, and a three times larger torque for a three times larger move.
+    # A fault's tens of per cent; a larger torque for a larger move; a position in degrees
+    # (a capture may hold a part of the task's moves: its span is no witness of a unit).
     assert data_quality_problem(_with(moving, "torque", 1.4 * torque), reference) is None
+    assert data_quality_problem(_with(moving, "torque", 8.85 * torque), reference) is None
     larger = aw.as_capture(
-        {"position": 3 * moving.signals["position"], "torque": 3 * torque}, moving.rates_hz
+        {"position": 3 * moving.signals["position"], "torque": 100 * torque}, moving.rates_hz
     )
     assert data_quality_problem(larger, reference) is None
+    degrees = _with(moving, "position", 57.3 * moving.signals["position"])
+    assert data_quality_problem(degrees, reference) is None
+    speed = 6 * np.cos(6 * np.arange(2000) / 2000.0)
+    with_speed = _with(moving, "speed", speed)
+    in_degrees = _with(moving, "speed", 57.3 * speed)
+    assert str(data_quality_problem(in_degrees, QualityReference.of(with_speed))).startswith(
+        "scale changed: signal 'speed' scale changed by 57x (it spans 687.6, the baseline's 12, while the position (1x) and the torque (1x) kept"
+    )
     assert data_quality_problem(_with(moving, "torque", 1000.0 * torque)) is None  # no baseline

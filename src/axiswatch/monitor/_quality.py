@@ -27,14 +27,18 @@ Rules, in this order (the first that applies is the verdict):
     (only with the baseline's reference) position spanning less than ``MIN_MOTION_SHARE`` (5 %)
     of the baseline's span: the robot was idle during the capture.
 ``scale changed``
-    (only with the baseline's reference) the torque (any signal but the position and the speed)
-    spanning ``SCALE_CHANGE`` (5) times more or less than the baseline's while the motion spans
-    within ``SAME_MOTION`` (2) times the baseline's: a change of unit (N m to mN m, A to mA).
+    (only with the baseline's reference) the torque or the speed spanning ``SCALE_CHANGE`` (30)
+    times more or less than the baseline's while every other signal spans within
+    ``SAME_SCALE`` (2) times the baseline's: a change of unit (N m to mN m, A to mA, rad/s to
+    deg/s). A change of task or load moves the signals together. The position is a witness
+    only: a capture holding part of a task's cycle may span far less of it.
 
 The thresholds are stated, not fitted: a half-frozen signal or a twentyfold smaller motion are far
 outside what healthy captures of one task show (simulated captures: no repeated sample at all,
-spans within a few per cent). A fault changes a torque by tens of per cent; the torque units a
-logger writes differ by 8.85 (lbf in per N m) or more; a fivefold change sits between them. A torque that repeats one value for more than half a capture is
+spans within a few per cent). A fault changes a torque by tens of per cent (on the real hydraulic
+actuators, loads and a damaged gear moved its span 0.71 to 1.56 times the baseline's). Thirty
+is halfway, on a log scale, between the same unit (1) and a metric prefix (1000): a change by
+8.85 (lbf in per N m) or 9.55 (rpm per rad/s) is left to the model. A torque that repeats one value for more than half a capture is
 called stuck whatever the motion (a drive's current is never exactly constant while it holds or
 moves an axis).
 """
@@ -52,7 +56,7 @@ __all__ = [
     "GLITCH_SPANS",
     "MIN_MOTION_SHARE",
     "OUT_OF_RANGE",
-    "SAME_MOTION",
+    "SAME_SCALE",
     "SCALE_CHANGE",
     "STUCK_SHARE",
     "QualityReference",
@@ -65,14 +69,13 @@ OUT_OF_RANGE = 1e6
 STUCK_SHARE = 0.5
 MIN_MOTION_SHARE = 0.05
 GLITCH_SPANS = 2.0
-SCALE_CHANGE = 5.0
-SAME_MOTION = 2.0
+SCALE_CHANGE = 30.0
+SAME_SCALE = 2.0
 #: Neighbours on each side whose median a glitch departs from (besides the next samples).
 GLITCH_NEIGHBOURS = 3
 #: Signals judged for glitches: the motion and the load. Vibration (an accelerometer's
 #: channel) is impulsive by nature: a bearing's impacts last a sample or two.
 GLITCH_SIGNALS = ("position", "speed", "torque")
-MOTION = ("position", "speed")
 
 
 @dataclass(frozen=True)
@@ -159,27 +162,30 @@ def _factor(ratio: float) -> str:
 
 def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
     """The ``scale changed`` verdict (module docstring), or None."""
-    motion = [name for name in MOTION if name in capture.signals and reference.spans.get(name)]
-    if not motion:
-        return None  # nothing tells whether the motion is the baseline's
-    moved = float(np.ptp(capture.signals[motion[0]])) / reference.spans[motion[0]]
-    if not 1.0 / SAME_MOTION <= moved <= SAME_MOTION:
-        return None  # another motion may need another torque: the model judges it
-    for name, values in capture.signals.items():
-        expected = reference.spans.get(name, 0.0)
-        if name in MOTION or expected <= 0:
-            continue
-        span = float(np.ptp(values))
-        ratio = span / expected
-        if ratio >= SCALE_CHANGE or ratio <= 1.0 / SCALE_CHANGE:
-            factor = _factor(ratio)
-            return (
-                f"scale changed: signal '{name}' scale changed by {factor}x (it spans "
-                f"{span:.4g}, the baseline's {expected:.4g}, while the {motion[0]} spans "
-                f"{moved:.2g}x the baseline's): a change of unit, not a fault (a fault changes "
-                "it by tens of per cent); a new baseline reads the new scale"
-            )
-    return None
+    ratios = {
+        name: float(np.ptp(values)) / reference.spans[name]
+        for name, values in capture.signals.items()
+        if reference.spans.get(name, 0.0) > 0
+    }
+    changed = [
+        n
+        for n, r in ratios.items()
+        if n != "position" and (r >= SCALE_CHANGE or r <= 1.0 / SCALE_CHANGE)
+    ]
+    kept = [n for n, r in ratios.items() if 1.0 / SAME_SCALE <= r <= SAME_SCALE]
+    if not changed or len(changed) + len(kept) < len(ratios) or not kept:
+        # Every signal changed (another task, another robot), or some by an in-between factor:
+        # the signals may still agree with each other, and the model judges the capture.
+        return None
+    name = changed[0]
+    factor = _factor(ratios[name])
+    others = " and the ".join(f"{other} ({ratios[other]:.2g}x)" for other in kept)
+    return (
+        f"scale changed: signal '{name}' scale changed by {factor}x (it spans "
+        f"{np.ptp(capture.signals[name]):.4g}, the baseline's {reference.spans[name]:.4g}, "
+        f"while the {others} kept the baseline's span): a change of unit, not a fault (a "
+        "fault changes it by tens of per cent); a new baseline reads the new scale"
+    )
 
 
 def _standstill(capture: Capture, name: str, start: int, run: int) -> bool:
