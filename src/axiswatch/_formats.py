@@ -8,7 +8,7 @@ new format is a reader and a writer registered with :func:`register_format`; the
 finds captures by the registered suffixes (:func:`capture_suffixes`).
 
 Built in: ``.parquet`` (metadata as JSON under the schema key ``axiswatch``), ``.csv`` (no
-metadata; UTF-8, else Windows-1252, or the encoding an axis profile declares) and ``.npz`` (the recorded-data layout of :mod:`axiswatch.datasets`: arrays
+metadata) and ``.npz`` (the recorded-data layout of :mod:`axiswatch.datasets`: arrays
 ``signals`` ``[n_channels, n_samples]``, ``channels``, ``fs`` in Hz or NaN when unknown, and an
 optional JSON ``meta``; every channel at one rate, the start time not kept).
 """

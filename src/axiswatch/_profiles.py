@@ -9,7 +9,6 @@ given, it may be a current) and the axis's kinematics (gear ratio, the gear stag
 and the bearings whose races the indicators watch). It is a TOML file::
 
     name = "cobot-j2"                 # axes of one name are pooled as a fleet
-    encoding = "cp1252"               # of CSV files (default: UTF-8, else cp1252)
     [columns]                         # file column -> role
     "Timestamp" = "time"
     "J2_ActPos" = "position"

@@ -19,26 +19,13 @@ Rules, in this order (the first that applies is the verdict):
     one value), or when there is no other motion signal to contradict it and the run is a
     speed of exactly 0: the axis stood still for part of the capture and moved in the rest,
     which the methods read (issue 13: a capture of a moving axis is scored).
-``glitch``
-    a position, speed or torque sample farther than ``GLITCH_SPANS`` (2) times the signal's
-    range from each of its neighbours (:func:`isolated_glitches`): no motion of the capture
-    goes there and back within one sample, a logger or a transmission does.
 ``no motion``
     (only with the baseline's reference) position spanning less than ``MIN_MOTION_SHARE`` (5 %)
     of the baseline's span: the robot was idle during the capture.
-``scale changed``
-    (only with the baseline's reference) the torque or the speed spanning ``SCALE_CHANGE`` (30)
-    times more or less than the baseline's while every other signal spans within
-    ``SAME_SCALE`` (2) times the baseline's: a change of unit (N m to mN m, A to mA, rad/s to
-    deg/s). A change of task or load moves the signals together. The position is a witness
-    only: a capture holding part of a task's cycle may span far less of it.
 
 The thresholds are stated, not fitted: a half-frozen signal or a twentyfold smaller motion are far
 outside what healthy captures of one task show (simulated captures: no repeated sample at all,
-spans within a few per cent). A fault changes a torque by tens of per cent (on the real hydraulic
-actuators, loads and a damaged gear moved its span 0.71 to 1.56 times the baseline's). Thirty
-is halfway, on a log scale, between the same unit (1) and a metric prefix (1000): a change by
-8.85 (lbf in per N m) or 9.55 (rpm per rad/s) is left to the model. A torque that repeats one value for more than half a capture is
+spans within a few per cent). A torque that repeats one value for more than half a capture is
 called stuck whatever the motion (a drive's current is never exactly constant while it holds or
 moves an axis).
 """
@@ -68,8 +55,20 @@ __all__ = [
 OUT_OF_RANGE = 1e6
 STUCK_SHARE = 0.5
 MIN_MOTION_SHARE = 0.05
+#: ``glitch``: a position, speed or torque sample farther than this many times the signal's
+#: range from each of its neighbours (:func:`isolated_glitches`). No motion goes there and back
+#: within one sample; a logger or a transmission does. Gaussian noise alone (a range of 4.7
+#: sigma, so 9.3 sigma past both neighbours) does once in 2e14 samples, 3,000 years at 2 kHz.
 GLITCH_SPANS = 2.0
+#: ``scale changed``: the torque or the speed spanning this many times more or less than the
+#: baseline's while every other signal keeps the baseline's span within ``SAME_SCALE``: a
+#: change of unit (N m to mN m, A to mA, rad/s to deg/s). Thirty is halfway, on a log scale,
+#: between one unit and a metric prefix (1000). A fault changes a torque by tens of per cent:
+#: loads and a damaged gear moved the real hydraulic actuators' torque span 0.71-1.56 times.
+#: A change by 8.85 (lbf in per N m) or 9.55 (rpm per rad/s) is left to the model.
 SCALE_CHANGE = 30.0
+#: A change of task or load moves the signals together; a unit changes one. The position is a
+#: witness only: a capture that holds a part of a task's cycle may span far less of it.
 SAME_SCALE = 2.0
 #: Neighbours on each side whose median a glitch departs from (besides the next samples).
 GLITCH_NEIGHBOURS = 3
@@ -161,7 +160,7 @@ def _factor(ratio: float) -> str:
 
 
 def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
-    """The ``scale changed`` verdict (module docstring), or None."""
+    """The ``scale changed`` verdict (:data:`SCALE_CHANGE`), or None."""
     ratios = {
         name: float(np.ptp(values)) / reference.spans[name]
         for name, values in capture.signals.items()
