@@ -59,6 +59,8 @@ MIN_MOTION_SHARE = 0.05
 #: range from each of its neighbours (:func:`isolated_glitches`). No motion goes there and back
 #: within one sample; a logger or a transmission does. Gaussian noise alone (a range of 4.7
 #: sigma, so 9.3 sigma past both neighbours) does once in 2e14 samples, 3,000 years at 2 kHz.
+#: Real signals' largest lone samples stay under half this: 0.29 of the range (hydraulic
+#: actuators' torque, 250 Hz), 0.57 (linear axis, 21 Hz), 0.81 (a cobot's torque sensor).
 GLITCH_SPANS = 2.0
 #: ``scale changed``: the torque or the speed spanning this many times more or less than the
 #: baseline's while every other signal keeps the baseline's span within ``SAME_SCALE``: a
