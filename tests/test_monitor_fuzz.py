@@ -137,11 +137,11 @@ def _write(axis: Path, name: str, kind: str, draw: st.DataObject) -> None:
             kind, draw.draw(st.sampled_from([1e300, -1e300, 1e7, -3e9]), label="value")
         )
         frame.loc[at, signal] = value
-    elif kind == "glitch":
+    elif kind == "glitch":  # a sample far outside its neighbours (monitor._quality's rule)
         values = frame[signal].dropna()
         spread = float(np.percentile(values, 99) - np.percentile(values, 1))
-        jump = draw.draw(st.sampled_from([-300.0, -3.0, 3.0, 30.0]), label="spreads")
-        frame.loc[at, signal] = float(values.median()) + jump * spread
+        jump = draw.draw(st.sampled_from([-300.0, -2.5, 2.5, 30.0]), label="ranges")
+        frame.loc[at, signal] = float(values.max() if jump > 0 else values.min()) + jump * spread
     elif kind == "unit":  # N m to mN m or N cm, rad/s to deg/s, and back
         name = draw.draw(st.sampled_from(["torque", "speed"]), label="unit of")
         factor = draw.draw(st.sampled_from([1e3, 1e-3, 100.0, 0.01, 57.3, 1 / 57.3]), label="by")
