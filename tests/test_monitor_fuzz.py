@@ -34,6 +34,7 @@ from axiswatch.cli import app
 from tests.conftest import settle
 
 AXIS = "robot01/axis1"
+OTHER = "robot01/axis2"
 OPTIONS = ("--method", "pca", "--calibration", "2", "--settle", "0")
 EXAMPLES = int(os.environ.get("AXISWATCH_FUZZ_EXAMPLES", "30"))
 #: Healthy data in another form: scored (on a baseline's axis) whatever else happens.
@@ -188,6 +189,8 @@ def test_hostile_captures_never_break_the_monitor(
     later = data.draw(st.booleans(), label="after the clean run")
     if later:
         shutil.copy2(clean_store, store)
+        # The other axis's new capture, to be scored in the same run as the hostile files.
+        shutil.copy2(root / OTHER / "2026-03-03.parquet", root / OTHER / "2026-03-06.parquet")
     count = data.draw(st.integers(1, 4), label="files")
     files: dict[str, str] = {}
     for index in range(count):
@@ -216,6 +219,7 @@ def test_hostile_captures_never_break_the_monitor(
             assert name not in over, (kind, result.output)
     if later:
         assert set(_rows(clean_store, STORED)) <= set(_rows(store, STORED))
+        assert f"{OTHER}/2026-03-06.parquet" in scored, result.output
     distances = _distances(store)
     for path, distance in reference.items():
         assert distances.get(path) == pytest.approx(distance, rel=1e-12), path
