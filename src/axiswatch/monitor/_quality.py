@@ -128,30 +128,29 @@ def isolated_glitches(values: NDArray[np.float64], spans: float = GLITCH_SPANS) 
     [50]
     """
     size = values.size
-    width = GLITCH_NEIGHBOURS
     if size < 3:
         return np.empty(0, dtype=np.intp)
     limit = spans * signal_range(values)
+    # Candidates first, with a few temporaries of the capture's length (a long capture is
+    # large): far from both next samples, in one direction, or from the one at an end.
     step = np.diff(values)
-    # Candidates first (far from both next samples, or from the one next sample at an end):
-    # the medians are computed for a handful of samples, not for every one of a long capture.
-    up = np.concatenate([[np.nan], step])  # values[i] - values[i - 1]
-    down = np.concatenate([-step, [np.nan]])  # values[i] - values[i + 1]
-    far = np.where(np.isnan(up), down, np.where(np.isnan(down), up, 0.0))
-    both = np.sign(up) == np.sign(down)
-    far = np.where(both, np.sign(up) * np.minimum(np.abs(up), np.abs(down)), far)
+    big = np.abs(step) > limit
+    inner = np.flatnonzero(big[:-1] & big[1:]) + 1
+    inner = inner[np.sign(step[inner - 1]) == -np.sign(step[inner])]
+    ends = [index for index, far in ((0, big[0]), (size - 1, big[-1])) if far]
     found = []
-    for index in np.flatnonzero(np.abs(far) > limit):
+    for index in sorted([*ends, *inner.tolist()]):
+        direction = np.sign(step[index - 1] if index > 0 else -step[0])
         sides = [
             side
             for side in (
-                values[max(0, index - width) : index],
-                values[index + 1 : index + 1 + width],
+                values[max(0, index - GLITCH_NEIGHBOURS) : index],
+                values[index + 1 : index + 1 + GLITCH_NEIGHBOURS],
             )
             if side.size
         ]
         gaps = [values[index] - float(np.median(side)) for side in sides]
-        if all(np.sign(gap) == np.sign(far[index]) and abs(gap) > limit for gap in gaps):
+        if all(np.sign(gap) == direction and abs(gap) > limit for gap in gaps):
             found.append(index)
     return np.asarray(found, dtype=np.intp)
 
