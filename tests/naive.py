@@ -288,6 +288,28 @@ def longest_run_naive(values: list[float]) -> tuple[int, int]:
     return best, best_start
 
 
+def isolated_glitches_naive(values: list[float], spans: float, width: int = 3) -> list[int]:
+    """Samples farther than ``spans`` ranges (middle 98 %) from their next samples and from the
+    medians of ``width`` samples on each side, all in one direction: sample by sample."""
+    low, high = np.percentile(values, [1.0, 99.0])
+    limit = spans * (high - low)
+
+    def median(side: list[float]) -> float:
+        ordered = sorted(side)
+        middle = len(ordered) // 2
+        return ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2
+
+    found = []
+    for i, value in enumerate(values):
+        left, right = values[max(0, i - width) : i], values[i + 1 : i + 1 + width]
+        gaps = [value - side[-1] for side in (left,) if side]
+        gaps += [value - side[0] for side in (right,) if side]
+        gaps += [value - median(side) for side in (left, right) if side]
+        if gaps and (all(g > limit for g in gaps) or all(g < -limit for g in gaps)):
+            found.append(i)
+    return found
+
+
 def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) -> np.ndarray:
     """Per-column terms of the indicator distance, column by column, row by row."""
     terms = np.zeros(baseline.shape[1])

@@ -204,14 +204,17 @@ def write_capture(capture: Capture, path: str | Path) -> Path:
     return path
 
 
-def _read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+def _read_frame(path: Path, encoding: str | None = None) -> tuple[pd.DataFrame, dict[str, str]]:
     file_format = capture_format(path)
     if not path.is_file():
         raise CaptureError(f"{path}: no such capture file.")
     if path.stat().st_size == 0:
         raise CaptureError(f"{path}: file is empty (0 bytes).")
     try:
-        frame, metadata = file_format.read(path)
+        if encoding is not None and file_format.read_text is not None:
+            frame, metadata = file_format.read_text(path, encoding)
+        else:
+            frame, metadata = file_format.read(path)
     except CaptureError:
         raise
     except Exception as exc:  # pyarrow/pandas raise many types for truncated or corrupt files
@@ -388,7 +391,7 @@ def read_capture(
     (2000.0, [0.0, 1.0, 2.0, 3.0])
     """
     path = Path(path)
-    frame, metadata = _read_frame(path)
+    frame, metadata = _read_frame(path, None if profile is None else profile.encoding)
     units_row = metadata.pop(UNITS_ROW_KEY, None)
     if units_row is not None:
         (profile or AxisProfile()).check_units_row(json.loads(units_row), path)
