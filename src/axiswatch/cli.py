@@ -250,6 +250,12 @@ def monitor(
         "readings widened: fewer false alarms after task changes, dr99 up to 0.03 lower "
         "(docs/evaluation.md, 'An opt-in operating point').",
     ),
+    max_capture_rows: int = typer.Option(
+        DEFAULTS.max_capture_rows,
+        min=1,
+        help="A capture file of more rows is rejected before it is loaded (memory stays "
+        "bounded; the default is 16.7 min at 2 kHz).",
+    ),
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
     dask: str | None = typer.Option(
         None, help="Dask scheduler address for scoring (traffic is unauthenticated: README)."
@@ -301,6 +307,7 @@ def monitor(
                 task_envelope=task_envelope,
                 order_lines=order_lines,
                 whole_moves=whole_moves,
+                max_capture_rows=max_capture_rows,
             )
             silence = _duration(stale_after, "--stale-after")
             check_request(root, config)

@@ -277,13 +277,17 @@ class _Run:
         baseline (:attr:`FitJob.refit`)."""
         relative = self.relative(file.path)
         if not self.config.preset.indicator_model:
-            return FitJob(file, relative, self.config.model(), self.config.profile)
+            return FitJob(
+                file, relative, self.config.model(), self.config.profile,
+                max_rows=self.config.max_capture_rows,
+            )  # fmt: skip
         return FitJob(
             file, relative, self.config.indicator_model(), self.config.profile,
             calibration=tuple(following),
             relatives=tuple(self.relative(f.path) for f in following),
             calibration_size=self.config.calibration_size,
             refit=refit,
+            max_rows=self.config.max_capture_rows,
         )  # fmt: skip
 
     def report(self, stage: str, done: int, total: int) -> None:
@@ -719,6 +723,7 @@ def _score_jobs_of(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
                     state.rates_hz,
                     profile=run.config.profile,
                     reference=state.reference,
+                    max_rows=run.config.max_capture_rows,
                 )
             )
     return jobs

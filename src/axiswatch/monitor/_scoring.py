@@ -19,7 +19,8 @@ from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from axiswatch._attribution import explain_indicators
-from axiswatch._capture import read_capture
+from axiswatch._capture import Capture, read_capture
+from axiswatch._capture_length import MAX_CAPTURE_ROWS, check_capture_length
 from axiswatch._detectors import BaselineDetector, IndicatorDetector
 from axiswatch._features import FeatureSpec
 from axiswatch._indicator_model import MIN_AXES, MIN_READINGS, IndicatorModel
@@ -123,6 +124,10 @@ class MonitorConfig:
         scored in a wider spread. Fewer false alarms after task changes (Robot A 32 -> 3 days on
         development robots 0-7), slightly fewer detections at the 99 % threshold (``dr99`` up
         to 0.03 lower): docs/evaluation.md, "An opt-in operating point: ``--whole-moves``".
+    max_capture_rows : int >= 1, default=MAX_CAPTURE_ROWS
+        A capture file of more rows is rejected before it is loaded (one line naming its rows
+        and the limit): memory stays bounded whatever a file's length. Not stored with the
+        baselines: it decides which files are read, not how they are scored.
 
     Examples
     --------
@@ -150,8 +155,14 @@ class MonitorConfig:
     task_envelope: float | None = None
     order_lines: bool = False
     whole_moves: bool = False
+    max_capture_rows: int = MAX_CAPTURE_ROWS
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.max_capture_rows, int) and self.max_capture_rows >= 1):
+            raise ValueError(
+                "The 'max_capture_rows' parameter must be an int >= 1. "
+                f"Got {self.max_capture_rows!r} instead."
+            )
         method_preset(self.method)
         for name in ("order_lines", "whole_moves"):
             if getattr(self, name) and not self.preset.indicator_model:
@@ -399,6 +410,13 @@ def _failure_kind(exc: BaseException) -> tuple[str, bool]:
     return "invalid", isinstance(exc, ProfileError)
 
 
+def _read(path: Path, relative: str, max_rows: int, **kwargs: Any) -> Capture:
+    """:func:`~axiswatch.read_capture` of a file no longer than ``max_rows`` rows (checked from
+    its header before it is loaded)."""
+    check_capture_length(path, max_rows, relative)
+    return read_capture(path, **kwargs)
+
+
 def _bad_data(relative: str, problem: str) -> str:
     return f"{relative}: bad data ({problem}); a data-quality verdict, not a maintenance one"
 
@@ -431,6 +449,8 @@ class FitJob:
     #: Of a stored baseline (after an upgrade, new options of the library): the 20 Hz floor of
     #: new baselines is not applied, a slower one is kept and noted (``slow_baseline_note``).
     refit: bool = False
+    #: Files of more rows are rejected before they are loaded.
+    max_rows: int = MAX_CAPTURE_ROWS
 
 
 @dataclass(frozen=True)
@@ -461,8 +481,12 @@ def fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
-        capture = read_capture(
-            path, job.model.features.signals, profile=profile_for(job.file, job.profile)
+        capture = _read(
+            path,
+            job.relative,
+            job.max_rows,
+            signals=job.model.features.signals,
+            profile=profile_for(job.file, job.profile),
         )
         problem = data_quality_problem(capture)
         if problem is not None:
@@ -489,7 +513,7 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
     try:
         profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
-        capture = read_capture(path, profile=profile)
+        capture = _read(path, job.relative, job.max_rows, profile=profile)
         if not job.refit:
             check_monitor_rate(capture)
         problem = data_quality_problem(capture)
@@ -515,8 +539,12 @@ def _fit_indicators(job: FitJob, template: IndicatorModel) -> FitOutcome:
             break
         # Skipped as the score job will skip it: bad data, or no reading at all.
         try:
-            calibration = read_capture(
-                file.path, expected_rates_hz=capture.rates_hz, profile=profile
+            calibration = _read(
+                file.path,
+                relative,
+                job.max_rows,
+                expected_rates_hz=capture.rates_hz,
+                profile=profile,
             )
             problem = data_quality_problem(calibration, reference)
             if problem is not None:
@@ -583,6 +611,8 @@ class ScoreJob:
     rates_hz: dict[str, float]
     profile: AxisProfile | None = None
     reference: QualityReference | None = None
+    #: Files of more rows are rejected before they are loaded.
+    max_rows: int = MAX_CAPTURE_ROWS
 
 
 @dataclass(frozen=True)
@@ -611,9 +641,11 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         model = resolve_model(job.model)
         if isinstance(model, IndicatorBaseline):
             return _score_indicators(job, model, digest, size, mtime)
-        capture = read_capture(
+        capture = _read(
             path,
-            model.features.signals,
+            job.relative,
+            job.max_rows,
+            signals=model.features.signals,
             expected_rates_hz=job.rates_hz,
             profile=profile_for(job.file, job.profile),
         )
@@ -644,7 +676,13 @@ def _score_indicators(
 ) -> ScoreOutcome:
     """Score one capture with the axis's IndicatorModel (errors raised as in score_capture)."""
     profile = profile_for(job.file, job.profile)
-    capture = read_capture(job.file.path, expected_rates_hz=job.rates_hz, profile=profile)
+    capture = _read(
+        job.file.path,
+        job.relative,
+        job.max_rows,
+        expected_rates_hz=job.rates_hz,
+        profile=profile,
+    )
     problem = data_quality_problem(capture, job.reference)
     if problem is not None:
         error = _bad_data(job.relative, problem)
