@@ -77,6 +77,7 @@ from axiswatch._mechanics import (
     whole_samples,
 )
 from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
+from axiswatch._preprocessing import speed_from_position
 from axiswatch._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 from axiswatch.exceptions import CaptureError
 
@@ -272,8 +273,7 @@ def motion(capture: Capture) -> Motion:
         )
     else:
         own_rate = capture.rates_hz["position"]
-        raw = capture.signals["position"]
-        derivative = np.gradient(raw, 1.0 / own_rate) if raw.size > 1 else np.zeros(1)
+        derivative = speed_from_position(capture.signals["position"], own_rate)
         speed = _on_times(derivative, own_rate, capture.start_s, times)
     if "position" not in names:
         position = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) / rate)])

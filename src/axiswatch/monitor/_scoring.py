@@ -14,18 +14,20 @@ import json
 import math
 import os
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from axiswatch._attribution import explain_indicators
-from axiswatch._capture import Capture, read_capture
+from axiswatch._capture import DEFAULT_SIGNALS, Capture, read_capture
 from axiswatch._capture_length import MAX_CAPTURE_ROWS, check_capture_length
 from axiswatch._detectors import BaselineDetector, IndicatorDetector
 from axiswatch._features import FeatureSpec
 from axiswatch._indicator_model import MIN_AXES, MIN_READINGS, IndicatorModel
 from axiswatch._mechanics import MechanicsStage
 from axiswatch._model import HealthModel
+from axiswatch._preprocessing import with_speed
 from axiswatch._profiles import AxisProfile
 from axiswatch._stages import FeatureStage
 from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
@@ -417,6 +419,17 @@ def _read(path: Path, relative: str, max_rows: int, **kwargs: Any) -> Capture:
     return read_capture(path, **kwargs)
 
 
+def _read_signals(
+    path: Path, relative: str, max_rows: int, signals: Sequence[str], **kwargs: Any
+) -> Capture:
+    """:func:`_read` of a method's ``signals``, a missing speed derived from the position
+    (:func:`~axiswatch._preprocessing.with_speed`): every method reads a capture of position and
+    current alike, as the indicators do."""
+    if "speed" not in signals or not set(signals) <= set(DEFAULT_SIGNALS):
+        return _read(path, relative, max_rows, signals=signals, **kwargs)
+    return with_speed(_read(path, relative, max_rows, **kwargs)).select(signals)
+
+
 def _bad_data(relative: str, problem: str) -> str:
     return f"{relative}: bad data ({problem}); a data-quality verdict, not a maintenance one"
 
@@ -481,11 +494,11 @@ def fit_baseline(job: FitJob) -> FitOutcome:
     path = job.file.path
     try:
         digest = file_hash(path)
-        capture = _read(
+        capture = _read_signals(
             path,
             job.relative,
             job.max_rows,
-            signals=job.model.features.signals,
+            job.model.features.signals,
             profile=profile_for(job.file, job.profile),
         )
         problem = data_quality_problem(capture)
@@ -641,11 +654,11 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         model = resolve_model(job.model)
         if isinstance(model, IndicatorBaseline):
             return _score_indicators(job, model, digest, size, mtime)
-        capture = _read(
+        capture = _read_signals(
             path,
             job.relative,
             job.max_rows,
-            signals=model.features.signals,
+            model.features.signals,
             expected_rates_hz=job.rates_hz,
             profile=profile_for(job.file, job.profile),
         )
