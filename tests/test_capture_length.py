@@ -92,3 +92,29 @@ def test_rows_are_read_from_each_format_without_loading_it(tmp_path: Path) -> No
     check_capture_length(broken, 1)
     with pytest.raises(CaptureError, match=r"^c\.csv: 40 rows, more than the 39 rows a capture"):
         check_capture_length(tmp_path / "c.csv", 39, "c.csv")
+
+
+def test_a_capture_out_of_memory_is_one_rejection_and_the_rest_is_scored(
+    small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from axiswatch.monitor._indicators import assess_capture as assess
+
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+
+    def short_of_memory(model: object, capture: aw.Capture, *args: object) -> object:
+        if capture.source.endswith("axis1/2026-03-08.parquet"):
+            raise MemoryError
+        return assess(model, capture, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr("axiswatch.monitor._scoring.assess_capture", short_of_memory)
+    store = tmp_path / "store.db"
+    for _ in range(2):
+        done = run("monitor", fleet, "--store", store, "--no-progress")
+        assert done.returncode == 8, done.stdout + done.stderr
+        assert "Traceback" not in done.stdout + done.stderr
+        assert "robot01/axis1/2026-03-08.parquet: not enough memory to read and score it" in (
+            done.stdout
+        )
+        scored = _scored(store)
+        assert ("axis1", "2026-03-09.parquet") in scored
+        assert ("axis1", "2026-03-08.parquet") not in scored

@@ -358,6 +358,11 @@ def file_hash(path: Path) -> str:
 
 
 def _one_line(exc: BaseException, path: Path, relative: str) -> str:
+    if isinstance(exc, MemoryError):
+        return (
+            f"{relative}: not enough memory to read and score it; a smaller --max-capture-rows "
+            "refuses such a file before it is loaded (axiswatch rejections --retry to try again)"
+        )
     text = (str(exc).splitlines() or [type(exc).__name__])[0].replace(str(path), relative)
     text = fleet_relative(text, path, relative)
     return text if text.startswith(relative) else f"{relative}: {text}"
@@ -437,10 +442,11 @@ def _bad_data(relative: str, problem: str) -> str:
 # --- jobs: self-contained, picklable, never raise for a bad capture -------------------------
 
 #: What makes one capture unusable: a malformed capture (:class:`CaptureError`, also raised for a
-#: capture too short or without a usable move), or a file that cannot be read (``OSError``:
-#: gone or unreadable since it was found). Any other error (a configuration error, a bug) is
+#: capture too short or without a usable move), a file that cannot be read (``OSError``: gone
+#: or unreadable since it was found), or one too large for the memory left (``MemoryError``,
+#: under a raised ``max_capture_rows``: the other captures are still scored). Any other error (a configuration error, a bug) is
 #: raised: recording it against every file would report hundreds of bad captures for one cause.
-_DATA_ERRORS = (CaptureError, OSError)
+_DATA_ERRORS = (CaptureError, OSError, MemoryError)
 
 
 @dataclass(frozen=True)
