@@ -14,6 +14,8 @@ a time, so that building a 4 h file takes little memory itself.
 
 from __future__ import annotations
 
+import csv
+import json
 import os
 import shutil
 import sqlite3
@@ -40,9 +42,15 @@ TILE_S = 60.0
 ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-def _tiled(path: Path, seconds: float) -> None:
+def _task(root: Path) -> str:
+    """The task of robot01/axis1 in a simulated fleet (its labels)."""
+    with (root / "labels.csv").open() as labels:
+        return next(row["task"] for row in csv.DictReader(labels) if row["axis"] == "axis1")
+
+
+def _tiled(path: Path, task: str, seconds: float) -> None:
     """A Parquet capture of ``seconds``: :data:`TILE_S` of simulation, repeated."""
-    frame = capture_to_frame(awd.simulate_capture("heavy", seed=8, duration_s=TILE_S))
+    frame = capture_to_frame(awd.simulate_capture(task, seed=8, duration_s=TILE_S))
     table = pa.Table.from_pandas(frame, preserve_index=False)
     time_s = frame["time"].to_numpy()
     with pq.ParquetWriter(path, table.schema) as writer:
@@ -51,11 +59,22 @@ def _tiled(path: Path, seconds: float) -> None:
             writer.write_table(shifted)
 
 
-def _long_capture(path: Path, seconds: float) -> None:
+def _long_capture(path: Path, task: str, seconds: float) -> None:
     if seconds <= SIMULATED_MAX_S:
-        aw.write_capture(awd.simulate_capture("heavy", seed=8, duration_s=seconds), path)
+        aw.write_capture(awd.simulate_capture(task, seed=8, duration_s=seconds), path)
     else:
-        _tiled(path, seconds)
+        _tiled(path, task, seconds)
+
+
+#: Runs a command and prints its exit status and peak resident KiB (``wait4``) last. The monitor
+#: is started from this small process: a child forked from the benchmark itself would start with
+#: the benchmark's resident memory as its high-water mark.
+_PEAK = (
+    "import json, os, subprocess, sys\n"
+    "child = subprocess.Popen(sys.argv[1:])\n"
+    "_, status, usage = os.wait4(child.pid, 0)\n"
+    "print(json.dumps([os.waitstatus_to_exitcode(status), usage.ru_maxrss]))\n"
+)
 
 
 def _monitor(root: Path, store: Path, *extra: str) -> tuple[int, float, str]:
@@ -63,14 +82,16 @@ def _monitor(root: Path, store: Path, *extra: str) -> tuple[int, float, str]:
     own."""
     command = [sys.executable, "-m", "axiswatch", "monitor", str(root), "--store", str(store)]
     command += ["--settle", "0", "--no-progress", "--stale-after", "off", *extra]
-    with subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env={**os.environ, **ONE_THREAD}
-    ) as child:
-        assert child.stdout is not None
-        output = child.stdout.read().decode()
-        _, status, usage = os.wait4(child.pid, 0)
-        child.returncode = os.waitstatus_to_exitcode(status)
-    return child.returncode, usage.ru_maxrss / 1024, output  # KiB on Linux
+    done = subprocess.run(
+        [sys.executable, "-c", _PEAK, *command],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **ONE_THREAD},
+        check=True,
+    )
+    *output, last = done.stdout.splitlines()
+    status, peak_kib = json.loads(last)
+    return int(status), peak_kib / 1024, "\n".join(output)  # KiB on Linux
 
 
 def memory_curve(
@@ -91,17 +112,18 @@ def memory_curve(
     for seconds in lengths:
         root = folder / f"fleet-{seconds:g}"
         shutil.copytree(base, root)
-        shutil.copy(store, root.parent / "s.db")
+        run_store = folder / f"s-{seconds:g}.db"
+        shutil.copy(store, run_store)
         long_path = root / "robot01/axis1/2026-03-08.parquet"
-        _long_capture(long_path, seconds)
+        _long_capture(long_path, _task(base), seconds)
         for axis in (2, 3):
             shutil.copy(
                 day8 / f"axis{axis}.parquet", root / f"robot01/axis{axis}/2026-03-08.parquet"
             )
         start = time.perf_counter()
-        status, peak_mb, output = _monitor(root, root.parent / "s.db", *extra)
+        status, peak_mb, output = _monitor(root, run_store, *extra)
         wall_s = time.perf_counter() - start
-        with sqlite3.connect(root.parent / "s.db") as connection:
+        with sqlite3.connect(run_store) as connection:
             scored = {
                 str(axis)
                 for (axis,) in connection.execute(
@@ -132,7 +154,7 @@ def csv_row(folder: Path, seconds: float) -> dict[str, Any]:
         root, n_robots=1, n_axes=1, n_days=7, task_change_days=(), faults=[], file_format="csv"
     )
     path = root / "robot01/axis1/2026-03-08.csv"
-    aw.write_capture(awd.simulate_capture("heavy", seed=8, duration_s=seconds), path)
+    aw.write_capture(awd.simulate_capture(_task(root), seed=8, duration_s=seconds), path)
     status, peak_mb, _ = _monitor(root, folder / "csv.db")
     with sqlite3.connect(folder / "csv.db") as connection:
         scored = connection.execute(

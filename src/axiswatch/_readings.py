@@ -65,7 +65,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 from scipy.interpolate import PchipInterpolator
-from scipy.signal import savgol_filter, sosfiltfilt
+from scipy.signal import savgol_filter
 
 from axiswatch._capture import Capture, rate_at_least
 from axiswatch._mechanics import (
@@ -78,6 +78,7 @@ from axiswatch._mechanics import (
     running_rms,
     whole_orders,
     whole_samples,
+    zero_phase,
 )
 from axiswatch._order_lines import OrderProfile, order_profile, order_spectrum
 from axiswatch._preprocessing import speed_from_position
@@ -571,7 +572,7 @@ def drive_loads(
 
 def _band(m: Motion) -> NDArray[np.float64]:
     low, high = (f * m.rate_hz for f in BAND_FRACTION)
-    return np.asarray(sosfiltfilt(butter_sos(4, (low, high), m.rate_hz), m.torque))
+    return zero_phase(butter_sos(4, (low, high), m.rate_hz), m.torque)
 
 
 def band_edges(low_hz: float, high_hz: float, top_hz: float) -> tuple[float, float]:
@@ -766,7 +767,7 @@ def _kinematic_lines(
             )
             continue
         sos = butter_sos(4, band_edges(low, high, nyquist_margin), m.rate_hz)
-        x = np.asarray(sosfiltfilt(sos, m.torque), dtype=np.float64)[fast]
+        x = zero_phase(sos, m.torque)[fast]
         shared = shared or whole_orders(theta)
         if name.startswith("tooth_lines:"):
             values[name] = line_ratio(x, theta, orders, [0.5 / parameter], nuisance=shared)
