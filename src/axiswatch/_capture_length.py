@@ -18,8 +18,8 @@ from axiswatch.exceptions import CaptureError
 __all__ = ["MAX_CAPTURE_ROWS", "capture_rows", "check_capture_length"]
 
 #: Rows a capture file may hold for the monitor (``--max-capture-rows``): 16.7 minutes at 2 kHz,
-#: 28 hours at 20 Hz. Scoring holds about 0.5 KB per row, so a capture at the limit stays well
-#: under 2 GB of memory (``benchmarks/run.py --memory``).
+#: 28 hours at 20 Hz. The default method holds about 0.5 KB a row, so a capture at the limit
+#: stays well under 2 GB of memory (``benchmarks/run.py --memory``).
 MAX_CAPTURE_ROWS = 2_000_000
 
 #: Bytes read at a time when counting a CSV file's lines.
