@@ -9,6 +9,7 @@ and a killed driver, a file-size limit, the Dask connection timeout.
 
 from __future__ import annotations
 
+import errno
 import itertools
 import os
 import resource
@@ -730,3 +731,27 @@ def test_a_misnamed_folder_is_one_rejection_and_scored_once_renamed(
     assert fixed.returncode == 0, fixed.stdout
     assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
     assert _query(store, "SELECT count(*) FROM scores WHERE robot = 'robot02'") == [(5,)]
+
+
+def test_report_on_a_full_disk_leaves_nothing_behind(
+    fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    store = tmp_path / "s.db"
+    assert _monitor(fleet, store).returncode == 0
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "index.html").write_text("the previous page")
+    written = Path.write_bytes
+
+    def full_disk(path: Path, data: bytes) -> int:
+        # The disk fills half-way through the page, as a write of a full disk stops.
+        written(path, data[: len(data) // 2])
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(Path, "write_bytes", full_disk)
+    result = run("report", "--store", store, "--out", out)
+    assert result.returncode == 1
+    assert "No space left on device" in result.stderr
+    assert result.stderr.count("\n") == 1, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["index.html"]  # no temporary file left
+    assert (out / "index.html").read_text() == "the previous page"
