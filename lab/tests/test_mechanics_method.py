@@ -154,6 +154,28 @@ def test_a_configuration_error_stops_the_run_and_rejects_nothing(
         assert store.rejection_table().empty
 
 
+def test_a_capture_too_slow_for_the_band_is_rejected_not_a_crash(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # At 250 Hz, with the speed derived from the position, the band (40-300 Hz) cannot be read:
+    # one rejection per capture, and the run ends normally.
+    for path in fleet.glob("*/*/*.parquet"):
+        capture = aw.read_capture(path)
+        slow = aw.Capture(
+            {"position": capture.signals["position"], "torque": capture.signals["torque"][::8]},
+            {"position": 250.0, "torque": 250.0},
+        )
+        aw.write_capture(slow, path)
+    settle(fleet)
+    args = ["monitor", str(fleet), "--store", str(tmp_path / "s.db"), "--method", "mechanics"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 8, result.output
+    assert "Traceback" not in result.output
+    assert "the 'band_hz' of MechanicsStage, (40.0, 300.0), needs a rate above 600 Hz" in (
+        result.output
+    )
+
+
 # --- real data through the lab's readers (skipped when ../shared/data is absent) ---------------
 
 

@@ -277,6 +277,7 @@ class _Run:
             relatives=tuple(self.relative(f.path) for f in following),
             calibration_size=self.config.calibration_size,
             refit=refit,
+            max_rows=self.config.max_capture_rows,
         )  # fmt: skip
 
     def report(self, stage: str, done: int, total: int) -> None:
@@ -712,6 +713,7 @@ def _score_jobs_of(run: _Run, states: Sequence[_Axis]) -> list[ScoreJob]:
                     state.rates_hz,
                     profile=run.config.profile,
                     reference=state.reference,
+                    max_rows=run.config.max_capture_rows,
                 )
             )
     return jobs
