@@ -126,7 +126,7 @@ def test_a_run_counts_only_the_baselines_it_added_itself(
     """Two runs on one store fit the same baselines; the one that adds them second (it waited
     for the store) is told the same capture is there. Before: both printed "2 new
     baseline(s)"; the store was right, the second run's count was not."""
-    import axiswatch.monitor._monitor as driver
+    import axiswatch.monitor._planning as driver
 
     config = MonitorConfig(method="pca")
     with Store(tmp_path / "s.db") as store:

@@ -370,7 +370,7 @@ def test_a_baseline_check_lasts_until_acknowledged_also_after_a_killed_run(
 ) -> None:
     # Before: the check was listed once, from the memory of the run that fitted the baseline;
     # a run killed right after the baseline's commit lost its exit status 8 for good.
-    import axiswatch.monitor._monitor as monitor_module
+    import axiswatch.monitor._run as monitor_module
 
     root = _faulty_first(tmp_path)
     path = tmp_path / "s.sqlite"
@@ -380,7 +380,7 @@ def test_a_baseline_check_lasts_until_acknowledged_also_after_a_killed_run(
         raise RuntimeError("killed after the baseline's commit")
 
     with monkeypatch.context() as kill, SQLiteStore(path) as store:
-        kill.setattr(monitor_module._Run, "persist", killed)  # the step after insert_baseline
+        kill.setattr(monitor_module.Run, "persist", killed)  # the step after insert_baseline
         with pytest.raises(RuntimeError, match="killed"):
             monitor_fleet(root, store, config, settle_s=0)
         assert store.latest_baseline("r1", "a1", "indicators") is not None  # committed

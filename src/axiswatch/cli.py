@@ -428,7 +428,8 @@ def monitor(
     import dataclasses
 
     from axiswatch._profiles import AxisProfile
-    from axiswatch.monitor._monitor import check_request, monitor_fleet
+    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch.monitor._requests import check_request
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor.store import Store
