@@ -22,7 +22,7 @@ import axiswatch.monitor._methods
 from axiswatch.cli import app, monitor_defaults
 from axiswatch.monitor import MethodPreset, MonitorConfig, methods, register_method
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_rejections, fleet_results
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results
 
 runner = CliRunner()
 

@@ -24,8 +24,8 @@ from axiswatch.exceptions import StoreError
 from axiswatch.monitor._decision import alarm_step
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_results, fleet_summary
 from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.results import fleet_results, fleet_summary
 from axiswatch.monitor.store import Store, now
 from tests.conftest import settle
 from tests.naive import alarm_states_naive

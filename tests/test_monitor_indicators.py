@@ -28,7 +28,6 @@ from axiswatch.indicators._axis import (
 )
 from axiswatch.indicators._readings import Readings, read_indicators
 from axiswatch.monitor import MonitorConfig, SQLiteStore
-from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._methods import MethodPreset
@@ -36,9 +35,10 @@ from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._monitor import MonitorSummary, monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
-from axiswatch.monitor._report import write_report
-from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._scoring import ScoreJob, score_capture
+from axiswatch.monitor.report.attention import AxisAttention, triage
+from axiswatch.monitor.report.html import write_report
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from tests.conftest import SHARED_DATA, settle
 from tests.memory_store import MemoryStore
 

@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_results
 from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import Store
 
 _COMPARED = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]

@@ -25,8 +25,8 @@ from axiswatch.datasets import simulate_capture
 from axiswatch.monitor._models import ModelRef, resolve_model
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
-from axiswatch.monitor._results import fleet_results
 from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import NewBaseline, SavedModel, Store
 
 

@@ -198,7 +198,7 @@ def test_readme_quotes_the_demo(demo_report: Path) -> None:
     from typer.testing import CliRunner
 
     from axiswatch.cli import app
-    from axiswatch.monitor._results import fleet_results
+    from axiswatch.monitor.report.results import fleet_results
     from axiswatch.monitor.store import Store
 
     manual = ARTIFACTS.parent / "docs" / "monitor.md"
@@ -224,7 +224,7 @@ def test_an_acknowledged_rejection_leaves_the_first_screen(
 ) -> None:
     # Before: the page read no acknowledgement of a rejection and listed both acknowledged
     # axes (robot01/axis1, the misnamed folder robot 2/) as bad data.
-    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor.report.html import write_report
     from axiswatch.monitor.store import Store
     from tests.test_report import acknowledged_rejections
 

@@ -300,7 +300,7 @@ class Format(StrEnum):
 
 def _echo_summary(store: Any, stale_after: timedelta | None, method: str) -> pd.DataFrame:
     """Print the fleet's summary of ``method`` (the columns that fit a terminal); return it."""
-    from axiswatch.monitor._results import fleet_summary
+    from axiswatch.monitor.report.results import fleet_summary
 
     summary = fleet_summary(store, stale_after=stale_after)
     summary = summary[summary.method == method].reset_index(drop=True)
@@ -326,7 +326,7 @@ def _echo_summary(store: Any, stale_after: timedelta | None, method: str) -> pd.
 
 def _verdict_lines(store: Any, method: str, stale_after: timedelta | None) -> list[str]:
     """The axes needing attention and their verdicts (the report's first screen), in lines."""
-    from axiswatch.monitor._verdict import attention_lines, fleet_verdicts
+    from axiswatch.monitor.report.verdict import attention_lines, fleet_verdicts
 
     return attention_lines(fleet_verdicts(store, method, stale_after=stale_after), method)
 
@@ -429,8 +429,8 @@ def monitor(
 
     from axiswatch._profiles import AxisProfile
     from axiswatch.monitor._monitor import monitor_fleet
-    from axiswatch.monitor._requests import check_request
     from axiswatch.monitor._parallel import connect_dask
+    from axiswatch.monitor._requests import check_request
     from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor.store import Store
 
@@ -648,7 +648,7 @@ def results(
     """
     import json
 
-    from axiswatch.monitor._results import fleet_results, indicator_spreads
+    from axiswatch.monitor.report.results import fleet_results, indicator_spreads
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -764,7 +764,7 @@ def report(
     debug: bool = DEBUG,
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
-    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor.report.html import write_report
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -1046,8 +1046,8 @@ def demo(
     from axiswatch.datasets._robot import simulate_fleet
     from axiswatch.monitor._methods import DEFAULT_METHOD
     from axiswatch.monitor._monitor import monitor_fleet
-    from axiswatch.monitor._report import write_report
     from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor.report.html import write_report
     from axiswatch.monitor.store import Store
 
     with _failures(debug):

@@ -29,15 +29,15 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
     from axiswatch.monitor._parallel import (
         parallel_map,
     )
-    from axiswatch.monitor._report import (
-        write_report,
-    )
-    from axiswatch.monitor._results import (
-        fleet_results,
-        fleet_summary,
-    )
     from axiswatch.monitor._scoring import (
         MonitorConfig,
+    )
+    from axiswatch.monitor.report.html import (
+        write_report,
+    )
+    from axiswatch.monitor.report.results import (
+        fleet_results,
+        fleet_summary,
     )
     from axiswatch.monitor.store import (
         SQLiteStore,
@@ -56,15 +56,15 @@ _EXPORTS: dict[str, str] = {
     "Store": "axiswatch.monitor.store",
     "StoreBackend": "axiswatch.monitor.store",
     "discover_fleet": "axiswatch.monitor._fleet",
-    "fleet_results": "axiswatch.monitor._results",
-    "fleet_summary": "axiswatch.monitor._results",
+    "fleet_results": "axiswatch.monitor.report.results",
+    "fleet_summary": "axiswatch.monitor.report.results",
     "methods": "axiswatch.monitor._methods",
     "monitor_fleet": "axiswatch.monitor._monitor",
     "parallel_map": "axiswatch.monitor._parallel",
     "parse_capture_time": "axiswatch.monitor._fleet",
     "rebaseline": "axiswatch.monitor._ledger",
     "register_method": "axiswatch.monitor._methods",
-    "write_report": "axiswatch.monitor._report",
+    "write_report": "axiswatch.monitor.report.html",
 }
 
 __all__ = [
