@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import difflib
 import re
-import shlex
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -298,39 +297,6 @@ class Format(StrEnum):
     json = "json"
 
 
-def _echo_summary(store: Any, stale_after: timedelta | None, method: str) -> pd.DataFrame:
-    """Print the fleet's summary of ``method`` (the columns that fit a terminal); return it."""
-    from axiswatch.monitor.report.results import fleet_summary
-
-    summary = fleet_summary(store, stale_after=stale_after)
-    summary = summary[summary.method == method].reset_index(drop=True)
-    if summary.empty:
-        echo("No axis has a baseline yet.")
-        return summary
-    # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
-    columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
-               "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip
-    if summary.acknowledged_by.notna().any():
-        columns.insert(5, "acknowledged_by")
-    if summary.bad_data_acknowledged.notna().any():
-        columns.insert(columns.index("state") + 1, "bad_data_acknowledged")
-    shown = summary[columns].fillna(
-        {"alarm_since": "", "acknowledged_by": "", "bad_data_acknowledged": ""}
-    )
-    echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    origins = summary.threshold_origin.dropna().unique()
-    if len(origins) == 1:
-        echo(f"threshold of every axis: {origins[0]}.")
-    return summary
-
-
-def _verdict_lines(store: Any, method: str, stale_after: timedelta | None) -> list[str]:
-    """The axes needing attention and their verdicts (the report's first screen), in lines."""
-    from axiswatch.monitor.report.verdict import attention_lines, fleet_verdicts
-
-    return attention_lines(fleet_verdicts(store, method, stale_after=stale_after), method)
-
-
 @app.command(cls=_MonitorCommand)
 def monitor(
     root: Annotated[Path, typer.Argument(help="Fleet folder ROOT/<robot>/<axis>/<capture>.<ext>.")],
@@ -432,6 +398,12 @@ def monitor(
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._requests import check_request
     from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor.report.summary import (
+        fleet_table,
+        run_header,
+        run_problems,
+        verdict_lines,
+    )
     from axiswatch.monitor.store import Store
 
     given: dict[str, Any] = {
@@ -478,61 +450,15 @@ def monitor(
                     root, opened, config, workers=workers, dask=client, progress=update,
                     settle_s=settle, stale_after=silence,
                 )  # fmt: skip
-                # n_files counts only the folders this run listed: say so, or a second run
-                # seems to have lost the files of the unchanged folders.
-                unchanged = (
-                    f" in the axis folders listed ({result.unchanged_folders} axis folder(s) "
-                    "unchanged since the last run, not listed)"
-                    if result.unchanged_folders
-                    else ""
-                )
-                echo(
-                    f"{result.method}: {result.n_files} capture files{unchanged}, "
-                    f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
-                    "in this run."
-                )
-                _echo_summary(opened, silence, result.method)
-                verdicts = _verdict_lines(opened, result.method, silence)
+                echo(run_header(result))
+                for line in fleet_table(opened, silence, result.method):
+                    echo(line)
+                verdicts = verdict_lines(opened, result.method, silence)
         finally:
             if client is not None:
                 client.close()
-        if result.waiting:
-            echo(
-                f"\n{result.waiting} capture file(s) modified less than {settle:g} s ago: "
-                "waiting (scored by a later run)."
-            )
-        for title, lines in (
-            ("Rejected captures", fold_same_reason(result.rejected)),
-            ("Changed files", result.changed),
-            ("Axes not scored", result.axis_problems),
-            ("Baselines to check", result.baseline_checks),
-            ("Axes calibrating", result.calibrating),
-            ("Fleet allowances now applied", result.fleet_priors),
-            ("Stale axes", result.stale),
-        ):
-            if lines:
-                count = len(result.rejected) if title == "Rejected captures" else len(lines)
-                echo(f"\n{title} ({count}):")
-                for line in lines:
-                    echo(f"  {line}")
-                if title == "Rejected captures":
-                    echo(
-                        "A rejected capture is tried again when its file, the options or its "
-                        "axis profile change; to try again now: axiswatch rejections --store "
-                        f"{shlex.quote(str(store))} --retry [PATH ...]"
-                    )
-        if result.acknowledged:
-            echo(
-                f"\n{result.acknowledged} acknowledged problem(s) not shown "
-                "('axiswatch rejections' lists them)."
-            )
-        if result.acknowledged_alarms:
-            echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
-            for seen in result.acknowledged_alarms:
-                echo(
-                    f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
-                    f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
-                )
+        for line in run_problems(result, store=store, settle_s=settle):
+            echo(line)
         echo("")
         for line in verdicts:
             echo(line)
@@ -559,6 +485,7 @@ def profile(
     """
     from axiswatch._profile_detection import detect_file
     from axiswatch.monitor._layout_plan import plan_layout
+    from axiswatch.monitor.report.summary import fold_same_reason
 
     with _failures(debug):
         guesses = [detect_file(path) for path in files]
@@ -674,62 +601,6 @@ def results(
             if indicators:
                 table = table.join(indicator_spreads(frame))
             echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-
-
-def fold_same_reason(lines: list[str]) -> list[str]:
-    """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
-
-    A broken axis profile rejects every capture below it with the same line but for the path.
-    Reasons that differ only in their numbers (each file's first stamp) are one reason too.
-    ``axiswatch rejections`` still lists every file. Lines keep the order of their reason's
-    first file; a line without ``": "`` is its own.
-
-    Parameters
-    ----------
-    lines : list of str
-        Rejection lines, each ``PATH: reason``.
-
-    Returns
-    -------
-    list of str
-        One line per reason: the first file's line, or with more files of the same reason
-        ``FIRST (and N more capture files with this reason): reason``.
-
-    Examples
-    --------
-    >>> fold_same_reason([
-    ...     "r1/a1/d1.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: empty file",
-    ...     "r1/a1/d2.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: r1/robot.toml: bad key",
-    ... ])  # doctest: +NORMALIZE_WHITESPACE
-    ['r1/a1/d1.csv (and 2 more capture files with this reason): r1/robot.toml: bad key',
-     'r1/a2/d1.csv: empty file']
-    """
-    groups: dict[tuple[str, int], list[tuple[str, str]]] = {}  # (key, 0) or (line, its index)
-    for index, line in enumerate(lines):
-        path, sep, reason = line.partition(": ")
-        key = (_NUMBER.sub("#", reason), 0) if sep else (line, index + 1)
-        groups.setdefault(key, []).append((path, reason))
-    folded = []
-    for (_, alone), members in groups.items():
-        (path, reason), more = members[0], len(members) - 1
-        if alone:
-            folded.append(reason if reason else path)
-        elif not more:
-            folded.append(f"{path}: {reason}")
-        else:
-            # Unix milliseconds read as seconds: each file's message names its own first stamp.
-            aside = "" if len({r for _, r in members}) == 1 else ", numbers aside"
-            folded.append(
-                f"{path} (and {more} more capture files with this reason{aside}): {reason}"
-            )
-    return folded
-
-
-#: A date or a measured number in a rejection reason (a stamp, a time, a rate: a decimal
-#: point, an exponent or 3 digits): reasons that differ only in these are folded together.
-_NUMBER = re.compile(
-    r"\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}:\d{2})?|\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\d{3,}"
-)
 
 
 def _noise_level(text: str) -> float | Literal["auto"]:
@@ -1048,6 +919,7 @@ def demo(
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor.report.html import write_report
+    from axiswatch.monitor.report.summary import verdict_lines
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -1062,7 +934,7 @@ def demo(
                 config = MonitorConfig(method=method)
                 monitor_fleet(root, opened, config, progress=update, settle_s=0)
             echo("")
-            for line in _verdict_lines(opened, DEFAULT_METHOD, None):
+            for line in verdict_lines(opened, DEFAULT_METHOD, None):
                 echo(line)
             paper = [a for a in opened.alarms() if a.method != DEFAULT_METHOD]
             runs = 2 * len(labels[["robot", "axis"]].drop_duplicates())
