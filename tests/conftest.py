@@ -6,7 +6,7 @@ processes share them (``select_default``: 15 s on one thread, 60-250 s on two th
 loaded machine). The variables are set before NumPy is first imported (here, and in every
 subprocess a test starts: ``axiswatch demo``, ``benchmarks/run.py``), and the limit is set once
 more at run time in case a plugin imported NumPy first. Tests that check a thread limit raise
-the driver's limit themselves (tests/test_worker_pool.py), so that they can still fail.
+the driver's limit themselves (tests/monitor/test_worker_pool.py), so that they can still fail.
 """
 
 from __future__ import annotations

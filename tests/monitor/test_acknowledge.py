@@ -16,7 +16,7 @@ from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.report.html import write_report
 from axiswatch.monitor.report.results import fleet_summary
 from axiswatch.monitor.store import SCHEMA_VERSION, Store
-from tests.test_monitor import faulty_copy
+from tests.monitor.test_monitor import faulty_copy
 
 runner = CliRunner()
 PCA = MonitorConfig(method="pca")

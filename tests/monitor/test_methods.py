@@ -179,7 +179,7 @@ def test_a_configuration_error_stops_the_run_and_rejects_nothing(
 def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
     defaults = MonitorConfig()
     # The product default since issue 13: every spread and allowance estimated from the axis and
-    # its fleet (tests/test_indicator_model.py: nothing in its decision path from a simulator).
+    # its fleet (tests/indicators/test_indicator_model.py: nothing in its decision path from a simulator).
     assert defaults.method == "indicators"
     assert isinstance(defaults.model().model, aw.IndicatorModel)
     assert defaults.threshold_floor() == 0.0

@@ -21,7 +21,7 @@ from axiswatch.monitor.report.html import write_report
 from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor.store import Rejection, Store, now
 from tests.conftest import settle
-from tests.test_store_contract import BACKENDS
+from tests.monitor.store.test_store_contract import BACKENDS
 
 PCA = MonitorConfig(method="pca")
 BAD = "robot01/axis1/2026-03-10.parquet"

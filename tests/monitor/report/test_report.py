@@ -18,7 +18,7 @@ from axiswatch.monitor.report.html import write_report
 from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor.store import Store, now
 from tests.conftest import settle
-from tests.test_monitor import faulty_copy
+from tests.monitor.test_monitor import faulty_copy
 
 PCA = MonitorConfig(method="pca")
 
