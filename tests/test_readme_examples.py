@@ -639,6 +639,8 @@ def test_layout_names_existing_modules() -> None:
         assert (ROOT / folder).is_dir(), folder
     assert "cli.py" in body
     assert (ROOT / "src" / "axiswatch" / "cli.py").is_file()
+    for module in (ROOT / "src" / "axiswatch" / "monitor" / "report").glob("[a-z]*.py"):
+        assert re.search(rf"\b{module.stem}\b", body), f"not in the layout: report/{module.name}"
 
 
 def test_delivering_capture_files(
