@@ -14,7 +14,7 @@ LOCK := requirements/dev.lock
 # marks and spreads every test, pytest-xdist issue 1386.)
 PYTEST_PARALLEL := -n 2 --dist loadfile
 
-.PHONY: demo test lint typecheck bench clean lock test-latest
+.PHONY: demo test lint typecheck bench clean lock test-latest fuzz
 
 # The environment is installed from the lock (exact versions, SHA-256 hashes), so a fresh machine
 # gets the set CI tested; the package itself goes in editable, without its dependencies.
@@ -50,6 +50,11 @@ typecheck: $(STAMP)
 
 test: lint typecheck
 	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL)
+
+# The capture fuzz test with many more examples than `make test` runs (30); the seed is fixed.
+FUZZ_EXAMPLES ?= 500
+fuzz: $(STAMP)
+	AXISWATCH_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest -q -n 0 tests/test_monitor_fuzz.py
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py

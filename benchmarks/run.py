@@ -17,7 +17,9 @@ signal, timed in the same process as the case; every realistic case prints its r
 
 Modes: ``--fleet-robots 10,30,90`` (fleet days of several sizes, a linear fit and its
 extrapolation to 10,000 robots), ``--history 7,365`` (a run with nothing new after a year of
-kept files), ``--workers-curve`` (1-16 processes and a Dask LocalCluster; writes a CSV).
+kept files), ``--workers-curve`` (1-16 processes and a Dask LocalCluster; writes a CSV),
+``--memory`` (peak memory of ``monitor`` against one capture's length, 3 s to 4 h; ``--quick``:
+3 s and 60 s).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from axiswatch.monitor._methods import DEFAULT_METHOD
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fleet
+import memory
 
 ONE_THREAD = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -86,6 +89,14 @@ def _median_time(fn: Callable[[], Any], repeats: int) -> float:
         fn()
         times.append(time.perf_counter() - start)
     return statistics.median(times)
+
+
+def _cpu_time(fn: Callable[[], Any]) -> float:
+    """CPU seconds of one call in this process: on a loaded machine the wall time says how many
+    cores a call was given, its CPU time what it cost (BLAS runs on one thread)."""
+    start = time.process_time()
+    fn()
+    return time.process_time() - start
 
 
 def case_lra(n_rows: int, quick: bool) -> dict[str, Any]:
@@ -158,15 +169,25 @@ def _reader_floor(path: Path) -> None:
         scipy.fft.rfft(values)
 
 
-def case_job(method: str, quick: bool, *, order_lines: bool = False) -> dict[str, Any]:
+def case_job(
+    method: str, quick: bool, *, order_lines: bool = False, profile: bool = False
+) -> dict[str, Any]:
     """The monitor's scoring job on one 3 s robot-simulator capture (warm worker: model kept,
     BLAS limited once), against the physical floor of the same file, in the same process;
-    ``order_lines``: the ``indicators`` method with its order-lines option."""
+    ``order_lines``: the ``indicators`` method with its order-lines option; ``profile``: with
+    the axis profile ``axiswatch simulate fleet`` writes (kinematics: tooth and bearing lines)."""
+    from axiswatch._profiles import AxisProfile
+    from axiswatch.datasets._robot import fleet_profile_toml
     from axiswatch.monitor._fleet import FleetFile
     from axiswatch.monitor._models import ModelRef, keep_model
     from axiswatch.monitor._scoring import MonitorConfig, ScoreJob, score_capture
 
     config = MonitorConfig(method=method, order_lines=order_lines)  # type: ignore[arg-type]
+    axis_profile = None
+    if profile:
+        toml = Path(tempfile.mkdtemp()) / "axiswatch.toml"
+        toml.write_text(fleet_profile_toml(), encoding="utf-8")
+        axis_profile = AxisProfile.from_toml(toml)
     baseline = awd.simulate_capture("heavy", seed=1)
     # Fitted as the monitor's fit job does: a model that fits its calibration captures on the
     # baseline and K = 5 of them, another on the baseline alone.
@@ -190,24 +211,27 @@ def case_job(method: str, quick: bool, *, order_lines: bool = False) -> dict[str
         from datetime import datetime
 
         file = FleetFile("r", "a", path.name, path, datetime(2026, 3, 2))
-        job = ScoreJob(file, "r/a/" + path.name, 1, ModelRef(key, ""), dict(baseline.rates_hz))
+        job = ScoreJob(
+            file, "r/a/" + path.name, 1, ModelRef(key, ""), dict(baseline.rates_hz),
+            profile=axis_profile,
+        )  # fmt: skip
         assert score_capture(job).error is None
         # Interleaved, so that a load change on this shared machine hits both alike.
         jobs, floors, readers = [], [], []
         for _ in range(repeats):
-            jobs.append(_median_time(lambda: score_capture(job), 1))
-            floors.append(_median_time(lambda: _floor(path), 1))
-            readers.append(_median_time(lambda: _reader_floor(path), 1))
+            jobs.append(_cpu_time(lambda: score_capture(job)))
+            floors.append(_cpu_time(lambda: _floor(path)))
+            readers.append(_cpu_time(lambda: _reader_floor(path)))
     job_s, floor_s = statistics.median(jobs), statistics.median(floors)
     reader_s = statistics.median(readers)
     return {
         "case": f"3 s robot capture: scoring job ({method}"
-        f"{' --order-lines' if order_lines else ''}) vs floor",
+        f"{' --order-lines' if order_lines else ''}{', profile' if profile else ''}) vs floor",
         "fast_s": job_s,
         "dense_s": floor_s,
         "ratio": job_s / floor_s,
-        "note": f"ratio = job / floor (pyarrow read + rfft per signal); median of {repeats} "
-        f"interleaved; through read_capture the floor is {reader_s * 1e3:.2f} ms "
+        "note": f"CPU s; ratio = job / floor (pyarrow read + rfft per signal); median of "
+        f"{repeats} interleaved; through read_capture the floor is {reader_s * 1e3:.2f} ms "
         f"({job_s / reader_s:.1f}x)",
     }
 
@@ -322,6 +346,7 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "capture-3s": lambda q: case_capture(3.0, q),
     "capture-60s": lambda q: case_capture(60.0, q),
     "job-3s-indicators": lambda q: case_job("indicators", q),
+    "job-3s-indicators-profile": lambda q: case_job("indicators", q, profile=True),
     "job-3s-indicators-order-lines": lambda q: case_job("indicators", q, order_lines=True),
     "job-3s-mechanics": lambda q: case_job("mechanics", q),
     "job-3s-lra": lambda q: case_job("lra", q),
@@ -423,6 +448,27 @@ def _fleet_sizes(sizes: list[int], method: str) -> None:
             )
 
 
+def _memory(quick: bool) -> None:
+    lengths = memory.QUICK_LENGTHS_S if quick else memory.LENGTHS_S
+    print(f"{'capture':>10} {'rows':>11} {'file MB':>8} {'peak MB':>8} {'wall s':>7}  long capture")
+    with tempfile.TemporaryDirectory() as folder:
+        for row in memory.memory_curve(Path(folder), lengths):
+            seconds = row["seconds"]
+            length = f"{seconds:g} s" if seconds < 600 else f"{seconds / 60:g} min"
+            others = "scored" if row["others_scored"] else "NOT scored"
+            print(
+                f"{length:>10} {row['rows']:>11,} {row['file_mb']:8.1f} {row['peak_mb']:8.0f} "
+                f"{row['wall_s']:7.1f}  {row['long']}; the other axes' new captures {others}"
+            )
+            sys.stdout.flush()
+        if not quick:
+            row = memory.csv_row(Path(folder), 600.0)
+            print(
+                f"{'10 min CSV':>10} {'':>11} {row['file_mb']:8.1f} {row['peak_mb']:8.0f} "
+                f"{'':>7}  {'scored' if row['scored'] else 'not scored'}"
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: small cases, seconds")
@@ -448,12 +494,20 @@ def main() -> None:
     )
     parser.add_argument("--curve-robots", type=int, default=200, help="robots of the curve")
     parser.add_argument("--csv", default="workers_curve.csv", help="CSV of --workers-curve")
+    parser.add_argument(
+        "--memory",
+        action="store_true",
+        help="peak memory of monitor against one capture's length (3 s to 4 h)",
+    )
     args = parser.parse_args()
     if args.case:
         robots = int(args.fleet_robots or 2)
         run_case(args.case, args.quick, robots, args.fleet_method)
         return
     print(machine())
+    if args.memory:
+        _memory(args.quick)
+        return
     if args.workers_curve:
         cpus = os.cpu_count() or 1
         counts = [n for n in (1, 2, 4, 8, 16) if n <= cpus]

@@ -288,6 +288,28 @@ def longest_run_naive(values: list[float]) -> tuple[int, int]:
     return best, best_start
 
 
+def isolated_glitches_naive(values: list[float], spans: float, width: int = 3) -> list[int]:
+    """Samples farther than ``spans`` ranges (middle 98 %) from their next samples and from the
+    medians of ``width`` samples on each side, all in one direction: sample by sample."""
+    low, high = np.percentile(values, [1.0, 99.0])
+    limit = spans * (high - low)
+
+    def median(side: list[float]) -> float:
+        ordered = sorted(side)
+        middle = len(ordered) // 2
+        return ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2
+
+    found = []
+    for i, value in enumerate(values):
+        left, right = values[max(0, i - width) : i], values[i + 1 : i + 1 + width]
+        gaps = [value - side[-1] for side in (left,) if side]
+        gaps += [value - side[0] for side in (right,) if side]
+        gaps += [value - median(side) for side in (left, right) if side]
+        if gaps and (all(g > limit for g in gaps) or all(g < -limit for g in gaps)):
+            found.append(i)
+    return found
+
+
 def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) -> np.ndarray:
     """Per-column terms of the indicator distance, column by column, row by row."""
     terms = np.zeros(baseline.shape[1])
@@ -816,3 +838,61 @@ def unit_change_prior_naive(
         if spreads[n] == spreads[n] and spreads[n] > 0
     }
     return spreads, float(np.median(largest)) / math.log(2.0), scales
+
+
+def kinematic_lines(
+    position: np.ndarray,
+    speed: np.ndarray,
+    torque: np.ndarray,
+    rate_hz: float,
+    gear_ratio: float,
+    gear_stages: dict[str, float],
+    bearing_orders: dict[str, float],
+) -> dict[str, float]:
+    """The kinematic line ratios of a capture's motion, each in the exact band its speeds set
+    (a Butterworth design per line) and each with its own nested least squares, written out.
+
+    The twin of ``_readings._kinematic_lines`` as it read before the bands were put on a grid
+    and one projection was shared by every line. Readings the capture cannot give are left out.
+    """
+    from scipy.signal import butter, sosfiltfilt
+
+    def rss(columns: list[np.ndarray], y: np.ndarray) -> float:
+        design = np.column_stack(columns)
+        r = y - design @ np.linalg.lstsq(design, y, rcond=None)[0]
+        return float(r @ r)
+
+    def f(y: np.ndarray, angle: np.ndarray, orders: list[float]) -> float:
+        whole = [g(o * angle) for o in range(1, 9) for g in (np.sin, np.cos)]
+        tests = [g(o * angle) for o in orders for g in (np.sin, np.cos)]
+        small, big = rss(whole, y), rss(whole + tests, y)
+        p, k = len(tests), len(whole) + len(tests)
+        return float((small - big) / p / (big / (y.size - k)))
+
+    peak = float(np.max(np.abs(speed)))
+    fast = np.abs(speed) > 0.2 * peak
+    motor_angle = gear_ratio * position
+    revs = gear_ratio * np.abs(speed[fast]) / (2 * math.pi)
+    slow_revs, fast_revs = (float(np.quantile(revs, q)) for q in (0.1, 0.9))
+    travel = np.abs(np.diff(motor_angle, prepend=motor_angle[0]))
+    revolutions = float(np.sum(travel[fast])) / (2 * math.pi)
+    nyquist_margin = 0.45 * rate_hz
+    lines: dict[str, tuple[list[float], list[float]]] = {}
+    for name, stage in gear_stages.items():
+        orders = [k / stage for k in range(1, int(8 * stage) + 1) if k % stage]
+        lines[f"tooth_lines:{name}"] = (orders, [0.5 / stage])
+    for name, defect in bearing_orders.items():
+        orders = [defect + k for k in (-2, -1, 0, 1, 2)] + [2 * defect + k for k in (-1, 0, 1)]
+        lines[f"bearing_lines:{name}"] = (orders, [-0.25, 0.25])
+    out = {}
+    for name, (orders, offsets) in lines.items():
+        low = 0.5 * min(orders) * slow_revs
+        high = min(nyquist_margin, 1.5 * max(orders) * fast_revs)
+        if max(orders) * fast_revs >= nyquist_margin or revolutions < 10 or low <= 0:
+            continue
+        sos = butter(4, [low, high], btype="bandpass", fs=rate_hz, output="sos")
+        x = sosfiltfilt(sos, torque)[fast]
+        theta = motor_angle[fast]
+        shifted = [f(x, theta, [o + d for o in orders]) for d in offsets]
+        out[name] = f(x, theta, orders) / float(np.mean(shifted))
+    return out

@@ -19,3 +19,15 @@ def test_quick_benchmark_runs() -> None:
     assert "mechanics indicators" in lines[4]
     assert "scoring job (indicators)" in lines[5]
     assert "(indicators)" in lines[7]  # the fleet case runs the product default
+
+
+def test_quick_memory_benchmark_runs() -> None:
+    done = subprocess.run(
+        [sys.executable, str(RUN), "--memory", "--quick"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    rows = done.stdout.splitlines()[2:]
+    assert [row.split()[:2] for row in rows] == [["3", "s"], ["60", "s"]]
+    assert all(row.endswith("scored; the other axes' new captures scored") for row in rows)

@@ -11,7 +11,7 @@ import pytest
 
 import axiswatch as aw
 import axiswatch._formats
-from axiswatch import CaptureError
+from axiswatch.exceptions import CaptureError, ProfileError
 from axiswatch.monitor._fleet import discover_fleet
 
 
@@ -237,3 +237,43 @@ def test_a_csv_file_cut_off_in_a_row_is_a_capture_error(tmp_path: Path, separato
     assert len(aw.read_capture(path).signals["torque"]) == len(text.splitlines()) - 1
     path.write_text(text.rstrip("\n"), encoding="utf-8")  # whole, but without a final line break
     assert len(aw.read_capture(path).signals["torque"]) == len(text.splitlines()) - 1
+
+
+def _windows_text() -> str:
+    """A German controller's export: a units row with '°' and a header with 'ü' and '°C'."""
+    t = np.arange(40) / 100.0
+    frame = pd.DataFrame(
+        {"time": t, "position": np.sin(t), "torque": np.cos(t), "Temperatur Gehäuse °C": 40.0}
+    )
+    lines = frame.to_csv(index=False, sep=";", decimal=",").splitlines()
+    lines.insert(1, "s;rad;N·m;°C")
+    return "\r\n".join(lines) + "\r\n"
+
+
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-8", "utf-8-sig", "utf-16"])
+def test_a_csv_file_is_read_in_its_encoding(tmp_path: Path, encoding: str) -> None:
+    # Before, cp1252 and utf-16: "cannot read CSV file (truncated or corrupt?)", a UTF-8 error.
+    path = tmp_path / "c.csv"
+    path.write_bytes(_windows_text().encode(encoding))
+    capture = aw.read_capture(path)
+    assert capture.names == ("position", "torque")
+    assert capture.signals["torque"][1] == pytest.approx(np.cos(0.01), rel=1e-12)
+    assert axiswatch._formats.csv_encoding(path).replace("-le", "") in (encoding, "utf-8-sig")
+
+
+def test_a_declared_encoding_is_used_and_a_wrong_one_named(tmp_path: Path) -> None:
+    path = tmp_path / "c.csv"
+    # Polish "Źródło": byte 0x8f in cp1250, a byte cp1252 leaves undefined.
+    path.write_bytes(_windows_text().replace("Gehäuse", "Źródło").encode("cp1250"))
+    with pytest.raises(
+        CaptureError,
+        match=r"c\.csv: the text is neither UTF-8 \(byte 0x8f at 32\) nor Windows-1252; "
+        r'declare its encoding in the axis profile, such as encoding = "cp1250"',
+    ):
+        aw.read_capture(path)
+    capture = aw.read_capture(path, profile=aw.AxisProfile(encoding="cp1250"))
+    assert capture.signals["torque"][1] == pytest.approx(np.cos(0.01), rel=1e-12)
+    with pytest.raises(CaptureError, match=r"c\.csv: not utf-8 text \(byte 0x8f at 32 .*declare"):
+        aw.read_capture(path, profile=aw.AxisProfile(encoding="utf-8"))
+    with pytest.raises(ProfileError, match=r"encoding 'klingon' is not a text encoding"):
+        aw.AxisProfile(encoding="klingon")

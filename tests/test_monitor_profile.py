@@ -78,3 +78,30 @@ def test_profile_option(controller_fleet: Path, tmp_path: Path) -> None:
     code, output = _monitor(controller_fleet, tmp_path / "s.sqlite", "--profile", str(profile))
     assert code == 0, output
     assert "16 capture(s) scored in this run" in output
+
+
+@pytest.mark.parametrize(("word", "encoding"), [("Gehäuse", None), ("Źródło", "cp1250")])
+def test_a_fleet_exported_on_windows_is_read(
+    controller_fleet: Path, tmp_path: Path, word: str, encoding: str | None
+) -> None:
+    # Before: every capture "cannot read CSV file (truncated or corrupt?)", a UTF-8 error.
+    for path in sorted(controller_fleet.rglob("*.csv")):
+        text = path.read_text(encoding="utf-8").replace("Pos_deg", "Position [°]", 1)
+        head, rest = text.split("\n", 1)
+        rows = [f"{row},40.5" for row in rest.splitlines()]
+        export = "\r\n".join([f"{head},Temperatur {word} [°C]", *rows]) + "\r\n"
+        path.write_bytes(export.encode(encoding or "cp1252"))
+    settle(controller_fleet)
+    profile = PROFILE.replace('"Pos_deg"', '"Position [°]"')
+    (controller_fleet / "axiswatch.toml").write_text(profile, encoding="utf-8")
+    if encoding is not None:
+        # Polish text is not Windows-1252: refused, naming the encoding and how to declare it.
+        code, output = _monitor(controller_fleet, tmp_path / "refused.sqlite")
+        assert code == 8, output
+        assert "neither UTF-8 (byte 0xb0 at 16) nor Windows-1252; declare its" in output
+        (controller_fleet / "axiswatch.toml").write_text(
+            f'encoding = "{encoding}"\n{profile}', encoding="utf-8"
+        )
+    code, output = _monitor(controller_fleet, tmp_path / "s.sqlite")
+    assert code == 0, output
+    assert "16 capture(s) scored in this run" in output

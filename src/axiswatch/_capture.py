@@ -40,6 +40,8 @@ __all__ = [
     "rate_at_least",
     "read_capture",
     "sampling_period",
+    "speed_from_position",
+    "with_speed",
     "write_capture",
 ]
 
@@ -204,14 +206,17 @@ def write_capture(capture: Capture, path: str | Path) -> Path:
     return path
 
 
-def _read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
+def _read_frame(path: Path, encoding: str | None = None) -> tuple[pd.DataFrame, dict[str, str]]:
     file_format = capture_format(path)
     if not path.is_file():
         raise CaptureError(f"{path}: no such capture file.")
     if path.stat().st_size == 0:
         raise CaptureError(f"{path}: file is empty (0 bytes).")
     try:
-        frame, metadata = file_format.read(path)
+        if encoding is not None and file_format.read_text is not None:
+            frame, metadata = file_format.read_text(path, encoding)
+        else:
+            frame, metadata = file_format.read(path)
     except CaptureError:
         raise
     except Exception as exc:  # pyarrow/pandas raise many types for truncated or corrupt files
@@ -388,7 +393,7 @@ def read_capture(
     (2000.0, [0.0, 1.0, 2.0, 3.0])
     """
     path = Path(path)
-    frame, metadata = _read_frame(path)
+    frame, metadata = _read_frame(path, None if profile is None else profile.encoding)
     units_row = metadata.pop(UNITS_ROW_KEY, None)
     if units_row is not None:
         (profile or AxisProfile()).check_units_row(json.loads(units_row), path)
@@ -480,4 +485,44 @@ def as_capture(
         rates = {name: float(rates_hz) for name in signals}
     return Capture(
         {k: np.asarray(v, dtype=np.float64) for k, v in signals.items()}, rates, **kwargs
+    )
+
+
+def speed_from_position(position: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
+    """The derivative of a position sampled at ``rate_hz`` (central differences, one-sided at
+    the ends; zero for a single sample).
+
+    Examples
+    --------
+    >>> speed_from_position(np.array([0.0, 1.0, 4.0]), 10.0).tolist()
+    [10.0, 20.0, 30.0]
+    """
+    if position.size < 2:
+        return np.zeros(position.size)
+    return np.asarray(np.gradient(position, 1.0 / rate_hz), dtype=np.float64)
+
+
+def with_speed(capture: Capture) -> Capture:
+    """The capture, with a ``speed`` derived from its ``position`` when it has none.
+
+    A drive's export often holds the position and the current only. Every method reads such a
+    capture the same way: its speed is the position's derivative at the position's rate
+    (:func:`speed_from_position`), as the indicators derive it.
+
+    Examples
+    --------
+    >>> capture = Capture({"position": np.arange(4.0)}, {"position": 250.0})
+    >>> derived = with_speed(capture)
+    >>> derived.names, derived.rates_hz["speed"], derived.signals["speed"].tolist()
+    (('position', 'speed'), 250.0, [250.0, 250.0, 250.0, 250.0])
+    """
+    if "speed" in capture.signals or "position" not in capture.signals:
+        return capture
+    rate = capture.rates_hz["position"]
+    signals = dict(capture.signals)
+    rates = dict(capture.rates_hz)
+    signals["speed"] = speed_from_position(capture.signals["position"], rate)
+    rates["speed"] = rate
+    return Capture(
+        signals, rates, start_s=capture.start_s, source=capture.source, metadata=capture.metadata
     )

@@ -6,6 +6,7 @@ with :func:`register_format`. The table form: docs/internals.md, "Capture format
 
 from __future__ import annotations
 
+import codecs
 import csv
 import json
 import math
@@ -37,24 +38,35 @@ NOMINAL_RATE_HZ = 1.0
 Reader = Callable[[Path], tuple[pd.DataFrame, dict[str, str]]]
 #: Writes (table, metadata) to a file.
 Writer = Callable[[pd.DataFrame, Mapping[str, str], Path], None]
+#: Reads a text file in a declared encoding into (table, metadata).
+TextReader = Callable[[Path, str], tuple[pd.DataFrame, dict[str, str]]]
 
 _METADATA_KEY = b"axiswatch"
 
 
 @dataclass(frozen=True)
 class CaptureFormat:
-    """A capture file format: its suffix, a name for messages, a reader and a writer."""
+    """A capture file format: its suffix, a name for messages, a reader and a writer; a text
+    format also reads a file in the encoding an axis profile declares (``read_text``)."""
 
     suffix: str
     description: str
     read: Reader
     write: Writer
+    read_text: TextReader | None = None
 
 
 _FORMATS: dict[str, CaptureFormat] = {}
 
 
-def register_format(suffix: str, *, read: Reader, write: Writer, description: str) -> None:
+def register_format(
+    suffix: str,
+    *,
+    read: Reader,
+    write: Writer,
+    description: str,
+    read_text: TextReader | None = None,
+) -> None:
     """Register (or replace) the reader and writer of capture files ending in ``suffix``.
 
     Parameters
@@ -69,6 +81,9 @@ def register_format(suffix: str, *, read: Reader, write: Writer, description: st
         Writes the table form.
     description : str
         Name of the format in messages, e.g. ``"Feather"``.
+    read_text : callable ``(path, encoding) -> (DataFrame, dict of str to str)``, optional
+        For a text format: reads the file in the encoding an axis profile declares
+        (``encoding = "cp1250"``). Without it the declared encoding is not used.
 
     Examples
     --------
@@ -85,7 +100,7 @@ def register_format(suffix: str, *, read: Reader, write: Writer, description: st
             f"The 'suffix' parameter must be a file suffix with its dot, such as '.feather'. "
             f"Got {suffix!r} instead."
         )
-    _FORMATS[suffix.lower()] = CaptureFormat(suffix.lower(), description, read, write)
+    _FORMATS[suffix.lower()] = CaptureFormat(suffix.lower(), description, read, write, read_text)
 
 
 def capture_suffixes() -> tuple[str, ...]:
@@ -163,18 +178,61 @@ def _is_number(cell: str, decimal: str) -> bool:
 #: Bytes read from a CSV file's end to find its last row (rows are far shorter).
 _TAIL_BYTES = 65536
 
+#: Bytes read from a CSV file's start to tell its encoding (the header and the units row, where
+#: the only non-ASCII text of a capture is: the values are digits).
+_HEAD_BYTES = 65536
 
-def _check_last_row(path: Path, header: str, separator: str) -> None:
+#: Encoding of a CSV file that is not UTF-8: what Windows in Western Europe and the Americas
+#: writes (a spreadsheet's "CSV" export, a controller's PC), with its ``°`` and ``ü``.
+FALLBACK_ENCODING = "cp1252"
+
+#: Byte order marks of UTF-16 text -> the codec that reads what follows the mark.
+_UTF16_MARKS = {codecs.BOM_UTF16_LE: "utf-16-le", codecs.BOM_UTF16_BE: "utf-16-be"}
+
+
+def csv_encoding(path: Path) -> str:
+    """The encoding of a CSV capture: UTF-16 by its byte order mark, else UTF-8 (a UTF-8 mark
+    skipped), else :data:`FALLBACK_ENCODING` when the head is not UTF-8.
+
+    Raises
+    ------
+    CaptureError
+        The head is neither UTF-8 nor Windows-1252 text: the message names both and says how
+        to declare the file's encoding in the axis profile.
+    """
+    with path.open("rb") as stream:
+        head = stream.read(_HEAD_BYTES)
+    for mark, codec in _UTF16_MARKS.items():
+        if head.startswith(mark):
+            return codec
+    try:
+        # Incremental: a character cut by the head's end is not an error.
+        codecs.getincrementaldecoder("utf-8")().decode(head, final=False)
+    except UnicodeDecodeError as utf8:
+        try:
+            head.decode(FALLBACK_ENCODING)
+        except UnicodeDecodeError:
+            raise CaptureError(
+                f"{path}: the text is neither UTF-8 (byte 0x{head[utf8.start]:02x} at "
+                f"{utf8.start}) nor Windows-1252; declare its encoding in the axis profile, "
+                'such as encoding = "cp1250" above the first [table] line.'
+            ) from None
+        return FALLBACK_ENCODING
+    return "utf-8-sig"
+
+
+def _check_last_row(path: Path, header: str, separator: str, encoding: str) -> None:
     """Raise :class:`CaptureError` when the file ends inside a row: no final line break, and its
     last line has fewer fields than the header. A logger that died mid-write or a copy cut short
     leaves such a file; read, it would be a shorter capture, scored as if whole. A whole file
     without a final line break passes (its last row has every field)."""
+    width = 2 if encoding.startswith("utf-16") else 1  # the tail starts on a character
     with path.open("rb") as stream:
-        stream.seek(max(0, path.stat().st_size - _TAIL_BYTES))
-        tail = stream.read()
-    if tail.endswith((b"\n", b"\r")):
+        stream.seek(max(0, path.stat().st_size - _TAIL_BYTES) // width * width)
+        tail = stream.read().decode(encoding, errors="replace")
+    if tail.endswith(("\n", "\r")):
         return
-    last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+    last = tail.rsplit("\n", 1)[-1]
 
     def fields(line: str) -> int:
         return len(next(csv.reader([line], delimiter=separator), []))
@@ -189,26 +247,39 @@ def _check_last_row(path: Path, header: str, separator: str) -> None:
 
 def _read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     """A CSV capture: separator ``,``, ``;`` or tab and decimal point or comma (a European
-    spreadsheet's ``;`` with ``0,5``) taken from the header and the first data line, a UTF-8 byte
-    order mark ignored, and a units row under the header (every cell text, such as ``s;deg;A``)
-    kept as metadata (:data:`UNITS_ROW_KEY`) instead of read as values."""
-    with path.open(encoding="utf-8-sig", errors="replace", newline="") as stream:
-        lines = [stream.readline() for _ in range(3)]
-    header = lines[0]
+    spreadsheet's ``;`` with ``0,5``) taken from the header and the first data line, the
+    encoding from the file (:func:`csv_encoding`), and a units row under the header (every cell
+    text, such as ``s;deg;A``) kept as metadata (:data:`UNITS_ROW_KEY`) instead of read as
+    values."""
+    return _read_csv_as(path, csv_encoding(path))
+
+
+def _read_csv_as(path: Path, encoding: str) -> tuple[pd.DataFrame, dict[str, str]]:
+    """A CSV capture in ``encoding`` (:func:`_read_csv`; an axis profile's ``encoding``)."""
+    try:
+        with path.open(encoding=encoding, newline="") as stream:
+            lines = [stream.readline() for _ in range(3)]
+    except UnicodeDecodeError as exc:
+        raise CaptureError(
+            f"{path}: not {encoding} text (byte 0x{exc.object[exc.start]:02x} at {exc.start} of "
+            "its head), the encoding the axis profile declares; declare the file's own."
+        ) from None
+    header = lines[0].removeprefix("\ufeff")
     separator = max((",", ";", "\t"), key=header.count)
     first = next(csv.reader([lines[1]], delimiter=separator), [])
     cells = [cell for cell in first if cell.strip()]
     units_row = bool(cells) and not any(_is_number(c, ".") or _is_number(c, ",") for c in cells)
     data = lines[2] if units_row else lines[1]
     decimal = "," if separator != "," and "," in data else "."
-    _check_last_row(path, header, separator)
+    _check_last_row(path, header, separator, encoding)
     frame = pd.read_csv(
         path,
         sep=separator,
         decimal=decimal,
-        encoding="utf-8-sig",
+        encoding="utf-8-sig" if encoding == "utf-8" else encoding,
         skiprows=[1] if units_row else None,
     )
+    frame.columns = [str(c).removeprefix("\ufeff") for c in frame.columns]
     if not units_row:
         return frame, {}
     units = {str(c): u.strip() for c, u in zip(frame.columns, first, strict=False) if u.strip()}
@@ -324,5 +395,5 @@ def _write_npz(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> 
 
 
 register_format(".parquet", read=_read_parquet, write=_write_parquet, description="Parquet")
-register_format(".csv", read=_read_csv, write=_write_csv, description="CSV")
+register_format(".csv", read=_read_csv, write=_write_csv, description="CSV", read_text=_read_csv_as)
 register_format(".npz", read=_read_npz_table, write=_write_npz, description="NumPy .npz")

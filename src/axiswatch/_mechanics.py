@@ -372,7 +372,9 @@ class MechanicsStage(FeatureStage):
         position, speed, torque = signals.T
         low, high = self.band_hz
         if not 0 < low < high < rate / 2:
-            raise ValueError(
+            # A CaptureError: a capture too slow for the band is one bad capture to the monitor,
+            # not a configuration error that stops the run.
+            raise CaptureError(
                 f"The 'band_hz' parameter of MechanicsStage must satisfy 0 < low < high < "
                 f"{rate / 2:g} Hz (half the rate of {capture.source}). Got {self.band_hz!r} instead."
             )

@@ -6,6 +6,7 @@ manual's "Monitor your own robot" shows one. The full form: docs/internals.md, "
 
 from __future__ import annotations
 
+import codecs
 import difflib
 import math
 import tomllib
@@ -74,7 +75,7 @@ FLEET_PROFILE = "axiswatch.toml"
 
 #: The profile's keys that are plain values, not tables: written under a ``[table]`` line
 #: they belong to that table (TOML), a mistake :func:`_above_tables` names.
-TOP_LEVEL_VALUES: tuple[str, ...] = ("name", "resample_irregular")
+TOP_LEVEL_VALUES: tuple[str, ...] = ("name", "resample_irregular", "encoding")
 
 
 def _above_tables(keys: Iterable[str], table: str | None) -> str:
@@ -165,6 +166,9 @@ class AxisProfile:
         Name -> motor turns per turn of a gear whose teeth are watched.
     bearing_orders : mapping of str to float, default={}
         Name -> bearing defect frequency in orders of the motor speed.
+    encoding : str, optional
+        Text encoding of the axis's CSV files (a Python codec name, such as ``"cp1250"``).
+        Without it a CSV file is read as UTF-8, else as Windows-1252.
     source : str, default="<memory>"
 
     Examples
@@ -184,6 +188,7 @@ class AxisProfile:
     gear_ratio: float | None = None
     gear_stages: Mapping[str, float] = field(default_factory=dict)
     bearing_orders: Mapping[str, float] = field(default_factory=dict)
+    encoding: str | None = None
     source: str = "<memory>"
 
     def __post_init__(self) -> None:
@@ -222,6 +227,14 @@ class AxisProfile:
             raise ProfileError(
                 f"{where}: counts_per_revolution must be a number > 0. Got {counts!r} instead."
             )
+        if self.encoding is not None:
+            try:
+                codecs.lookup(self.encoding)
+            except LookupError:
+                raise ProfileError(
+                    f"{where}: encoding {self.encoding!r} is not a text encoding Python knows; "
+                    'expected a codec name such as "utf-8", "cp1252" or "cp1250".'
+                ) from None
         if self.gear_ratio is not None and not self.gear_ratio > 0:
             raise ProfileError(f"{where}: gear_ratio must be > 0. Got {self.gear_ratio!r} instead.")
         for label, table in (
@@ -237,8 +250,12 @@ class AxisProfile:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "<memory>") -> AxisProfile:
         """A profile from the TOML file's tables (``name``, ``columns``, ``units``,
-        ``resample_irregular``, ``kinematics``)."""
-        _check(data, {"name", "columns", "units", "resample_irregular", "kinematics"}, source)
+        ``resample_irregular``, ``encoding``, ``kinematics``)."""
+        _check(
+            data,
+            {"name", "columns", "units", "resample_irregular", "encoding", "kinematics"},
+            source,
+        )
         columns = _table(data, "columns", source)
         for column, role in columns.items():
             if not isinstance(role, str):
@@ -286,6 +303,7 @@ class AxisProfile:
             gear_ratio=None if ratio is None else _number(ratio, "gear_ratio", where),
             gear_stages=_table(kinematics, "gear_stages", where),
             bearing_orders=_table(kinematics, "bearing_orders", where),
+            encoding=_text(data, "encoding", source, None),
             source=source,
         )
 

@@ -242,6 +242,7 @@ def monitor_defaults() -> dict[str, Any]:
         "align": config.align_phase,
         "order_lines": config.order_lines,
         "whole_moves": config.whole_moves,
+        "max_capture_rows": config.max_capture_rows,
     }
 
 
@@ -322,6 +323,13 @@ def monitor(
     ),
     baseline: str | None = typer.Option(
         None, help="File name of the baseline capture of new axes (default: their first)."
+    ),
+    max_capture_rows: int | None = typer.Option(
+        None,
+        min=1,
+        help="A capture file of more rows is rejected before it is loaded (memory stays "
+        "bounded; the default is 16.7 min at 2 kHz).",
+        hidden=True,
     ),
     workers: int = typer.Option(1, min=1, help="Local worker processes for scoring."),
     settle: float = typer.Option(
@@ -411,6 +419,7 @@ def monitor(
         "alarm_k": alarm_k, "alarm_n": alarm_n, "clear_m": clear_m, "signals": signals,
         "hop": hop, "segment_length": segment_length, "lra_noise_level": lra_noise_level,
         "align": align, "order_lines": order_lines, "whole_moves": whole_moves,
+        "max_capture_rows": max_capture_rows,
     }  # fmt: skip
     value: dict[str, Any] = {
         name: default if given[name] is None else given[name]
@@ -439,6 +448,7 @@ def monitor(
                 task_envelope=task_envelope,
                 order_lines=value["order_lines"],
                 whole_moves=value["whole_moves"],
+                max_capture_rows=value["max_capture_rows"],
             )
             silence = _duration(stale_after, "--stale-after")
             check_request(root, config)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.signal import butter
 
 from axiswatch.indicators._signals import butter_sos
@@ -18,3 +19,17 @@ def test_cached_designs_equal_scipys_and_are_shared() -> None:
     )
     assert butter_sos(2, 10.0, 2000.0) is butter_sos(2, 10.0, 2000.0)
     assert butter_sos(2, 10.0, 1000.0) is not butter_sos(2, 10.0, 2000.0)
+
+
+def test_zero_phase_is_scipys_filtfilt_bit_for_bit() -> None:
+    from scipy.signal import sosfiltfilt
+
+    from axiswatch._mechanics import zero_phase
+
+    x = np.random.default_rng(0).normal(size=3001).cumsum()
+    for sos in (butter_sos(4, (40.0, 300.0), 2000.0), butter_sos(2, 10.0, 2000.0)):
+        assert np.array_equal(zero_phase(sos, x), sosfiltfilt(sos, x))
+        assert np.array_equal(zero_phase(sos, x, 7), sosfiltfilt(sos, x, padlen=7))
+        assert np.array_equal(zero_phase(sos, x, 0), sosfiltfilt(sos, x, padlen=0))
+    with pytest.raises(ValueError, match="must be greater than padlen, 27"):
+        zero_phase(butter_sos(4, (40.0, 300.0), 2000.0), x[:27])

@@ -9,6 +9,7 @@ and a killed driver, a file-size limit, the Dask connection timeout.
 
 from __future__ import annotations
 
+import errno
 import itertools
 import os
 import resource
@@ -381,6 +382,34 @@ def test_degenerate_captures_get_a_data_quality_verdict_never_an_alarm(
     assert " bad data " in result.stdout.splitlines()[2]  # the axis's state in the summary
 
 
+@pytest.mark.parametrize("method", ["indicators", "pca"])
+def test_a_torque_in_another_unit_or_one_glitch_is_bad_data_never_an_alarm(
+    fleet: Path, tmp_path: Path, method: str
+) -> None:
+    # Before: the torque in mN m was a friction ALARM at a thousand times its allowance.
+    def glitch(name: str, values: np.ndarray) -> np.ndarray:
+        if name == "torque":
+            values[300] *= 100.0  # one sample, far under OUT_OF_RANGE
+        return values
+
+    cases = {
+        "2026-03-06.parquet": (  # 0.5 s of the task's cycle: 0.7 of the baseline's span
+            lambda n, v: 1000.0 * v if n == "torque" else v,
+            "bad data (scale changed: signal 'torque' scale changed by 701x (it spans",
+        ),
+        "2026-03-07.parquet": (glitch, "bad data (glitch: signal 'torque' reads "),
+    }
+    for name, (change, _) in cases.items():
+        _variant(fleet, name, change)
+    store = tmp_path / "s.db"
+    result = _run("monitor", fleet, "--store", store, "--method", method, "--calibration", "2")
+    assert result.returncode == 8, result.stdout  # attention, not an alarm (4)
+    for name, (_, reason) in cases.items():
+        assert f"{AXIS}/{name}: {reason}" in result.stdout
+    assert _query(store, "SELECT count(*) FROM scores WHERE alarm=1 OR over=1") == [(0,)]
+    assert _query(store, "SELECT count(*) FROM scores WHERE capture >= '2026-03-06'") == [(0,)]
+
+
 # --- row 5: files still being written --------------------------------------------------------
 
 
@@ -702,3 +731,27 @@ def test_a_misnamed_folder_is_one_rejection_and_scored_once_renamed(
     assert fixed.returncode == 0, fixed.stdout
     assert _query(store, "SELECT count(*) FROM rejections") == [(0,)]
     assert _query(store, "SELECT count(*) FROM scores WHERE robot = 'robot02'") == [(5,)]
+
+
+def test_report_on_a_full_disk_leaves_nothing_behind(
+    fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    store = tmp_path / "s.db"
+    assert _monitor(fleet, store).returncode == 0
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "index.html").write_text("the previous page")
+    written = Path.write_bytes
+
+    def full_disk(path: Path, data: bytes) -> int:
+        # The disk fills half-way through the page, as a write of a full disk stops.
+        written(path, data[: len(data) // 2])
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(Path, "write_bytes", full_disk)
+    result = run("report", "--store", store, "--out", out)
+    assert result.returncode == 1
+    assert "No space left on device" in result.stderr
+    assert result.stderr.count("\n") == 1, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["index.html"]  # no temporary file left
+    assert (out / "index.html").read_text() == "the previous page"

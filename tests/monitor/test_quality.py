@@ -6,8 +6,14 @@ import numpy as np
 import pytest
 
 import axiswatch as aw
-from axiswatch.monitor._quality import QualityReference, data_quality_problem, longest_run
-from tests.naive import longest_run_naive
+from axiswatch.monitor._quality import (
+    GLITCH_SPANS,
+    QualityReference,
+    data_quality_problem,
+    isolated_glitches,
+    longest_run,
+)
+from tests.naive import isolated_glitches_naive, longest_run_naive
 
 
 def test_longest_run_matches_naive() -> None:
@@ -29,7 +35,7 @@ def moving() -> aw.Capture:
 
 
 def _with(capture: aw.Capture, name: str, values: np.ndarray) -> aw.Capture:
-    return aw.as_capture({**capture.signals, name: values}, capture.rates_hz)
+    return aw.as_capture({**capture.signals, name: values}, {**capture.rates_hz, name: 2000.0})
 
 
 def test_each_verdict_and_a_usable_capture(moving: aw.Capture) -> None:
@@ -69,3 +75,63 @@ def test_a_standstill_for_part_of_a_capture_is_not_a_stuck_sensor() -> None:
     assert data_quality_problem(sliding).startswith("flat/stuck signal: 'speed' repeats")
     held = aw.as_capture({"speed": np.where(t < 0.8, moving, 0.3), "torque": torque}, 1000.0)
     assert data_quality_problem(held).startswith("flat/stuck signal: 'speed' repeats")
+
+
+def test_isolated_glitches_match_naive() -> None:
+    rng = np.random.default_rng(12)
+    for size in (1, 2, 3, 8, 400):
+        for _ in range(30):
+            values = np.sin(np.arange(size) / 9.0) + 0.05 * rng.normal(size=size)
+            # Spikes, pairs, steps and edge samples, some far, some near.
+            for _ in range(rng.integers(0, 4)):
+                at = rng.integers(0, size)
+                width = rng.integers(1, 3)
+                values[at : at + width] += rng.choice([-1, 1]) * rng.choice([0.5, 3.0, 50.0])
+            assert isolated_glitches(values).tolist() == isolated_glitches_naive(
+                values.tolist(), GLITCH_SPANS
+            )
+
+
+def test_an_isolated_glitch_is_bad_data_an_event_or_a_step_is_not(moving: aw.Capture) -> None:
+    reference = QualityReference.of(moving)
+    torque = moving.signals["torque"]
+    for at in (0, 700, 1999):  # inside, and at either end
+        glitch = torque.copy()
+        glitch[at] = 1e3  # 500 times the torque's range, under OUT_OF_RANGE
+        problem = str(data_quality_problem(_with(moving, "torque", glitch), reference))
+        assert problem.startswith(f"glitch: signal 'torque' reads 1000 at sample {at}, alone ")
+    pair = torque.copy()
+    pair[700:702] = 1e3  # two samples: an event (an impact), judged by the model
+    step = np.where(np.arange(2000) < 700, torque, torque + 10.0)
+    for values in (pair, step):
+        verdict = data_quality_problem(_with(moving, "torque", values))
+        assert verdict is None or not verdict.startswith("glitch")
+
+
+def test_a_torque_in_another_unit_is_a_scale_change_a_larger_move_is_not(
+    moving: aw.Capture,
+) -> None:
+    reference = QualityReference.of(moving)
+    torque = moving.signals["torque"]
+    for factor, said in ((1000.0, "1,000x"), (1e-3, "1/1,000x"), (57.3, "57x")):
+        scaled = _with(moving, "torque", factor * torque)
+        assert str(data_quality_problem(scaled, reference)).startswith(
+            f"scale changed: signal 'torque' scale changed by {said} (it spans "
+        )
+    # A fault's tens of per cent; a larger torque for a larger move; a position in degrees
+    # (a capture may hold a part of the task's moves: its span is no witness of a unit).
+    assert data_quality_problem(_with(moving, "torque", 1.4 * torque), reference) is None
+    assert data_quality_problem(_with(moving, "torque", 8.85 * torque), reference) is None
+    larger = aw.as_capture(
+        {"position": 3 * moving.signals["position"], "torque": 100 * torque}, moving.rates_hz
+    )
+    assert data_quality_problem(larger, reference) is None
+    degrees = _with(moving, "position", 57.3 * moving.signals["position"])
+    assert data_quality_problem(degrees, reference) is None
+    speed = 6 * np.cos(6 * np.arange(2000) / 2000.0)
+    with_speed = _with(moving, "speed", speed)
+    in_degrees = _with(moving, "speed", 57.3 * speed)
+    assert str(data_quality_problem(in_degrees, QualityReference.of(with_speed))).startswith(
+        "scale changed: signal 'speed' scale changed by 57x (it spans 687.6, the baseline's 12, while the position (1x) and the torque (1x) kept"
+    )
+    assert data_quality_problem(_with(moving, "torque", 1000.0 * torque)) is None  # no baseline

@@ -15,19 +15,23 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 from scipy.interpolate import PchipInterpolator
-from scipy.signal import butter, savgol_filter, sosfiltfilt
+from scipy.signal import savgol_filter
 
-from axiswatch._capture import Capture, rate_at_least
+from axiswatch._capture import Capture, rate_at_least, speed_from_position
 from axiswatch.exceptions import CaptureError
 from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
 from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
 from axiswatch.indicators._signals import (
+    NuisanceProjection,
     bearing_lines,
     bearing_orders,
+    butter_sos,
     line_ratio,
     pearson_kurtosis,
     running_rms,
+    whole_orders,
     whole_samples,
+    zero_phase,
 )
 
 __all__ = [
@@ -36,6 +40,7 @@ __all__ = [
     "Indicator",
     "Motion",
     "Readings",
+    "band_edges",
     "drive_loads",
     "friction_design",
     "least_squares_errors",
@@ -72,6 +77,12 @@ SIGNATURE_MOVING_QUANTILES: tuple[float, ...] = (0.5, 0.9)
 SIGNATURE_POSITION_QUANTILES: tuple[float, ...] = (0.02, 0.98)
 #: The readings of the friction least squares, which carry a standard error (``whole_moves``).
 FRICTION: tuple[str, ...] = ("coulomb_friction", "viscous_friction")
+#: The kinematic lines' band edges are rounded to the nearest of a grid of this many cells per
+#: decade: each band is then designed once per rate, cell pair and worker (``butter_sos``), not
+#: once per capture. An edge moves by at most 2.4 %, well inside the band's margins (half the
+#: lowest line's frequency, 1.5 times the highest); a line ratio moved by at most 0.011 decades
+#: on simulated captures of six tasks (tested against the exact band in tests/naive.py).
+BAND_EDGE_CELLS_PER_DECADE = 48
 
 
 @dataclass(frozen=True)
@@ -222,8 +233,7 @@ def motion(capture: Capture) -> Motion:
         )
     else:
         own_rate = capture.rates_hz["position"]
-        raw = capture.signals["position"]
-        derivative = np.gradient(raw, 1.0 / own_rate) if raw.size > 1 else np.zeros(1)
+        derivative = speed_from_position(capture.signals["position"], own_rate)
         speed = _on_times(derivative, own_rate, capture.start_s, times)
     if "position" not in names:
         position = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) / rate)])
@@ -511,8 +521,23 @@ def drive_loads(
 
 def _band(m: Motion) -> NDArray[np.float64]:
     low, high = (f * m.rate_hz for f in BAND_FRACTION)
-    sos = butter(4, [low, high], btype="bandpass", fs=m.rate_hz, output="sos")
-    return np.asarray(sosfiltfilt(sos, m.torque), dtype=np.float64)
+    return zero_phase(butter_sos(4, (low, high), m.rate_hz), m.torque)
+
+
+def band_edges(low_hz: float, high_hz: float, top_hz: float) -> tuple[float, float]:
+    """``(low_hz, high_hz)`` rounded to the nearest of :data:`BAND_EDGE_CELLS_PER_DECADE`
+    cells per decade, the high edge at most ``top_hz``.
+
+    Examples
+    --------
+    >>> [round(f, 3) for f in band_edges(3.0, 250.0, 900.0)]  # cells of 4.9 %
+    [3.014, 248.79]
+    >>> band_edges(3.0, 890.0, 900.0)[1]  # not above the Nyquist margin
+    900.0
+    """
+    cells = BAND_EDGE_CELLS_PER_DECADE
+    low, high = (10.0 ** (round(cells * math.log10(f)) / cells) for f in (low_hz, high_hz))
+    return low, min(high, top_hz)
 
 
 def read_indicators(
@@ -663,6 +688,8 @@ def _kinematic_lines(
     """
     fast = np.abs(m.speed) > 0.2 * peak
     motor_angle = gear_ratio * m.position
+    theta = motor_angle[fast]
+    shared: NuisanceProjection | None = None  # one projection for every line
     revs = gear_ratio * np.abs(m.speed[fast]) / (2 * math.pi)
     slow_revs, fast_revs = (float(np.quantile(revs, q)) for q in (0.1, 0.9))
     travel = np.abs(np.diff(motor_angle, prepend=motor_angle[0]))
@@ -688,10 +715,10 @@ def _kinematic_lines(
                 f"(got {revolutions:.3g})"
             )
             continue
-        sos = butter(4, [low, high], btype="bandpass", fs=m.rate_hz, output="sos")
-        x = np.asarray(sosfiltfilt(sos, m.torque), dtype=np.float64)[fast]
-        theta = motor_angle[fast]
+        sos = butter_sos(4, band_edges(low, high, nyquist_margin), m.rate_hz)
+        x = zero_phase(sos, m.torque)[fast]
+        shared = shared or whole_orders(theta)
         if name.startswith("tooth_lines:"):
-            values[name] = line_ratio(x, theta, orders, [0.5 / parameter])
+            values[name] = line_ratio(x, theta, orders, [0.5 / parameter], nuisance=shared)
         else:
-            values[name] = bearing_lines(x, theta, parameter)
+            values[name] = bearing_lines(x, theta, parameter, nuisance=shared)

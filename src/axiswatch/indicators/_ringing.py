@@ -12,10 +12,9 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
-from scipy.signal import sosfiltfilt
 
 from axiswatch._capture import rate_at_least
-from axiswatch.indicators._signals import butter_sos, whole_samples
+from axiswatch.indicators._signals import butter_sos, whole_samples, zero_phase
 
 __all__ = [
     "CROSSING_HYSTERESIS",
@@ -113,7 +112,7 @@ def sign_passages(x: NDArray[np.float64], hysteresis: float) -> NDArray[np.intp]
 def _filtered(sos: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
     # The default pad (3 x the filter's order) exceeds a short capture at a slow rate.
     padlen = min(3 * (2 * sos.shape[0] + 1), x.size - 1)
-    return np.asarray(sosfiltfilt(sos, x, padlen=padlen), dtype=np.float64)
+    return zero_phase(sos, x, padlen)
 
 
 def gap_crossings(

@@ -386,6 +386,7 @@ def score_jobs_of(run: Run, states: Sequence[AxisState]) -> list[ScoreJob]:
                     state.rates_hz,
                     profile=run.config.profile,
                     reference=state.reference,
+                    max_rows=run.config.max_capture_rows,
                 )
             )
     return jobs

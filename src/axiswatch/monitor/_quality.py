@@ -14,17 +14,43 @@ from numpy.typing import NDArray
 from axiswatch._capture import Capture
 
 __all__ = [
+    "GLITCH_SPANS",
     "MIN_MOTION_SHARE",
     "OUT_OF_RANGE",
+    "SAME_SCALE",
+    "SCALE_CHANGE",
     "STUCK_SHARE",
     "QualityReference",
     "data_quality_problem",
+    "isolated_glitches",
     "longest_run",
 ]
 
 OUT_OF_RANGE = 1e6
 STUCK_SHARE = 0.5
 MIN_MOTION_SHARE = 0.05
+#: ``glitch``: a position, speed or torque sample farther than this many times the signal's
+#: range from each of its neighbours (:func:`isolated_glitches`). No motion goes there and back
+#: within one sample; a logger or a transmission does. Gaussian noise alone (a range of 4.7
+#: sigma, so 9.3 sigma past both neighbours) does once in 2e14 samples, 3,000 years at 2 kHz.
+#: Real signals' largest lone samples stay under half this: 0.29 of the range (hydraulic
+#: actuators' torque, 250 Hz), 0.57 (linear axis, 21 Hz), 0.81 (a cobot's torque sensor).
+GLITCH_SPANS = 2.0
+#: ``scale changed``: the torque or the speed spanning this many times more or less than the
+#: baseline's while every other signal keeps the baseline's span within ``SAME_SCALE``: a
+#: change of unit (N m to mN m, A to mA, rad/s to deg/s). Thirty is halfway, on a log scale,
+#: between one unit and a metric prefix (1000). A fault changes a torque by tens of per cent:
+#: loads and a damaged gear moved the real hydraulic actuators' torque span 0.71-1.56 times.
+#: A change by 8.85 (lbf in per N m) or 9.55 (rpm per rad/s) is left to the model.
+SCALE_CHANGE = 30.0
+#: A change of task or load moves the signals together; a unit changes one. The position is a
+#: witness only: a capture that holds a part of a task's cycle may span far less of it.
+SAME_SCALE = 2.0
+#: Neighbours on each side whose median a glitch departs from (besides the next samples).
+GLITCH_NEIGHBOURS = 3
+#: Signals judged for glitches: the motion and the load. Vibration (an accelerometer's
+#: channel) is impulsive by nature: a bearing's impacts last a sample or two.
+GLITCH_SIGNALS = ("position", "speed", "torque")
 
 
 @dataclass(frozen=True)
@@ -52,6 +78,88 @@ def longest_run(values: NDArray[np.float64]) -> tuple[int, int]:
     lengths = np.diff(np.concatenate([starts, [values.size]]))
     best = int(np.argmax(lengths))
     return int(lengths[best]), int(starts[best])
+
+
+def signal_range(values: NDArray[np.float64]) -> float:
+    """The range of the middle 98 % of the samples (a few glitches leave it as it is)."""
+    low, high = np.percentile(values, [1.0, 99.0])
+    return float(high - low)
+
+
+def isolated_glitches(values: NDArray[np.float64], spans: float = GLITCH_SPANS) -> NDArray[np.intp]:
+    """Samples farther than ``spans`` times :func:`signal_range` from each of their neighbours.
+
+    A Hampel-type test made one-sample wide: sample ``i`` departs, in one direction, from the
+    samples next to it and from the medians of the ``GLITCH_NEIGHBOURS`` samples on each side
+    (one side only at the capture's ends). Two or more such samples in a row are an event, not
+    a glitch, and are kept; so is a step, where the sample sits on one side.
+
+    Examples
+    --------
+    >>> values = np.sin(np.arange(200) / 20.0)
+    >>> values[50] = 40.0
+    >>> isolated_glitches(values).tolist()
+    [50]
+    """
+    size = values.size
+    if size < 3:
+        return np.empty(0, dtype=np.intp)
+    limit = spans * signal_range(values)
+    # Candidates first, with a few temporaries of the capture's length (a long capture is
+    # large): far from both next samples, in one direction, or from the one at an end.
+    step = np.diff(values)
+    big = np.abs(step) > limit
+    inner = np.flatnonzero(big[:-1] & big[1:]) + 1
+    inner = inner[np.sign(step[inner - 1]) == -np.sign(step[inner])]
+    ends = [index for index, far in ((0, big[0]), (size - 1, big[-1])) if far]
+    found = []
+    for index in sorted([*ends, *inner.tolist()]):
+        direction = np.sign(step[index - 1] if index > 0 else -step[0])
+        sides = [
+            side
+            for side in (
+                values[max(0, index - GLITCH_NEIGHBOURS) : index],
+                values[index + 1 : index + 1 + GLITCH_NEIGHBOURS],
+            )
+            if side.size
+        ]
+        gaps = [values[index] - float(np.median(side)) for side in sides]
+        if all(np.sign(gap) == direction and abs(gap) > limit for gap in gaps):
+            found.append(index)
+    return np.asarray(found, dtype=np.intp)
+
+
+def _factor(ratio: float) -> str:
+    """``1,000`` or ``1/1,000``."""
+    return f"{ratio:,.0f}" if ratio >= 1 else f"1/{1 / ratio:,.0f}"
+
+
+def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
+    """The ``scale changed`` verdict (:data:`SCALE_CHANGE`), or None."""
+    ratios = {
+        name: float(np.ptp(values)) / reference.spans[name]
+        for name, values in capture.signals.items()
+        if reference.spans.get(name, 0.0) > 0
+    }
+    changed = [
+        n
+        for n, r in ratios.items()
+        if n != "position" and (r >= SCALE_CHANGE or r <= 1.0 / SCALE_CHANGE)
+    ]
+    kept = [n for n, r in ratios.items() if 1.0 / SAME_SCALE <= r <= SAME_SCALE]
+    if not changed or len(changed) + len(kept) < len(ratios) or not kept:
+        # Every signal changed (another task, another robot), or some by an in-between factor:
+        # the signals may still agree with each other, and the model judges the capture.
+        return None
+    name = changed[0]
+    factor = _factor(ratios[name])
+    others = " and the ".join(f"{other} ({ratios[other]:.2g}x)" for other in kept)
+    return (
+        f"scale changed: signal '{name}' scale changed by {factor}x (it spans "
+        f"{np.ptp(capture.signals[name]):.4g}, the baseline's {reference.spans[name]:.4g}, "
+        f"while the {others} kept the baseline's span): a change of unit, not a fault (a "
+        "fault changes it by tens of per cent); a new baseline reads the new scale"
+    )
 
 
 def _standstill(capture: Capture, name: str, start: int, run: int) -> bool:
@@ -87,8 +195,8 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
     Returns
     -------
     str or None
-        ``"<verdict>: <reason>"`` with the verdict ``out of range``, ``flat/stuck signal`` or
-        ``no motion``.
+        ``"<verdict>: <reason>"`` with the verdict ``out of range``, ``flat/stuck signal``,
+        ``glitch``, ``no motion`` or ``scale changed``.
 
     Examples
     --------
@@ -112,6 +220,19 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
         run, start = longest_run(values)
         if run == values.size:
             return f"flat/stuck signal: '{name}' is {values[0]:.6g} throughout ({run} samples)"
+    for name in GLITCH_SIGNALS:
+        if name not in capture.signals:
+            continue
+        values = capture.signals[name]
+        glitches = isolated_glitches(values)
+        if glitches.size:
+            first = int(glitches[0])
+            return (
+                f"glitch: signal '{name}' reads {values[first]:.4g} at sample {first}, alone "
+                f"and more than {GLITCH_SPANS:g} times the signal's range "
+                f"({signal_range(values):.4g}) from its neighbours ({glitches.size} such "
+                "sample(s); a logger or transmission glitch?)"
+            )
     if reference is not None and "position" in capture.signals:
         span = float(np.ptp(capture.signals["position"]))
         expected = reference.spans.get("position", 0.0)
@@ -120,6 +241,10 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
                 f"no motion: position spans {span:.4g}, {100 * span / expected:.2g} % of the "
                 f"baseline's {expected:.4g} (the robot was idle during the capture?)"
             )
+    if reference is not None:
+        changed = _scale_change(capture, reference)
+        if changed is not None:
+            return changed
     for name, values in capture.signals.items():
         run, start = longest_run(values)
         if run >= STUCK_SHARE * values.size and not _standstill(capture, name, start, run):

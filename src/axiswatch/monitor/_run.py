@@ -232,6 +232,7 @@ class Run:
             relatives=tuple(self.relative(f.path) for f in following),
             calibration_size=self.config.calibration_size,
             refit=refit,
+            max_rows=self.config.max_capture_rows,
         )  # fmt: skip
 
     def report(self, stage: str, done: int, total: int) -> None:

@@ -12,12 +12,14 @@ import json
 import math
 import os
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from axiswatch._axis_model import MonitoredModel
-from axiswatch._capture import read_capture
+from axiswatch._capture import DEFAULT_SIGNALS, Capture, read_capture, with_speed
+from axiswatch._capture_length import MAX_CAPTURE_ROWS, check_capture_length
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
 from axiswatch.monitor._decision import DecisionRule
@@ -114,6 +116,10 @@ class MonitorConfig:
         scored in a wider spread. Fewer false alarms after task changes (Robot A 32 -> 3 days on
         development robots 0-7), slightly fewer detections at the 99 % threshold (``dr99`` up
         to 0.03 lower): docs/evaluation.md, "An opt-in operating point: ``--whole-moves``".
+    max_capture_rows : int >= 1, default=MAX_CAPTURE_ROWS
+        A capture file of more rows is rejected before it is loaded (one line naming its rows
+        and the limit): memory stays bounded whatever a file's length. Not stored with the
+        baselines: it decides which files are read, not how they are scored.
 
     Examples
     --------
@@ -141,8 +147,14 @@ class MonitorConfig:
     task_envelope: float | None = None
     order_lines: bool = False
     whole_moves: bool = False
+    max_capture_rows: int = MAX_CAPTURE_ROWS
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.max_capture_rows, int) and self.max_capture_rows >= 1):
+            raise ValueError(
+                "The 'max_capture_rows' parameter must be an int >= 1. "
+                f"Got {self.max_capture_rows!r} instead."
+            )
         preset = method_preset(self.method)
         for name in METHOD_OPTIONS:
             if getattr(self, name) in (None, False) or name in preset.accepts:
@@ -262,6 +274,11 @@ def file_hash(path: Path) -> str:
 
 
 def _one_line(exc: BaseException, path: Path, relative: str) -> str:
+    if isinstance(exc, MemoryError):
+        return (
+            f"{relative}: not enough memory to read and score it; a smaller --max-capture-rows "
+            "refuses such a file before it is loaded (axiswatch rejections --retry to try again)"
+        )
     text = (str(exc).splitlines() or [type(exc).__name__])[0].replace(str(path), relative)
     text = fleet_relative(text, path, relative)
     return text if text.startswith(relative) else f"{relative}: {text}"
@@ -316,6 +333,24 @@ def _failure_kind(exc: BaseException) -> tuple[str, bool]:
     return "invalid", isinstance(exc, ProfileError)
 
 
+def _read(path: Path, relative: str, max_rows: int, **kwargs: Any) -> Capture:
+    """:func:`~axiswatch.read_capture` of a file no longer than ``max_rows`` rows (checked from
+    its header before it is loaded)."""
+    check_capture_length(path, max_rows, relative)
+    return read_capture(path, **kwargs)
+
+
+def _read_signals(
+    path: Path, relative: str, max_rows: int, signals: Sequence[str] | None, **kwargs: Any
+) -> Capture:
+    """:func:`_read` of a method's ``signals``, a missing speed derived from the position
+    (:func:`~axiswatch.with_speed`): every method reads a capture of position and current
+    alike. ``None``: every signal, as read (the indicators derive the speed themselves)."""
+    if signals is None or "speed" not in signals or not set(signals) <= set(DEFAULT_SIGNALS):
+        return _read(path, relative, max_rows, signals=signals, **kwargs)
+    return with_speed(_read(path, relative, max_rows, **kwargs)).select(signals)
+
+
 def _bad_data(relative: str, problem: str) -> str:
     return f"{relative}: bad data ({problem}); a data-quality verdict, not a maintenance one"
 
@@ -323,10 +358,12 @@ def _bad_data(relative: str, problem: str) -> str:
 # --- jobs: self-contained, picklable, never raise for a bad capture -------------------------
 
 #: What makes one capture unusable: a malformed capture (:class:`CaptureError`, also raised for a
-#: capture too short or without a usable move), or a file that cannot be read (``OSError``:
-#: gone or unreadable since it was found). Any other error (a configuration error, a bug) is
-#: raised: recording it against every file would report hundreds of bad captures for one cause.
-_DATA_ERRORS = (CaptureError, OSError)
+#: capture too short or without a usable move), a file that cannot be read (``OSError``: gone
+#: or unreadable since it was found), or one too large for the memory left (``MemoryError``,
+#: under a raised ``max_capture_rows``: the other captures are still scored). Any other error
+#: (a configuration error, a bug) is raised: recording it against every file would report
+#: hundreds of bad captures for one cause.
+_DATA_ERRORS = (CaptureError, OSError, MemoryError)
 
 
 @dataclass(frozen=True)
@@ -348,6 +385,8 @@ class FitJob:
     #: Of a stored baseline (after an upgrade, new options of the library): the model's checks
     #: of new baselines are not applied, a stored one is kept and noted (``baseline_note``).
     refit: bool = False
+    #: Files of more rows are rejected before they are loaded.
+    max_rows: int = MAX_CAPTURE_ROWS
 
 
 @dataclass(frozen=True)
@@ -381,7 +420,7 @@ def fit_baseline(job: FitJob) -> FitOutcome:
     try:
         profile = profile_for(job.file, job.profile)
         digest = file_hash(path)
-        capture = read_capture(path, template.signals, profile=profile)
+        capture = _read_signals(path, job.relative, job.max_rows, template.signals, profile=profile)
         if not job.refit:
             template.check_baseline(capture)
         problem = data_quality_problem(capture)
@@ -405,8 +444,13 @@ def fit_baseline(job: FitJob) -> FitOutcome:
             break
         # Skipped as the score job will skip it: bad data, or nothing the model can read.
         try:
-            calibration = read_capture(
-                file.path, template.signals, expected_rates_hz=capture.rates_hz, profile=profile
+            calibration = _read_signals(
+                file.path,
+                relative,
+                job.max_rows,
+                template.signals,
+                expected_rates_hz=capture.rates_hz,
+                profile=profile,
             )
             problem = data_quality_problem(calibration, reference)
             if problem is not None:
@@ -462,6 +506,8 @@ class ScoreJob:
     rates_hz: dict[str, float]
     profile: AxisProfile | None = None
     reference: QualityReference | None = None
+    #: Files of more rows are rejected before they are loaded.
+    max_rows: int = MAX_CAPTURE_ROWS
 
 
 @dataclass(frozen=True)
@@ -489,7 +535,14 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         digest = file_hash(path)
         model = resolve_model(job.model)
         profile = profile_for(job.file, job.profile)
-        capture = read_capture(path, model.signals, expected_rates_hz=job.rates_hz, profile=profile)
+        capture = _read_signals(
+            path,
+            job.relative,
+            job.max_rows,
+            model.signals,
+            expected_rates_hz=job.rates_hz,
+            profile=profile,
+        )
         problem = data_quality_problem(capture, job.reference)
         if problem is not None:
             error = _bad_data(job.relative, problem)

@@ -16,7 +16,13 @@ from scipy.interpolate import PchipInterpolator
 from axiswatch._capture import Capture
 from axiswatch.exceptions import CaptureError
 
-__all__ = ["align_phase", "integer_factor", "phase_lag", "resample_capture", "upsample_pchip"]
+__all__ = [
+    "align_phase",
+    "integer_factor",
+    "phase_lag",
+    "resample_capture",
+    "upsample_pchip",
+]
 
 _RATE_RTOL = 1e-9
 

@@ -423,7 +423,12 @@ def write_report(
 
 
 def _replace(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a temporary file beside it, then a rename."""
+    """Write ``data`` to ``path`` atomically: a temporary file beside it, then a rename. A
+    write that fails (a full disk) removes its temporary file: nothing is left behind."""
     temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_bytes(data)
-    os.replace(temporary, path)
+    try:
+        temporary.write_bytes(data)
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
