@@ -62,7 +62,7 @@ def lab_features() -> list[np.ndarray]:
 @pytest.fixture(scope="session")
 def small_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A healthy simulated fleet, 1 robot x 2 axes x 9 days of 0.5 s captures (copy before use)."""
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets._robot_fleet import simulate_fleet
 
     root = tmp_path_factory.mktemp("fleet") / "fleet"
     simulate_fleet(

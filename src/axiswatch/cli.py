@@ -875,7 +875,7 @@ def simulate_fleet_command(
     debug: bool = DEBUG,
 ) -> None:
     """Simulate a small fleet (task change on day 15, developing faults); labels in labels.csv."""
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets._robot_fleet import simulate_fleet
 
     with _failures(debug):
         labels = simulate_fleet(
@@ -924,7 +924,7 @@ def demo(
     """Simulate a fleet, monitor it (default method, LRA, PCA), write the report and summary."""
     import tempfile
 
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets._robot_fleet import simulate_fleet
     from axiswatch.monitor._methods import DEFAULT_METHOD
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._scoring import MonitorConfig
