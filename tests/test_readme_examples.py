@@ -637,8 +637,8 @@ def test_layout_names_existing_modules() -> None:
     assert named == modules, f"not in the layout: {modules - named}; gone: {named - modules}"
     for folder in re.findall(r"^\s*(src/\S+/)", body, flags=re.MULTILINE):
         assert (ROOT / folder).is_dir(), folder
-    assert "cli.py" in body
-    assert (ROOT / "src" / "axiswatch" / "cli.py").is_file()
+    assert "cli/" in body
+    assert (ROOT / "src" / "axiswatch" / "cli" / "__init__.py").is_file()
     for module in (ROOT / "src" / "axiswatch" / "monitor" / "report").glob("[a-z]*.py"):
         assert re.search(rf"\b{module.stem}\b", body), f"not in the layout: report/{module.name}"
 
