@@ -627,7 +627,7 @@ def test_fleet_layout_example() -> None:
 
 def test_layout_names_existing_modules() -> None:
     body = _block("test_layout_names_existing_modules")
-    parts = ("", "indicators", "paper", "monitor", "datasets")
+    parts = ("", "indicators", "paper", "monitor", "datasets", "cli")
     product = [ROOT / "src" / "axiswatch" / part for part in parts]
     modules = {p.stem for folder in product for p in folder.glob("_*.py")} - {
         "__init__",
