@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 import sqlite3
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -97,16 +98,17 @@ def test_rows_are_read_from_each_format_without_loading_it(tmp_path: Path) -> No
 def test_a_capture_out_of_memory_is_one_rejection_and_the_rest_is_scored(
     small_fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from axiswatch.monitor._indicators import assess_capture as assess
+    from axiswatch.indicators._axis import IndicatorBaseline
 
     fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    score = IndicatorBaseline.score
 
-    def short_of_memory(model: object, capture: aw.Capture, *args: object) -> object:
+    def short_of_memory(model: IndicatorBaseline, capture: aw.Capture, *args: Any) -> Any:
         if capture.source.endswith("axis1/2026-03-08.parquet"):
             raise MemoryError
-        return assess(model, capture, *args)  # type: ignore[arg-type]
+        return score(model, capture, *args)
 
-    monkeypatch.setattr("axiswatch.monitor._scoring.assess_capture", short_of_memory)
+    monkeypatch.setattr(IndicatorBaseline, "score", short_of_memory)
     store = tmp_path / "store.db"
     for _ in range(2):
         done = run("monitor", fleet, "--store", store, "--no-progress")

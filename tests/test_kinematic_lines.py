@@ -6,13 +6,13 @@ import math
 from collections.abc import Iterator
 from typing import Any
 
-import axiswatch._readings as readings
 import numpy as np
 import pytest
 import scipy.signal._filter_design as filter_design
 
-import axiswatch._mechanics as mechanics
 import axiswatch.datasets as awd
+import axiswatch.indicators._readings as readings
+import axiswatch.indicators._signals as mechanics
 from axiswatch import Capture
 from tests import naive
 

@@ -75,4 +75,4 @@ def test_a_capture_too_slow_for_the_mechanics_band_is_rejected_not_a_crash(
     done = run("monitor", root, "--store", tmp_path / "s.db", "--method", "mechanics")
     assert done.returncode == 8, done.stdout + done.stderr
     assert "Traceback" not in done.stdout + done.stderr
-    assert "must satisfy 0 < low < high < 125 Hz" in done.stdout
+    assert "needs a rate above 600 Hz; the capture's is 250 Hz" in done.stdout

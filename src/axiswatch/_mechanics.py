@@ -371,12 +371,17 @@ class MechanicsStage(FeatureStage):
         signals, rate = resample_capture(capture, ("position", "speed", "torque"))
         position, speed, torque = signals.T
         low, high = self.band_hz
-        if not 0 < low < high < rate / 2:
-            # A CaptureError: a capture too slow for the band is one bad capture to the monitor,
-            # not a configuration error that stops the run.
+        if not 0 < low < high:
+            raise ValueError(
+                f"The 'band_hz' parameter of MechanicsStage must satisfy 0 < low < high. "
+                f"Got {self.band_hz!r} instead."
+            )
+        if high >= rate / 2:
+            # A capture too slow for the band is one bad capture to the monitor, not a
+            # configuration error that stops the run.
             raise CaptureError(
-                f"The 'band_hz' parameter of MechanicsStage must satisfy 0 < low < high < "
-                f"{rate / 2:g} Hz (half the rate of {capture.source}). Got {self.band_hz!r} instead."
+                f"{capture.source}: the 'band_hz' of MechanicsStage, {self.band_hz!r}, needs a rate "
+                f"above {2 * high:g} Hz; the capture's is {rate:g} Hz."
             )
         if signals.shape[0] < 4 * rate / low:
             raise CaptureError(

@@ -24,7 +24,7 @@ def test_cached_designs_equal_scipys_and_are_shared() -> None:
 def test_zero_phase_is_scipys_filtfilt_bit_for_bit() -> None:
     from scipy.signal import sosfiltfilt
 
-    from axiswatch._mechanics import zero_phase
+    from axiswatch.indicators._signals import zero_phase
 
     x = np.random.default_rng(0).normal(size=3001).cumsum()
     for sos in (butter_sos(4, (40.0, 300.0), 2000.0), butter_sos(2, 10.0, 2000.0)):

@@ -91,9 +91,9 @@ def test_low_rate_axes_are_scored_by_indicators_and_rejected_by_mechanics(
 ) -> None:
     assert draw_robot(ROBOT_SEED).spec.fast_rate_hz < 100
     code, output = _monitor(low_rate_fleet, tmp_path / "m.sqlite", "mechanics")
-    # The product default stops at the first capture: its fixed band needs more than 600 Hz.
+    # The former default rejects every capture: its fixed band needs more than 600 Hz.
     assert code != 0
-    assert "'band_hz' parameter of MechanicsStage must satisfy" in output
+    assert "the 'band_hz' of MechanicsStage, (40.0, 300.0), needs a rate above 600 Hz" in output
     code, output = _monitor(low_rate_fleet, tmp_path / "i.sqlite", "indicators")
     assert f"{AXES} new baseline(s)" in output
     assert f"{AXES * DAYS - AXES - 1} capture(s) scored" in output  # all but the standing one
