@@ -21,10 +21,10 @@ from axiswatch._mechanics import COLUMNS
 from axiswatch.cli import app
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._decision import alarm_step
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.report.results import fleet_results, fleet_summary
 from axiswatch.monitor.store import Store, now
 from tests.conftest import settle

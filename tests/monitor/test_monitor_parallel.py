@@ -12,8 +12,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import Store
 

@@ -22,10 +22,10 @@ import axiswatch.monitor._planning
 import axiswatch.monitor._run
 import axiswatch.monitor._scoring
 from axiswatch.datasets import simulate_capture
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._models import ModelRef, resolve_model
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import NewBaseline, SavedModel, Store
 

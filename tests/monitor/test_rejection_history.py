@@ -14,8 +14,8 @@ from typer.testing import CliRunner
 import axiswatch as aw
 from axiswatch.cli import app
 from axiswatch.monitor import StoreBackend
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.report.attention import AxisAttention, triage
 from axiswatch.monitor.report.html import write_report
 from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary

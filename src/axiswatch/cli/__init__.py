@@ -174,10 +174,10 @@ def monitor(
     import dataclasses
 
     from axiswatch._profiles import AxisProfile
+    from axiswatch.monitor._config import MonitorConfig
     from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._requests import check_request
-    from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor.report.summary import (
         fleet_table,
         run_header,
@@ -639,9 +639,9 @@ def demo(
     import tempfile
 
     from axiswatch.datasets._robot_fleet import simulate_fleet
+    from axiswatch.monitor._config import MonitorConfig
     from axiswatch.monitor._methods import DEFAULT_METHOD
     from axiswatch.monitor._monitor import monitor_fleet
-    from axiswatch.monitor._scoring import MonitorConfig
     from axiswatch.monitor.report.html import write_report
     from axiswatch.monitor.report.summary import verdict_lines
     from axiswatch.monitor.store import Store

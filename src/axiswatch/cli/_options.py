@@ -113,7 +113,7 @@ def monitor_defaults() -> dict[str, Any]:
     The options default to None, so that the CLI imports the scoring stack only when a command
     needs it; the help shows these values.
     """
-    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor._config import MonitorConfig
 
     config = MonitorConfig()
     return {

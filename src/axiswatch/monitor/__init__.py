@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
 if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
+    from axiswatch.monitor._config import MonitorConfig
     from axiswatch.monitor._fleet import (
         FleetFile,
         discover_fleet,
@@ -29,9 +30,6 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
     from axiswatch.monitor._parallel import (
         parallel_map,
     )
-    from axiswatch.monitor._scoring import (
-        MonitorConfig,
-    )
     from axiswatch.monitor.report.html import (
         write_report,
     )
@@ -50,7 +48,7 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
 _EXPORTS: dict[str, str] = {
     "FleetFile": "axiswatch.monitor._fleet",
     "MethodPreset": "axiswatch.monitor._methods",
-    "MonitorConfig": "axiswatch.monitor._scoring",
+    "MonitorConfig": "axiswatch.monitor._config",
     "MonitorSummary": "axiswatch.monitor._monitor",
     "SQLiteStore": "axiswatch.monitor.store",
     "Store": "axiswatch.monitor.store",

@@ -12,6 +12,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
+from axiswatch.monitor._config import MonitorConfig, params_hash
 from axiswatch.monitor._fleet import (
     FleetFile,
     LayoutProblem,
@@ -30,14 +31,7 @@ from axiswatch.monitor._parallel import WorkerPool
 from axiswatch.monitor._planning import fit_baselines, plan_baseline, score_jobs, score_jobs_of
 from axiswatch.monitor._requests import check_request, parameter_differences
 from axiswatch.monitor._run import AxisState, MonitorSummary, Progress, Run
-from axiswatch.monitor._scoring import (
-    FitJob,
-    MonitorConfig,
-    ScoreJob,
-    ScoreOutcome,
-    params_hash,
-    score_capture,
-)
+from axiswatch.monitor._scoring import FitJob, ScoreJob, ScoreOutcome, score_capture
 from axiswatch.monitor.store import (
     ChangedFile,
     Rejection,

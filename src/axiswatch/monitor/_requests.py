@@ -10,15 +10,13 @@ from typing import Any
 
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import ProfileError
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._fleet import (
     FleetFile,
     check_fleet_root,
     discover_fleet,
 )
-from axiswatch.monitor._scoring import (
-    MonitorConfig,
-    profile_for,
-)
+from axiswatch.monitor._scoring import profile_for
 from axiswatch.paper._features import FeatureSpec
 
 __all__ = ["check_request", "parameter_differences"]

@@ -12,6 +12,7 @@ from pathlib import Path
 from axiswatch._axis_model import MonitoredModel
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import ProfileError
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._fleet import (
     FleetFile,
 )
@@ -23,11 +24,7 @@ from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._parallel import WorkerPool
 from axiswatch.monitor._persist import load_model, model_version
 from axiswatch.monitor._quality import QualityReference
-from axiswatch.monitor._scoring import (
-    FitJob,
-    FitOutcome,
-    MonitorConfig,
-)
+from axiswatch.monitor._scoring import FitJob, FitOutcome
 from axiswatch.monitor.store import (
     AlarmState,
     Baseline,
