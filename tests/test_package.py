@@ -18,7 +18,7 @@ import axiswatch.datasets
 import axiswatch.monitor
 import axiswatch_lab
 
-SUBPACKAGES = {"cli", "datasets", "exceptions", "indicators", "monitor", "paper", "store"}
+SUBPACKAGES = {"cli", "datasets", "exceptions", "indicators", "monitor", "paper", "report", "store"}
 
 
 @pytest.mark.parametrize(

@@ -22,15 +22,17 @@ from axiswatch.datasets._recorded import (
     read_recording,
 )
 from axiswatch.datasets._robot import (
-    DEFAULT_FLEET_FAULTS,
     NOMINAL_AXIS,
     TASKS,
     AxisSpec,
     Fault,
-    FleetFault,
     Task,
-    fleet_profile_toml,
     simulate_capture,
+)
+from axiswatch.datasets._robot_fleet import (
+    DEFAULT_FLEET_FAULTS,
+    FleetFault,
+    fleet_profile_toml,
     simulate_fleet,
 )
 

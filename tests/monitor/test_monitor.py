@@ -21,11 +21,11 @@ from axiswatch._mechanics import COLUMNS
 from axiswatch.cli import app
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._decision import alarm_step
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_results, fleet_summary
-from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.results import fleet_results, fleet_summary
 from axiswatch.monitor.store import Store, now
 from tests.conftest import settle
 from tests.naive import alarm_states_naive
@@ -126,7 +126,7 @@ def test_a_run_counts_only_the_baselines_it_added_itself(
     """Two runs on one store fit the same baselines; the one that adds them second (it waited
     for the store) is told the same capture is there. Before: both printed "2 new
     baseline(s)"; the store was right, the second run's count was not."""
-    import axiswatch.monitor._monitor as driver
+    import axiswatch.monitor._planning as driver
 
     config = MonitorConfig(method="pca")
     with Store(tmp_path / "s.db") as store:

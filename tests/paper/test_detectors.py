@@ -8,8 +8,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import axiswatch as aw
 import axiswatch.paper._alignment
-
-from .naive import lra_delta, pca_distance
+from tests.naive import lra_delta, pca_distance
 
 # Rows are paired by index: a distance (and LRA's embedding) is a property of the whole matrix,
 # so computing it on a subset or a permutation of rows cannot give the same per-row result.

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from axiswatch.cli import fold_same_reason
+from axiswatch.monitor.report.summary import fold_same_reason
 
 
 def test_a_shared_reason_is_said_once_at_its_first_file_with_the_count_of_the_others() -> None:

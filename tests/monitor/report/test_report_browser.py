@@ -20,7 +20,7 @@ import pytest
 
 from tests import _cli
 
-ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
+ARTIFACTS = Path(__file__).resolve().parents[3] / "test-artifacts"
 
 #: Ground truth of the demo (docs/monitor.md, "What the demo shows"): the simulator's faulty
 #: axes, and words their verdict's fault must hold (the bearing is the demo profile's).
@@ -198,7 +198,7 @@ def test_readme_quotes_the_demo(demo_report: Path) -> None:
     from typer.testing import CliRunner
 
     from axiswatch.cli import app
-    from axiswatch.monitor._results import fleet_results
+    from axiswatch.monitor.report.results import fleet_results
     from axiswatch.monitor.store import Store
 
     manual = ARTIFACTS.parent / "docs" / "monitor.md"
@@ -224,9 +224,9 @@ def test_an_acknowledged_rejection_leaves_the_first_screen(
 ) -> None:
     # Before: the page read no acknowledgement of a rejection and listed both acknowledged
     # axes (robot01/axis1, the misnamed folder robot 2/) as bad data.
-    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor.report.html import write_report
     from axiswatch.monitor.store import Store
-    from tests.test_report import acknowledged_rejections
+    from tests.monitor.report.test_report import acknowledged_rejections
 
     _chromium()
     fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))

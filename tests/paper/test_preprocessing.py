@@ -11,8 +11,7 @@ from hypothesis.extra.numpy import arrays
 import axiswatch as aw
 import axiswatch.paper._preprocessing
 from axiswatch import CaptureError
-
-from .naive import pchip_upsample
+from tests.naive import pchip_upsample
 
 # Subnormal samples overflow the harmonic-mean slopes inside SciPy (a RuntimeWarning); a
 # logged robot signal never holds them, so they are left out.

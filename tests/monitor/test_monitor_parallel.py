@@ -12,9 +12,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_results
-from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import Store
 
 _COMPARED = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]
@@ -75,13 +75,13 @@ def test_captures_sent_while_later_axes_are_planned_equal_serial(
 
     monkeypatch.setattr(axiswatch.monitor._monitor, "_AXES_PER_PLAN", 1)
     planned: list[int] = []  # stored-model axes per planned slice
-    jobs_of = axiswatch.monitor._monitor._score_jobs_of
+    jobs_of = axiswatch.monitor._monitor.score_jobs_of
 
     def spy(run: object, states: list[object]) -> object:
         planned.append(len(states))
         return jobs_of(run, states)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(axiswatch.monitor._monitor, "_score_jobs_of", spy)
+    monkeypatch.setattr(axiswatch.monitor._monitor, "score_jobs_of", spy)
     fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
     later = tmp_path / "later"
     for path in sorted(fleet.glob("*/*/*.parquet")):

@@ -7,64 +7,36 @@ and 8 for a new problem. The monitor manual lists them.
 from __future__ import annotations
 
 import difflib
-import re
-import shlex
 import sys
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from datetime import timedelta
-from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from typer.core import TyperCommand, TyperGroup, TyperOption
 
-from axiswatch_launcher import INTERRUPTED, INTERRUPTED_STATUS
+from axiswatch.cli._options import (
+    DEBUG,
+    PLUGIN_GROUP,
+    ExistingStorePath,
+    Format,
+    StorePath,
+    monitor_defaults,
+)
+from axiswatch.cli._options import Commands as _Commands
+from axiswatch.cli._options import MonitorCommand as _MonitorCommand
+from axiswatch.cli._options import advanced_help as _advanced_help
+from axiswatch.cli._options import duration as _duration
+from axiswatch.cli._options import noise_level as _noise_level
+from axiswatch.cli._options import registered_method as _registered_method
+from axiswatch.cli._terminal import echo, printable
+from axiswatch.cli._terminal import failures as _failures
+from axiswatch.cli._terminal import progress as _progress
+from axiswatch.cli._terminal import show_guesses as _show_guesses
+from axiswatch.cli._terminal import usage as _usage
+
+__all__ = ["PLUGIN_GROUP", "app", "echo", "main", "monitor_defaults", "printable"]
 
 if TYPE_CHECKING:  # imported where used: `axiswatch --help` imports neither pandas nor SciPy
     import pandas as pd
-
-#: Entry-point group through which installed packages add command groups to ``axiswatch``
-#: (the research package adds ``experiment``); the CLI never imports them by name.
-PLUGIN_GROUP = "axiswatch.commands"
-
-
-class _Commands(TyperGroup):
-    """The commands, with those of installed packages (:data:`PLUGIN_GROUP`) loaded when used:
-    ``axiswatch --help`` does not import the research package and its scikit-learn."""
-
-    def _plugins(self) -> dict[str, Any]:
-        from importlib.metadata import entry_points
-
-        return {e.name: e for e in entry_points(group=PLUGIN_GROUP) if e.name not in self.commands}
-
-    def list_commands(self, ctx: Any) -> list[str]:
-        return [*super().list_commands(ctx), *self._plugins()]
-
-    def get_command(self, ctx: Any, cmd_name: str) -> Any:
-        plugin = self._plugins().get(cmd_name)
-        if plugin is not None:
-            command = typer.main.get_command(plugin.load())
-            command.name = cmd_name
-            self.add_command(command, cmd_name)
-        return super().get_command(ctx, cmd_name)
-
-    def format_commands(self, ctx: Any, formatter: Any) -> None:
-        described = {
-            name: TyperGroup(
-                name=name,
-                help=f"Commands of {entry.module.partition('.')[0]} ('axiswatch {name} -h').",
-            )
-            for name, entry in self._plugins().items()
-        }
-        self.commands.update(described)
-        try:
-            super().format_commands(ctx, formatter)
-        finally:
-            for name in described:
-                del self.commands[name]
-
 
 app = typer.Typer(
     cls=_Commands,
@@ -79,128 +51,6 @@ simulate_app = typer.Typer(
     help="Write simulated captures in the fleet layout.", no_args_is_help=True
 )
 app.add_typer(simulate_app, name="simulate")
-
-DEBUG = typer.Option(False, "--debug", help="Show Python tracebacks of failures.")
-StorePath = Annotated[
-    Path, typer.Option("--store", help="SQLite store of the monitor (created if new).")
-]
-# Every command but `monitor` reads a store a monitor run wrote and refuses a missing one
-# (_require_store): its help must not promise to create it.
-ExistingStorePath = Annotated[
-    Path,
-    typer.Option("--store", help="SQLite store written by 'axiswatch monitor' (must exist)."),
-]
-
-
-#: Characters a terminal acts on, as the escapes printed instead: C0 but the newline, DEL, C1,
-#: the bidirectional overrides and isolates (they reorder what is shown), the line separators.
-_CONTROLS = {
-    code: f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
-    for code in (
-        *range(0x20), 0x7F, *range(0x80, 0xA0), *range(0x202A, 0x202F), *range(0x2066, 0x206A),
-        0x2028, 0x2029,
-    )
-    if code != 0x0A
-}  # fmt: skip
-
-
-def printable(text: str) -> str:
-    """``text`` with the characters a terminal acts on written as escapes, lines kept.
-
-    A file name can hold ``ESC [ 2 J`` (clear the screen) or set the terminal's title: every
-    line a command prints goes through here.
-
-    Examples
-    --------
-    >>> print(printable("r1/a1/2026-03-01_\x1b[2J.csv: empty"))
-    r1/a1/2026-03-01_\\x1b[2J.csv: empty
-    """
-    return text.translate(_CONTROLS)
-
-
-def echo(message: str = "", *, err: bool = False, nl: bool = True) -> None:
-    """Print one message to stdout (``err``: stderr), escaped by :func:`printable`."""
-    typer.echo(printable(message), err=err, nl=nl)
-
-
-@contextmanager
-def _failures(debug: bool) -> Iterator[None]:
-    """Turn expected failures into one line on stderr and exit status 1 (unless ``--debug``);
-    Ctrl-C into one line and exit status 130 (128 + SIGINT), as a shell reports it."""
-    from axiswatch.exceptions import AxiswatchError
-
-    try:
-        yield
-    except BrokenPipeError:
-        raise  # the reader went away (`| head`): Click exits quietly, nothing failed
-    except KeyboardInterrupt:
-        if debug:
-            raise
-        echo(INTERRUPTED, err=True)
-        raise typer.Exit(INTERRUPTED_STATUS) from None
-    except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
-        if debug:
-            raise
-        echo(f"error: {exc}", err=True)
-        raise typer.Exit(1) from None
-
-
-@contextmanager
-def _usage(debug: bool) -> Iterator[None]:
-    """Turn an invalid option value into one line on stderr and exit status 2."""
-    try:
-        yield
-    except ValueError as exc:
-        if debug:
-            raise
-        echo(f"usage error: {exc}", err=True)
-        raise typer.Exit(2) from None
-
-
-_DURATION = re.compile(r"(?P<value>\d+(?:\.\d+)?)\s*(?P<unit>[smhd])")
-_UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400}
-
-
-def _duration(text: str, option: str) -> timedelta | None:
-    """``3d``, ``12h``, ``30m``, ``45s`` or ``off``."""
-    if text.strip().lower() == "off":
-        return None
-    match = _DURATION.fullmatch(text.strip())
-    if match is None:
-        raise ValueError(
-            f"The '{option}' option must be a duration such as 3d, 12h, 30m, 45s, or 'off'. "
-            f"Got {text!r} instead."
-        )
-    return timedelta(seconds=float(match["value"]) * _UNIT_S[match["unit"]])
-
-
-@contextmanager
-def _progress(enabled: bool) -> Iterator[Callable[[str, int, int], None]]:
-    """A rich progress bar on stderr, shown only when stderr is a terminal."""
-    from rich.console import Console
-    from rich.progress import Progress
-
-    console = Console(stderr=True)
-    with Progress(console=console, disable=not (enabled and console.is_terminal)) as bar:
-        tasks: dict[str, Any] = {}
-
-        def update(stage: str, done: int, total: int) -> None:
-            if stage not in tasks:
-                tasks[stage] = bar.add_task(stage, total=total)
-            bar.update(tasks[stage], completed=done, total=total)
-
-        yield update
-
-
-def _registered_method(name: str | None) -> str | None:
-    """``--method``: a method registered when the command runs (plugins included)."""
-    from axiswatch.monitor._methods import methods
-
-    if name is not None and name not in methods():
-        raise typer.BadParameter(
-            f"expected one of {', '.join(methods())}; got {name!r}.", param_hint="'--method'"
-        )
-    return name
 
 
 def _version(shown: bool) -> None:
@@ -218,118 +68,6 @@ def _root(
     ),
 ) -> None:
     """axiswatch: predictive maintenance of robot axes that does not cry wolf on a task change."""
-
-
-def monitor_defaults() -> dict[str, Any]:
-    """The value of each ``monitor`` option left out: the field of :class:`MonitorConfig` it sets.
-
-    The options default to None, so that the CLI imports the scoring stack only when a command
-    needs it; the help shows these values.
-    """
-    from axiswatch.monitor._scoring import MonitorConfig
-
-    config = MonitorConfig()
-    return {
-        "method": config.method,
-        "percentile": config.percentile,
-        "calibration": config.calibration_size,
-        "alarm_k": config.alarm_k,
-        "alarm_n": config.alarm_n,
-        "clear_m": config.clear_m,
-        "signals": ",".join(config.features.signals),
-        "hop": config.features.hop,
-        "segment_length": config.features.segment_length,
-        "lra_noise_level": str(config.lra_noise_level),
-        "align": config.align_phase,
-        "order_lines": config.order_lines,
-        "whole_moves": config.whole_moves,
-        "max_capture_rows": config.max_capture_rows,
-    }
-
-
-class _MonitorCommand(TyperCommand):
-    """``monitor``: its help shows the monitor's defaults and methods, read when it is shown."""
-
-    def format_help(self, ctx: Any, formatter: Any) -> None:
-        from axiswatch.monitor._methods import methods
-
-        defaults = monitor_defaults()
-        options = [p for p in self.params if isinstance(p, TyperOption)]
-        saved = [(p, p.default, p.show_default, p.help) for p in options]
-        advanced = bool(ctx.meta.get(_ADVANCED))
-        for param in options:
-            if param.name in defaults:
-                param.default, param.show_default = defaults[param.name], True
-            if param.name == "method":
-                described = (
-                    "; ".join(f"{name}: {preset.summary}" for name, preset in methods().items())
-                    if advanced
-                    else ", ".join(methods()) + " ('--advanced' describes them)"
-                )
-                param.help = f"Distance method: {described}."
-        try:
-            super().format_help(ctx, formatter)
-        finally:
-            for param, default, show, text in saved:
-                param.default, param.show_default, param.help = default, show, text
-
-
-_ADVANCED = "axiswatch.advanced"
-
-
-def _advanced_help(ctx: typer.Context, param: Any, shown: bool) -> None:
-    """``--advanced``: the help with the research options, then exit."""
-    if not shown or ctx.resilient_parsing:
-        return
-    hidden = [p for p in ctx.command.params if isinstance(p, TyperOption) and p.hidden]
-    ctx.meta[_ADVANCED] = True
-    for option in hidden:
-        option.hidden = False
-    try:
-        typer.echo(ctx.get_help(), color=ctx.color)
-    finally:
-        for option in hidden:
-            option.hidden = True
-    ctx.exit()
-
-
-class Format(StrEnum):
-    table = "table"
-    csv = "csv"
-    json = "json"
-
-
-def _echo_summary(store: Any, stale_after: timedelta | None, method: str) -> pd.DataFrame:
-    """Print the fleet's summary of ``method`` (the columns that fit a terminal); return it."""
-    from axiswatch.monitor._results import fleet_summary
-
-    summary = fleet_summary(store, stale_after=stale_after)
-    summary = summary[summary.method == method].reset_index(drop=True)
-    if summary.empty:
-        echo("No axis has a baseline yet.")
-        return summary
-    # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
-    columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
-               "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip
-    if summary.acknowledged_by.notna().any():
-        columns.insert(5, "acknowledged_by")
-    if summary.bad_data_acknowledged.notna().any():
-        columns.insert(columns.index("state") + 1, "bad_data_acknowledged")
-    shown = summary[columns].fillna(
-        {"alarm_since": "", "acknowledged_by": "", "bad_data_acknowledged": ""}
-    )
-    echo(shown.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    origins = summary.threshold_origin.dropna().unique()
-    if len(origins) == 1:
-        echo(f"threshold of every axis: {origins[0]}.")
-    return summary
-
-
-def _verdict_lines(store: Any, method: str, stale_after: timedelta | None) -> list[str]:
-    """The axes needing attention and their verdicts (the report's first screen), in lines."""
-    from axiswatch.monitor._verdict import attention_lines, fleet_verdicts
-
-    return attention_lines(fleet_verdicts(store, method, stale_after=stale_after), method)
 
 
 @app.command(cls=_MonitorCommand)
@@ -436,9 +174,16 @@ def monitor(
     import dataclasses
 
     from axiswatch._profiles import AxisProfile
-    from axiswatch.monitor._monitor import check_request, monitor_fleet
+    from axiswatch.monitor._config import MonitorConfig
+    from axiswatch.monitor._monitor import monitor_fleet
     from axiswatch.monitor._parallel import connect_dask
-    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor._requests import check_request
+    from axiswatch.monitor.report.summary import (
+        fleet_table,
+        run_header,
+        run_problems,
+        verdict_lines,
+    )
     from axiswatch.monitor.store import Store
 
     given: dict[str, Any] = {
@@ -487,61 +232,15 @@ def monitor(
                     root, opened, config, workers=workers, dask=client, progress=update,
                     settle_s=settle, stale_after=silence,
                 )  # fmt: skip
-                # n_files counts only the folders this run listed: say so, or a second run
-                # seems to have lost the files of the unchanged folders.
-                unchanged = (
-                    f" in the axis folders listed ({result.unchanged_folders} axis folder(s) "
-                    "unchanged since the last run, not listed)"
-                    if result.unchanged_folders
-                    else ""
-                )
-                echo(
-                    f"{result.method}: {result.n_files} capture files{unchanged}, "
-                    f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
-                    "in this run."
-                )
-                _echo_summary(opened, silence, result.method)
-                verdicts = _verdict_lines(opened, result.method, silence)
+                echo(run_header(result))
+                for line in fleet_table(opened, silence, result.method):
+                    echo(line)
+                verdicts = verdict_lines(opened, result.method, silence)
         finally:
             if client is not None:
                 client.close()
-        if result.waiting:
-            echo(
-                f"\n{result.waiting} capture file(s) modified less than {settle:g} s ago: "
-                "waiting (scored by a later run)."
-            )
-        for title, lines in (
-            ("Rejected captures", fold_same_reason(result.rejected)),
-            ("Changed files", result.changed),
-            ("Axes not scored", result.axis_problems),
-            ("Baselines to check", result.baseline_checks),
-            ("Axes calibrating", result.calibrating),
-            ("Fleet allowances now applied", result.fleet_priors),
-            ("Stale axes", result.stale),
-        ):
-            if lines:
-                count = len(result.rejected) if title == "Rejected captures" else len(lines)
-                echo(f"\n{title} ({count}):")
-                for line in lines:
-                    echo(f"  {line}")
-                if title == "Rejected captures":
-                    echo(
-                        "A rejected capture is tried again when its file, the options or its "
-                        "axis profile change; to try again now: axiswatch rejections --store "
-                        f"{shlex.quote(str(store))} --retry [PATH ...]"
-                    )
-        if result.acknowledged:
-            echo(
-                f"\n{result.acknowledged} acknowledged problem(s) not shown "
-                "('axiswatch rejections' lists them)."
-            )
-        if result.acknowledged_alarms:
-            echo(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
-            for seen in result.acknowledged_alarms:
-                echo(
-                    f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
-                    f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
-                )
+        for line in run_problems(result, store=store, settle_s=settle):
+            echo(line)
         echo("")
         for line in verdicts:
             echo(line)
@@ -568,6 +267,7 @@ def profile(
     """
     from axiswatch._profile_detection import detect_file
     from axiswatch.monitor._layout_plan import plan_layout
+    from axiswatch.monitor.report.summary import fold_same_reason
 
     with _failures(debug):
         guesses = [detect_file(path) for path in files]
@@ -588,50 +288,6 @@ def profile(
             echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
     if not plan.placed:
         raise typer.Exit(1)
-
-
-def _show_guesses(guesses: list[Any]) -> None:
-    """What the files hold: one table row per axis and way of writing it, with its file count."""
-    from rich.console import Console
-    from rich.table import Table
-
-    rows: dict[tuple[str, ...], list[str]] = {}
-    for guess in guesses:
-        layout = guess.layout
-        written = (
-            f"{layout.encoding}, {layout.separator!r}, decimal {layout.decimal!r}"
-            f"{', units row' if layout.units else ''}"
-            if layout is not None
-            else guess.path.suffix
-        )
-        for axis in guess.axes:
-            by_role = {role: column for column, role in axis.columns.items()}
-            cells = [
-                f"{by_role[role]} ({axis.how[role]})" if role in by_role else "-"
-                for role in ("position", "speed", "torque")
-            ]
-            if "position" in by_role:
-                cells[0] += f" in {axis.position_unit}{'?' if axis.unit_assumed else ''}"
-            rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
-            time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
-            key = (written, axis.axis or "-", time, *cells, rates)
-            rows.setdefault(key, []).append(guess.path.name)
-    table = Table(title="What the files hold", title_justify="left")
-    for heading in ("files", "written", "axis", "time", "position", "speed", "torque", "Hz"):
-        table.add_column(heading, overflow="fold")
-    for key, names in rows.items():
-        more = f" +{len(names) - 1}" if len(names) > 1 else ""
-        table.add_row(names[0] + more, *key)
-    Console(width=max(_terminal_width(), 100)).print(table)
-    notes = {note for guess in guesses for axis in guess.axes for note in axis.notes}
-    for note in sorted(notes):
-        echo(f"note: {note}")
-
-
-def _terminal_width() -> int:
-    import shutil
-
-    return shutil.get_terminal_size().columns
 
 
 @app.command()
@@ -657,7 +313,7 @@ def results(
     """
     import json
 
-    from axiswatch.monitor._results import fleet_results, indicator_spreads
+    from axiswatch.monitor.report.results import fleet_results, indicator_spreads
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -685,76 +341,6 @@ def results(
             echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
-def fold_same_reason(lines: list[str]) -> list[str]:
-    """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
-
-    A broken axis profile rejects every capture below it with the same line but for the path.
-    Reasons that differ only in their numbers (each file's first stamp) are one reason too.
-    ``axiswatch rejections`` still lists every file. Lines keep the order of their reason's
-    first file; a line without ``": "`` is its own.
-
-    Parameters
-    ----------
-    lines : list of str
-        Rejection lines, each ``PATH: reason``.
-
-    Returns
-    -------
-    list of str
-        One line per reason: the first file's line, or with more files of the same reason
-        ``FIRST (and N more capture files with this reason): reason``.
-
-    Examples
-    --------
-    >>> fold_same_reason([
-    ...     "r1/a1/d1.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: empty file",
-    ...     "r1/a1/d2.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: r1/robot.toml: bad key",
-    ... ])  # doctest: +NORMALIZE_WHITESPACE
-    ['r1/a1/d1.csv (and 2 more capture files with this reason): r1/robot.toml: bad key',
-     'r1/a2/d1.csv: empty file']
-    """
-    groups: dict[tuple[str, int], list[tuple[str, str]]] = {}  # (key, 0) or (line, its index)
-    for index, line in enumerate(lines):
-        path, sep, reason = line.partition(": ")
-        key = (_NUMBER.sub("#", reason), 0) if sep else (line, index + 1)
-        groups.setdefault(key, []).append((path, reason))
-    folded = []
-    for (_, alone), members in groups.items():
-        (path, reason), more = members[0], len(members) - 1
-        if alone:
-            folded.append(reason if reason else path)
-        elif not more:
-            folded.append(f"{path}: {reason}")
-        else:
-            # Unix milliseconds read as seconds: each file's message names its own first stamp.
-            aside = "" if len({r for _, r in members}) == 1 else ", numbers aside"
-            folded.append(
-                f"{path} (and {more} more capture files with this reason{aside}): {reason}"
-            )
-    return folded
-
-
-#: A date or a measured number in a rejection reason (a stamp, a time, a rate: a decimal
-#: point, an exponent or 3 digits): reasons that differ only in these are folded together.
-_NUMBER = re.compile(
-    r"\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}:\d{2})?|\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\d{3,}"
-)
-
-
-def _noise_level(text: str) -> float | Literal["auto"]:
-    if text == "auto":
-        return "auto"
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not value > 0:
-        raise typer.BadParameter(
-            f"expected a number > 0 or 'auto'; got {text!r}.", param_hint="'--lra-noise-level'"
-        )
-    return value
-
-
 def _require_store(store: Path) -> None:
     if not store.is_file():
         raise FileNotFoundError(f"store '{store}' does not exist; run 'axiswatch monitor' first.")
@@ -773,7 +359,7 @@ def report(
     debug: bool = DEBUG,
 ) -> None:
     """Write a self-contained HTML report (fleet summary, one trend figure per axis)."""
-    from axiswatch.monitor._report import write_report
+    from axiswatch.monitor.report.html import write_report
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -1003,7 +589,7 @@ def simulate_fleet_command(
     debug: bool = DEBUG,
 ) -> None:
     """Simulate a small fleet (task change on day 15, developing faults); labels in labels.csv."""
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets._robot_fleet import simulate_fleet
 
     with _failures(debug):
         labels = simulate_fleet(
@@ -1052,11 +638,12 @@ def demo(
     """Simulate a fleet, monitor it (default method, LRA, PCA), write the report and summary."""
     import tempfile
 
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets._robot_fleet import simulate_fleet
+    from axiswatch.monitor._config import MonitorConfig
     from axiswatch.monitor._methods import DEFAULT_METHOD
     from axiswatch.monitor._monitor import monitor_fleet
-    from axiswatch.monitor._report import write_report
-    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor.report.html import write_report
+    from axiswatch.monitor.report.summary import verdict_lines
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -1071,7 +658,7 @@ def demo(
                 config = MonitorConfig(method=method)
                 monitor_fleet(root, opened, config, progress=update, settle_s=0)
             echo("")
-            for line in _verdict_lines(opened, DEFAULT_METHOD, None):
+            for line in verdict_lines(opened, DEFAULT_METHOD, None):
                 echo(line)
             paper = [a for a in opened.alarms() if a.method != DEFAULT_METHOD]
             runs = 2 * len(labels[["robot", "axis"]].drop_duplicates())

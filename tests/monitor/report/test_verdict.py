@@ -12,9 +12,9 @@ import pytest
 from axiswatch._mechanics import COLUMNS
 from axiswatch.indicators._readings import INDICATORS
 from axiswatch.indicators._spreads import ORDER_LINES
-from axiswatch.monitor._advice import ADVICE, advice_for, indicator_colour
-from axiswatch.monitor._attention import AxisAttention
-from axiswatch.monitor._verdict import (
+from axiswatch.monitor.report.advice import ADVICE, advice_for, indicator_colour
+from axiswatch.monitor.report.attention import AxisAttention
+from axiswatch.monitor.report.verdict import (
     CONFIRM_CAPTURES,
     LARGE_MARGIN,
     attention_lines,
@@ -218,7 +218,7 @@ def _colours(chart: str) -> dict[str, str]:
 def test_an_indicator_has_one_colour_on_every_axis() -> None:
     """Plotly colours traces by their order: an axis without the friction reading showed its
     drive load in the friction's colour."""
-    from axiswatch.monitor._charts import distance_chart
+    from axiswatch.monitor.report.charts import distance_chart
 
     both = _axis([0.2, 1.3], top="load_backward")
     one = both.assign(

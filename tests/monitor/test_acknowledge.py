@@ -11,12 +11,12 @@ from typer.testing import CliRunner
 
 from axiswatch.cli import app
 from axiswatch.exceptions import StoreError
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._report import write_report
-from axiswatch.monitor._results import fleet_summary
-from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.html import write_report
+from axiswatch.monitor.report.results import fleet_summary
 from axiswatch.monitor.store import SCHEMA_VERSION, Store
-from tests.test_monitor import faulty_copy
+from tests.monitor.test_monitor import faulty_copy
 
 runner = CliRunner()
 PCA = MonitorConfig(method="pca")

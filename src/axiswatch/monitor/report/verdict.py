@@ -1,9 +1,9 @@
 """A verdict per axis in a service engineer's words: state, fault, part, since when, how sure.
 
 Pipeline side-stage of the report and the terminal summary. It presents the monitor's alarms
-(:mod:`~axiswatch.monitor._attention`) and changes no score and no alarm. An alarm is "act now"
+(:mod:`~axiswatch.monitor.report.attention`) and changes no score and no alarm. An alarm is "act now"
 once confirmed, else "watch, unconfirmed". The words come from
-:data:`~axiswatch.monitor._advice.ADVICE`.
+:data:`~axiswatch.monitor.report.advice.ADVICE`.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch.monitor._advice import advice_for, part_words
-from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._feedback import feedback_words
-from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor.report.advice import advice_for, part_words
+from axiswatch.monitor.report.attention import AxisAttention, triage
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor.store import AlarmState, StoreBackend
 
 __all__ = [
@@ -61,7 +61,7 @@ class Verdict:
     ----------
     robot, axis, method : str
     kind : str
-        The monitor's own state of the axis (:data:`~axiswatch.monitor._attention.KINDS`).
+        The monitor's own state of the axis (:data:`~axiswatch.monitor.report.attention.KINDS`).
     state : str
         One of :data:`STATES`.
     confirmed : bool
@@ -376,9 +376,9 @@ def axis_verdicts(
     Parameters
     ----------
     items : sequence of AxisAttention
-        :func:`~axiswatch.monitor._attention.triage` of one method.
+        :func:`~axiswatch.monitor.report.attention.triage` of one method.
     results : DataFrame
-        :func:`~axiswatch.monitor._results.fleet_results` (at least the items' axes).
+        :func:`~axiswatch.monitor.report.results.fleet_results` (at least the items' axes).
     alarms : sequence of AlarmState
         ``StoreBackend.alarms()``: the alarms in force, with their acknowledgements.
 
@@ -465,7 +465,7 @@ def fleet_verdicts(
     store : StoreBackend
     method : str
     stale_after : timedelta, optional
-        See :func:`~axiswatch.monitor._results.fleet_summary`.
+        See :func:`~axiswatch.monitor.report.results.fleet_summary`.
     """
     summary = fleet_summary(store, stale_after=stale_after)
     results = fleet_results(store)

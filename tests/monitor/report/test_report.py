@@ -11,14 +11,14 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 from axiswatch.cli import app
-from axiswatch.monitor._attention import AxisAttention, triage
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._report import write_report
-from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.attention import AxisAttention, triage
+from axiswatch.monitor.report.html import write_report
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor.store import Store, now
 from tests.conftest import settle
-from tests.test_monitor import faulty_copy
+from tests.monitor.test_monitor import faulty_copy
 
 PCA = MonitorConfig(method="pca")
 

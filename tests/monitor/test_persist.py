@@ -18,13 +18,15 @@ import axiswatch as aw
 import axiswatch.monitor._index
 import axiswatch.monitor._models
 import axiswatch.monitor._monitor
+import axiswatch.monitor._planning
+import axiswatch.monitor._run
 import axiswatch.monitor._scoring
 from axiswatch.datasets import simulate_capture
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._models import ModelRef, resolve_model
 from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model, model_digest
-from axiswatch.monitor._results import fleet_results
-from axiswatch.monitor._scoring import MonitorConfig
+from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import NewBaseline, SavedModel, Store
 
 
@@ -105,7 +107,7 @@ def _count_fits(monkeypatch: pytest.MonkeyPatch) -> list[str]:
         fitted.append(job.file.capture)
         return original(job)
 
-    monkeypatch.setattr(axiswatch.monitor._monitor, "fit_baseline", counting)
+    monkeypatch.setattr(axiswatch.monitor._planning, "fit_baseline", counting)
     return fitted
 
 
@@ -136,7 +138,8 @@ def test_monitor_scores_with_stored_models_and_refits_on_a_new_version(
         assert fleet_results(fresh)[columns].equals(with_stored[columns])
     # A new library version or blob format (model_version) invalidates the stored models:
     # refitted once, then reused.
-    monkeypatch.setattr(axiswatch.monitor._monitor, "model_version", lambda: "99.0, format 9")
+    for module in (axiswatch.monitor._planning, axiswatch.monitor._run):
+        monkeypatch.setattr(module, "model_version", lambda: "99.0, format 9")
     new_day = [p.with_name(p.name.replace("-09", "-10")) for p in late]
     for source, target in zip(late, new_day, strict=True):
         shutil.copy(source, target)

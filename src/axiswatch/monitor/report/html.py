@@ -15,13 +15,13 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch.monitor._advice import indicator_colour
-from axiswatch.monitor._attention import METHOD_ORDER, lead_method, triage
-from axiswatch.monitor._charts import distance_chart, plotly_library
 from axiswatch.monitor._feedback import ACK_VERDICTS
 from axiswatch.monitor._methods import DEFAULT_METHOD
-from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
-from axiswatch.monitor._verdict import Verdict, axis_verdicts
+from axiswatch.monitor.report.advice import indicator_colour
+from axiswatch.monitor.report.attention import METHOD_ORDER, lead_method, triage
+from axiswatch.monitor.report.charts import distance_chart, plotly_library
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
+from axiswatch.monitor.report.verdict import Verdict, axis_verdicts
 from axiswatch.monitor.store import BaselineCheck, StoreBackend
 
 __all__ = ["write_report"]
@@ -280,7 +280,7 @@ def write_report(
         The summary's ``state`` is ``stale`` for axes without a new capture file for longer
         (see :func:`fleet_summary`).
     stale_factor : float, default=3.0
-        See :func:`axiswatch.monitor._attention.triage`.
+        See :func:`axiswatch.monitor.report.attention.triage`.
 
     Returns
     -------

@@ -22,7 +22,7 @@ import axiswatch.monitor._methods
 from axiswatch.cli import app, monitor_defaults
 from axiswatch.monitor import MethodPreset, MonitorConfig, methods, register_method
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._results import fleet_rejections, fleet_results
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results
 
 runner = CliRunner()
 
@@ -179,7 +179,7 @@ def test_a_configuration_error_stops_the_run_and_rejects_nothing(
 def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
     defaults = MonitorConfig()
     # The product default since issue 13: every spread and allowance estimated from the axis and
-    # its fleet (tests/test_indicator_model.py: nothing in its decision path from a simulator).
+    # its fleet (tests/indicators/test_indicator_model.py: nothing in its decision path from a simulator).
     assert defaults.method == "indicators"
     assert isinstance(defaults.model().model, aw.IndicatorModel)
     assert defaults.threshold_floor() == 0.0

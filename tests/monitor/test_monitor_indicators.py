@@ -28,7 +28,6 @@ from axiswatch.indicators._axis import (
 )
 from axiswatch.indicators._readings import Readings, read_indicators
 from axiswatch.monitor import MonitorConfig, SQLiteStore
-from axiswatch.monitor._attention import AxisAttention, triage
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._ledger import rebaseline
 from axiswatch.monitor._methods import MethodPreset
@@ -36,9 +35,10 @@ from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._monitor import MonitorSummary, monitor_fleet
 from axiswatch.monitor._persist import dump_model, load_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
-from axiswatch.monitor._report import write_report
-from axiswatch.monitor._results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor._scoring import ScoreJob, score_capture
+from axiswatch.monitor.report.attention import AxisAttention, triage
+from axiswatch.monitor.report.html import write_report
+from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from tests.conftest import SHARED_DATA, settle
 from tests.memory_store import MemoryStore
 
@@ -370,7 +370,7 @@ def test_a_baseline_check_lasts_until_acknowledged_also_after_a_killed_run(
 ) -> None:
     # Before: the check was listed once, from the memory of the run that fitted the baseline;
     # a run killed right after the baseline's commit lost its exit status 8 for good.
-    import axiswatch.monitor._monitor as monitor_module
+    import axiswatch.monitor._run as monitor_module
 
     root = _faulty_first(tmp_path)
     path = tmp_path / "s.sqlite"
@@ -380,7 +380,7 @@ def test_a_baseline_check_lasts_until_acknowledged_also_after_a_killed_run(
         raise RuntimeError("killed after the baseline's commit")
 
     with monkeypatch.context() as kill, SQLiteStore(path) as store:
-        kill.setattr(monitor_module._Run, "persist", killed)  # the step after insert_baseline
+        kill.setattr(monitor_module.Run, "persist", killed)  # the step after insert_baseline
         with pytest.raises(RuntimeError, match="killed"):
             monitor_fleet(root, store, config, settle_s=0)
         assert store.latest_baseline("r1", "a1", "indicators") is not None  # committed

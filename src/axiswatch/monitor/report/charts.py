@@ -15,8 +15,8 @@ from typing import Any
 import pandas as pd
 
 from axiswatch._mechanics import COLUMNS
-from axiswatch.monitor._advice import indicator_colour
 from axiswatch.monitor._methods import methods
+from axiswatch.monitor.report.advice import indicator_colour
 
 __all__ = ["distance_chart", "plotly_library"]
 
@@ -80,7 +80,7 @@ def distance_chart(
     Parameters
     ----------
     rows : DataFrame
-        :func:`~axiswatch.monitor._results.fleet_results` rows of one axis (one or more methods).
+        :func:`~axiswatch.monitor.report.results.fleet_results` rows of one axis (one or more methods).
     div_id : str
         Id of the chart's ``<div>`` (unique in the page).
     indicators : bool

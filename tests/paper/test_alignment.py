@@ -13,8 +13,7 @@ import pytest
 import axiswatch as aw
 import axiswatch.paper._alignment
 import axiswatch.paper._alignment as aw_alignment
-
-from .naive import lra_delta
+from tests.naive import lra_delta
 
 RTOL = 1e-8
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from axiswatch.datasets._robot import simulate_fleet
+from axiswatch.datasets._robot_fleet import simulate_fleet
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.store import Store
 from tests.conftest import settle
 

@@ -126,11 +126,11 @@ def triage(
     Parameters
     ----------
     summary : DataFrame
-        :func:`~axiswatch.monitor._results.fleet_summary`.
+        :func:`~axiswatch.monitor.report.results.fleet_summary`.
     results : DataFrame
-        :func:`~axiswatch.monitor._results.fleet_results`.
+        :func:`~axiswatch.monitor.report.results.fleet_results`.
     rejections : DataFrame
-        :func:`~axiswatch.monitor._results.fleet_rejections`.
+        :func:`~axiswatch.monitor.report.results.fleet_rejections`.
     changed : DataFrame
         ``StoreBackend.changed_file_table()``.
     alarms : sequence of AlarmState

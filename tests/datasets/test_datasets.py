@@ -10,8 +10,7 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.datasets as awd
-
-from .conftest import SHARED_DATA
+from tests.conftest import SHARED_DATA
 
 _INDEX = "recording_id,condition_id,health\nh0,load0,healthy\nb1,load1,faulty\n"
 _DAYS = (

@@ -7,8 +7,7 @@ import pytest
 
 import axiswatch as aw
 from axiswatch import CaptureError
-
-from .naive import stft_magnitude
+from tests.naive import stft_magnitude
 
 
 @pytest.mark.parametrize("padding", ["circular", "zeros", "valid"])
