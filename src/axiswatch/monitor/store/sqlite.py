@@ -44,14 +44,14 @@ from axiswatch.monitor.store.records import (
     now_us,
 )
 from axiswatch.monitor.store.sqlite_tables import SQLiteTables, baseline_of, time_of
-from axiswatch.monitor.store.upgrades import create_or_check, upgrade
+from axiswatch.monitor.store.upgrades import create_or_check, pack_score, upgrade
 
 __all__ = ["SQLiteStore", "Store"]
 
 _INSERT_SCORE = (
     "INSERT INTO scores (baseline_id, robot, axis, method, capture, captured_at, path, "
     "file_hash, file_size, file_mtime_ns, role, distance, threshold, over, alarm, "
-    "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+    "packed, primed, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
 
 #: A rejection, or a refreshed one: a rejection whose reason changed (its ``reason_key``, else
@@ -101,7 +101,7 @@ class SQLiteStore(SQLiteTables):
     >>> import tempfile, pathlib
     >>> store = SQLiteStore(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
     >>> store.version, len(store.score_table())
-    (2, 0)
+    (3, 0)
     >>> store.close()
     """
 
@@ -323,7 +323,7 @@ class SQLiteStore(SQLiteTables):
         ...     copy = store.backup(folder / "fleet-backup.db")
         >>> with SQLiteStore(copy) as restored:
         ...     restored.version
-        2
+        3
         """
         target = Path(destination)
         if target.exists():
@@ -377,12 +377,13 @@ class SQLiteStore(SQLiteTables):
                 ),
             )  # fmt: skip
             baseline_id = int(cursor.lastrowid or 0)
+            packed = pack_score(db, baseline_id, "baseline", b.reason, json.dumps(b.details))
             db.execute(
                 _INSERT_SCORE,
                 (
                     baseline_id, b.robot, b.axis, b.method, b.capture, b.captured_at.isoformat(),
                     b.path, b.file_hash, b.file_size, b.file_mtime_ns, "baseline", None, None,
-                    0, 0, b.reason, json.dumps(b.details), now(),
+                    0, 0, *packed, now(),
                 ),
             )  # fmt: skip
             for kind, note in sorted(b.checks.items()):
@@ -418,14 +419,15 @@ class SQLiteStore(SQLiteTables):
                     "UPDATE scores SET threshold=? WHERE baseline_id=? AND role='calibration'",
                     (decision.calibrated.value, s.baseline_id),
                 )
+            details = json.dumps({**s.details, **decision.details}, sort_keys=True)
+            packed = pack_score(db, s.baseline_id, decision.role, decision.reason, details)
             db.execute(
                 _INSERT_SCORE,
                 (
                     s.baseline_id, s.robot, s.axis, s.method, s.capture,
                     s.captured_at.isoformat(), s.path, s.file_hash, s.file_size,
                     s.file_mtime_ns, decision.role, s.distance, decision.threshold,
-                    int(decision.over), int(decision.alarm), decision.reason,
-                    json.dumps({**s.details, **decision.details}, sort_keys=True), now(),
+                    int(decision.over), int(decision.alarm), *packed, now(),
                 ),
             )  # fmt: skip
         return True

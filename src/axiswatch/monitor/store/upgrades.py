@@ -1,6 +1,6 @@
 """The SQLite store's schema, and the upgrades a store made by an earlier version gets on open.
 
-Tables (schema version 2):
+Tables (schema version 3):
 
 ``baselines``
     one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
@@ -12,8 +12,13 @@ Tables (schema version 2):
 ``scores``
     one row per capture and baseline: role (``baseline``, ``calibration``, ``monitor`` or
     ``excluded``), distance, threshold, whether it is over the threshold, the alarm state after
-    it, a reason a service engineer can read and a JSON ``details`` column (phase lag, eigengap,
-    ...). The row id is the scoring order.
+    it, and ``packed``: a reason a service engineer can read and the JSON details (phase lag,
+    eigengap, ...) compressed by :mod:`~axiswatch.monitor.store.packing`, ``primed`` with the
+    baseline's dictionary or not. The row id is the scoring order.
+``score_dictionaries`` (schema version 3)
+    per baseline, the text of its first monitored score: what its later scores are compressed
+    against. A version-2 store's ``reason`` and ``details`` columns are packed on open, in one
+    transaction, every text kept byte for byte (``axiswatch compact`` then returns the space).
 ``rejections``
     capture files that could not be used, with the error; keyed by file content hash, so a
     repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
@@ -53,14 +58,16 @@ their rows loses no result, only time):
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Iterable
 from pathlib import Path
 
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import misnamed_folder_key
+from axiswatch.monitor.store.packing import pack, text_of
 
-__all__ = ["SCHEMA_VERSION", "create_or_check", "upgrade"]
+__all__ = ["SCHEMA_VERSION", "create_or_check", "dictionaries", "pack_score", "upgrade"]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 _ACKNOWLEDGEMENTS = """
 CREATE TABLE acknowledgements (
@@ -125,9 +132,9 @@ CREATE TABLE scores (
     threshold REAL,
     over INTEGER NOT NULL,
     alarm INTEGER NOT NULL,
-    reason TEXT NOT NULL,
-    details TEXT NOT NULL,
     scored_at TEXT NOT NULL,
+    packed BLOB NOT NULL,
+    primed INTEGER NOT NULL,
     UNIQUE (baseline_id, capture)
 );
 CREATE INDEX scores_axis ON scores (robot, axis, method);
@@ -157,6 +164,13 @@ CREATE TABLE changed_files (
 """
     + _ACKNOWLEDGEMENTS
 )
+
+_SCORE_DICTIONARIES = """
+CREATE TABLE IF NOT EXISTS score_dictionaries (
+    baseline_id INTEGER PRIMARY KEY REFERENCES baselines (id),
+    dictionary BLOB NOT NULL
+)
+"""
 
 _CACHES = """
 CREATE TABLE IF NOT EXISTS fitted_models (
@@ -232,7 +246,8 @@ CREATE TABLE IF NOT EXISTS axis_activity (
 
 def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
     """Create the schema in an empty store, or check an existing store's version (a version-1
-    store gains the acknowledgements table); add the caches it lacks. Returns the version."""
+    store gains the acknowledgements table, a version-2 store's score texts are packed); add
+    the caches it lacks. Returns the version."""
     tables = {
         row[0] for row in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")
     }
@@ -240,6 +255,7 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
         for statement in _SCHEMA.split(";"):
             if statement.strip():
                 connection.execute(statement)
+        connection.execute(_SCORE_DICTIONARIES)
         connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
         _ensure_caches(connection)
         return SCHEMA_VERSION
@@ -251,6 +267,10 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
     version = connection.execute("SELECT max(version) FROM schema_version").fetchone()[0]
     if version == 1:  # version 2 only adds the acknowledgements table
         connection.execute(_ACKNOWLEDGEMENTS)
+        connection.execute("INSERT INTO schema_version VALUES (2)")
+        version = 2
+    if version == 2:
+        _pack_scores(connection)
         connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
         version = SCHEMA_VERSION
     if version != SCHEMA_VERSION:
@@ -260,6 +280,25 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
         )
     _ensure_caches(connection)
     return int(version)
+
+
+def _pack_scores(connection: sqlite3.Connection) -> None:
+    """Version 2 to 3: each score's ``reason`` and ``details`` into ``packed``, in scoring order
+    (so a baseline's dictionary is its first monitored score, as when written), then the two text
+    columns dropped. Nothing else changes; row ids are kept."""
+    connection.execute(_SCORE_DICTIONARIES)
+    connection.execute("ALTER TABLE scores ADD COLUMN packed BLOB NOT NULL DEFAULT x''")
+    connection.execute("ALTER TABLE scores ADD COLUMN primed INTEGER NOT NULL DEFAULT 0")
+    rows = connection.execute(
+        "SELECT id, baseline_id, role, reason, details FROM scores ORDER BY id"
+    )
+    for score_id, baseline_id, role, reason, details in rows.fetchall():
+        packed, primed = pack_score(connection, baseline_id, role, reason, details)
+        connection.execute(
+            "UPDATE scores SET packed=?, primed=? WHERE id=?", (packed, primed, score_id)
+        )
+    connection.execute("ALTER TABLE scores DROP COLUMN reason")
+    connection.execute("ALTER TABLE scores DROP COLUMN details")
 
 
 def _ensure_caches(connection: sqlite3.Connection) -> None:
@@ -298,3 +337,40 @@ def upgrade(connection: sqlite3.Connection) -> None:
             connection.execute("UPDATE rejections SET reason_key=? WHERE id=?", (key, row_id))
     connection.execute(_AXIS_ACTIVITY)
     connection.execute(_BASELINE_CHECKS)
+
+
+def pack_score(
+    db: sqlite3.Connection, baseline_id: int, role: str, reason: str, details: str
+) -> tuple[bytes, int]:
+    """The ``(packed, primed)`` columns of a score of ``baseline_id`` in ``role``.
+
+    The first ``monitor`` score of a baseline becomes its dictionary: later monitored scores
+    share its keys and wording. The few baseline and calibration scores before it are packed
+    alone (their text differs from the monitored ones).
+    """
+    row = db.execute(
+        "SELECT dictionary FROM score_dictionaries WHERE baseline_id=?", (baseline_id,)
+    ).fetchone()
+    dictionary = None if row is None else bytes(row[0])
+    if dictionary is None and role == "monitor":
+        dictionary = text_of(reason, details)
+        db.execute(
+            "INSERT INTO score_dictionaries (baseline_id, dictionary) VALUES (?, ?)",
+            (baseline_id, dictionary),
+        )
+    return pack(reason, details, dictionary), int(dictionary is not None)
+
+
+def dictionaries(db: sqlite3.Connection, baseline_ids: Iterable[int]) -> dict[int, bytes]:
+    """The dictionaries of ``baseline_ids`` (those that have one)."""
+    wanted = sorted(set(baseline_ids))
+    found: dict[int, bytes] = {}
+    for start in range(0, len(wanted), 500):
+        chunk = wanted[start : start + 500]
+        marks = ", ".join("?" * len(chunk))
+        for baseline_id, dictionary in db.execute(
+            f"SELECT baseline_id, dictionary FROM score_dictionaries WHERE baseline_id IN ({marks})",
+            chunk,
+        ):
+            found[int(baseline_id)] = bytes(dictionary)
+    return found
