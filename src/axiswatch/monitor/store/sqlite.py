@@ -23,7 +23,7 @@ import json
 import sqlite3
 from collections.abc import Callable, Sequence
 from contextlib import suppress
-from datetime import datetime
+from datetime import datetime, timedelta
 from pathlib import Path
 
 from axiswatch.exceptions import StoreError
@@ -43,6 +43,7 @@ from axiswatch.monitor.store.records import (
     now,
     now_us,
 )
+from axiswatch.monitor.store.sqlite_retention import RECENT_KEPT, Compaction, thin
 from axiswatch.monitor.store.sqlite_tables import SQLiteTables, baseline_of, time_of
 from axiswatch.monitor.store.upgrades import create_or_check, pack_score, upgrade
 
@@ -65,6 +66,14 @@ _INSERT_REJECTION = (
     "transient=excluded.transient, reason_key=excluded.reason_key, removed_at=NULL, "
     "acknowledged_at=CASE WHEN coalesce(reason_key, error)="
     "coalesce(excluded.reason_key, excluded.error) THEN acknowledged_at END"
+)
+
+#: Every score, thinned ones included (file and axis only): what a run must not score again.
+_EVERY_SCORE = (
+    "(SELECT id, robot, axis, method, capture, path, file_hash, file_size, file_mtime_ns "
+    "FROM scores UNION ALL SELECT t.id, b.robot, b.axis, b.method, t.capture, t.path, "
+    "t.file_hash, t.file_size, t.file_mtime_ns FROM thinned_scores t "
+    "JOIN baselines b ON b.id = t.baseline_id)"
 )
 
 #: A check, or the same check again (kept as it is), or another note of its kind (news again).
@@ -242,8 +251,8 @@ class SQLiteStore(SQLiteTables):
 
     def last_scored(self, path: str) -> ScoredFile | None:
         row = self._connection.execute(
-            "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-            "WHERE path=? ORDER BY id DESC LIMIT 1",
+            f"SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns "
+            f"FROM {_EVERY_SCORE} WHERE path=? ORDER BY id DESC LIMIT 1",
             (path,),
         ).fetchone()
         return None if row is None else ScoredFile(*row)
@@ -251,7 +260,7 @@ class SQLiteStore(SQLiteTables):
     def was_scored(self, path: str, file_hash: str, method: str) -> bool:
         return (
             self._connection.execute(
-                "SELECT 1 FROM scores WHERE path=? AND file_hash=? AND method=? LIMIT 1",
+                f"SELECT 1 FROM {_EVERY_SCORE} WHERE path=? AND file_hash=? AND method=? LIMIT 1",
                 (path, file_hash, method),
             ).fetchone()
             is not None
@@ -349,6 +358,54 @@ class SQLiteStore(SQLiteTables):
             partial.unlink(missing_ok=True)
         return target
 
+    def compact(
+        self, keep: timedelta, every: timedelta = timedelta(days=1), *, recent: int = RECENT_KEPT
+    ) -> Compaction:
+        """Thin the history older than ``keep`` to one score per baseline and ``every``, then
+        return the space to the file system (``VACUUM``).
+
+        Kept in full: the last ``keep`` before the newest capture, baseline and calibration
+        scores, scores over the threshold or in alarm, the clean score before each alarm,
+        acknowledged scores and each baseline's last ``recent`` monitored scores (at least its
+        alarm rule's window). Of the rest, each period keeps its highest distance. A thinned
+        capture is never scored again.
+
+        Parameters
+        ----------
+        keep : timedelta
+            The history kept in full, before the newest capture.
+        every : timedelta, default=1 day
+            The period older scores are thinned to one of.
+        recent : int, default=RECENT_KEPT (100)
+            The latest monitored scores of each baseline kept in full.
+
+        Returns
+        -------
+        Compaction
+            The scores thinned and kept.
+
+        Raises
+        ------
+        StoreError
+            If the store is opened read-only.
+        ValueError
+            If ``keep`` is negative or ``every`` is not positive.
+        """
+        if self._read_only:
+            raise StoreError(f"store '{self.path}' is opened read-only; compacting writes it.")
+        if keep < timedelta(0):
+            raise ValueError(f"The 'keep' parameter must not be negative. Got {keep}.")
+        if every <= timedelta(0):
+            raise ValueError(f"The 'every' parameter must be positive. Got {every}.")
+        if recent < 0:
+            raise ValueError(f"The 'recent' parameter must not be negative. Got {recent}.")
+        with self._write() as db:
+            done = thin(db, keep, every, recent)
+        with self._errors():
+            self._connection.execute("VACUUM")
+            self._connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        return done
+
     def __enter__(self) -> SQLiteStore:
         return self
 
@@ -396,8 +453,9 @@ class SQLiteStore(SQLiteTables):
         s = score
         with self._write() as db:
             if db.execute(
-                "SELECT 1 FROM scores WHERE baseline_id=? AND capture=?",
-                (s.baseline_id, s.capture),
+                "SELECT 1 FROM scores WHERE baseline_id=? AND capture=? UNION ALL "
+                "SELECT 1 FROM thinned_scores WHERE baseline_id=? AND capture=?",
+                (s.baseline_id, s.capture, s.baseline_id, s.capture),
             ).fetchone():
                 return False
             baseline = baseline_of(
@@ -574,18 +632,22 @@ class SQLiteStore(SQLiteTables):
         return None if last is None else time_of(last)
 
     def scored_captures(self, baseline_id: int) -> set[str]:
-        rows = self._rows("SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,))
+        rows = self._rows(
+            "SELECT capture FROM scores WHERE baseline_id=? "
+            "UNION ALL SELECT capture FROM thinned_scores WHERE baseline_id=?",
+            (baseline_id, baseline_id),
+        )
         return {r["capture"] for r in rows}
 
     def scored_files(self) -> dict[str, ScoredFile]:
         rows = self._rows(
-            "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-            "ORDER BY id"
+            f"SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns "
+            f"FROM {_EVERY_SCORE} ORDER BY id"
         )
         return {r["path"]: ScoredFile(**dict(r)) for r in rows}
 
     def scored_contents(self, method: str) -> set[tuple[str, str]]:
-        rows = self._rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
+        rows = self._rows(f"SELECT path, file_hash FROM {_EVERY_SCORE} WHERE method=?", (method,))
         return {(r["path"], r["file_hash"]) for r in rows}
 
     def rejections(self, method: str) -> list[Rejection]:

@@ -324,7 +324,7 @@ class SQLiteTables:
             "SELECT b.id AS baseline_id, b.robot, b.axis, b.method, b.epoch, "
             "b.capture AS baseline, b.threshold, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
-            "AS scored, "
+            "+ (SELECT count(*) FROM thinned_scores t WHERE t.baseline_id=b.id) AS scored, "
             "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.alarm=1 AND NOT "
             "coalesce((SELECT p.alarm FROM scores p WHERE p.baseline_id=b.id "

@@ -25,6 +25,9 @@ Tables (schema version 3):
     folder's row derived from its line) is what an acknowledgement is of. ``removed_at`` (added
     on open, empty): when a run found the rejected file gone from the fleet folder; the row is
     kept as history and needs no attention (cleared when the same content is back).
+``thinned_scores``
+    what ``axiswatch compact`` thinned: per score, its baseline, capture, file, size, time and
+    hash, so a run never scores the capture again (``monitor.store.sqlite_retention``).
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
 ``baseline_checks``
@@ -64,6 +67,7 @@ from pathlib import Path
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import misnamed_folder_key
 from axiswatch.monitor.store.packing import pack, text_of
+from axiswatch.monitor.store.sqlite_retention import THINNED_SCORES
 
 __all__ = ["SCHEMA_VERSION", "create_or_check", "dictionaries", "pack_score", "upgrade"]
 
@@ -337,6 +341,8 @@ def upgrade(connection: sqlite3.Connection) -> None:
             connection.execute("UPDATE rejections SET reason_key=? WHERE id=?", (key, row_id))
     connection.execute(_AXIS_ACTIVITY)
     connection.execute(_BASELINE_CHECKS)
+    for statement in THINNED_SCORES.split(";"):
+        connection.execute(statement)
 
 
 def pack_score(
