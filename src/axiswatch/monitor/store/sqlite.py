@@ -626,7 +626,8 @@ class SQLiteStore(SQLiteTables):
 
     def last_captured_at(self, robot: str, axis: str, method: str) -> datetime | None:
         last = self._rows(
-            "SELECT max(captured_at) FROM scores WHERE robot=? AND axis=? AND method=?",
+            "SELECT max(s.captured_at) FROM baselines b JOIN scores s ON s.baseline_id = b.id "
+            "WHERE b.robot=? AND b.axis=? AND b.method=?",
             (robot, axis, method),
         )[0][0]
         return None if last is None else time_of(last)

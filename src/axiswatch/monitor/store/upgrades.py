@@ -141,7 +141,6 @@ CREATE TABLE scores (
     primed INTEGER NOT NULL,
     UNIQUE (baseline_id, capture)
 );
-CREATE INDEX scores_axis ON scores (robot, axis, method);
 CREATE TABLE rejections (
     id INTEGER PRIMARY KEY,
     robot TEXT NOT NULL,
@@ -176,7 +175,18 @@ CREATE TABLE IF NOT EXISTS score_dictionaries (
 )
 """
 
-_CACHES = """
+_FILE_INDEX = """
+CREATE TABLE IF NOT EXISTS file_index (
+    path TEXT PRIMARY KEY,
+    size INTEGER NOT NULL,
+    mtime_ns INTEGER NOT NULL,
+    hash TEXT NOT NULL,
+    verified_run INTEGER NOT NULL
+) WITHOUT ROWID
+"""
+
+_CACHES = (
+    """
 CREATE TABLE IF NOT EXISTS fitted_models (
     baseline_id INTEGER PRIMARY KEY REFERENCES baselines (id),
     file_hash TEXT NOT NULL,
@@ -189,13 +199,9 @@ CREATE TABLE IF NOT EXISTS fitted_models (
     reference TEXT
 );
 CREATE INDEX IF NOT EXISTS fitted_models_hash ON fitted_models (model_hash);
-CREATE TABLE IF NOT EXISTS file_index (
-    path TEXT PRIMARY KEY,
-    size INTEGER NOT NULL,
-    mtime_ns INTEGER NOT NULL,
-    hash TEXT NOT NULL,
-    verified_run INTEGER NOT NULL
-);
+"""
+    + _FILE_INDEX
+    + """;
 DROP INDEX IF EXISTS file_index_verified;
 CREATE INDEX IF NOT EXISTS file_index_verified_path ON file_index (verified_run, path);
 CREATE TABLE IF NOT EXISTS axis_folders (
@@ -211,6 +217,7 @@ CREATE INDEX IF NOT EXISTS scores_path ON scores (path);
 CREATE INDEX IF NOT EXISTS scores_alarmed ON scores (method) WHERE alarm=1;
 CREATE TABLE IF NOT EXISTS runs (id INTEGER PRIMARY KEY, started_at TEXT NOT NULL);
 """
+)
 
 #: Additive upgrades applied on open, each (table, column, declaration): older readers ignore
 #: them, so the schema version stays.
@@ -289,7 +296,8 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
 def _pack_scores(connection: sqlite3.Connection) -> None:
     """Version 2 to 3: each score's ``reason`` and ``details`` into ``packed``, in scoring order
     (so a baseline's dictionary is its first monitored score, as when written), then the two text
-    columns dropped. Nothing else changes; row ids are kept."""
+    columns dropped; the file index without a row id, and no index of scores by axis. Row ids
+    and every value are kept."""
     connection.execute(_SCORE_DICTIONARIES)
     connection.execute("ALTER TABLE scores ADD COLUMN packed BLOB NOT NULL DEFAULT x''")
     connection.execute("ALTER TABLE scores ADD COLUMN primed INTEGER NOT NULL DEFAULT 0")
@@ -303,6 +311,16 @@ def _pack_scores(connection: sqlite3.Connection) -> None:
         )
     connection.execute("ALTER TABLE scores DROP COLUMN reason")
     connection.execute("ALTER TABLE scores DROP COLUMN details")
+    # Scores are found by baseline, path or alarm; the axis index only took space.
+    connection.execute("DROP INDEX IF EXISTS scores_axis")
+    # The file index keyed by path alone: the path is stored once, not twice.
+    if connection.execute(
+        "SELECT 1 FROM sqlite_master WHERE type='table' AND name='file_index'"
+    ).fetchone():
+        connection.execute("ALTER TABLE file_index RENAME TO file_index_rowid")
+        connection.execute(_FILE_INDEX)
+        connection.execute("INSERT INTO file_index SELECT * FROM file_index_rowid")
+        connection.execute("DROP TABLE file_index_rowid")
 
 
 def _ensure_caches(connection: sqlite3.Connection) -> None:
