@@ -152,9 +152,17 @@ def test_monitoring_after_compact_scores_only_new_captures(
 
 
 def test_compact_command_reports_and_refuses_bad_input(
-    monitored: tuple[Path, Path], tmp_path: Path
+    monitored: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     _, store_path = _copy(monitored, tmp_path)
+    with monkeypatch.context() as patched:  # a read-only file (root may write any file)
+        patched.setattr(os, "access", lambda path, mode: mode != os.W_OK)
+        refused = runner.invoke(app, ["compact", "--store", str(store_path)])
+    assert refused.exit_code != 0
+    assert refused.output.strip().splitlines() == [
+        f"error: store '{store_path}' is read-only here; compact rewrites it (copy it somewhere "
+        "writable, or ask its owner)."
+    ]
     done = runner.invoke(app, ["compact", "--store", str(store_path), "--keep", "1d"])
     assert done.exit_code == 0, done.output
     assert done.output.startswith(f"Compacted {store_path}: ")
