@@ -45,6 +45,7 @@ their rows loses no result, only time):
     the baseline file's hash, the parameters and the library version it was fitted with; used
     only while all three still match.
 ``file_index``
+    keyed by path (without a row id since schema version 3, so each path is stored once):
     path, size, ``mtime_ns`` and SHA-256 of every capture file hashed: a file whose size and
     modification time are unchanged is never hashed again. ``verified_run`` is the run that
     last compared the file with the disk (kept files are verified a slice at a time).
