@@ -390,7 +390,9 @@ def _spans() -> Iterator[tuple[str, str]]:
             yield section, " ".join(span.group(1).split())
 
 
-COMMANDS = {"monitor", "results", "report", "rebaseline", "rejections", "ack", "backup", "demo"}
+COMMANDS = {
+    "monitor", "results", "report", "rebaseline", "rejections", "ack", "backup", "compact", "demo"
+}  # fmt: skip
 
 
 def test_inline_command_lines_name_existing_options() -> None:

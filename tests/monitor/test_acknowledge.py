@@ -160,7 +160,7 @@ def test_ack_rebaseline_after_maintenance(alarmed: tuple[Path, Path]) -> None:
 
 def test_a_version_1_store_gains_the_acknowledgements_table(tmp_path: Path) -> None:
     path = tmp_path / "old.db"
-    Store(path).close()
+    shutil.copy(Path(__file__).parent / "data" / "store-v2.db", path)  # one rebaseline
     with sqlite3.connect(path) as db:
         db.execute("DROP TABLE acknowledgements")
         db.execute("DELETE FROM schema_version")
@@ -170,12 +170,12 @@ def test_a_version_1_store_gains_the_acknowledgements_table(tmp_path: Path) -> N
             "VALUES ('r', 'a', 'pca', 1, 'then')"
         )
     with Store(path) as store:
-        assert store.version == SCHEMA_VERSION == 2
+        assert store.version == SCHEMA_VERSION == 3
         assert store.acknowledgements().empty
-        assert len(store.rebaseline_requests()) == 1  # nothing stored is lost
+        assert len(store.rebaseline_requests()) == 2  # nothing stored is lost
     with sqlite3.connect(path) as connection:
         versions = [v for (v,) in connection.execute("SELECT version FROM schema_version")]
-    assert versions == [1, 2]
+    assert versions == [1, 2, 3]
 
 
 def test_ack_keeps_the_engineers_verdict_and_shows_it(

@@ -627,6 +627,48 @@ def backup(
 
 
 @app.command()
+def compact(
+    store: ExistingStorePath,
+    keep: str = typer.Option(
+        "90d", help="History kept in full, before the newest capture (90d, 12h, ...)."
+    ),
+    every: str = typer.Option("1d", help="Older scores: one per axis and this period."),
+    debug: bool = DEBUG,
+) -> None:
+    """Thin old history and return the space to the disk; monitor it again as before.
+
+    Scores older than --keep are thinned to the highest distance of each axis and --every
+    period. Always kept: alarms and scores over the threshold, the clean score before each
+    alarm, acknowledgements, baselines and the captures they were fitted and calibrated on,
+    and each axis's last 100 scores. A thinned capture is never scored again. Back the store
+    up first ('axiswatch backup'): the thinned details are gone.
+    """
+    import os
+
+    from axiswatch.monitor.store import Store
+
+    with _failures(debug):
+        _require_store(store)
+        kept_s = _duration(keep, "--keep")
+        period = _duration(every, "--every")
+        if kept_s is None or period is None:
+            raise ValueError("The '--keep' and '--every' options need a duration, not 'off'.")
+        if not os.access(store, os.W_OK) or not os.access(store.parent, os.W_OK):
+            raise PermissionError(
+                f"store '{store}' is read-only here; compact rewrites it (copy it somewhere "
+                "writable, or ask its owner)."
+            )
+        before = store.stat().st_size
+        with Store(store) as opened:
+            done = opened.compact(kept_s, period)
+        after = store.stat().st_size
+        echo(
+            f"Compacted {store}: {done.thinned} score(s) thinned, {done.kept} kept; "
+            f"{before / 1e6:.2f} MB -> {after / 1e6:.2f} MB."
+        )
+
+
+@app.command()
 def demo(
     out: Annotated[
         Path | None, typer.Option(help="Working folder (default: a temporary one).")

@@ -35,7 +35,7 @@ def test_other_schema_version_is_refused(tmp_path: Path) -> None:
     Store(tmp_path / "s.db").close()
     with sqlite3.connect(tmp_path / "s.db") as connection:
         connection.execute("UPDATE schema_version SET version = 7")
-    with pytest.raises(StoreError, match=r"has schema version 7; this axiswatch reads version 2"):
+    with pytest.raises(StoreError, match=r"has schema version 7; this axiswatch reads version 3"):
         Store(tmp_path / "s.db")
 
 
