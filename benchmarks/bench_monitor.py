@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from axiswatch import MonitorConfig, Store, monitor_fleet
-from axiswatch.datasets._robot import simulate_fleet
+from axiswatch.datasets._robot_fleet import simulate_fleet
 
 
 def main(n_robots: int = 2, n_axes: int = 2, n_days: int = 10) -> None:

@@ -31,9 +31,9 @@ import pyarrow.parquet as pq
 import scipy.fft
 
 import axiswatch as aw
-from axiswatch.datasets._robot import simulate_fleet
+from axiswatch.datasets._robot_fleet import simulate_fleet
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.store import Store
 
 #: Robots simulated; the others are noisy copies of them.

@@ -31,7 +31,7 @@ import pyarrow.parquet as pq
 import axiswatch as aw
 import axiswatch.datasets as awd
 from axiswatch._capture import capture_to_frame
-from axiswatch.datasets._robot import simulate_fleet
+from axiswatch.datasets._robot_fleet import simulate_fleet
 
 #: Lengths measured (s), and those of ``--quick``.
 LENGTHS_S: tuple[float, ...] = (3.0, 60.0, 600.0, 3600.0, 4 * 3600.0)

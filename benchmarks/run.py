@@ -177,10 +177,11 @@ def case_job(
     ``order_lines``: the ``indicators`` method with its order-lines option; ``profile``: with
     the axis profile ``axiswatch simulate fleet`` writes (kinematics: tooth and bearing lines)."""
     from axiswatch._profiles import AxisProfile
-    from axiswatch.datasets._robot import fleet_profile_toml
+    from axiswatch.datasets._robot_fleet import fleet_profile_toml
+    from axiswatch.monitor._config import MonitorConfig
     from axiswatch.monitor._fleet import FleetFile
     from axiswatch.monitor._models import ModelRef, keep_model
-    from axiswatch.monitor._scoring import MonitorConfig, ScoreJob, score_capture
+    from axiswatch.monitor._scoring import ScoreJob, score_capture
 
     config = MonitorConfig(method=method, order_lines=order_lines)  # type: ignore[arg-type]
     axis_profile = None

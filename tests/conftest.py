@@ -6,7 +6,7 @@ processes share them (``select_default``: 15 s on one thread, 60-250 s on two th
 loaded machine). The variables are set before NumPy is first imported (here, and in every
 subprocess a test starts: ``axiswatch demo``, ``benchmarks/run.py``), and the limit is set once
 more at run time in case a plugin imported NumPy first. Tests that check a thread limit raise
-the driver's limit themselves (tests/test_worker_pool.py), so that they can still fail.
+the driver's limit themselves (tests/monitor/test_worker_pool.py), so that they can still fail.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def lab_features() -> list[np.ndarray]:
 @pytest.fixture(scope="session")
 def small_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A healthy simulated fleet, 1 robot x 2 axes x 9 days of 0.5 s captures (copy before use)."""
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets._robot_fleet import simulate_fleet
 
     root = tmp_path_factory.mktemp("fleet") / "fleet"
     simulate_fleet(

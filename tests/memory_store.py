@@ -1,6 +1,6 @@
 """A monitoring store in memory: a test double of the StoreWriter protocol, in plain Python.
 
-It passes the writer's contract (tests/test_store_contract.py) and the monitor runs on it to the
+It passes the writer's contract (tests/monitor/store/test_store_contract.py) and the monitor runs on it to the
 SQLite store's results, which shows that the driver needs nothing of a store but the protocol.
 Beside the writer it has ``retire_baselines`` (a retired baseline is the writer's concern too)
 and ``score_table`` (what the tests compare). One

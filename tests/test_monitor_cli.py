@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 import axiswatch as aw
 import axiswatch._capture
 from axiswatch.cli import app
+from axiswatch.monitor.store.packing import unpack
 from tests._cli import run
 from tests.conftest import settle
 
@@ -39,12 +40,17 @@ def _results(store: Path) -> pd.DataFrame:
     frame = pd.read_sql(
         "SELECT b.epoch, b.capture AS baseline, b.threshold AS baseline_threshold, s.robot, "
         "s.axis, s.method, s.capture, s.role, s.distance, s.threshold, s.over, s.alarm, "
-        "s.reason, s.details FROM scores s JOIN baselines b ON b.id = s.baseline_id "
+        "s.baseline_id, s.packed, s.primed FROM scores s JOIN baselines b ON b.id = s.baseline_id "
         "ORDER BY s.robot, s.axis, s.method, b.epoch, s.captured_at, s.capture",
         connection,
     )
+    primers = dict(connection.execute("SELECT baseline_id, dictionary FROM score_dictionaries"))
     connection.close()
-    return frame
+    columns = (frame.pop("baseline_id"), frame.pop("packed"), frame.pop("primed"))
+    texts = [
+        unpack(p, primers[b] if primed else None) for b, p, primed in zip(*columns, strict=True)
+    ]
+    return frame.assign(reason=[r for r, _ in texts], details=[d for _, d in texts])
 
 
 @pytest.fixture

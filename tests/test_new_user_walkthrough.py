@@ -20,7 +20,7 @@ from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
 from axiswatch.indicators._assessment import IndicatorAssessment
 from axiswatch.indicators._readings import read_indicators
-from axiswatch.monitor._charts import distance_chart
+from axiswatch.monitor.report.charts import distance_chart
 from tests.conftest import settle
 
 runner = CliRunner()

@@ -17,7 +17,7 @@ import axiswatch as aw
 import axiswatch.datasets
 import axiswatch.monitor
 
-SUBPACKAGES = {"cli", "datasets", "exceptions", "indicators", "monitor", "paper", "store"}
+SUBPACKAGES = {"cli", "datasets", "exceptions", "indicators", "monitor", "paper", "report", "store"}
 
 
 @pytest.mark.parametrize(

@@ -97,7 +97,7 @@ def test_monitor_help_fits_a_screen_and_research_knobs_are_in_advanced() -> None
 @pytest.mark.parametrize(
     "command",
     [(), ("monitor",), ("profile",), ("results",), ("report",), ("rejections",), ("ack",),
-     ("rebaseline",), ("backup",), ("demo",), ("simulate",), ("simulate", "fleet")],
+     ("rebaseline",), ("backup",), ("compact",), ("demo",), ("simulate",), ("simulate", "fleet")],
 )  # fmt: skip
 def test_every_command_has_a_short_help_without_bool_metavars(command: tuple[str, ...]) -> None:
     lines = _help_lines(*command, "-h")

@@ -390,7 +390,9 @@ def _spans() -> Iterator[tuple[str, str]]:
             yield section, " ".join(span.group(1).split())
 
 
-COMMANDS = {"monitor", "results", "report", "rebaseline", "rejections", "ack", "backup", "demo"}
+COMMANDS = {
+    "monitor", "results", "report", "rebaseline", "rejections", "ack", "backup", "compact", "demo"
+}  # fmt: skip
 
 
 def test_inline_command_lines_name_existing_options() -> None:
@@ -627,7 +629,7 @@ def test_fleet_layout_example() -> None:
 
 def test_layout_names_existing_modules() -> None:
     body = _block("test_layout_names_existing_modules")
-    parts = ("", "indicators", "paper", "monitor", "datasets")
+    parts = ("", "indicators", "paper", "monitor", "datasets", "cli")
     product = [ROOT / "src" / "axiswatch" / part for part in parts]
     modules = {p.stem for folder in product for p in folder.glob("_*.py")} - {
         "__init__",
@@ -637,8 +639,10 @@ def test_layout_names_existing_modules() -> None:
     assert named == modules, f"not in the layout: {modules - named}; gone: {named - modules}"
     for folder in re.findall(r"^\s*(src/\S+/)", body, flags=re.MULTILINE):
         assert (ROOT / folder).is_dir(), folder
-    assert "cli.py" in body
-    assert (ROOT / "src" / "axiswatch" / "cli.py").is_file()
+    assert "cli/" in body
+    assert (ROOT / "src" / "axiswatch" / "cli" / "__init__.py").is_file()
+    for module in (ROOT / "src" / "axiswatch" / "monitor" / "report").glob("[a-z]*.py"):
+        assert re.search(rf"\b{module.stem}\b", body), f"not in the layout: report/{module.name}"
 
 
 def test_delivering_capture_files(

@@ -45,7 +45,7 @@ def plot_distance_trend(
     Parameters
     ----------
     results : DataFrame
-        Rows of :func:`axiswatch.monitor._monitor.fleet_results` for one robot, axis and method:
+        Rows of :func:`axiswatch.monitor.fleet_results` for one robot, axis and method:
         ``captured_at``, ``epoch``, ``role``, ``distance``, ``threshold``, ``over``, ``alarm``.
     ax : matplotlib Axes, optional
         Default: a new figure (Agg backend).

@@ -23,17 +23,19 @@ from axiswatch.datasets._recorded import (
     read_recording,
 )
 from axiswatch.datasets._robot import (
-    DEFAULT_FLEET_FAULTS,
     FAULT_KINDS,
     NOMINAL_AXIS,
     TASKS,
     AxisSpec,
     Fault,
     FaultKind,
-    FleetFault,
     Task,
-    fleet_profile_toml,
     simulate_capture,
+)
+from axiswatch.datasets._robot_fleet import (
+    DEFAULT_FLEET_FAULTS,
+    FleetFault,
+    fleet_profile_toml,
     simulate_fleet,
 )
 

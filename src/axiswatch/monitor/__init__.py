@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
 if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
+    from axiswatch.monitor._config import MonitorConfig
     from axiswatch.monitor._fleet import (
         FleetFile,
         discover_fleet,
@@ -29,15 +30,12 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
     from axiswatch.monitor._parallel import (
         parallel_map,
     )
-    from axiswatch.monitor._report import (
+    from axiswatch.monitor.report.html import (
         write_report,
     )
-    from axiswatch.monitor._results import (
+    from axiswatch.monitor.report.results import (
         fleet_results,
         fleet_summary,
-    )
-    from axiswatch.monitor._scoring import (
-        MonitorConfig,
     )
     from axiswatch.monitor.store import (
         SQLiteStore,
@@ -50,21 +48,21 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
 _EXPORTS: dict[str, str] = {
     "FleetFile": "axiswatch.monitor._fleet",
     "MethodPreset": "axiswatch.monitor._methods",
-    "MonitorConfig": "axiswatch.monitor._scoring",
+    "MonitorConfig": "axiswatch.monitor._config",
     "MonitorSummary": "axiswatch.monitor._monitor",
     "SQLiteStore": "axiswatch.monitor.store",
     "Store": "axiswatch.monitor.store",
     "StoreBackend": "axiswatch.monitor.store",
     "discover_fleet": "axiswatch.monitor._fleet",
-    "fleet_results": "axiswatch.monitor._results",
-    "fleet_summary": "axiswatch.monitor._results",
+    "fleet_results": "axiswatch.monitor.report.results",
+    "fleet_summary": "axiswatch.monitor.report.results",
     "methods": "axiswatch.monitor._methods",
     "monitor_fleet": "axiswatch.monitor._monitor",
     "parallel_map": "axiswatch.monitor._parallel",
     "parse_capture_time": "axiswatch.monitor._fleet",
     "rebaseline": "axiswatch.monitor._ledger",
     "register_method": "axiswatch.monitor._methods",
-    "write_report": "axiswatch.monitor._report",
+    "write_report": "axiswatch.monitor.report.html",
 }
 
 __all__ = [

@@ -9,9 +9,10 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from axiswatch.monitor._config import MonitorConfig, params_hash
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
-from axiswatch.monitor._scoring import FitOutcome, MonitorConfig, ScoreOutcome, params_hash
+from axiswatch.monitor._scoring import FitOutcome, ScoreOutcome
 from axiswatch.monitor.store import (
     AddedBaseline,
     NewBaseline,

@@ -23,7 +23,7 @@ from axiswatch.paper._model import HealthModel
 from axiswatch.paper._stages import FeatureStage
 
 if TYPE_CHECKING:
-    from axiswatch.monitor._scoring import MonitorConfig
+    from axiswatch.monitor._config import MonitorConfig
 
 __all__ = [
     "DEFAULT_METHOD",

@@ -27,7 +27,7 @@ rule it uses: ``monitor`` in each row).
   of one robot, no profile, 6 fitting captures each. ``tasks``: axis ``a`` on task
   ``a mod n_tasks``, all healthy (a flag is a healthy axis listed, for a task unlike the
   others'); ``worn``: every axis on task 0, axis 0 with a friction fault of severity 1.0 from
-  its first capture (as ``tests/test_monitor_indicators.py``); ``worn backlash`` and
+  its first capture (as ``tests/monitor/test_monitor_indicators.py``); ``worn backlash`` and
   ``worn friction 0.6``: the same with a backlash fault of severity 1.0, a friction fault of 0.6.
 * **Hydraulic actuators** (``../shared/data``): the four units as one fleet, the first 6 records
   of each; act3 has gear damage from its first record.

@@ -1,6 +1,6 @@
 """The monitoring store: records in domain words, a protocol per caller, and SQLite, its backend.
 
-Every SQL statement of axiswatch is in this package (``tests/test_store_contract.py`` checks it,
+Every SQL statement of axiswatch is in this package (``tests/monitor/store/test_store_contract.py`` checks it,
 and holds the contract tests any other backend must pass). ``Store`` is the name users open a
 store by (``aw.Store("fleet.db")``): the SQLite backend.
 """

@@ -1,7 +1,7 @@
 """The store's protocols, one per caller: the driver's writer, the readers', the operator's.
 
 :class:`StoreBackend` is all three: what a backend implements. A caller names the smallest one
-it needs; a new backend passes ``tests/test_store_contract.py``.
+it needs; a new backend passes ``tests/monitor/store/test_store_contract.py``.
 """
 
 from __future__ import annotations
@@ -322,7 +322,7 @@ class StoreBackend(StoreWriter, StoreReader, StoreOperator, Protocol):
     """What the monitor needs from a store, in domain words; :class:`~axiswatch.monitor.store.SQLiteStore` is the product's.
 
     The driver's writer, the readers' reader and the operator's changes together. A new backend
-    passes ``tests/test_store_contract.py``.
+    passes ``tests/monitor/store/test_store_contract.py``.
     """
 
 

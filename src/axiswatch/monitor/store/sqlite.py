@@ -23,7 +23,7 @@ import json
 import sqlite3
 from collections.abc import Callable, Sequence
 from contextlib import suppress
-from datetime import datetime
+from datetime import datetime, timedelta
 from pathlib import Path
 
 from axiswatch.exceptions import StoreError
@@ -43,15 +43,16 @@ from axiswatch.monitor.store.records import (
     now,
     now_us,
 )
+from axiswatch.monitor.store.sqlite_retention import RECENT_KEPT, Compaction, thin
 from axiswatch.monitor.store.sqlite_tables import SQLiteTables, baseline_of, time_of
-from axiswatch.monitor.store.upgrades import create_or_check, upgrade
+from axiswatch.monitor.store.upgrades import create_or_check, pack_score, upgrade
 
 __all__ = ["SQLiteStore", "Store"]
 
 _INSERT_SCORE = (
     "INSERT INTO scores (baseline_id, robot, axis, method, capture, captured_at, path, "
     "file_hash, file_size, file_mtime_ns, role, distance, threshold, over, alarm, "
-    "reason, details, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+    "packed, primed, scored_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
 
 #: A rejection, or a refreshed one: a rejection whose reason changed (its ``reason_key``, else
@@ -65,6 +66,14 @@ _INSERT_REJECTION = (
     "transient=excluded.transient, reason_key=excluded.reason_key, removed_at=NULL, "
     "acknowledged_at=CASE WHEN coalesce(reason_key, error)="
     "coalesce(excluded.reason_key, excluded.error) THEN acknowledged_at END"
+)
+
+#: Every score, thinned ones included (file and axis only): what a run must not score again.
+_EVERY_SCORE = (
+    "(SELECT id, robot, axis, method, capture, path, file_hash, file_size, file_mtime_ns "
+    "FROM scores UNION ALL SELECT t.id, b.robot, b.axis, b.method, t.capture, t.path, "
+    "t.file_hash, t.file_size, t.file_mtime_ns FROM thinned_scores t "
+    "JOIN baselines b ON b.id = t.baseline_id)"
 )
 
 #: A check, or the same check again (kept as it is), or another note of its kind (news again).
@@ -101,7 +110,7 @@ class SQLiteStore(SQLiteTables):
     >>> import tempfile, pathlib
     >>> store = SQLiteStore(pathlib.Path(tempfile.mkdtemp()) / "fleet.db")
     >>> store.version, len(store.score_table())
-    (2, 0)
+    (3, 0)
     >>> store.close()
     """
 
@@ -242,8 +251,8 @@ class SQLiteStore(SQLiteTables):
 
     def last_scored(self, path: str) -> ScoredFile | None:
         row = self._connection.execute(
-            "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-            "WHERE path=? ORDER BY id DESC LIMIT 1",
+            f"SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns "
+            f"FROM {_EVERY_SCORE} WHERE path=? ORDER BY id DESC LIMIT 1",
             (path,),
         ).fetchone()
         return None if row is None else ScoredFile(*row)
@@ -251,7 +260,7 @@ class SQLiteStore(SQLiteTables):
     def was_scored(self, path: str, file_hash: str, method: str) -> bool:
         return (
             self._connection.execute(
-                "SELECT 1 FROM scores WHERE path=? AND file_hash=? AND method=? LIMIT 1",
+                f"SELECT 1 FROM {_EVERY_SCORE} WHERE path=? AND file_hash=? AND method=? LIMIT 1",
                 (path, file_hash, method),
             ).fetchone()
             is not None
@@ -323,7 +332,7 @@ class SQLiteStore(SQLiteTables):
         ...     copy = store.backup(folder / "fleet-backup.db")
         >>> with SQLiteStore(copy) as restored:
         ...     restored.version
-        2
+        3
         """
         target = Path(destination)
         if target.exists():
@@ -348,6 +357,54 @@ class SQLiteStore(SQLiteTables):
         finally:
             partial.unlink(missing_ok=True)
         return target
+
+    def compact(
+        self, keep: timedelta, every: timedelta = timedelta(days=1), *, recent: int = RECENT_KEPT
+    ) -> Compaction:
+        """Thin the history older than ``keep`` to one score per baseline and ``every``, then
+        return the space to the file system (``VACUUM``).
+
+        Kept in full: the last ``keep`` before the newest capture, baseline and calibration
+        scores, scores over the threshold or in alarm, the clean score before each alarm,
+        acknowledged scores and each baseline's last ``recent`` monitored scores (at least its
+        alarm rule's window). Of the rest, each period keeps its highest distance. A thinned
+        capture is never scored again.
+
+        Parameters
+        ----------
+        keep : timedelta
+            The history kept in full, before the newest capture.
+        every : timedelta, default=1 day
+            The period older scores are thinned to one of.
+        recent : int, default=RECENT_KEPT (100)
+            The latest monitored scores of each baseline kept in full.
+
+        Returns
+        -------
+        Compaction
+            The scores thinned and kept.
+
+        Raises
+        ------
+        StoreError
+            If the store is opened read-only.
+        ValueError
+            If ``keep`` is negative or ``every`` is not positive.
+        """
+        if self._read_only:
+            raise StoreError(f"store '{self.path}' is opened read-only; compacting writes it.")
+        if keep < timedelta(0):
+            raise ValueError(f"The 'keep' parameter must not be negative. Got {keep}.")
+        if every <= timedelta(0):
+            raise ValueError(f"The 'every' parameter must be positive. Got {every}.")
+        if recent < 0:
+            raise ValueError(f"The 'recent' parameter must not be negative. Got {recent}.")
+        with self._write() as db:
+            done = thin(db, keep, every, recent)
+        with self._errors():
+            self._connection.execute("VACUUM")
+            self._connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        return done
 
     def __enter__(self) -> SQLiteStore:
         return self
@@ -377,12 +434,13 @@ class SQLiteStore(SQLiteTables):
                 ),
             )  # fmt: skip
             baseline_id = int(cursor.lastrowid or 0)
+            packed = pack_score(db, baseline_id, "baseline", b.reason, json.dumps(b.details))
             db.execute(
                 _INSERT_SCORE,
                 (
                     baseline_id, b.robot, b.axis, b.method, b.capture, b.captured_at.isoformat(),
                     b.path, b.file_hash, b.file_size, b.file_mtime_ns, "baseline", None, None,
-                    0, 0, b.reason, json.dumps(b.details), now(),
+                    0, 0, *packed, now(),
                 ),
             )  # fmt: skip
             for kind, note in sorted(b.checks.items()):
@@ -395,8 +453,9 @@ class SQLiteStore(SQLiteTables):
         s = score
         with self._write() as db:
             if db.execute(
-                "SELECT 1 FROM scores WHERE baseline_id=? AND capture=?",
-                (s.baseline_id, s.capture),
+                "SELECT 1 FROM scores WHERE baseline_id=? AND capture=? UNION ALL "
+                "SELECT 1 FROM thinned_scores WHERE baseline_id=? AND capture=?",
+                (s.baseline_id, s.capture, s.baseline_id, s.capture),
             ).fetchone():
                 return False
             baseline = baseline_of(
@@ -418,14 +477,15 @@ class SQLiteStore(SQLiteTables):
                     "UPDATE scores SET threshold=? WHERE baseline_id=? AND role='calibration'",
                     (decision.calibrated.value, s.baseline_id),
                 )
+            details = json.dumps({**s.details, **decision.details}, sort_keys=True)
+            packed = pack_score(db, s.baseline_id, decision.role, decision.reason, details)
             db.execute(
                 _INSERT_SCORE,
                 (
                     s.baseline_id, s.robot, s.axis, s.method, s.capture,
                     s.captured_at.isoformat(), s.path, s.file_hash, s.file_size,
                     s.file_mtime_ns, decision.role, s.distance, decision.threshold,
-                    int(decision.over), int(decision.alarm), decision.reason,
-                    json.dumps({**s.details, **decision.details}, sort_keys=True), now(),
+                    int(decision.over), int(decision.alarm), *packed, now(),
                 ),
             )  # fmt: skip
         return True
@@ -566,24 +626,29 @@ class SQLiteStore(SQLiteTables):
 
     def last_captured_at(self, robot: str, axis: str, method: str) -> datetime | None:
         last = self._rows(
-            "SELECT max(captured_at) FROM scores WHERE robot=? AND axis=? AND method=?",
+            "SELECT max(s.captured_at) FROM baselines b JOIN scores s ON s.baseline_id = b.id "
+            "WHERE b.robot=? AND b.axis=? AND b.method=?",
             (robot, axis, method),
         )[0][0]
         return None if last is None else time_of(last)
 
     def scored_captures(self, baseline_id: int) -> set[str]:
-        rows = self._rows("SELECT capture FROM scores WHERE baseline_id=?", (baseline_id,))
+        rows = self._rows(
+            "SELECT capture FROM scores WHERE baseline_id=? "
+            "UNION ALL SELECT capture FROM thinned_scores WHERE baseline_id=?",
+            (baseline_id, baseline_id),
+        )
         return {r["capture"] for r in rows}
 
     def scored_files(self) -> dict[str, ScoredFile]:
         rows = self._rows(
-            "SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns FROM scores "
-            "ORDER BY id"
+            f"SELECT robot, axis, capture, path, file_hash, file_size, file_mtime_ns "
+            f"FROM {_EVERY_SCORE} ORDER BY id"
         )
         return {r["path"]: ScoredFile(**dict(r)) for r in rows}
 
     def scored_contents(self, method: str) -> set[tuple[str, str]]:
-        rows = self._rows("SELECT path, file_hash FROM scores WHERE method=?", (method,))
+        rows = self._rows(f"SELECT path, file_hash FROM {_EVERY_SCORE} WHERE method=?", (method,))
         return {(r["path"], r["file_hash"]) for r in rows}
 
     def rejections(self, method: str) -> list[Rejection]:

@@ -18,7 +18,9 @@ import pandas as pd
 from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._feedback import check_verdict
+from axiswatch.monitor.store.packing import unpack
 from axiswatch.monitor.store.records import AlarmState, Baseline, BaselineCheck, summary_extras
+from axiswatch.monitor.store.upgrades import dictionaries
 
 __all__ = ["SQLiteTables"]
 
@@ -295,12 +297,22 @@ class SQLiteTables:
     def score_table(self, *, robot: str | None = None, axis: str | None = None) -> pd.DataFrame:
         frame = self._frame(
             "SELECT s.robot, s.axis, s.capture, s.method, s.distance, s.threshold, s.alarm, "
-            "s.captured_at, b.epoch, s.role, s.over, s.reason, s.details, s.path FROM scores s "
-            "JOIN baselines b ON b.id = s.baseline_id "
+            "s.captured_at, b.epoch, s.role, s.over, s.baseline_id, s.packed, s.primed, s.path "
+            "FROM scores s JOIN baselines b ON b.id = s.baseline_id "
             "WHERE (? IS NULL OR s.robot=?) AND (? IS NULL OR s.axis=?) "
             "ORDER BY s.robot, s.axis, s.method, s.captured_at, s.capture, b.epoch",
             (robot, robot, axis, axis),
         )
+        with self._errors():
+            primers = dictionaries(self._connection, frame["baseline_id"])
+        texts = [
+            unpack(bytes(packed), primers[int(baseline_id)] if primed else None)
+            for baseline_id, packed, primed in zip(
+                frame.pop("baseline_id"), frame.pop("packed"), frame.pop("primed"), strict=True
+            )
+        ]
+        frame.insert(11, "reason", [reason for reason, _ in texts])
+        frame.insert(12, "details", [details for _, details in texts])
         frame["alarm"] = frame["alarm"].astype(bool)
         frame["over"] = frame["over"].astype(bool)
         frame["distance"] = frame["distance"].astype(np.float64)
@@ -312,7 +324,7 @@ class SQLiteTables:
             "SELECT b.id AS baseline_id, b.robot, b.axis, b.method, b.epoch, "
             "b.capture AS baseline, b.threshold, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
-            "AS scored, "
+            "+ (SELECT count(*) FROM thinned_scores t WHERE t.baseline_id=b.id) AS scored, "
             "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.alarm=1 AND NOT "
             "coalesce((SELECT p.alarm FROM scores p WHERE p.baseline_id=b.id "

@@ -1,6 +1,6 @@
 """The SQLite store's schema, and the upgrades a store made by an earlier version gets on open.
 
-Tables (schema version 2):
+Tables (schema version 3):
 
 ``baselines``
     one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
@@ -12,14 +12,22 @@ Tables (schema version 2):
 ``scores``
     one row per capture and baseline: role (``baseline``, ``calibration``, ``monitor`` or
     ``excluded``), distance, threshold, whether it is over the threshold, the alarm state after
-    it, a reason a service engineer can read and a JSON ``details`` column (phase lag, eigengap,
-    ...). The row id is the scoring order.
+    it, and ``packed``: a reason a service engineer can read and the JSON details (phase lag,
+    eigengap, ...) compressed by :mod:`~axiswatch.monitor.store.packing`, ``primed`` with the
+    baseline's dictionary or not. The row id is the scoring order.
+``score_dictionaries`` (schema version 3)
+    per baseline, the text of its first monitored score: what its later scores are compressed
+    against. A version-2 store's ``reason`` and ``details`` columns are packed on open, in one
+    transaction, every text kept byte for byte (``axiswatch compact`` then returns the space).
 ``rejections``
     capture files that could not be used, with the error; keyed by file content hash, so a
     repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
     folder's row derived from its line) is what an acknowledgement is of. ``removed_at`` (added
     on open, empty): when a run found the rejected file gone from the fleet folder; the row is
     kept as history and needs no attention (cleared when the same content is back).
+``thinned_scores``
+    what ``axiswatch compact`` thinned: per score, its baseline, capture, file, size, time and
+    hash, so a run never scores the capture again (``monitor.store.sqlite_retention``).
 ``changed_files``
     files whose content changed after they were scored (reported, never silently re-scored).
 ``baseline_checks``
@@ -37,6 +45,7 @@ their rows loses no result, only time):
     the baseline file's hash, the parameters and the library version it was fitted with; used
     only while all three still match.
 ``file_index``
+    keyed by path (without a row id since schema version 3, so each path is stored once):
     path, size, ``mtime_ns`` and SHA-256 of every capture file hashed: a file whose size and
     modification time are unchanged is never hashed again. ``verified_run`` is the run that
     last compared the file with the disk (kept files are verified a slice at a time).
@@ -53,14 +62,17 @@ their rows loses no result, only time):
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Iterable
 from pathlib import Path
 
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._fleet import misnamed_folder_key
+from axiswatch.monitor.store.packing import pack, text_of
+from axiswatch.monitor.store.sqlite_retention import THINNED_SCORES
 
-__all__ = ["SCHEMA_VERSION", "create_or_check", "upgrade"]
+__all__ = ["SCHEMA_VERSION", "create_or_check", "dictionaries", "pack_score", "upgrade"]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 _ACKNOWLEDGEMENTS = """
 CREATE TABLE acknowledgements (
@@ -125,12 +137,11 @@ CREATE TABLE scores (
     threshold REAL,
     over INTEGER NOT NULL,
     alarm INTEGER NOT NULL,
-    reason TEXT NOT NULL,
-    details TEXT NOT NULL,
     scored_at TEXT NOT NULL,
+    packed BLOB NOT NULL,
+    primed INTEGER NOT NULL,
     UNIQUE (baseline_id, capture)
 );
-CREATE INDEX scores_axis ON scores (robot, axis, method);
 CREATE TABLE rejections (
     id INTEGER PRIMARY KEY,
     robot TEXT NOT NULL,
@@ -158,7 +169,25 @@ CREATE TABLE changed_files (
     + _ACKNOWLEDGEMENTS
 )
 
-_CACHES = """
+_SCORE_DICTIONARIES = """
+CREATE TABLE IF NOT EXISTS score_dictionaries (
+    baseline_id INTEGER PRIMARY KEY REFERENCES baselines (id),
+    dictionary BLOB NOT NULL
+)
+"""
+
+_FILE_INDEX = """
+CREATE TABLE IF NOT EXISTS file_index (
+    path TEXT PRIMARY KEY,
+    size INTEGER NOT NULL,
+    mtime_ns INTEGER NOT NULL,
+    hash TEXT NOT NULL,
+    verified_run INTEGER NOT NULL
+) WITHOUT ROWID
+"""
+
+_CACHES = (
+    """
 CREATE TABLE IF NOT EXISTS fitted_models (
     baseline_id INTEGER PRIMARY KEY REFERENCES baselines (id),
     file_hash TEXT NOT NULL,
@@ -171,13 +200,9 @@ CREATE TABLE IF NOT EXISTS fitted_models (
     reference TEXT
 );
 CREATE INDEX IF NOT EXISTS fitted_models_hash ON fitted_models (model_hash);
-CREATE TABLE IF NOT EXISTS file_index (
-    path TEXT PRIMARY KEY,
-    size INTEGER NOT NULL,
-    mtime_ns INTEGER NOT NULL,
-    hash TEXT NOT NULL,
-    verified_run INTEGER NOT NULL
-);
+"""
+    + _FILE_INDEX
+    + """;
 DROP INDEX IF EXISTS file_index_verified;
 CREATE INDEX IF NOT EXISTS file_index_verified_path ON file_index (verified_run, path);
 CREATE TABLE IF NOT EXISTS axis_folders (
@@ -193,6 +218,7 @@ CREATE INDEX IF NOT EXISTS scores_path ON scores (path);
 CREATE INDEX IF NOT EXISTS scores_alarmed ON scores (method) WHERE alarm=1;
 CREATE TABLE IF NOT EXISTS runs (id INTEGER PRIMARY KEY, started_at TEXT NOT NULL);
 """
+)
 
 #: Additive upgrades applied on open, each (table, column, declaration): older readers ignore
 #: them, so the schema version stays.
@@ -232,7 +258,8 @@ CREATE TABLE IF NOT EXISTS axis_activity (
 
 def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
     """Create the schema in an empty store, or check an existing store's version (a version-1
-    store gains the acknowledgements table); add the caches it lacks. Returns the version."""
+    store gains the acknowledgements table, a version-2 store's score texts are packed); add
+    the caches it lacks. Returns the version."""
     tables = {
         row[0] for row in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")
     }
@@ -240,6 +267,7 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
         for statement in _SCHEMA.split(";"):
             if statement.strip():
                 connection.execute(statement)
+        connection.execute(_SCORE_DICTIONARIES)
         connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
         _ensure_caches(connection)
         return SCHEMA_VERSION
@@ -251,6 +279,10 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
     version = connection.execute("SELECT max(version) FROM schema_version").fetchone()[0]
     if version == 1:  # version 2 only adds the acknowledgements table
         connection.execute(_ACKNOWLEDGEMENTS)
+        connection.execute("INSERT INTO schema_version VALUES (2)")
+        version = 2
+    if version == 2:
+        _pack_scores(connection)
         connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
         version = SCHEMA_VERSION
     if version != SCHEMA_VERSION:
@@ -260,6 +292,36 @@ def create_or_check(connection: sqlite3.Connection, location: Path) -> int:
         )
     _ensure_caches(connection)
     return int(version)
+
+
+def _pack_scores(connection: sqlite3.Connection) -> None:
+    """Version 2 to 3: each score's ``reason`` and ``details`` into ``packed``, in scoring order
+    (so a baseline's dictionary is its first monitored score, as when written), then the two text
+    columns dropped; the file index without a row id, and no index of scores by axis. Row ids
+    and every value are kept."""
+    connection.execute(_SCORE_DICTIONARIES)
+    connection.execute("ALTER TABLE scores ADD COLUMN packed BLOB NOT NULL DEFAULT x''")
+    connection.execute("ALTER TABLE scores ADD COLUMN primed INTEGER NOT NULL DEFAULT 0")
+    rows = connection.execute(
+        "SELECT id, baseline_id, role, reason, details FROM scores ORDER BY id"
+    )
+    for score_id, baseline_id, role, reason, details in rows.fetchall():
+        packed, primed = pack_score(connection, baseline_id, role, reason, details)
+        connection.execute(
+            "UPDATE scores SET packed=?, primed=? WHERE id=?", (packed, primed, score_id)
+        )
+    connection.execute("ALTER TABLE scores DROP COLUMN reason")
+    connection.execute("ALTER TABLE scores DROP COLUMN details")
+    # Scores are found by baseline, path or alarm; the axis index only took space.
+    connection.execute("DROP INDEX IF EXISTS scores_axis")
+    # The file index keyed by path alone: the path is stored once, not twice.
+    if connection.execute(
+        "SELECT 1 FROM sqlite_master WHERE type='table' AND name='file_index'"
+    ).fetchone():
+        connection.execute("ALTER TABLE file_index RENAME TO file_index_rowid")
+        connection.execute(_FILE_INDEX)
+        connection.execute("INSERT INTO file_index SELECT * FROM file_index_rowid")
+        connection.execute("DROP TABLE file_index_rowid")
 
 
 def _ensure_caches(connection: sqlite3.Connection) -> None:
@@ -298,3 +360,42 @@ def upgrade(connection: sqlite3.Connection) -> None:
             connection.execute("UPDATE rejections SET reason_key=? WHERE id=?", (key, row_id))
     connection.execute(_AXIS_ACTIVITY)
     connection.execute(_BASELINE_CHECKS)
+    for statement in THINNED_SCORES.split(";"):
+        connection.execute(statement)
+
+
+def pack_score(
+    db: sqlite3.Connection, baseline_id: int, role: str, reason: str, details: str
+) -> tuple[bytes, int]:
+    """The ``(packed, primed)`` columns of a score of ``baseline_id`` in ``role``.
+
+    The first ``monitor`` score of a baseline becomes its dictionary: later monitored scores
+    share its keys and wording. The few baseline and calibration scores before it are packed
+    alone (their text differs from the monitored ones).
+    """
+    row = db.execute(
+        "SELECT dictionary FROM score_dictionaries WHERE baseline_id=?", (baseline_id,)
+    ).fetchone()
+    dictionary = None if row is None else bytes(row[0])
+    if dictionary is None and role == "monitor":
+        dictionary = text_of(reason, details)
+        db.execute(
+            "INSERT INTO score_dictionaries (baseline_id, dictionary) VALUES (?, ?)",
+            (baseline_id, dictionary),
+        )
+    return pack(reason, details, dictionary), int(dictionary is not None)
+
+
+def dictionaries(db: sqlite3.Connection, baseline_ids: Iterable[int]) -> dict[int, bytes]:
+    """The dictionaries of ``baseline_ids`` (those that have one)."""
+    wanted = sorted(set(baseline_ids))
+    found: dict[int, bytes] = {}
+    for start in range(0, len(wanted), 500):
+        chunk = wanted[start : start + 500]
+        marks = ", ".join("?" * len(chunk))
+        for baseline_id, dictionary in db.execute(
+            f"SELECT baseline_id, dictionary FROM score_dictionaries WHERE baseline_id IN ({marks})",
+            chunk,
+        ):
+            found[int(baseline_id)] = bytes(dictionary)
+    return found

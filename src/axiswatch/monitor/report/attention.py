@@ -1,0 +1,312 @@
+"""Which axes need a service engineer now, and one line each on why.
+
+The report's first screen, as pure functions of what the store holds. The kinds, most urgent
+first: alarm, bad data, baseline check, stale, acknowledged. docs/internals.md, "Attention".
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from axiswatch.monitor.store import AlarmState, BaselineCheck
+from axiswatch.paper._attribution import describe_top_indicator
+
+__all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
+
+#: Kinds in order of urgency; all but the last two need attention.
+KINDS: tuple[str, ...] = (
+    "alarm",
+    "bad data",
+    "baseline check",
+    "stale",
+    "acknowledged",
+    "calibrating",
+    "ok",
+)
+
+#: The method that leads the report when the store holds it: the product default first.
+METHOD_ORDER: tuple[str, ...] = ("indicators", "lra", "pca")
+
+
+@dataclass(frozen=True)
+class AxisAttention:
+    """One axis's place on the first screen.
+
+    Attributes
+    ----------
+    robot, axis, method : str
+    kind : str
+        One of :data:`KINDS`.
+    line : str
+        What a service engineer needs to know, in one line.
+    severity : float
+        Distance over threshold of the last capture (NaN when unknown): orders axes of a kind.
+    last_capture_at : str or None
+        When the axis's last scored capture was taken.
+    problems : list of str
+        Every kind that applies (an alarmed axis can also have rejected captures).
+    """
+
+    robot: str
+    axis: str
+    method: str
+    kind: str
+    line: str
+    severity: float
+    last_capture_at: str | None
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def needs_attention(self) -> bool:
+        """Alarm, bad data, baseline check, stale or acknowledged alarm."""
+        return self.kind in KINDS[:-2]
+
+    @property
+    def anchor(self) -> str:
+        """The id of the axis's section in the report."""
+        return f"{self.robot}-{self.axis}"
+
+
+def lead_method(methods: Sequence[str]) -> str | None:
+    """The method the report leads with: the first of :data:`METHOD_ORDER` present.
+
+    Examples
+    --------
+    >>> lead_method(["pca", "indicators", "lra"]), lead_method(["pca", "lra"]), lead_method([])
+    ('indicators', 'lra', None)
+    """
+    present = set(methods)
+    return next((m for m in METHOD_ORDER if m in present), next(iter(sorted(present)), None))
+
+
+def _day(stamp: str | None) -> str:
+    return "" if stamp is None else str(stamp)[:10]
+
+
+def _alarm_line(
+    last: Any, state: AlarmState, captures_in_alarm: int, threshold_origin: str | None
+) -> str:
+    plural = "s" if captures_in_alarm != 1 else ""
+    line = f"ALARM since {_day(state.raised_at)} ({captures_in_alarm} capture{plural} in alarm): "
+    if last is None:
+        return line
+    details = json.loads(last["details"])
+    top = details.get("top_indicator") or describe_top_indicator(details.get("indicators", {}))
+    if top:
+        line += f"{top}. "
+    origin = f" ({threshold_origin})" if threshold_origin else ""
+    if last["over"]:
+        return (
+            line + f"Distance {last['distance']:.4g} > threshold {last['threshold']:.4g}{origin}."
+        )
+    return line + (
+        f"Last distance {last['distance']:.4g} under threshold {last['threshold']:.4g}{origin}; "
+        "the alarm holds until enough clean captures in a row."
+    )
+
+
+def triage(
+    summary: pd.DataFrame,
+    results: pd.DataFrame,
+    rejections: pd.DataFrame,
+    changed: pd.DataFrame,
+    alarms: Sequence[AlarmState],
+    *,
+    method: str,
+    checks: Sequence[BaselineCheck],
+    stale_factor: float = 3.0,
+) -> list[AxisAttention]:
+    """Every axis of ``method``, the ones needing attention first, ranked by :data:`KINDS`.
+
+    Parameters
+    ----------
+    summary : DataFrame
+        :func:`~axiswatch.monitor.report.results.fleet_summary`.
+    results : DataFrame
+        :func:`~axiswatch.monitor.report.results.fleet_results`.
+    rejections : DataFrame
+        :func:`~axiswatch.monitor.report.results.fleet_rejections`.
+    changed : DataFrame
+        ``StoreBackend.changed_file_table()``.
+    alarms : sequence of AlarmState
+        ``StoreBackend.alarms()``.
+    method : str
+    checks : sequence of BaselineCheck
+        ``StoreBackend.baseline_checks()``: the checks of the active baselines, acknowledged or
+        not (those of other methods are left out here).
+    stale_factor : float, default=3.0
+        An axis is stale when its last capture is more than this many of its usual capture
+        intervals behind the fleet's newest capture (three missed captures in a row).
+
+    Returns
+    -------
+    list of AxisAttention
+        Ranked: kind, then severity (largest first), then robot and axis.
+    """
+    own = results[(results.method == method) & (results.role != "baseline")]
+    scored_paths = set(results.path[results.method == method])
+    rows = summary[summary.method == method]
+    rejected = rejections[rejections.method == method]
+    axes = sorted(
+        set(zip(rows.robot, rows.axis, strict=True))
+        | set(zip(rejected.robot, rejected.axis, strict=True))
+        | set(zip(changed.robot, changed.axis, strict=True))
+    )
+    newest = pd.to_datetime(own.captured_at).max() if not own.empty else None
+    alarm_of = {(a.robot, a.axis): a for a in alarms if a.method == method}
+    checks_of: dict[tuple[str, str], list[BaselineCheck]] = {}
+    for check in checks:
+        if check.method == method:
+            checks_of.setdefault((check.robot, check.axis), []).append(check)
+    ranked = []
+    for robot, axis in axes:
+        row = rows[(rows.robot == robot) & (rows.axis == axis)]
+        info = row.iloc[0] if not row.empty else None
+        history = own[(own.robot == robot) & (own.axis == axis)]
+        if info is not None:
+            history = history[history.epoch == info["epoch"]]
+        last = history.iloc[-1] if not history.empty else None
+        problems: list[str] = []
+        lines: list[str] = []
+        severity = float("nan")
+        if last is not None and pd.notna(last["threshold"]) and last["threshold"] > 0:
+            severity = float(last["distance"] / last["threshold"])
+        state = alarm_of.get((robot, axis))
+        origin = None if info is None else info.get("threshold_origin")
+        if state is not None:
+            in_alarm = int((history.alarm & (history.captured_at >= state.raised_at)).sum())
+            line = _alarm_line(last, state, in_alarm, origin)
+            if state.acknowledged:
+                problems.append("acknowledged")
+                line += (
+                    f" Seen by {state.acknowledged_by} on {_day(state.acknowledged_at)}: "
+                    f"{state.note}"
+                )
+            else:
+                problems.append("alarm")
+            lines.append(line)
+        everything = rejected[(rejected.robot == robot) & (rejected.axis == axis)]
+        everything = everything[~everything.path.isin(scored_paths)]
+        # Removed from the folder since, or acknowledged (`rejections --ack`): on the line as
+        # history, no longer a problem, as in the monitor's exit status.
+        removed = everything[everything.removed_at.notna()]
+        everything = everything[everything.removed_at.isna()]
+        seen = everything[everything.acknowledged_at.notna()]
+        bad = everything[everything.acknowledged_at.isna()]
+        if info is None and (not bad.empty or (seen.empty and removed.empty)):
+            problems.append("bad data")
+            lines.append(
+                f"No baseline: {len(bad)} capture file(s) rejected, latest "
+                f"{bad.path.iloc[-1]}: {bad.error.iloc[-1]}"
+                if not bad.empty
+                else "No baseline yet."
+            )
+        elif not bad.empty:
+            problems.append("bad data")
+            lines.append(f"{len(bad)} capture file(s) rejected, latest: {bad.error.iloc[-1]}")
+        moved = changed[(changed.robot == robot) & (changed.axis == axis)]
+        seen_moved = moved[moved.acknowledged_at.notna()]  # on the line as seen, like `seen`
+        moved = moved[moved.acknowledged_at.isna()]
+        if not moved.empty:
+            problems.append("bad data")
+            lines.append(
+                f"{len(moved)} file(s) changed after they were scored (results kept): "
+                + ", ".join(moved.path)
+            )
+        last_at = None if last is None else str(last["captured_at"])
+        times = pd.to_datetime(history.captured_at)
+        if newest is not None and len(times) >= 2:
+            usual = times.diff().median()
+            behind = newest - times.max()
+            if usual > pd.Timedelta(0) and behind > stale_factor * usual:
+                problems.append("stale")
+                lines.append(
+                    f"Stale: no capture since {_day(last_at)}, {behind} behind the fleet's "
+                    f"newest ({behind / usual:.0f} x its usual interval of {usual})."
+                )
+        if info is not None and info.get("state") == "stale" and "stale" not in problems:
+            # The monitor's own notion of stale: no new capture file for longer than its
+            # --stale-after, by the wall clock, whatever the dates of the captures say.
+            problems.append("stale")
+            lines.append(f"Stale: no new capture file since {_day(str(info['last_seen']))}.")
+        stored = checks_of.get((robot, axis), [])
+        if any(c.acknowledged_at is None for c in stored):
+            problems.append("baseline check")
+        if set(problems) - {"baseline check"}:
+            kind = min(problems, key=KINDS.index)
+        else:
+            calm = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
+            kind = "baseline check" if problems else calm
+            lines.append(_healthy_line(info, last, history))
+        if not seen.empty:
+            lines.append(
+                f"{len(seen)} capture file(s) rejected, seen on "
+                f"{_day(seen.acknowledged_at.max())}, latest: {seen.error.iloc[-1]}"
+            )
+        if not removed.empty:
+            last_removed = removed.sort_values("removed_at", kind="stable").iloc[-1]
+            lines.append(
+                f"{len(removed)} rejected capture file(s) since removed from the fleet folder "
+                f"(history), last on {_day(last_removed.removed_at)}: {last_removed.path}."
+            )
+        if not seen_moved.empty:
+            lines.append(
+                f"{len(seen_moved)} file(s) changed after they were scored (results kept), seen "
+                f"on {_day(seen_moved.acknowledged_at.max())}: " + ", ".join(seen_moved.path)
+            )
+        lines += [_check_line(c) for c in stored]
+        if last is not None:
+            # Checks in the scores' details that the store does not hold (see the module's doc).
+            details = json.loads(last["details"])
+            held = {c.note for c in stored}
+            lines += [
+                f"Baseline to check: {details[key]}."
+                for key in ("baseline_check", "fleet_check")
+                if details.get(key) and details[key] not in held
+            ]
+        ranked.append(
+            AxisAttention(robot, axis, method, kind, " ".join(lines), severity, last_at, problems)
+        )
+    return sorted(
+        ranked,
+        key=lambda a: (
+            KINDS.index(a.kind),
+            -a.severity if a.severity == a.severity else 0.0,
+            a.robot,
+            a.axis,
+        ),
+    )
+
+
+def _check_line(check: BaselineCheck) -> str:
+    """The axis's line on a stored check: to check, or seen (``rejections --ack``) and when."""
+    if check.acknowledged_at is None:
+        return f"Baseline to check: {check.note}."
+    return f"Baseline to check, seen on {_day(check.acknowledged_at)}: {check.note}."
+
+
+def _healthy_line(info: Any, last: Any, history: pd.DataFrame) -> str:
+    if info is None:  # only acknowledged (`rejections --ack`) or removed rejections
+        return "No baseline yet."
+    if last is None:
+        return "Baseline set; no capture scored yet."
+    if pd.isna(info["threshold"]):
+        return (
+            f"Calibrating: {int(info['scored'])} of the captures that set the threshold "
+            f"scored, last {_day(last['captured_at'])}."
+        )
+    raised = history[history.alarm & ~history.alarm.shift(fill_value=False)]
+    cleared = (
+        f" {len(raised)} alarm(s) raised and cleared ({', '.join(map(_day, raised.captured_at))})."
+        if not raised.empty
+        else ""
+    )
+    return (
+        f"ok: last capture {_day(last['captured_at'])}, distance {last['distance']:.4g} "
+        f"under threshold {last['threshold']:.4g}.{cleared}"
+    )

@@ -1,0 +1,165 @@
+"""The text a ``monitor`` run prints: what it did, the fleet's table, problems and verdicts.
+
+Each function returns the messages in order; the CLI prints each one, escaped.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from datetime import timedelta
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from axiswatch.monitor._run import MonitorSummary
+    from axiswatch.monitor.store import StoreBackend
+
+__all__ = ["fleet_table", "fold_same_reason", "run_header", "run_problems", "verdict_lines"]
+
+
+def run_header(result: MonitorSummary) -> str:
+    """One line: the files seen, the new baselines and the captures scored in the run."""
+    # n_files counts only the folders this run listed: say so, or a second run seems to
+    # have lost the files of the unchanged folders.
+    unchanged = (
+        f" in the axis folders listed ({result.unchanged_folders} axis folder(s) "
+        "unchanged since the last run, not listed)"
+        if result.unchanged_folders
+        else ""
+    )
+    return (
+        f"{result.method}: {result.n_files} capture files{unchanged}, "
+        f"{result.new_baselines} new baseline(s), {result.scored} capture(s) scored "
+        "in this run."
+    )
+
+
+def fleet_table(store: StoreBackend, stale_after: timedelta | None, method: str) -> list[str]:
+    """The fleet's summary of ``method``: the columns that fit a terminal, then the threshold."""
+    from axiswatch.monitor.report.results import fleet_summary
+
+    summary = fleet_summary(store, stale_after=stale_after)
+    summary = summary[summary.method == method].reset_index(drop=True)
+    if summary.empty:
+        return ["No axis has a baseline yet."]
+    # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
+    columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
+               "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip
+    if summary.acknowledged_by.notna().any():
+        columns.insert(5, "acknowledged_by")
+    if summary.bad_data_acknowledged.notna().any():
+        columns.insert(columns.index("state") + 1, "bad_data_acknowledged")
+    shown = summary[columns].fillna(
+        {"alarm_since": "", "acknowledged_by": "", "bad_data_acknowledged": ""}
+    )
+    lines = [shown.to_string(index=False, float_format=lambda v: f"{v:.4g}")]
+    origins = summary.threshold_origin.dropna().unique()
+    if len(origins) == 1:
+        lines.append(f"threshold of every axis: {origins[0]}.")
+    return lines
+
+
+def verdict_lines(store: StoreBackend, method: str, stale_after: timedelta | None) -> list[str]:
+    """The axes needing attention and their verdicts (the report's first screen), in lines."""
+    from axiswatch.monitor.report.verdict import attention_lines, fleet_verdicts
+
+    return attention_lines(fleet_verdicts(store, method, stale_after=stale_after), method)
+
+
+def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) -> list[str]:
+    """What needs a look after a run: waiting files, problems by kind, acknowledged ones."""
+    lines = []
+    if result.waiting:
+        lines.append(
+            f"\n{result.waiting} capture file(s) modified less than {settle_s:g} s ago: "
+            "waiting (scored by a later run)."
+        )
+    for title, items in (
+        ("Rejected captures", fold_same_reason(result.rejected)),
+        ("Changed files", result.changed),
+        ("Axes not scored", result.axis_problems),
+        ("Baselines to check", result.baseline_checks),
+        ("Axes calibrating", result.calibrating),
+        ("Fleet allowances now applied", result.fleet_priors),
+        ("Stale axes", result.stale),
+    ):
+        if items:
+            count = len(result.rejected) if title == "Rejected captures" else len(items)
+            lines.append(f"\n{title} ({count}):")
+            lines.extend(f"  {item}" for item in items)
+            if title == "Rejected captures":
+                lines.append(
+                    "A rejected capture is tried again when its file, the options or its "
+                    "axis profile change; to try again now: axiswatch rejections --store "
+                    f"{shlex.quote(str(store))} --retry [PATH ...]"
+                )
+    if result.acknowledged:
+        lines.append(
+            f"\n{result.acknowledged} acknowledged problem(s) not shown "
+            "('axiswatch rejections' lists them)."
+        )
+    if result.acknowledged_alarms:
+        lines.append(f"\nAcknowledged alarms ({result.method}), not counted in the exit status:")
+        lines.extend(
+            f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
+            f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
+            for seen in result.acknowledged_alarms
+        )
+    return lines
+
+
+def fold_same_reason(lines: list[str]) -> list[str]:
+    """Rejection lines ``PATH: reason`` with one reason said once, naming how many files share it.
+
+    A broken axis profile rejects every capture below it with the same line but for the path.
+    Reasons that differ only in their numbers (each file's first stamp) are one reason too.
+    ``axiswatch rejections`` still lists every file. Lines keep the order of their reason's
+    first file; a line without ``": "`` is its own.
+
+    Parameters
+    ----------
+    lines : list of str
+        Rejection lines, each ``PATH: reason``.
+
+    Returns
+    -------
+    list of str
+        One line per reason: the first file's line, or with more files of the same reason
+        ``FIRST (and N more capture files with this reason): reason``.
+
+    Examples
+    --------
+    >>> fold_same_reason([
+    ...     "r1/a1/d1.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: empty file",
+    ...     "r1/a1/d2.csv: r1/robot.toml: bad key", "r1/a2/d1.csv: r1/robot.toml: bad key",
+    ... ])  # doctest: +NORMALIZE_WHITESPACE
+    ['r1/a1/d1.csv (and 2 more capture files with this reason): r1/robot.toml: bad key',
+     'r1/a2/d1.csv: empty file']
+    """
+    groups: dict[tuple[str, int], list[tuple[str, str]]] = {}  # (key, 0) or (line, its index)
+    for index, line in enumerate(lines):
+        path, sep, reason = line.partition(": ")
+        key = (_NUMBER.sub("#", reason), 0) if sep else (line, index + 1)
+        groups.setdefault(key, []).append((path, reason))
+    folded = []
+    for (_, alone), members in groups.items():
+        (path, reason), more = members[0], len(members) - 1
+        if alone:
+            folded.append(reason if reason else path)
+        elif not more:
+            folded.append(f"{path}: {reason}")
+        else:
+            # Unix milliseconds read as seconds: each file's message names its own first stamp.
+            aside = "" if len({r for _, r in members}) == 1 else ", numbers aside"
+            folded.append(
+                f"{path} (and {more} more capture files with this reason{aside}): {reason}"
+            )
+    return folded
+
+
+#: A date or a measured number in a rejection reason (a stamp, a time, a rate: a decimal
+#: point, an exponent or 3 digits): reasons that differ only in these are folded together.
+_NUMBER = re.compile(
+    r"\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}:\d{2})?|\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\d{3,}"
+)
