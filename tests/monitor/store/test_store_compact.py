@@ -16,11 +16,11 @@ from typer.testing import CliRunner
 from axiswatch.cli import app
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor import _monitor
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.store import Store
 from tests.conftest import settle
-from tests.test_monitor import faulty_copy
+from tests.monitor.test_monitor import faulty_copy
 
 runner = CliRunner()
 PCA = MonitorConfig(method="pca")
