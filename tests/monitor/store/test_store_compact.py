@@ -30,7 +30,7 @@ KEEP, EVERY, RECENT = timedelta(days=2), timedelta(days=3), 2
 @pytest.fixture(scope="module")
 def monitored(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """1 robot x 2 axes x 16 days; robot01/axis1 in alarm on day 10 only, acknowledged."""
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets import simulate_fleet
 
     root = tmp_path_factory.mktemp("compact")
     fleet = root / "fleet"
