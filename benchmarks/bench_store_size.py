@@ -18,9 +18,9 @@ import tempfile
 from datetime import timedelta
 from pathlib import Path
 
-from axiswatch.datasets._robot import simulate_fleet
+from axiswatch.datasets import simulate_fleet
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.store import Store
 from axiswatch.monitor.store.packing import unpack
 

@@ -160,7 +160,7 @@ def test_ack_rebaseline_after_maintenance(alarmed: tuple[Path, Path]) -> None:
 
 def test_a_version_1_store_gains_the_acknowledgements_table(tmp_path: Path) -> None:
     path = tmp_path / "old.db"
-    shutil.copy(Path(__file__).parent / "data" / "store-v2.db", path)  # one rebaseline
+    shutil.copy(Path(__file__).parents[1] / "data" / "store-v2.db", path)  # one rebaseline
     with sqlite3.connect(path) as db:
         db.execute("DROP TABLE acknowledgements")
         db.execute("DELETE FROM schema_version")

@@ -46,7 +46,7 @@ def test_dask_local_cluster_equals_serial(
     fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
     with (
         distributed.LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
         ) as cluster,
         distributed.Client(cluster) as client,
     ):

@@ -158,6 +158,8 @@ def _bad(capture: str, digest: str = "h") -> Rejection:
                      kind="bad data")  # fmt: skip
 
 
+# The readers' protocol: SQLite only (the in-memory double implements the writer).
+@pytest.mark.parametrize("store", ["sqlite"], indirect=True)
 def test_a_removed_rejection_is_kept_and_left_out_of_the_latest_bad_data(
     store: StoreBackend,
 ) -> None:

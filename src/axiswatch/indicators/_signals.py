@@ -455,6 +455,7 @@ def zero_phase(
 
     Examples
     --------
+    >>> from scipy.signal import sosfiltfilt
     >>> x = np.sin(np.arange(200) / 5.0)
     >>> sos = butter_sos(2, 10.0, 1000.0)
     >>> bool(np.array_equal(zero_phase(sos, x), sosfiltfilt(sos, x)))

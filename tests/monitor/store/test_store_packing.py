@@ -21,7 +21,7 @@ from axiswatch.monitor.report.results import fleet_results
 from axiswatch.monitor.store import SCHEMA_VERSION, Store
 from axiswatch.monitor.store.packing import pack, unpack
 
-V2_STORE = Path(__file__).parent / "data" / "store-v2.db"
+V2_STORE = Path(__file__).parents[2] / "data" / "store-v2.db"
 
 #: sha256 of each read's CSV (``float_format="%.17g"``), by the version that wrote the store;
 #: ``fleet_results`` is also the hash of ``axiswatch results --format csv``.

@@ -15,12 +15,12 @@ from typer.testing import CliRunner
 
 from axiswatch.cli import app
 from axiswatch.exceptions import StoreError
-from axiswatch.monitor import _monitor
+from axiswatch.monitor import _monitor, _planning
+from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
-from axiswatch.monitor._scoring import MonitorConfig
 from axiswatch.monitor.store import Store
 from tests.conftest import settle
-from tests.test_monitor import faulty_copy
+from tests.monitor.test_monitor import faulty_copy
 
 runner = CliRunner()
 PCA = MonitorConfig(method="pca")
@@ -30,7 +30,7 @@ KEEP, EVERY, RECENT = timedelta(days=2), timedelta(days=3), 2
 @pytest.fixture(scope="module")
 def monitored(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """1 robot x 2 axes x 16 days; robot01/axis1 in alarm on day 10 only, acknowledged."""
-    from axiswatch.datasets._robot import simulate_fleet
+    from axiswatch.datasets import simulate_fleet
 
     root = tmp_path_factory.mktemp("compact")
     fleet = root / "fleet"
@@ -126,8 +126,9 @@ def test_monitoring_after_compact_scores_only_new_captures(
         planned.extend(job.relative for job in jobs)
         return jobs
 
-    plan = _monitor._score_jobs_of
-    monkeypatch.setattr(_monitor, "_score_jobs_of", score_jobs_of)
+    plan = _planning.score_jobs_of
+    monkeypatch.setattr(_planning, "score_jobs_of", score_jobs_of)
+    monkeypatch.setattr(_monitor, "score_jobs_of", score_jobs_of)
     fleet, store_path = _copy(monitored, tmp_path)
     with Store(store_path) as store:
         store.compact(KEEP, EVERY, recent=RECENT)
@@ -147,6 +148,7 @@ def test_monitoring_after_compact_scores_only_new_captures(
     with Store(store_path) as store:
         assert monitor_fleet(fleet, store, PCA).scored == 1
         new = store.score_table()
+    assert [path.rsplit("/", 1)[-1] for path in planned] == ["2026-03-17.parquet"]
     assert len(new) == len(compacted) + 1
     assert new.capture[~new.capture.isin(compacted.capture)].tolist() == ["2026-03-17.parquet"]
 
