@@ -121,7 +121,7 @@ def test_a_capture_that_does_not_move_is_still() -> None:
 
 # -- the library --------------------------------------------------------------------------------
 def _learned(rng: np.random.Generator, n: int = 8, **kwargs: float) -> ModeLibrary:
-    library = ModeLibrary(n_fit=5)
+    library = ModeLibrary(n_fit=5, percentile=99.0)
     for _ in range(n):
         library.update(_description(rng, **kwargs))  # type: ignore[arg-type]
     return library
@@ -229,7 +229,7 @@ def test_library_rejects_bad_parameters(kwargs: dict[str, float], match: str) ->
 
 def test_a_simulated_fault_in_a_known_mode_alarms() -> None:
     robot = draw_robot(3)
-    library = ModeLibrary(n_fit=5)
+    library = ModeLibrary(n_fit=5, percentile=99.0)
     for k in range(8):
         library.update(describe_capture(robot.capture(1, seed=f"fit{k}")))
     worn = describe_capture(robot.capture(1, seed="worn", fault=Fault("friction", 0.6)))

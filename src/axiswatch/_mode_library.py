@@ -15,9 +15,16 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
+from scipy.stats import t as student_t
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._modes import CaptureDescription, mode_differences, mode_distance, mode_tolerance
+from axiswatch._modes import (
+    SPECTRUM_BANDS,
+    CaptureDescription,
+    mode_differences,
+    mode_distance,
+    mode_tolerance,
+)
 from axiswatch._readings import INDICATORS
 
 __all__ = ["ModeAssessment", "ModeLibrary", "tail_threshold"]
@@ -32,6 +39,9 @@ GUARD_READINGS: tuple[str, ...] = (
 #: Readings compared in decades; and those where a change either way is abnormal.
 _LOG = {i.name for i in INDICATORS if i.log}
 _BOTH = {i.name for i in INDICATORS if i.sided == "both"}
+#: Pooled within-mode distances from which their own tail sets the threshold: fewer left a
+#: tail of a handful of excesses, and thresholds of 8-14 spreads on development robots.
+MIN_TAIL_DISTANCES = 30
 #: The median's standard error over the mean's, for Gaussian readings (sqrt(pi / 2)).
 _MEDIAN_EFFICIENCY = math.sqrt(math.pi / 2.0)
 
@@ -57,8 +67,17 @@ def _guarded(name: str) -> bool:
 
 
 def _indicator_distance(
-    row: Mapping[str, float], centre: Mapping[str, float], spreads: Mapping[str, float]
+    row: Mapping[str, float],
+    centre: Mapping[str, float],
+    spreads: Mapping[str, float],
+    dof: int,
 ) -> tuple[float, str]:
+    """The largest shift of a reading from the centre, in spreads, on the normal scale.
+
+    A spread estimated from ``dof + 1`` captures is itself uncertain: the shift is a Student
+    t with ``dof`` degrees of freedom, and is taken to the normal shift of equal tail
+    probability, so that a young mode's distances compare with a mature mode's.
+    """
     best, where = math.nan, ""
     for name, spread in spreads.items():
         x, c = row.get(name, math.nan), centre.get(name, math.nan)
@@ -66,17 +85,20 @@ def _indicator_distance(
             continue
         z = (x - c) / spread
         z = abs(z) if name in _BOTH else max(z, 0.0)
+        z = float(norm.isf(student_t.sf(z, dof))) if z > 0 else 0.0
         if not z <= best:
             best, where = z, name
     return best, where
 
 
 def _spectrum_distance(
-    x: NDArray[np.float64], centre: NDArray[np.float64], spread: NDArray[np.float64]
+    x: NDArray[np.float64], centre: NDArray[np.float64], spread: NDArray[np.float64], dof: int
 ) -> float:
     # The largest rise over the bands: a line or an impact band grows; the mean over the
     # bands diluted it (development robots: tooth AUROC 0.64 -> 0.72, bearing 0.67 -> 0.82).
-    return max(float(np.max((x - centre) / spread)), 0.0)
+    # On the normal scale, as the readings' shifts (_indicator_distance).
+    z = max(float(np.max((x - centre) / spread)), 0.0)
+    return float(norm.isf(student_t.sf(z, dof))) if z > 0 else 0.0
 
 
 @dataclass(frozen=True)
@@ -144,6 +166,12 @@ def tail_threshold(healthy_distances: Sequence[float], percentile: float) -> flo
     return median + fit.prediction_threshold(100.0 - 2.0 * (100.0 - percentile))
 
 
+#: A mode's centre and spreads of the readings, the spectrum's centre and spreads.
+_Normal = tuple[
+    dict[str, float], dict[str, float], NDArray[np.float64], tuple[NDArray[np.float64], int]
+]
+
+
 def _pooled(variances: Sequence[tuple[int, float]]) -> float:
     dof = sum(d for d, _ in variances)
     return sum(d * v for d, v in variances) / dof if dof else math.nan
@@ -156,7 +184,7 @@ class ModeLibrary:
     ----------
     n_fit : int, default=5
         Captures of a mode before it is known: its first fit, frozen as its reference.
-    percentile : float, default=99.0
+    percentile : float, default=99.9
         Healthy captures under the threshold, per capture; the implied false-alarm rate is
         ``1 - percentile / 100``, split evenly between the readings and the spectrum.
     window : int, default=30
@@ -174,7 +202,7 @@ class ModeLibrary:
     def __init__(
         self,
         n_fit: int = 5,
-        percentile: float = 99.0,
+        percentile: float = 99.9,
         window: int = 30,
         fleet_distances: Sequence[float] = (),
     ) -> None:
@@ -191,6 +219,9 @@ class ModeLibrary:
         self.window = window
         self.fleet_distances = tuple(fleet_distances)
         self.modes_: dict[str, _Mode] = {}
+        # What the learned captures give, cached until a capture is learned.
+        self._cache: dict[str, object] = {}
+        self._normals: dict[str, _Normal] = {}
 
     # -- the modes' normals ------------------------------------------------------------------
     def _known(self) -> list[_Mode]:
@@ -228,8 +259,8 @@ class ModeLibrary:
         return out
 
     def spreads(self, mode: str, leave_out: int | None = None) -> dict[str, float]:
-        """A known mode's within-mode spread of each reading: its own variance shrunk to the
-        variance pooled over the axis's modes, with the weight of ``n_fit - 1`` degrees.
+        """A known mode's within-mode spread of each reading: its own variance, raised towards
+        the variance pooled over the axis's modes (``n_fit - 1`` degrees of weight) when lower.
 
         ``leave_out`` drops one of the mode's recent captures (a leave-one-out distance);
         with it in, its own shift would shrink the spread it is scored in."""
@@ -243,14 +274,20 @@ class ModeLibrary:
             if len(finite) >= 3:
                 dof = len(finite) - 1
                 own = float(np.var(finite, ddof=1))
-                variance = (dof * own + (self.n_fit - 1) * prior) / (dof + self.n_fit - 1)
+                shrunk = (dof * own + (self.n_fit - 1) * prior) / (dof + self.n_fit - 1)
+                # Never below its own: modes differ in spread (one task's friction reading
+                # spread 10x another's on development robots) and a quiet mode's pooled spread
+                # would make a noisy mode alarm.
+                variance = max(own, shrunk)
             else:
                 variance = prior
             if variance > 0:
                 out[n] = math.sqrt(variance)
         return out
 
-    def _spectrum_spread(self, leave_out: tuple[str, int] | None = None) -> NDArray[np.float64]:
+    def _spectrum_spread(
+        self, leave_out: tuple[str, int] | None = None
+    ) -> tuple[NDArray[np.float64], int]:
         parts = []
         for mode in self._known():
             spectra = np.stack([d.spectrum for d in self._members(mode, leave_out)])
@@ -258,7 +295,8 @@ class ModeLibrary:
                 parts.append((len(spectra) - 1, np.var(spectra, 0, ddof=1)))
         dof = sum(p[0] for p in parts)
         variance = sum(p[0] * p[1] for p in parts) / dof
-        return np.asarray(np.sqrt(np.maximum(variance, np.finfo(np.float64).tiny)), np.float64)
+        spread = np.sqrt(np.maximum(variance, np.finfo(np.float64).tiny))
+        return np.asarray(spread, np.float64), max(dof, 1)
 
     def _spectrum_centre(self, mode: _Mode) -> NDArray[np.float64]:
         return np.asarray(np.median([d.spectrum for d in self._recent(mode)], 0), np.float64)
@@ -275,23 +313,38 @@ class ModeLibrary:
             for k, d in enumerate(members):
                 others = [*members[:k], *members[k + 1 :]]
                 spreads = self.spreads(mode.name, k)
-                distance, _ = _indicator_distance(_row(d), self._centre(others), spreads)
+                distance, _ = _indicator_distance(
+                    _row(d), self._centre(others), spreads, max(len(others) - 1, 1)
+                )
                 if math.isfinite(distance):
                     readings.append(distance)
                 centre = np.median([o.spectrum for o in others], 0)
                 band = self._spectrum_spread((mode.name, k))
-                spectra.append(_spectrum_distance(d.spectrum, centre, band))
+                spectra.append(_spectrum_distance(d.spectrum, centre, *band))
         return readings, spectra
 
     def thresholds(self) -> tuple[float, float]:
         """The readings' and the spectrum's thresholds (:func:`tail_threshold` of the pooled
         within-mode distances), each at half the false-alarm rate."""
+        if "thresholds" not in self._cache:
+            self._cache["thresholds"] = self._thresholds()
+        return self._cache["thresholds"]  # type: ignore[return-value]
+
+    def _thresholds(self) -> tuple[float, float]:
         readings, spectra = self.within_mode_distances()
         each = 100.0 - (100.0 - self.percentile) / 2.0
+        pooled = [*readings, *self.fleet_distances]
         return (
-            tail_threshold([*readings, *self.fleet_distances], each),
-            tail_threshold(spectra, each),
+            self._young(pooled, each, len(GUARD_READINGS) + 2),
+            self._young(spectra, each, SPECTRUM_BANDS),
         )
+
+    def _young(self, distances: Sequence[float], percentile: float, m: int) -> float:
+        """The empirical tail from :data:`MIN_TAIL_DISTANCES` pooled distances on; before, the
+        largest of ``m`` normal shifts (the readings' shifts are put on the normal scale)."""
+        if len(distances) >= MIN_TAIL_DISTANCES:
+            return tail_threshold(distances, percentile)
+        return float(norm.isf((1.0 - percentile / 100.0) / m))
 
     # -- which mode ---------------------------------------------------------------------------
     def _signature(self, mode: _Mode) -> tuple[NDArray[np.float64], float]:
@@ -299,12 +352,24 @@ class ModeLibrary:
         scale = float(np.median([d.torque_scale for d in self._recent(mode)]))
         return np.asarray(np.nanmedian(signatures, 0), np.float64), scale
 
-    def tolerance(self) -> NDArray[np.float64]:
-        """How far each signature reading may be from a mode's: from the axis's known modes'
-        captures (:func:`~axiswatch._modes.mode_tolerance`), the prior before one is known."""
+    def tolerance(self, mode: str | None = None) -> NDArray[np.float64]:
+        """How far each signature reading may be from a known mode's: from that mode's own
+        captures (:func:`~axiswatch._modes.mode_tolerance`). For a mode being learned (or
+        ``None``), from every known mode's captures; the prior before one is known.
+
+        A mode's own tolerance keeps a task whose signature hardly moves with the phase
+        tight: pooled, the loosest task's set every mode's, and on development robot 4 a
+        task took another's captures."""
+        key = f"tolerance:{mode}"
+        if key not in self._cache:
+            known = [m for m in self._known() if m.name == mode] or self._known()
+            self._cache[key] = self._tolerance(known)
+        return self._cache[key]  # type: ignore[return-value]
+
+    def _tolerance(self, modes: Sequence[_Mode]) -> NDArray[np.float64]:
         differences = []
         size = 0
-        for mode in self._known():
+        for mode in modes:
             members = self._recent(mode)
             for k, d in enumerate(members):
                 others = [*members[:k], *members[k + 1 :]]
@@ -319,10 +384,10 @@ class ModeLibrary:
         if description.declared is not None:
             return description.declared if description.declared in self.modes_ else None
         best, name = math.inf, None
-        tolerance = self.tolerance()
         for mode in self.modes_.values():
             centre, scale = self._signature(mode)
             differences = mode_differences(description.signature, centre, scale)
+            tolerance = self.tolerance(mode.name)
             if tolerance.size != differences.size:
                 tolerance = mode_tolerance([], differences.size)
             distance = mode_distance(differences, tolerance)
@@ -370,11 +435,17 @@ class ModeLibrary:
             return ModeAssessment(
                 source, label, "learning", guard, alarm, where, seen, self.n_fit, rate
             )
-        centre = self._centre(self._recent(mode))
-        d_readings, where = _indicator_distance(_row(description), centre, self.spreads(mode.name))
-        d_spectrum = _spectrum_distance(
-            description.spectrum, self._spectrum_centre(mode), self._spectrum_spread()
-        )
+        if mode.name not in self._normals:
+            self._normals[mode.name] = (
+                self._centre(self._recent(mode)),
+                self.spreads(mode.name),
+                self._spectrum_centre(mode),
+                self._spectrum_spread(),
+            )
+        centre, spreads, spectrum_centre, band = self._normals[mode.name]
+        dof = max(len(self._recent(mode)) - 1, 1)
+        d_readings, where = _indicator_distance(_row(description), centre, spreads, dof)
+        d_spectrum = _spectrum_distance(description.spectrum, spectrum_centre, *band)
         score = d_readings / t_readings if math.isfinite(d_readings) else 0.0
         if d_spectrum / t_spectrum > score:
             score, where = d_spectrum / t_spectrum, "spectrum"
@@ -391,6 +462,8 @@ class ModeLibrary:
             return verdict
         mode = self.modes_.setdefault(verdict.mode, _Mode(verdict.mode))
         mode.members.append(description)
+        self._cache.clear()
+        self._normals.clear()
         if mode.reference is None and len(mode.members) >= self.n_fit:
             mode.reference = self._centre(mode.members)
         elif mode.reference is not None:

@@ -171,7 +171,7 @@ def main(argv: Sequence[str]) -> None:
             print(robot.name, "robot_a", robot_a(robot), flush=True)
         if "growing" in cases:
             for fault in FAULTS:
-                for onset in (30, 22):
+                for onset in (30,):
                     row = growing(robot, fault, onset)
                     print(robot.name, "growing", fault, onset, row, flush=True)
 
