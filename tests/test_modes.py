@@ -236,3 +236,20 @@ def test_a_simulated_fault_in_a_known_mode_alarms() -> None:
     healthy = describe_capture(robot.capture(1, seed="ok"))
     assert library.score(worn).alarm
     assert not library.score(healthy).alarm
+
+
+def test_teach_turns_a_mode_change_alarm_into_a_new_mode() -> None:
+    rng = np.random.default_rng(9)
+    library = _learned(rng, 8)
+    heavier = _description(rng, friction=2.0)
+    assert library.update(heavier).alarm
+    name = library.teach(heavier, "heavy")
+    assert name == "heavy"
+    assert library.modes_["heavy"].members == [heavier]
+    assert library.match(_description(rng)) == "mode0"
+
+
+def test_teach_refuses_a_capture_that_does_not_move() -> None:
+    still = _description(np.random.default_rng(10), signature=np.full(7, np.nan), source="s.csv")
+    with pytest.raises(ValueError, match=r"s\.csv: the axis did not move"):
+        ModeLibrary().teach(still)

@@ -470,6 +470,24 @@ class ModeLibrary:
             mode.drifted = self._drifted(mode)
         return verdict
 
+    def teach(self, description: CaptureDescription, mode: str | None = None) -> str:
+        """Learn a capture the engineer says is healthy (an alarm that was a mode change).
+
+        It joins ``mode`` (a new one of that name when unknown), else the mode it matches,
+        else a new mode; a drifted mode stays drifted. Returns the mode's name.
+        """
+        if not description.moving:
+            raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
+        name = mode or self.match(description) or description.declared
+        name = name or f"mode{len(self.modes_)}"
+        target = self.modes_.setdefault(name, _Mode(name))
+        target.members.append(description)
+        if target.reference is None and len(target.members) >= self.n_fit:
+            target.reference = self._centre(target.members)
+        self._cache.clear()
+        self._normals.clear()
+        return name
+
     def _drifted(self, mode: _Mode) -> bool:
         """Whether the median of the mode's latest ``n_fit`` captures left its first fit: a
         two-sided z of the two medians' difference, Bonferroni over the readings."""

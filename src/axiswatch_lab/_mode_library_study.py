@@ -162,18 +162,22 @@ def main(argv: Sequence[str]) -> None:
     if seeds is None:
         seeds = tuple(int(s) for s in which.split(","))
     cases = argv[1].split(",") if len(argv) > 1 else ["within", "robot_a", "growing"]
+    rows: dict[str, list[dict[str, float]]] = {}
     for seed in seeds:
         robot = draw_robot(seed)
         if "within" in cases:
-            row = within_mode(robot)
-            print(robot.name, "within", {k: round(v, 3) for k, v in row.items()}, flush=True)
+            rows.setdefault("within", []).append(within_mode(robot))
+            print(robot.name, "within", rows["within"][-1], flush=True)
         if "robot_a" in cases:
-            print(robot.name, "robot_a", robot_a(robot), flush=True)
+            rows.setdefault("robot_a", []).append(robot_a(robot))
+            print(robot.name, "robot_a", rows["robot_a"][-1], flush=True)
         if "growing" in cases:
             for fault in FAULTS:
-                for onset in (30,):
-                    row = growing(robot, fault, onset)
-                    print(robot.name, "growing", fault, onset, row, flush=True)
+                rows.setdefault(f"growing {fault}", []).append(growing(robot, fault, 30))
+                print(robot.name, "growing", fault, rows[f"growing {fault}"][-1], flush=True)
+    for case, found in rows.items():
+        means = {k: round(float(np.nanmean([r[k] for r in found])), 3) for k in found[0]}
+        print("mean", case, means, flush=True)
 
 
 if __name__ == "__main__":
