@@ -16,8 +16,6 @@ import numpy as np
 from sklearn.metrics import roc_auc_score
 
 from axiswatch import AxisProfile, IndicatorModel
-from axiswatch._mode_library import ModeLibrary
-from axiswatch._modes import CaptureDescription, describe_capture
 from axiswatch.datasets._family import (
     DEVELOPMENT_ROBOTS,
     HELD_OUT_ROBOTS,
@@ -25,6 +23,8 @@ from axiswatch.datasets._family import (
     draw_robot,
 )
 from axiswatch.datasets._robot import Fault, FaultKind
+from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._modes import CaptureDescription, describe_capture
 
 FAULTS: tuple[FaultKind, ...] = ("backlash", "friction", "tooth", "bearing")
 N_FIT = 5

@@ -18,14 +18,14 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from axiswatch._calibration import fit_half_laplace
-from axiswatch._modes import (
+from axiswatch.indicators._modes import (
     SPECTRUM_BANDS,
     CaptureDescription,
     mode_differences,
     mode_distance,
     mode_tolerance,
 )
-from axiswatch._readings import INDICATORS
+from axiswatch.indicators._readings import INDICATORS
 
 __all__ = ["ModeAssessment", "ModeLibrary", "tail_threshold"]
 
@@ -354,7 +354,7 @@ class ModeLibrary:
 
     def tolerance(self, mode: str | None = None) -> NDArray[np.float64]:
         """How far each signature reading may be from a known mode's: from that mode's own
-        captures (:func:`~axiswatch._modes.mode_tolerance`). For a mode being learned (or
+        captures (:func:`~axiswatch.indicators._modes.mode_tolerance`). For a mode being learned (or
         ``None``), from every known mode's captures; the prior before one is known.
 
         A mode's own tolerance keeps a task whose signature hardly moves with the phase

@@ -1,7 +1,7 @@
 """A capture's operating mode: declared by the user, else read from its motion and load.
 
 A mode is what the axis runs (its program) and what it carries (its payload). The same motion
-at another payload is another mode. See :class:`~axiswatch._mode_library.ModeLibrary`.
+at another payload is another mode. See :class:`~axiswatch.indicators._mode_library.ModeLibrary`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from numpy.typing import NDArray
 from scipy.signal import welch
 
 from axiswatch._capture import Capture
-from axiswatch._readings import (
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._readings import (
     MOVING_FRACTION,
     SIGNATURE_MOVING_QUANTILES,
     SIGNATURE_POSITION_QUANTILES,
@@ -30,7 +31,6 @@ from axiswatch._readings import (
     read_indicators,
     task_signature,
 )
-from axiswatch.exceptions import CaptureError
 
 __all__ = [
     "MODE_KEYS",
@@ -70,7 +70,7 @@ MIN_MODE_TOLERANCE = 0.08
 SPECTRUM_BANDS = 32
 #: Welch segment length (samples) of the torque spectrum, at most.
 SPECTRUM_SEGMENT = 256
-#: Readings of the motion signature (:func:`~axiswatch._readings.task_signature`).
+#: Readings of the motion signature (:func:`~axiswatch.indicators._readings.task_signature`).
 _N_SPEED = 1 + len(SIGNATURE_MOVING_QUANTILES)
 _N_MOTION = _N_SPEED + len(SIGNATURE_POSITION_QUANTILES) + 1
 
@@ -256,7 +256,7 @@ class CaptureDescription:
     ----------
     source : str
     signature : ndarray of shape (7,)
-        The motion signature (:func:`~axiswatch._readings.task_signature`) and the carried load
+        The motion signature (:func:`~axiswatch.indicators._readings.task_signature`) and the carried load
         (:func:`load_level`).
     torque_scale : float
         The 98th percentile of ``|torque|``: the unit of the load level's differences.

@@ -8,8 +8,11 @@ import numpy as np
 import pytest
 
 from axiswatch import Capture
-from axiswatch._mode_library import ModeLibrary
-from axiswatch._modes import (
+from axiswatch.datasets import draw_robot
+from axiswatch.datasets._robot import Fault
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._modes import (
     PRIOR_MODE_TOLERANCE,
     SPECTRUM_BANDS,
     CaptureDescription,
@@ -19,10 +22,7 @@ from axiswatch._modes import (
     mode_differences,
     parse_mode_section,
 )
-from axiswatch._readings import Readings
-from axiswatch.datasets import draw_robot
-from axiswatch.datasets._robot import Fault
-from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._readings import Readings
 
 SIGNATURE = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5, 3.0])
 
