@@ -246,7 +246,13 @@ _QUIET_DASK = {"distributed.worker.profile.enabled": False}
 
 
 def workers_curve(
-    folder: Path, robots: int, counts: list[int], method: str, csv_path: Path, machine: str
+    folder: Path,
+    robots: int,
+    counts: list[int],
+    method: str,
+    csv_path: Path,
+    machine: str,
+    repeats: int = 1,
 ) -> list[dict[str, Any]]:
     """Time one fleet day (``robots`` x 6 new captures) on 1..N local processes and on a Dask
     LocalCluster of as many single-threaded worker processes; write a CSV.
@@ -320,16 +326,17 @@ def workers_curve(
         )
         _write_curve(rows, csv_path, machine)
 
-    for workers in counts:
-        timed("processes", workers, workers=workers)
     try:
+        import dask
         import distributed
         import psutil
     except ImportError:
         distributed = None
-    if distributed is not None:
-        import dask
-
+    for _ in range(repeats):  # rounds, interleaved, so that a change of load hits every backend
+        for workers in counts:
+            timed("processes", workers, workers=workers)
+        if distributed is None:
+            continue
         # Dask as installed, then with the workers' statistical profiler off (it samples the
         # task thread's stack every 10 ms, taking the GIL from it).
         for backend, settings in (("dask", {}), ("dask-quiet", _QUIET_DASK)):

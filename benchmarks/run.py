@@ -482,6 +482,9 @@ def main() -> None:
         help="time one fleet day on 1,2,4,8,16 processes and Dask workers; write a CSV",
     )
     parser.add_argument("--curve-robots", type=int, default=200, help="robots of the curve")
+    parser.add_argument(
+        "--curve-repeats", type=int, default=1, help="rounds of the curve, interleaved"
+    )
     parser.add_argument("--csv", default="workers_curve.csv", help="CSV of --workers-curve")
     args = parser.parse_args()
     if args.case:
@@ -495,7 +498,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as folder:
             rows = fleet.workers_curve(
                 Path(folder), args.curve_robots, counts, args.fleet_method, Path(args.csv),
-                machine(),
+                machine(), args.curve_repeats,
             )  # fmt: skip
         for row in rows:
             print(
