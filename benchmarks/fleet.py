@@ -17,6 +17,7 @@ import concurrent.futures
 import csv
 import datetime
 import hashlib
+import importlib
 import os
 import resource
 import shutil
@@ -240,8 +241,18 @@ def _write_curve(rows: list[dict[str, Any]], csv_path: Path, machine: str) -> No
         writer.writerows(rows)
 
 
+#: Dask configuration of the curve's "dask-quiet" runs.
+_QUIET_DASK = {"distributed.worker.profile.enabled": False}
+
+
 def workers_curve(
-    folder: Path, robots: int, counts: list[int], method: str, csv_path: Path, machine: str
+    folder: Path,
+    robots: int,
+    counts: list[int],
+    method: str,
+    csv_path: Path,
+    machine: str,
+    repeats: int = 1,
 ) -> list[dict[str, Any]]:
     """Time one fleet day (``robots`` x 6 new captures) on 1..N local processes and on a Dask
     LocalCluster of as many single-threaded worker processes; write a CSV.
@@ -261,11 +272,22 @@ def workers_curve(
     floor = floor_seconds(new_day)
     rows: list[dict[str, Any]] = []
 
-    def timed(backend: str, count: int, **where: Any) -> None:
+    def timed(backend: str, count: int, worker_pids: tuple[int, ...] = (), **where: Any) -> None:
+        """One run; its CPU is the driver's (with a LocalCluster's scheduler, which runs in
+        the driver), plus the pool's workers (children ended with the run) or the Dask
+        workers' and nannies' (``worker_pids``, read with psutil)."""
+        import psutil
+
         path = folder / f"{backend}-{count}.db"
         _copy_store(template, path)
         load = os.getloadavg()[0]
         marks: list[float] = []
+        others = [psutil.Process(pid) for pid in worker_pids]
+
+        def others_cpu() -> float:
+            return sum(sum(p.cpu_times()[:2]) for p in others)
+
+        total = cpu_seconds() + others_cpu()
 
         def progress(stage: str, done: int, total: int) -> None:
             if stage == "captures":
@@ -277,6 +299,7 @@ def workers_curve(
             summary = monitor_fleet(root, store, config, settle_s=0.0, progress=progress, **where)
             elapsed = time.perf_counter() - start
             cpu = time.process_time() - cpu
+            total = cpu_seconds() + others_cpu() - total
             digest = score_hash(store)
         assert summary.scored == len(new_day), summary
         rows.append(
@@ -291,29 +314,55 @@ def workers_curve(
                 "first_result_s": round(marks[0] - start, 3),
                 "last_result_s": round(marks[-1] - start, 3),
                 "driver_cpu_s": round(cpu, 3),
+                "all_cpu_s": round(total, 3),
                 "hash": digest[:16],
             }
         )
         print(
             f"  {backend:<9} {count:>2} workers: {elapsed:8.2f} s (load {load:.1f}; first result "
-            f"{marks[0] - start:.2f} s, last {marks[-1] - start:.2f} s, driver CPU {cpu:.2f} s)",
+            f"{marks[0] - start:.2f} s, last {marks[-1] - start:.2f} s, driver CPU {cpu:.2f} s, "
+            f"all processes {total:.2f} s CPU)",
             flush=True,
         )
         _write_curve(rows, csv_path, machine)
 
-    for workers in counts:
-        timed("processes", workers, workers=workers)
     try:
+        import dask
         import distributed
+        import psutil
     except ImportError:
         distributed = None
-    if distributed is not None:
+    for _ in range(repeats):  # rounds, interleaved, so that a change of load hits every backend
         for workers in counts:
-            with (
-                distributed.LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0"
-                ) as cluster,
-                distributed.Client(cluster) as client,
-            ):
-                timed("dask", workers, dask=client)
+            timed("processes", workers, workers=workers)
+        if distributed is None:
+            continue
+        # Dask as installed, then with the workers' statistical profiler off (it samples the
+        # task thread's stack every 10 ms, taking the GIL from it).
+        for backend, settings in (("dask", {}), ("dask-quiet", _QUIET_DASK)):
+            for workers in counts:
+                with (
+                    dask.config.set(settings),
+                    distributed.LocalCluster(
+                        n_workers=workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=":0",
+                    ) as cluster,
+                    distributed.Client(cluster) as client,
+                ):
+                    # Warm, as a long-lived cluster's workers are: the pool's forked workers
+                    # inherit the driver's imports, spawned Dask workers import on first use
+                    # (1.3 s of CPU each; ``dask worker --preload`` does it at start).
+                    client.run(importlib.import_module, "axiswatch.monitor._scoring")
+                    pids = list(client.run(os.getpid).values())
+                    nannies = {psutil.Process(pid).ppid() for pid in pids} - {os.getpid()}
+                    timed(backend, workers, (*pids, *nannies), dask=client)
+    # Every run against a serial one on a fresh store: no stored model, no file index.
+    with Store(folder / "uncached.db") as fresh:
+        monitor_fleet(root, fresh, config, workers=1, settle_s=0.0)
+        uncached = score_hash(fresh)[:16]
+    for row in rows:
+        row["identical_to_uncached_serial"] = row["hash"] == uncached
+    _write_curve(rows, csv_path, machine)
     return rows

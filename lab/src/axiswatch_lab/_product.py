@@ -19,6 +19,8 @@ from axiswatch.indicators._fleet import (
     pool_fleet,
     pool_fleet_without,
 )
+from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._modes import CaptureDescription, describe_capture
 from axiswatch.indicators._order_lines import (
     CELLS_PER_DECADE,
     OrderProfile,
@@ -79,6 +81,7 @@ __all__ = [
     "BEARING_OFFSETS",
     "CELLS_PER_DECADE",
     "CROSSING_HYSTERESIS",
+    "CaptureDescription",
     "FRICTION",
     "INDICATORS",
     "LIKELY_FAULTS",
@@ -90,6 +93,7 @@ __all__ = [
     "MIN_READINGS",
     "MIN_REVOLUTIONS",
     "MOVING_FRACTION",
+    "ModeLibrary",
     "ORDER_LINES",
     "SIGNATURE_MOVING_QUANTILES",
     "SIGNATURE_POSITION_QUANTILES",
@@ -112,6 +116,7 @@ __all__ = [
     "_transformed",
     "bearing_lines",
     "data_quality_problem",
+    "describe_capture",
     "describe_top_indicator",
     "bearing_orders",
     "butter_sos",

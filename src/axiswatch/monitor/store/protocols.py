@@ -127,7 +127,7 @@ class StoreWriter(_Standing, Protocol):
         changes nothing; another note replaces it and is news again (not acknowledged)."""
         ...
 
-    # standing problems and axis activity (issue 11)
+    # standing problems and axis activity
 
     def resolve_transient(self, method: str, seen_before: str) -> None:
         """Forget transient rejections of ``method`` not seen again since ``seen_before``."""

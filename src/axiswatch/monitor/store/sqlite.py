@@ -1,19 +1,7 @@
-"""The SQLite store: :class:`SQLiteStore`, the product's :class:`~axiswatch.monitor.store.StoreBackend`.
+"""The SQLite store: :class:`SQLiteStore`, the product's store backend.
 
-Pipeline side-stage of the monitor (storage only: the decisions are ``_decision.decide``, made
-inside the store's transaction by :meth:`SQLiteStore.record_score`). This module writes; the
-people's queries are in :mod:`~axiswatch.monitor.store.sqlite_tables`.
-
-``Store`` is the name users open a store by (``aw.Store("fleet.db")``): the SQLite backend.
-
-Safety: the store runs in WAL mode with a busy timeout, and every write is one short transaction
-opened with ``BEGIN IMMEDIATE`` (the writer takes the lock before it reads the state it builds
-on), or a savepoint of a :meth:`~SQLiteStore.batch`'s transaction (the scores of the captures a
-worker returns together, the file index of a run's new files). A process killed at any moment
-therefore leaves the store as it was after its last commit, and two processes writing at once
-take turns instead of corrupting it.
-
-The schema and its upgrades: :mod:`~axiswatch.monitor.store.upgrades`.
+WAL mode, and one short ``BEGIN IMMEDIATE`` transaction per write: a killed process leaves the
+store as it was after its last commit. The people's queries are in ``sqlite_tables``.
 """
 
 from __future__ import annotations
@@ -300,63 +288,6 @@ class SQLiteStore(SQLiteTables):
             with suppress(sqlite3.Error):
                 self._connection.execute("PRAGMA wal_checkpoint(PASSIVE)")
         self._connection.close()
-
-    def backup(self, destination: str | Path) -> Path:
-        """Write a consistent copy of the store to a new file, also while others write to it.
-
-        SQLite's online backup: the copy holds every commit made before it started, the
-        write-ahead log's included, in one self-contained file (copying the store file alone can
-        miss the commits still in ``<store>-wal``). It is written next to ``destination`` and
-        renamed into place once its integrity is checked, so a failed backup leaves no file.
-
-        Parameters
-        ----------
-        destination : str or Path
-            The new file; it must not exist (a backup never overwrites).
-
-        Returns
-        -------
-        Path
-            ``destination``.
-
-        Raises
-        ------
-        StoreError
-            When ``destination`` exists, its folder does not, or the copy fails its check.
-
-        Examples
-        --------
-        >>> import tempfile, pathlib
-        >>> folder = pathlib.Path(tempfile.mkdtemp())
-        >>> with SQLiteStore(folder / "fleet.db") as store:
-        ...     copy = store.backup(folder / "fleet-backup.db")
-        >>> with SQLiteStore(copy) as restored:
-        ...     restored.version
-        3
-        """
-        target = Path(destination)
-        if target.exists():
-            raise StoreError(f"backup '{target}' already exists; a backup never overwrites.")
-        if not target.parent.is_dir():
-            raise StoreError(f"backup '{target}': folder '{target.parent}' does not exist.")
-        partial = target.with_name(f".{target.name}.partial")
-        partial.unlink(missing_ok=True)
-        try:
-            copy = sqlite3.connect(partial)
-            try:
-                self._connection.backup(copy)
-                copy.execute("PRAGMA journal_mode = DELETE")  # one self-contained file
-                check = copy.execute("PRAGMA integrity_check").fetchone()[0]
-            finally:
-                copy.close()
-            if check != "ok":
-                raise StoreError(f"backup '{target}': the copy fails SQLite's check: {check}.")
-            partial.replace(target)
-        except sqlite3.Error as exc:
-            raise StoreError(f"backup '{target}': {exc}.") from None
-        finally:
-            partial.unlink(missing_ok=True)
-        return target
 
     def compact(
         self, keep: timedelta, every: timedelta = timedelta(days=1), *, recent: int = RECENT_KEPT

@@ -1,11 +1,6 @@
 """Retention of the SQLite store: old monitored scores thinned to one per axis and period.
 
-What a run or a person needs is never thinned: baseline and calibration scores (the captures a
-baseline was fitted and calibrated on), every score over its threshold or in alarm, the clean
-score before each alarm (where the episode starts), acknowledged scores, and the last
-:data:`RECENT_KEPT` monitored scores of each baseline (at least its alarm rule's window). A thinned score
-leaves a tombstone in ``thinned_scores`` (its file, size, time and hash), so the next run never
-scores its capture again.
+What is never thinned: docs/internals.md, "Retention".
 """
 
 from __future__ import annotations

@@ -104,6 +104,64 @@ class SQLiteTables:
                 hint = "; the file is corrupt: restore a backup or start a new store"
             raise StoreError(f"store '{self.path}': {exc}{hint}.") from exc
 
+    def backup(self, destination: str | Path) -> Path:
+        """Write a consistent copy of the store to a new file, also while others write to it.
+
+        SQLite's online backup: the copy holds every commit made before it started, the
+        write-ahead log's included, in one self-contained file (copying the store file alone can
+        miss the commits still in ``<store>-wal``). It is written next to ``destination`` and
+        renamed into place once its integrity is checked, so a failed backup leaves no file.
+
+        Parameters
+        ----------
+        destination : str or Path
+            The new file; it must not exist (a backup never overwrites).
+
+        Returns
+        -------
+        Path
+            ``destination``.
+
+        Raises
+        ------
+        StoreError
+            When ``destination`` exists, its folder does not, or the copy fails its check.
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> from axiswatch.monitor.store import SQLiteStore
+        >>> folder = pathlib.Path(tempfile.mkdtemp())
+        >>> with SQLiteStore(folder / "fleet.db") as store:
+        ...     copy = store.backup(folder / "fleet-backup.db")
+        >>> with SQLiteStore(copy) as restored:
+        ...     restored.version
+        3
+        """
+        target = Path(destination)
+        if target.exists():
+            raise StoreError(f"backup '{target}' already exists; a backup never overwrites.")
+        if not target.parent.is_dir():
+            raise StoreError(f"backup '{target}': folder '{target.parent}' does not exist.")
+        partial = target.with_name(f".{target.name}.partial")
+        partial.unlink(missing_ok=True)
+        try:
+            copy = sqlite3.connect(partial)
+            try:
+                self._connection.backup(copy)
+                copy.execute("PRAGMA journal_mode = DELETE")  # one self-contained file
+                check = copy.execute("PRAGMA integrity_check").fetchone()[0]
+            finally:
+                copy.close()
+            if check != "ok":
+                raise StoreError(f"backup '{target}': the copy fails SQLite's check: {check}.")
+            partial.replace(target)
+        except sqlite3.Error as exc:
+            raise StoreError(f"backup '{target}': {exc}.") from None
+        finally:
+            partial.unlink(missing_ok=True)
+        return target
+
     @contextmanager
     def batch(self) -> Iterator[None]:
         if self._batched:

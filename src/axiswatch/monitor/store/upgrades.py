@@ -1,62 +1,6 @@
 """The SQLite store's schema, and the upgrades a store made by an earlier version gets on open.
 
-Tables (schema version 3):
-
-``baselines``
-    one row per (robot, axis, method, epoch): the baseline capture, its file hash, the hash of
-    its features, the monitor parameters (JSON), the library version, the calibrated threshold
-    and half-Laplace fit (JSON, once calibration is complete), and when it was retired.
-``rebaselines``
-    requests to start a new epoch (``from_capture``: the new baseline, or NULL for "the next
-    capture that arrives").
-``scores``
-    one row per capture and baseline: role (``baseline``, ``calibration``, ``monitor`` or
-    ``excluded``), distance, threshold, whether it is over the threshold, the alarm state after
-    it, and ``packed``: a reason a service engineer can read and the JSON details (phase lag,
-    eigengap, ...) compressed by :mod:`~axiswatch.monitor.store.packing`, ``primed`` with the
-    baseline's dictionary or not. The row id is the scoring order.
-``score_dictionaries`` (schema version 3)
-    per baseline, the text of its first monitored score: what its later scores are compressed
-    against. A version-2 store's ``reason`` and ``details`` columns are packed on open, in one
-    transaction, every text kept byte for byte (``axiswatch compact`` then returns the space).
-``rejections``
-    capture files that could not be used, with the error; keyed by file content hash, so a
-    repaired file is tried again. ``reason_key`` (added on open, with the key of a misnamed
-    folder's row derived from its line) is what an acknowledgement is of. ``removed_at`` (added
-    on open, empty): when a run found the rejected file gone from the fleet folder; the row is
-    kept as history and needs no attention (cleared when the same content is back).
-``thinned_scores``
-    what ``axiswatch compact`` thinned: per score, its baseline, capture, file, size, time and
-    hash, so a run never scores the capture again (``monitor.store.sqlite_retention``).
-``changed_files``
-    files whose content changed after they were scored (reported, never silently re-scored).
-``baseline_checks``
-    per baseline and kind (``baseline``: its capture disagrees with the calibration captures
-    after it; ``fleet``: it differs from its fleet's) the note a person must see, written in the
-    transaction that adds the baseline (or gives it its fleet's prior), and when someone
-    acknowledged it. A store made before the table gains it, empty, when it is opened: its
-    baselines have no stored checks.
-
-Caches (created when missing, so a store made before them gains them when opened; deleting
-their rows loses no result, only time):
-
-``fitted_models``
-    the fitted model of a baseline (``monitor._persist``: arrays and JSON, never pickle) with
-    the baseline file's hash, the parameters and the library version it was fitted with; used
-    only while all three still match.
-``file_index``
-    keyed by path (without a row id since schema version 3, so each path is stored once):
-    path, size, ``mtime_ns`` and SHA-256 of every capture file hashed: a file whose size and
-    modification time are unchanged is never hashed again. ``verified_run`` is the run that
-    last compared the file with the disk (kept files are verified a slice at a time).
-``axis_folders``
-    per axis folder and method, its modification time when a run last finished the axis: a
-    folder whose time is unchanged holds no new, removed or renamed file, and is not listed.
-``acknowledgements`` (schema version 2)
-    who saw an alarm, when, and what they noted: the alarm is named by the score that raised
-    it, so an alarm that clears and is raised again needs a new acknowledgement; a
-    re-baseline after maintenance is recorded here too. A version-1 store gains the table when
-    it is opened (nothing else changes).
+The tables and what each column holds: docs/internals.md, "The store".
 """
 
 from __future__ import annotations

@@ -1,0 +1,505 @@
+"""ModeLibrary: an axis's operating modes, each with its own normal, learned while guarded.
+
+A capture of a known mode is scored in that mode's within-mode spreads. A capture of a new mode
+is scored by a guard: readings that grow with a fault whatever the mode. The threshold pools
+the within-mode distances of all the axis's modes (half-Laplace, :mod:`axiswatch._calibration`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import norm
+from scipy.stats import t as student_t
+
+from axiswatch._calibration import fit_half_laplace
+from axiswatch.indicators._modes import (
+    SPECTRUM_BANDS,
+    CaptureDescription,
+    mode_differences,
+    mode_distance,
+    mode_tolerance,
+)
+from axiswatch.indicators._readings import INDICATORS
+
+__all__ = ["ModeAssessment", "ModeLibrary", "tail_threshold"]
+
+#: Readings that only grow with a fault in any mode: the guard's (kinematic lines are added).
+GUARD_READINGS: tuple[str, ...] = (
+    "coulomb_friction",
+    "viscous_friction",
+    "impulsiveness",
+    "gap_ringing",
+)
+#: Readings compared in decades; and those where a change either way is abnormal.
+_LOG = {i.name for i in INDICATORS if i.log}
+_BOTH = {i.name for i in INDICATORS if i.sided == "both"}
+#: Pooled within-mode distances from which their own tail sets the threshold: fewer left a
+#: tail of a handful of excesses, and thresholds of 8-14 spreads on development robots.
+MIN_TAIL_DISTANCES = 30
+#: The median's standard error over the mean's, for Gaussian readings (sqrt(pi / 2)).
+_MEDIAN_EFFICIENCY = math.sqrt(math.pi / 2.0)
+
+State = Literal["known", "learning", "drift", "still"]
+
+
+def _log_reading(name: str) -> bool:
+    return name in _LOG or name.startswith(("tooth_lines:", "bearing_lines:"))
+
+
+def _row(description: CaptureDescription) -> dict[str, float]:
+    out = {}
+    for name, value in description.readings.values.items():
+        if _log_reading(name):
+            out[name] = math.log10(value) if math.isfinite(value) and value > 0 else math.nan
+        else:
+            out[name] = float(value)
+    return out
+
+
+def _guarded(name: str) -> bool:
+    return name in GUARD_READINGS or name.startswith(("tooth_lines:", "bearing_lines:"))
+
+
+def _indicator_distance(
+    row: Mapping[str, float],
+    centre: Mapping[str, float],
+    spreads: Mapping[str, float],
+    dof: int,
+) -> tuple[float, str]:
+    """The largest shift of a reading from the centre, in spreads, on the normal scale.
+
+    A spread estimated from ``dof + 1`` captures is itself uncertain: the shift is a Student
+    t with ``dof`` degrees of freedom, and is taken to the normal shift of equal tail
+    probability, so that a young mode's distances compare with a mature mode's.
+    """
+    best, where = math.nan, ""
+    for name, spread in spreads.items():
+        x, c = row.get(name, math.nan), centre.get(name, math.nan)
+        if not (math.isfinite(x) and math.isfinite(c) and spread > 0):
+            continue
+        z = (x - c) / spread
+        z = abs(z) if name in _BOTH else max(z, 0.0)
+        z = float(norm.isf(student_t.sf(z, dof))) if z > 0 else 0.0
+        if not z <= best:
+            best, where = z, name
+    return best, where
+
+
+def _spectrum_distance(
+    x: NDArray[np.float64], centre: NDArray[np.float64], spread: NDArray[np.float64], dof: int
+) -> float:
+    # The largest rise over the bands: a line or an impact band grows; the mean over the
+    # bands diluted it (development robots: tooth AUROC 0.64 -> 0.72, bearing 0.67 -> 0.82).
+    # On the normal scale, as the readings' shifts (_indicator_distance).
+    z = max(float(np.max((x - centre) / spread)), 0.0)
+    return float(norm.isf(student_t.sf(z, dof))) if z > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class ModeAssessment:
+    """The verdict on one capture.
+
+    Attributes
+    ----------
+    source, mode : str
+    state : {"known", "learning", "drift", "still"}
+        Scored in its mode's normal; scored by the guard while its mode is learned (``n_seen``
+        of ``n_fit``); its mode drifted from its first fit; the axis did not move.
+    score : float
+        In threshold units: above 1 is an alarm (NaN when still).
+    alarm : bool
+    where : str
+        The reading that gave the score (``spectrum`` for the torque spectrum).
+    n_seen, n_fit : int
+    false_alarm_rate : float
+        The rate of alarms on healthy captures the threshold implies.
+    """
+
+    source: str
+    mode: str
+    state: State
+    score: float
+    alarm: bool
+    where: str = ""
+    n_seen: int = 0
+    n_fit: int = 0
+    false_alarm_rate: float = math.nan
+
+
+@dataclass
+class _Mode:
+    name: str
+    members: list[CaptureDescription] = field(default_factory=list)
+    reference: dict[str, float] | None = None
+    drifted: bool = False
+
+
+def tail_threshold(healthy_distances: Sequence[float], percentile: float) -> float:
+    """The ``percentile`` of the next healthy distance: exponential above the median.
+
+    A distance is the largest of several shifts, so its tail is lighter than a half-Laplace
+    from 0 puts it: on the development robots that rule set thresholds of 8-14 spreads. Here
+    the median is the location and the excesses above it are exponential (:mod:`scipy.stats`
+    ``expon``), their scale estimated from ``n`` of them; the threshold is the prediction
+    quantile (:meth:`~axiswatch._calibration.HalfLaplaceFit.prediction_threshold`) at the
+    tail's share ``2 (1 - q)``. Infinite with fewer than 4 distances above the median.
+
+    Examples
+    --------
+    >>> round(tail_threshold([1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 3.0, 4.0, 5.0, 6.0], 95.0), 3)
+    9.783
+    """
+    values = np.sort(np.asarray([d for d in healthy_distances if math.isfinite(d)], np.float64))
+    if values.size < 2:
+        return math.inf
+    median = float(np.median(values))
+    excess = values[values > median] - median
+    if excess.size < 4 or not excess.mean() > 0:
+        return math.inf
+    fit = fit_half_laplace(excess)
+    return median + fit.prediction_threshold(100.0 - 2.0 * (100.0 - percentile))
+
+
+#: A mode's centre and spreads of the readings, the spectrum's centre and spreads.
+_Normal = tuple[
+    dict[str, float], dict[str, float], NDArray[np.float64], tuple[NDArray[np.float64], int]
+]
+
+
+def _pooled(variances: Sequence[tuple[int, float]]) -> float:
+    dof = sum(d for d, _ in variances)
+    return sum(d * v for d, v in variances) / dof if dof else math.nan
+
+
+class ModeLibrary:
+    """An axis's operating modes and their normals, learned from the captures as they come.
+
+    Parameters
+    ----------
+    n_fit : int, default=5
+        Captures of a mode before it is known: its first fit, frozen as its reference.
+    percentile : float, default=99.9
+        Healthy captures under the threshold, per capture; the implied false-alarm rate is
+        ``1 - percentile / 100``, split evenly between the readings and the spectrum.
+    window : int, default=30
+        Latest healthy captures of a mode its centre is the median of.
+    fleet_distances : sequence of float, default=()
+        Within-mode distances of other axes of the profile, pooled into the threshold.
+
+    Examples
+    --------
+    >>> library = ModeLibrary(n_fit=3)
+    >>> library.n_fit, library.modes_
+    (3, {})
+    """
+
+    def __init__(
+        self,
+        n_fit: int = 5,
+        percentile: float = 99.9,
+        window: int = 30,
+        fleet_distances: Sequence[float] = (),
+    ) -> None:
+        if not (isinstance(n_fit, int) and n_fit >= 3):
+            raise ValueError(f"The 'n_fit' parameter must be an int >= 3. Got {n_fit!r}.")
+        if not (isinstance(percentile, int | float) and 50.0 < percentile < 100.0):
+            raise ValueError(
+                f"The 'percentile' parameter must be a float in (50, 100). Got {percentile!r}."
+            )
+        if not (isinstance(window, int) and window >= n_fit):
+            raise ValueError(f"The 'window' parameter must be an int >= n_fit. Got {window!r}.")
+        self.n_fit = n_fit
+        self.percentile = percentile
+        self.window = window
+        self.fleet_distances = tuple(fleet_distances)
+        self.modes_: dict[str, _Mode] = {}
+        # What the learned captures give, cached until a capture is learned.
+        self._cache: dict[str, object] = {}
+        self._normals: dict[str, _Normal] = {}
+
+    # -- the modes' normals ------------------------------------------------------------------
+    def _known(self) -> list[_Mode]:
+        return [m for m in self.modes_.values() if m.reference is not None]
+
+    def _recent(self, mode: _Mode) -> list[CaptureDescription]:
+        return mode.members[-self.window :]
+
+    def _centre(self, members: Sequence[CaptureDescription]) -> dict[str, float]:
+        rows = [_row(d) for d in members]
+        names = sorted({n for r in rows for n in r})
+        centre = {}
+        for n in names:
+            finite = [r[n] for r in rows if math.isfinite(r.get(n, math.nan))]
+            centre[n] = float(np.median(finite)) if finite else math.nan
+        return centre
+
+    def _members(self, mode: _Mode, leave_out: tuple[str, int] | None) -> list[CaptureDescription]:
+        members = self._recent(mode)
+        if leave_out is not None and leave_out[0] == mode.name:
+            k = leave_out[1]
+            return [*members[:k], *members[k + 1 :]]
+        return members
+
+    def _variances(
+        self, leave_out: tuple[str, int] | None = None
+    ) -> dict[str, list[tuple[int, float]]]:
+        out: dict[str, list[tuple[int, float]]] = {}
+        for mode in self._known():
+            rows = [_row(d) for d in self._members(mode, leave_out)]
+            for n in {n for r in rows for n in r}:
+                finite = [r[n] for r in rows if math.isfinite(r.get(n, math.nan))]
+                if len(finite) >= 3:
+                    out.setdefault(n, []).append((len(finite) - 1, float(np.var(finite, ddof=1))))
+        return out
+
+    def spreads(self, mode: str, leave_out: int | None = None) -> dict[str, float]:
+        """A known mode's within-mode spread of each reading: its own variance, raised towards
+        the variance pooled over the axis's modes (``n_fit - 1`` degrees of weight) when lower.
+
+        ``leave_out`` drops one of the mode's recent captures (a leave-one-out distance);
+        with it in, its own shift would shrink the spread it is scored in."""
+        out_of = None if leave_out is None else (mode, leave_out)
+        pooled = self._variances(out_of)
+        rows = [_row(d) for d in self._members(self.modes_[mode], out_of)]
+        out = {}
+        for n, parts in pooled.items():
+            finite = [r[n] for r in rows if math.isfinite(r.get(n, math.nan))]
+            prior = _pooled(parts)
+            if len(finite) >= 3:
+                dof = len(finite) - 1
+                own = float(np.var(finite, ddof=1))
+                shrunk = (dof * own + (self.n_fit - 1) * prior) / (dof + self.n_fit - 1)
+                # Never below its own: modes differ in spread (one task's friction reading
+                # spread 10x another's on development robots) and a quiet mode's pooled spread
+                # would make a noisy mode alarm.
+                variance = max(own, shrunk)
+            else:
+                variance = prior
+            if variance > 0:
+                out[n] = math.sqrt(variance)
+        return out
+
+    def _spectrum_spread(
+        self, leave_out: tuple[str, int] | None = None
+    ) -> tuple[NDArray[np.float64], int]:
+        parts = []
+        for mode in self._known():
+            spectra = np.stack([d.spectrum for d in self._members(mode, leave_out)])
+            if len(spectra) >= 2:
+                parts.append((len(spectra) - 1, np.var(spectra, 0, ddof=1)))
+        dof = sum(p[0] for p in parts)
+        variance = sum(p[0] * p[1] for p in parts) / dof
+        spread = np.sqrt(np.maximum(variance, np.finfo(np.float64).tiny))
+        return np.asarray(spread, np.float64), max(dof, 1)
+
+    def _spectrum_centre(self, mode: _Mode) -> NDArray[np.float64]:
+        return np.asarray(np.median([d.spectrum for d in self._recent(mode)], 0), np.float64)
+
+    def within_mode_distances(self) -> tuple[list[float], list[float]]:
+        """Leave-one-out distances of the known modes' captures: readings and spectrum.
+
+        Each capture against the median of its mode's other recent captures, in spreads
+        estimated without it: the healthy distances the thresholds are fitted on.
+        """
+        readings, spectra = [], []
+        for mode in self._known():
+            members = self._recent(mode)
+            for k, d in enumerate(members):
+                others = [*members[:k], *members[k + 1 :]]
+                spreads = self.spreads(mode.name, k)
+                distance, _ = _indicator_distance(
+                    _row(d), self._centre(others), spreads, max(len(others) - 1, 1)
+                )
+                if math.isfinite(distance):
+                    readings.append(distance)
+                centre = np.median([o.spectrum for o in others], 0)
+                band = self._spectrum_spread((mode.name, k))
+                spectra.append(_spectrum_distance(d.spectrum, centre, *band))
+        return readings, spectra
+
+    def thresholds(self) -> tuple[float, float]:
+        """The readings' and the spectrum's thresholds (:func:`tail_threshold` of the pooled
+        within-mode distances), each at half the false-alarm rate."""
+        if "thresholds" not in self._cache:
+            self._cache["thresholds"] = self._thresholds()
+        return self._cache["thresholds"]  # type: ignore[return-value]
+
+    def _thresholds(self) -> tuple[float, float]:
+        readings, spectra = self.within_mode_distances()
+        each = 100.0 - (100.0 - self.percentile) / 2.0
+        pooled = [*readings, *self.fleet_distances]
+        return (
+            self._young(pooled, each, len(GUARD_READINGS) + 2),
+            self._young(spectra, each, SPECTRUM_BANDS),
+        )
+
+    def _young(self, distances: Sequence[float], percentile: float, m: int) -> float:
+        """The empirical tail from :data:`MIN_TAIL_DISTANCES` pooled distances on; before, the
+        largest of ``m`` normal shifts (the readings' shifts are put on the normal scale)."""
+        if len(distances) >= MIN_TAIL_DISTANCES:
+            return tail_threshold(distances, percentile)
+        return float(norm.isf((1.0 - percentile / 100.0) / m))
+
+    # -- which mode ---------------------------------------------------------------------------
+    def _signature(self, mode: _Mode) -> tuple[NDArray[np.float64], float]:
+        signatures = np.stack([d.signature for d in self._recent(mode)])
+        scale = float(np.median([d.torque_scale for d in self._recent(mode)]))
+        return np.asarray(np.nanmedian(signatures, 0), np.float64), scale
+
+    def tolerance(self, mode: str | None = None) -> NDArray[np.float64]:
+        """How far each signature reading may be from a known mode's: from that mode's own
+        captures (:func:`~axiswatch.indicators._modes.mode_tolerance`). For a mode being learned (or
+        ``None``), from every known mode's captures; the prior before one is known.
+
+        A mode's own tolerance keeps a task whose signature hardly moves with the phase
+        tight: pooled, the loosest task's set every mode's, and on development robot 4 a
+        task took another's captures."""
+        key = f"tolerance:{mode}"
+        if key not in self._cache:
+            known = [m for m in self._known() if m.name == mode] or self._known()
+            self._cache[key] = self._tolerance(known)
+        return self._cache[key]  # type: ignore[return-value]
+
+    def _tolerance(self, modes: Sequence[_Mode]) -> NDArray[np.float64]:
+        differences = []
+        size = 0
+        for mode in modes:
+            members = self._recent(mode)
+            for k, d in enumerate(members):
+                others = [*members[:k], *members[k + 1 :]]
+                centre = np.nanmedian(np.stack([o.signature for o in others]), 0)
+                scale = float(np.median([o.torque_scale for o in others]))
+                differences.append(mode_differences(d.signature, centre, scale))
+                size = d.signature.size
+        return mode_tolerance(differences, size)
+
+    def match(self, description: CaptureDescription) -> str | None:
+        """The mode a capture belongs to; None for a new mode."""
+        if description.declared is not None:
+            return description.declared if description.declared in self.modes_ else None
+        best, name = math.inf, None
+        for mode in self.modes_.values():
+            centre, scale = self._signature(mode)
+            differences = mode_differences(description.signature, centre, scale)
+            tolerance = self.tolerance(mode.name)
+            if tolerance.size != differences.size:
+                tolerance = mode_tolerance([], differences.size)
+            distance = mode_distance(differences, tolerance)
+            if distance <= 1.0 and distance < best:
+                best, name = distance, mode.name
+        return name
+
+    # -- verdicts -----------------------------------------------------------------------------
+    def _guard(self, description: CaptureDescription, t_readings: float) -> tuple[float, str]:
+        """The largest excess of a guard reading over every known mode's centre, in the
+        within-mode spread and the widest difference between two modes' centres. NaN with
+        fewer than 2 known modes: what a mode change does is not yet measured."""
+        known = self._known()
+        if len(known) < 2:
+            return math.nan, ""
+        pooled = {n: _pooled(p) for n, p in self._variances().items() if _guarded(n)}
+        row = _row(description)
+        centres = [self._centre(self._recent(m)) for m in known]
+        best, where = math.nan, ""
+        for n, within in pooled.items():
+            values = [c[n] for c in centres if math.isfinite(c.get(n, math.nan))]
+            x = row.get(n, math.nan)
+            if not (len(values) >= 2 and math.isfinite(x)):
+                continue
+            between = max(values) - min(values)
+            z = max(x - max(values), 0.0) / math.sqrt(within + between**2)
+            if not z <= best:
+                best, where = z, n
+        return best / t_readings, where
+
+    def score(self, description: CaptureDescription) -> ModeAssessment:
+        """The verdict on a capture, without learning from it."""
+        rate = 1.0 - self.percentile / 100.0
+        name = self.match(description)
+        source = description.source
+        if not description.moving:
+            return ModeAssessment(source, name or "", "still", math.nan, False)
+        mode = self.modes_.get(name) if name is not None else None
+        label = name or description.declared or f"mode{len(self.modes_)}"
+        t_readings, t_spectrum = self.thresholds() if self._known() else (math.inf, math.inf)
+        if mode is None or mode.reference is None:
+            guard, where = self._guard(description, t_readings)
+            seen = 1 + (len(mode.members) if mode else 0)
+            alarm = bool(guard > 1.0)
+            return ModeAssessment(
+                source, label, "learning", guard, alarm, where, seen, self.n_fit, rate
+            )
+        if mode.name not in self._normals:
+            self._normals[mode.name] = (
+                self._centre(self._recent(mode)),
+                self.spreads(mode.name),
+                self._spectrum_centre(mode),
+                self._spectrum_spread(),
+            )
+        centre, spreads, spectrum_centre, band = self._normals[mode.name]
+        dof = max(len(self._recent(mode)) - 1, 1)
+        d_readings, where = _indicator_distance(_row(description), centre, spreads, dof)
+        d_spectrum = _spectrum_distance(description.spectrum, spectrum_centre, *band)
+        score = d_readings / t_readings if math.isfinite(d_readings) else 0.0
+        if d_spectrum / t_spectrum > score:
+            score, where = d_spectrum / t_spectrum, "spectrum"
+        state: State = "drift" if mode.drifted else "known"
+        alarm = bool(score > 1.0 or mode.drifted)
+        return ModeAssessment(
+            source, mode.name, state, score, alarm, where, len(mode.members), self.n_fit, rate
+        )
+
+    def update(self, description: CaptureDescription) -> ModeAssessment:
+        """Score a capture, then learn from it if it was scored healthy."""
+        verdict = self.score(description)
+        if verdict.state == "still" or verdict.alarm:
+            return verdict
+        mode = self.modes_.setdefault(verdict.mode, _Mode(verdict.mode))
+        mode.members.append(description)
+        self._cache.clear()
+        self._normals.clear()
+        if mode.reference is None and len(mode.members) >= self.n_fit:
+            mode.reference = self._centre(mode.members)
+        elif mode.reference is not None:
+            mode.drifted = self._drifted(mode)
+        return verdict
+
+    def teach(self, description: CaptureDescription, mode: str | None = None) -> str:
+        """Learn a capture the engineer says is healthy (an alarm that was a mode change).
+
+        It joins ``mode`` (a new one of that name when unknown), else the mode it matches,
+        else a new mode; a drifted mode stays drifted. Returns the mode's name.
+        """
+        if not description.moving:
+            raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
+        name = mode or self.match(description) or description.declared
+        name = name or f"mode{len(self.modes_)}"
+        target = self.modes_.setdefault(name, _Mode(name))
+        target.members.append(description)
+        if target.reference is None and len(target.members) >= self.n_fit:
+            target.reference = self._centre(target.members)
+        self._cache.clear()
+        self._normals.clear()
+        return name
+
+    def _drifted(self, mode: _Mode) -> bool:
+        """Whether the median of the mode's latest ``n_fit`` captures left its first fit: a
+        two-sided z of the two medians' difference, Bonferroni over the readings."""
+        assert mode.reference is not None
+        if len(mode.members) < 2 * self.n_fit:
+            return False
+        latest = self._centre(mode.members[-self.n_fit :])
+        spreads = self.spreads(mode.name)
+        error = _MEDIAN_EFFICIENCY * math.sqrt(2.0 / self.n_fit)
+        names = [n for n in spreads if math.isfinite(latest.get(n, math.nan))]
+        names = [n for n in names if math.isfinite(mode.reference.get(n, math.nan))]
+        if not names:
+            return False
+        limit = float(norm.isf((1.0 - self.percentile / 100.0) / (2 * len(names))))
+        return any(abs(latest[n] - mode.reference[n]) / (spreads[n] * error) > limit for n in names)

@@ -1,0 +1,255 @@
+"""Operating modes: declared or read from a capture, and the per-axis mode library."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from axiswatch import Capture
+from axiswatch.datasets import draw_robot
+from axiswatch.datasets._robot import Fault
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._modes import (
+    PRIOR_MODE_TOLERANCE,
+    SPECTRUM_BANDS,
+    CaptureDescription,
+    ModeDeclaration,
+    declared_mode,
+    describe_capture,
+    mode_differences,
+    parse_mode_section,
+)
+from axiswatch.indicators._readings import Readings
+
+SIGNATURE = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5, 3.0])
+
+
+def _description(
+    rng: np.random.Generator,
+    *,
+    signature: np.ndarray = SIGNATURE,
+    friction: float = 1.0,
+    impulsiveness: float = 2.0,
+    spectrum_rise: float = 0.0,
+    source: str = "c.csv",
+) -> CaptureDescription:
+    values = {
+        "coulomb_friction": friction + 0.05 * rng.standard_normal(),
+        "viscous_friction": 0.5 + 0.02 * rng.standard_normal(),
+        "impulsiveness": impulsiveness * math.exp(0.05 * rng.standard_normal()),
+    }
+    spectrum = np.linspace(0.0, -3.0, SPECTRUM_BANDS) + 0.05 * rng.standard_normal(SPECTRUM_BANDS)
+    spectrum[10] += spectrum_rise
+    noisy = signature * (1 + 0.005 * rng.standard_normal(signature.size))
+    return CaptureDescription(source, noisy, 10.0, Readings(values), spectrum)
+
+
+# -- declared modes -----------------------------------------------------------------------------
+def test_parse_mode_section_reads_one_source_and_payload() -> None:
+    declaration = parse_mode_section({"metadata": "program", "payload_metadata": "load"})
+    assert declaration == ModeDeclaration(metadata="program", payload_metadata="load")
+
+
+@pytest.mark.parametrize(
+    ("section", "match"),
+    [
+        ({"colum": "program"}, "unknown key 'colum'"),
+        ({"column": "program", "metadata": "task"}, "exactly one of column, metadata"),
+        ({"payload_column": "kg"}, "exactly one of column, metadata"),
+        ({"column": ""}, "column must be a non-empty string"),
+        ({"file_pattern": "prog("}, "file_pattern is not a regular expression"),
+    ],
+)
+def test_parse_mode_section_rejects_bad_tables(section: dict[str, str], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        parse_mode_section(section, source="axis.toml")
+
+
+def test_declared_mode_from_column_metadata_and_file_name() -> None:
+    program = np.array([3.0, 3.0, 3.0, 4.0])
+    capture = Capture(
+        {"torque": np.zeros(4), "program": program},
+        {"torque": 10.0, "program": 10.0},
+        source="/data/cell2_prog7_heavy.csv",
+        metadata={"task": "weld", "kg": "12"},
+    )
+    assert declared_mode(capture, ModeDeclaration(column="program")) == "3"
+    assert declared_mode(capture, ModeDeclaration(metadata="task", payload_metadata="kg")) == (
+        "weld@12"
+    )
+    pattern = r"prog(?P<program>\d+)_(?P<payload>[a-z]+)"
+    assert declared_mode(capture, ModeDeclaration(file_pattern=pattern)) == "7@heavy"
+
+
+@pytest.mark.parametrize(
+    ("declaration", "match"),
+    [
+        (ModeDeclaration(column="program"), "mode column 'program' is missing"),
+        (ModeDeclaration(metadata="task"), "metadata key 'task' is missing"),
+        (ModeDeclaration(file_pattern="prog(?P<program>\\d+)"), "does not match the mode's"),
+    ],
+)
+def test_declared_mode_names_the_capture_when_missing(
+    declaration: ModeDeclaration, match: str
+) -> None:
+    capture = Capture({"torque": np.zeros(4)}, {"torque": 10.0}, source="/data/run.csv")
+    with pytest.raises(CaptureError, match=f"/data/run.csv: .*{match}"):
+        declared_mode(capture, declaration)
+
+
+# -- learned modes ------------------------------------------------------------------------------
+def test_payload_change_is_another_mode_and_phase_is_not() -> None:
+    robot = draw_robot(3)
+    heavy = robot.tasks[0].__class__(**{**robot.tasks[0].__dict__, "payload_kg": 30.0})
+    other = robot.__class__(**{**robot.__dict__, "tasks": (heavy, *robot.tasks[1:])})
+    first, again = (describe_capture(robot.capture(0, seed=s)) for s in (1, 2))
+    loaded = describe_capture(other.capture(0, seed=3))
+    same = mode_differences(again.signature, first.signature, first.torque_scale)
+    changed = mode_differences(loaded.signature, first.signature, first.torque_scale)
+    assert same[-1] < 0.02 < PRIOR_MODE_TOLERANCE < changed[-1]
+    assert np.max(changed[:-1]) < PRIOR_MODE_TOLERANCE
+
+
+def test_a_capture_that_does_not_move_is_still() -> None:
+    rng = np.random.default_rng(0)
+    still = _description(rng, signature=np.full(7, np.nan))
+    assert ModeLibrary().update(still).state == "still"
+
+
+# -- the library --------------------------------------------------------------------------------
+def _learned(rng: np.random.Generator, n: int = 8, **kwargs: float) -> ModeLibrary:
+    library = ModeLibrary(n_fit=5, percentile=99.0)
+    for _ in range(n):
+        library.update(_description(rng, **kwargs))  # type: ignore[arg-type]
+    return library
+
+
+def test_a_new_mode_is_learning_n_of_k_then_known() -> None:
+    rng = np.random.default_rng(1)
+    library = ModeLibrary(n_fit=5)
+    states = [library.update(_description(rng)) for _ in range(6)]
+    assert [(v.state, v.n_seen) for v in states[:5]] == [("learning", k) for k in range(1, 6)]
+    assert states[5].state == "known"
+    assert not any(v.alarm for v in states)
+
+
+def test_a_known_mode_scores_a_fault_over_its_threshold() -> None:
+    rng = np.random.default_rng(2)
+    library = _learned(rng, 12)
+    healthy = [library.score(_description(rng)) for _ in range(20)]
+    worn = library.score(_description(rng, friction=1.6))
+    lined = library.score(_description(rng, spectrum_rise=1.5))
+    assert sum(v.alarm for v in healthy) <= 1
+    assert worn.alarm
+    assert worn.where == "coulomb_friction"
+    assert lined.alarm
+    assert lined.where == "spectrum"
+    assert healthy[0].false_alarm_rate == pytest.approx(0.01)
+
+
+def test_an_alarm_is_not_learned() -> None:
+    rng = np.random.default_rng(3)
+    library = _learned(rng, 8)
+    before = len(library.modes_["mode0"].members)
+    assert library.update(_description(rng, friction=2.0)).alarm
+    assert len(library.modes_["mode0"].members) == before
+
+
+def test_two_motions_are_two_modes_and_the_guard_waits_for_two() -> None:
+    rng = np.random.default_rng(4)
+    library = _learned(rng, 6)
+    fast = SIGNATURE * [2.0, 2.0, 2.0, 1.0, 1.0, 1.0, 1.0]
+    verdict = library.update(_description(rng, signature=fast, friction=3.0))
+    assert (verdict.mode, verdict.state, verdict.alarm) == ("mode1", "learning", False)
+    assert math.isnan(verdict.score)
+
+
+def test_the_guard_alarms_on_a_new_mode_beyond_every_known_one() -> None:
+    rng = np.random.default_rng(5)
+    library = ModeLibrary(n_fit=5)
+    slow, fast = SIGNATURE, SIGNATURE * [2.0, 2.0, 2.0, 1.0, 1.0, 1.0, 1.0]
+    for signature, friction in ((slow, 1.0), (fast, 1.2)):
+        for _ in range(6):
+            library.update(_description(rng, signature=signature, friction=friction))
+    third = SIGNATURE * [3.0, 3.0, 3.0, 1.0, 1.0, 1.0, 1.0]
+    healthy = library.score(_description(rng, signature=third, friction=1.1))
+    worn = library.score(_description(rng, signature=third, friction=4.0))
+    assert healthy.state == worn.state == "learning"
+    assert not healthy.alarm
+    assert worn.alarm
+    assert worn.where == "coulomb_friction"
+
+
+def test_a_slow_fault_is_not_learned_away() -> None:
+    rng = np.random.default_rng(6)
+    library = _learned(rng, 6)
+    verdicts = [library.update(_description(rng, friction=1.0 + 0.01 * k)) for k in range(30)]
+    first = next(k for k, v in enumerate(verdicts) if v.alarm)
+    assert verdicts[first].state == "drift"
+    assert verdicts[first].score < 1.0, "each capture alone is under the threshold"
+    assert library.modes_["mode0"].drifted
+
+
+def test_the_threshold_grows_steadier_with_healthy_evidence() -> None:
+    rng = np.random.default_rng(7)
+    library = _learned(rng, 6)
+    n_early = len(library.within_mode_distances()[0])
+    for _ in range(20):
+        library.update(_description(rng))
+    assert len(library.within_mode_distances()[0]) > n_early
+    assert all(math.isfinite(t) for t in library.thresholds())
+
+
+def test_declared_modes_are_kept_apart() -> None:
+    rng = np.random.default_rng(8)
+    library = ModeLibrary(n_fit=3)
+    for name in ("weld", "weld", "weld", "paint"):
+        d = _description(rng)
+        library.update(
+            CaptureDescription(d.source, d.signature, 10.0, d.readings, d.spectrum, name)
+        )
+    assert sorted(library.modes_) == ["paint", "weld"]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"n_fit": 2}, "'n_fit' parameter must be an int >= 3"),
+        ({"percentile": 100.0}, "'percentile' parameter must be a float in"),
+        ({"n_fit": 5, "window": 4}, "'window' parameter must be an int >= n_fit"),
+    ],
+)
+def test_library_rejects_bad_parameters(kwargs: dict[str, float], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        ModeLibrary(**kwargs)  # type: ignore[arg-type]
+
+
+def test_a_simulated_fault_in_a_known_mode_alarms() -> None:
+    robot = draw_robot(3)
+    library = ModeLibrary(n_fit=5, percentile=99.0)
+    for k in range(8):
+        library.update(describe_capture(robot.capture(1, seed=f"fit{k}")))
+    worn = describe_capture(robot.capture(1, seed="worn", fault=Fault("friction", 0.6)))
+    healthy = describe_capture(robot.capture(1, seed="ok"))
+    assert library.score(worn).alarm
+    assert not library.score(healthy).alarm
+
+
+def test_teach_turns_a_mode_change_alarm_into_a_new_mode() -> None:
+    rng = np.random.default_rng(9)
+    library = _learned(rng, 8)
+    heavier = _description(rng, friction=2.0)
+    assert library.update(heavier).alarm
+    name = library.teach(heavier, "heavy")
+    assert name == "heavy"
+    assert library.modes_["heavy"].members == [heavier]
+    assert library.match(_description(rng)) == "mode0"
+
+
+def test_teach_refuses_a_capture_that_does_not_move() -> None:
+    still = _description(np.random.default_rng(10), signature=np.full(7, np.nan), source="s.csv")
+    with pytest.raises(ValueError, match=r"s\.csv: the axis did not move"):
+        ModeLibrary().teach(still)
