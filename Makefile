@@ -1,6 +1,6 @@
 # Two entry points for a fresh machine with only Python 3.11 and make:
 #   make demo   creates .venv, installs, runs the main job end to end
-#   make test   creates .venv, installs, runs ruff, mypy and the whole test suite (2 processes)
+#   make test   creates .venv, installs, runs ruff, mypy and the product's and the lab's tests
 PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
@@ -17,12 +17,14 @@ PYTEST_PARALLEL := -n 2 --dist loadfile
 .PHONY: demo test lint typecheck bench clean lock test-latest fuzz
 
 # The environment is installed from the lock (exact versions, SHA-256 hashes), so a fresh machine
-# gets the set CI tested; the package itself goes in editable, without its dependencies.
-$(STAMP): pyproject.toml $(LOCK)
+# gets the set CI tested; the package itself goes in editable, without its dependencies, then
+# the lab (lab/, its own distribution; it needs nothing beyond the lock).
+$(STAMP): pyproject.toml lab/pyproject.toml $(LOCK)
 	rm -rf $(VENV)
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --require-hashes -r $(LOCK)
 	$(BIN)/python -m pip install --quiet --no-deps -e .
+	$(BIN)/python -m pip install --quiet --no-deps -e lab
 	touch $(STAMP)
 
 # Refresh the lock after changing pyproject.toml's dependencies (uv is in the lock's dev set).
@@ -35,14 +37,15 @@ test-latest:
 	rm -rf .venv-latest
 	$(PYTHON) -m venv .venv-latest
 	.venv-latest/bin/python -m pip install --quiet --upgrade -e ".[dev]"
+	.venv-latest/bin/python -m pip install --quiet --no-deps -e lab
 	.venv-latest/bin/python -m pytest -q $(PYTEST_PARALLEL)
 
 demo: $(STAMP)
 	$(BIN)/axiswatch demo
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests $(wildcard benchmarks)
-	$(BIN)/ruff format --check src tests $(wildcard benchmarks)
+	$(BIN)/ruff check src tests lab $(wildcard benchmarks)
+	$(BIN)/ruff format --check src tests lab $(wildcard benchmarks)
 	$(BIN)/lint-imports --no-cache
 
 typecheck: $(STAMP)

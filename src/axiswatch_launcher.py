@@ -1,4 +1,4 @@
-"""Console-script entry points of ``axiswatch`` and ``axiswatch-lab``.
+"""Console-script entry point of ``axiswatch`` (the lab's ``axiswatch-lab`` has its own).
 
 A module of its own, outside the ``axiswatch`` package, on purpose: importing anything inside the
 package first runs ``axiswatch/__init__.py``, which imports NumPy, SciPy and pandas (1-2 s). A
@@ -64,8 +64,3 @@ def launch(target: str, importer: Callable[[str], ModuleType] = import_module) -
 def axiswatch() -> None:
     """Entry point of the ``axiswatch`` script: :func:`axiswatch.cli.main`."""
     launch("axiswatch.cli:main")
-
-
-def axiswatch_lab() -> None:
-    """Entry point of the ``axiswatch-lab`` script: :func:`axiswatch_lab.cli.main`."""
-    launch("axiswatch_lab.cli:main")

@@ -53,10 +53,9 @@ def robot_capture(rng: np.random.Generator) -> aw.Capture:
 
 @pytest.fixture(scope="session")
 def lab_features() -> list[np.ndarray]:
-    """Real features: the lab dataset's ten days, as in the lab experiment."""
-    from axiswatch_lab._experiments import LAB_FEATURES
-
-    return [aw.extract_features(d.capture, LAB_FEATURES).X for d in awd.lab_dataset(seed=3)]
+    """Real features: the lab dataset's ten days, with the lab experiment's |STFT| settings."""
+    spec = aw.FeatureSpec(combinations="none", segment_length=128, padding="circular")
+    return [aw.extract_features(d.capture, spec).X for d in awd.lab_dataset(seed=3)]
 
 
 @pytest.fixture(scope="session")

@@ -158,19 +158,6 @@ def marchenko_pastur_median(beta: float, *, n: int = 2000, seed: int = 0) -> flo
     return float(np.median(np.linalg.eigvalsh(Y.T @ Y / n)))
 
 
-def energy_distance(first: np.ndarray, second: np.ndarray) -> float:
-    """Szekely & Rizzo's energy distance (V-statistic), every pair written out."""
-
-    def mean_norm(a: np.ndarray, b: np.ndarray) -> float:
-        total = 0.0
-        for x in a:
-            for y in b:
-                total += float(np.sqrt(np.sum((x - y) ** 2)))
-        return total / (len(a) * len(b))
-
-    return 2 * mean_norm(first, second) - mean_norm(first, first) - mean_norm(second, second)
-
-
 def least_squares_normal_equations(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Least-squares coefficients from the normal equations (A^T A) x = A^T b, written out."""
     return np.linalg.solve(A.T @ A, A.T @ b)
@@ -194,68 +181,6 @@ def angle_locked_f(
     big = residual_ss(waves(nuisance_orders) + waves(orders))
     p, k = 2 * len(orders), 2 * (len(orders) + len(nuisance_orders))
     return (small - big) / p / (big / (signal.size - k))
-
-
-def viscous_friction(
-    position: np.ndarray, speed: np.ndarray, torque: np.ndarray, rate_hz: float, levels: list[float]
-) -> float:
-    """Energy-window viscous friction, one window at a time with plain loops and normal equations."""
-    peak_all = max(abs(float(x)) for x in speed)
-    moving = [abs(float(x)) > 0.02 * peak_all for x in speed]
-    stretches, i = [], 0
-    while i < len(speed):
-        if moving[i]:
-            j = i
-            while j < len(speed) and moving[j]:
-                j += 1
-            stretches.append((i, j))
-            i = j
-        else:
-            i += 1
-    complete = [(a, b) for a, b in stretches if a > 0 and b < len(speed) and b - a >= 40]
-    # (Only moves inside the capture: the twin checks the windows, not the edge handling.)
-    rows, work = [], []
-    for m, (a, b) in enumerate(complete):
-        peak = max(abs(float(x)) for x in speed[a:b])
-        for level in levels:
-            inside = [k for k in range(a, b) if abs(float(speed[k])) > level * peak]
-            i0, i1 = inside[0], inside[-1]
-            row = [0.0] * (len(complete) + 1)
-            row[m] = abs(float(position[i1] - position[i0]))
-            # Trapezoid rule over samples i0 .. i1, term by term.
-            row[-1] = (
-                sum((float(speed[k]) ** 2 + float(speed[k + 1]) ** 2) / 2 for k in range(i0, i1))
-                / rate_hz
-            )
-            rows.append(row)
-            work.append(
-                sum(
-                    (float(torque[k] * speed[k]) + float(torque[k + 1] * speed[k + 1])) / 2
-                    for k in range(i0, i1)
-                )
-                / rate_hz
-            )
-    return float(least_squares_normal_equations(np.array(rows), np.array(work))[-1])
-
-
-def reversal_bursts(
-    torque: np.ndarray, band: np.ndarray, rate_hz: float, where: np.ndarray, smoothing_hz: float
-) -> float:
-    """Bursts at sign changes of the low-passed torque, sample by sample."""
-    from scipy.signal import butter, sosfiltfilt
-
-    smooth = sosfiltfilt(butter(2, smoothing_hz, fs=rate_hz, output="sos"), torque)
-    half = round(0.02 * rate_hz)
-    bursts = []
-    for k in range(len(smooth) - 1):
-        if (smooth[k] > 0) != (smooth[k + 1] > 0) and where[k]:
-            if k == 0:
-                slope = abs(smooth[1] - smooth[0]) * rate_hz
-            else:
-                slope = abs(smooth[k + 1] - smooth[k - 1]) * rate_hz / 2
-            peak = max(abs(float(b)) for b in band[max(0, k - half) : k + half])
-            bursts.append(peak / slope**0.5)
-    return float(np.mean(bursts)) if bursts else float("nan")
 
 
 def running_rms(values: np.ndarray, width: int) -> np.ndarray:
@@ -550,38 +475,6 @@ def fleet_difference_naive(
     return largest
 
 
-def own_pair_allowances_naive(
-    centre: dict[str, float],
-    within: dict[str, float],
-    others: list[dict[str, float]],
-    task_spreads: dict[str, float],
-    fleet_allowances: dict[str, float],
-    n_fitted: int,
-    percentile: float,
-) -> dict[str, float]:
-    """Per indicator of ``fleet_allowances``: the axis against each other axis by one loop, |z|
-    in the axis's own ``sqrt(s_w^2 + s_t^2)``, the middle of the sorted list, the exponential
-    quantile ``-b ln(1 - q)`` at Bonferroni's level over ``n_fitted`` indicators (fewer than 3
-    pairs, or a median of 0: the fleet's allowance)."""
-    nan = float("nan")
-    out = {}
-    for name, fallback in fleet_allowances.items():
-        scale = (task_spreads.get(name, nan) ** 2 + within.get(name, nan) ** 2) ** 0.5
-        zs = []
-        for other in others:
-            z = (centre.get(name, nan) - other.get(name, nan)) / scale
-            if z == z and abs(z) != float("inf"):
-                zs.append(abs(z))
-        zs.sort()
-        n = len(zs)
-        middle = (zs[n // 2] if n % 2 else (zs[n // 2 - 1] + zs[n // 2]) / 2) if n else 0.0
-        level = 1 - (1 - percentile / 100) / max(n_fitted, 1)
-        out[name] = (
-            -middle / math.log(2.0) * math.log(1 - level) if n >= 3 and middle > 0 else fallback
-        )
-    return out
-
-
 def fleet_pair_shifts_naive(
     centres: list[list[float]],
     within: list[list[float]],
@@ -761,83 +654,6 @@ def sampling_period_naive(stamps: list[float]) -> float:
     covariance = sum((i - mean_index) * (t - mean_stamp) for i, t in enumerate(stamps))
     variance = sum((i - mean_index) ** 2 for i in range(n))
     return covariance / variance
-
-
-def relative_band_powers_naive(
-    freqs: list[float], psd: list[float], rate_hz: float, edges: list[float]
-) -> list[float]:
-    """log10 of the PSD summed over the bins of each band ``[low, high)`` of ``edges`` x rate
-    (the last band closed), times the bin width, one bin at a time; NaN for an empty band."""
-    step = freqs[1] - freqs[0]
-    out = []
-    for k in range(len(edges) - 1):
-        total, hits = 0.0, 0
-        for f, p in zip(freqs, psd, strict=True):
-            r = f / rate_hz
-            last = k == len(edges) - 2
-            if edges[k] <= r and (r <= edges[k + 1] if last else r < edges[k + 1]):
-                total += p * step
-                hits += 1
-        out.append(math.log10(total) if hits and total > 0 else math.nan)
-    return out
-
-
-def order_bands_naive(first_cell: int, values: list[float], cells_per_band: int) -> list[float]:
-    """The largest finite value per band of ``cells_per_band`` grid cells, in band order, one
-    cell at a time (NaN for a band of unread cells)."""
-    bands: dict[int, list[float]] = {}
-    for offset, v in enumerate(values):
-        bands.setdefault((first_cell + offset) // cells_per_band, []).append(v)
-    out = []
-    for b in sorted(bands):
-        finite = [v for v in bands[b] if v == v]
-        out.append(max(finite) if finite else math.nan)
-    return out
-
-
-def unit_change_prior_naive(
-    centres: list[dict[str, float]],
-    within: list[dict[str, float]],
-    pairs: list[tuple[int, int]],
-    one_sided: dict[str, bool],
-) -> tuple[dict[str, float], float, dict[str, float]]:
-    """The nearest-task study's unit-change prior by loops over the same-task pairs: per
-    indicator ``s_u = 1.4826 x median |c_a - c_b|`` (3 pairs at least); every pair both ways,
-    ``z = (c_i - c_j) / sqrt(s_u^2 + s_w,j^2)``; the one allowance scale ``median / ln 2`` of
-    the ordered pairs' largest shift (``max(z, 0)`` one sided, ``|z|`` otherwise), each
-    indicator's ``median / ln 2`` of its ``|z|`` (3 ordered pairs at least)."""
-    nan = float("nan")
-    names = sorted({n for c in centres for n in c})
-    spreads = {}
-    for name in names:
-        differences = [abs(centres[a].get(name, nan) - centres[b].get(name, nan)) for a, b in pairs]
-        finite = [d for d in differences if d == d]
-        spreads[name] = 1.4826 * float(np.median(finite)) if len(finite) >= 3 else nan
-    largest: list[float] = []
-    shifts: dict[str, list[float]] = {n: [] for n in names}
-    for a, b in pairs:
-        for i, j in ((a, b), (b, a)):
-            top = nan
-            for name in names:
-                spread = spreads[name]
-                if not (spread == spread and spread > 0):
-                    continue
-                z = (centres[i].get(name, nan) - centres[j].get(name, nan)) / math.hypot(
-                    spread, within[j].get(name, nan)
-                )
-                if z != z:
-                    continue
-                shifts[name].append(abs(z))
-                shift = max(z, 0.0) if one_sided[name] else abs(z)
-                top = shift if top != top else max(top, shift)
-            if top == top:
-                largest.append(top)
-    scales = {
-        n: float(np.median(v)) / math.log(2.0) if len(v) >= 3 and np.median(v) > 0 else nan
-        for n, v in shifts.items()
-        if spreads[n] == spreads[n] and spreads[n] > 0
-    }
-    return spreads, float(np.median(largest)) / math.log(2.0), scales
 
 
 def kinematic_lines(

@@ -8,7 +8,6 @@ import pytest
 import axiswatch as aw
 import axiswatch.paper._attribution
 import axiswatch.paper._features
-import axiswatch_lab as lab
 
 _SPEC = aw.FeatureSpec(
     signals=("a", "b", "c"), combinations="none", segment_length=32, hop=32, padding="valid"
@@ -64,9 +63,6 @@ def test_pca_contributions_match_the_quadratic_form(rng: np.random.Generator) ->
     [
         aw.PCADetector(),
         aw.LRADetector(),
-        lab.EnergyDetector(),
-        lab.CORALDetector(),
-        lab.SubspaceAlignmentDetector(),
     ],
     ids=lambda d: type(d).__name__,
 )

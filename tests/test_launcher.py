@@ -66,10 +66,7 @@ def test_the_command_exit_status_passes_through(monkeypatch: pytest.MonkeyPatch)
 
 @pytest.mark.parametrize(
     ("script", "target"),
-    [
-        ("axiswatch", "axiswatch_launcher:axiswatch"),
-        ("axiswatch-lab", "axiswatch_launcher:axiswatch_lab"),
-    ],
+    [("axiswatch", "axiswatch_launcher:axiswatch")],
 )
 def test_the_console_scripts_go_through_the_launcher(script: str, target: str) -> None:
     (entry,) = entry_points(group="console_scripts", name=script)

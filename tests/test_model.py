@@ -7,12 +7,13 @@ import pytest
 
 import axiswatch as aw
 import axiswatch.datasets as awd
-from axiswatch_lab._experiments import LAB_FEATURES
 
 
 def test_lab_dataset_flags_only_the_anomaly() -> None:
     day1, *rest = awd.lab_dataset(seed=4)
-    model = aw.HealthModel(LAB_FEATURES, aw.LRADetector()).fit(day1.capture)
+    # The lab experiment's |STFT| settings.
+    spec = aw.FeatureSpec(combinations="none", segment_length=128, padding="circular")
+    model = aw.HealthModel(spec, aw.LRADetector()).fit(day1.capture)
     model.calibrate([d.capture for d in rest if not d.anomalous], percentile=99)
     verdicts = {d.day: model.assess(d.capture) for d in rest}
     assert [day for day, v in verdicts.items() if v.alarm] == [4]
@@ -113,20 +114,7 @@ def test_one_feature_path_the_default_stage_is_the_aligned_stft(rng: np.random.G
     np.testing.assert_array_equal(features.X, aw.extract_features(shifted, spec).X)
 
 
-def test_one_call_constructors_build_the_former_default_and_the_papers_method(
-    robot_capture: aw.Capture,
-) -> None:
-    default = aw.HealthModel.mechanics(percentile=95.0)
-    with pytest.warns(FutureWarning, match=r"product_default\(\) is deprecated"):
-        old_name = aw.HealthModel.product_default(percentile=95.0)
-    assert (type(old_name.stage), old_name.min_threshold) == (
-        type(default.stage),
-        default.min_threshold,
-    )
-    assert isinstance(default.stage, aw.MechanicsStage)
-    assert isinstance(default.detector, aw.IndicatorDetector)
-    # The floor: the same percentile of the fit of healthy task changes in development.
-    assert default.min_threshold == pytest.approx(-2.81 * np.log(0.05), rel=1e-12)
+def test_the_one_call_constructor_builds_the_papers_method(robot_capture: aw.Capture) -> None:
     for method, detector in (("lra", aw.LRADetector), ("pca", aw.PCADetector)):
         paper = aw.HealthModel.paper(method)
         assert isinstance(paper.detector, detector)

@@ -11,13 +11,20 @@ import pytest
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
 from axiswatch.indicators._readings import Motion, motion, read_indicators
 from axiswatch.indicators._ringing import (
+    CROSSING_HYSTERESIS,
     MIN_RINGING_RATE_HZ,
     gap_crossings,
     gap_ringing,
     sign_passages,
 )
-from axiswatch_lab._gap_ringing import CANDIDATES
 from tests import naive
+
+#: The reading's two option sets: every sign change against the motion's level, and the
+#: default's passages through +-10 % of each peak against the residual away from the windows.
+CANDIDATES: dict[str, dict[str, object]] = {
+    "v1": {"hysteresis": 0.0, "reference": "motion"},
+    "v2": {"hysteresis": CROSSING_HYSTERESIS, "reference": "away"},
+}
 
 
 def _swing(rate: float, seconds: float = 4.0, noise: float = 0.01) -> Motion:

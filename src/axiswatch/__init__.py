@@ -37,7 +37,6 @@ if _TYPE_CHECKING:  # the names as type checkers and IDEs see them
     from axiswatch._formats import (
         register_format,
     )
-    from axiswatch._mechanics import MechanicsStage
     from axiswatch._profiles import AxisProfile
     from axiswatch.exceptions import (
         AxiswatchError,
@@ -105,7 +104,6 @@ _EXPORTS: dict[str, str] = {
     "IndicatorDetector": "axiswatch.paper._detectors",
     "IndicatorModel": "axiswatch.indicators._model",
     "LRADetector": "axiswatch.paper._detectors",
-    "MechanicsStage": "axiswatch._mechanics",
     "MonitorConfig": "axiswatch.monitor",
     "PCADetector": "axiswatch.paper._detectors",
     "StftStage": "axiswatch.paper._stages",
@@ -152,7 +150,6 @@ __all__ = [
     "IndicatorDetector",
     "IndicatorModel",
     "LRADetector",
-    "MechanicsStage",
     "MonitorConfig",
     "PCADetector",
     "StftStage",

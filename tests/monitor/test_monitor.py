@@ -12,13 +12,8 @@ from typing import Any
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
-from typer.testing import CliRunner
 
 import axiswatch as aw
-import axiswatch._mechanics
-import axiswatch.datasets as awd
-from axiswatch._mechanics import COLUMNS
-from axiswatch.cli import app
 from axiswatch.datasets._robot import TASKS, simulate_capture
 from axiswatch.exceptions import StoreError
 from axiswatch.monitor._config import MonitorConfig
@@ -64,7 +59,7 @@ def test_alarm_step_matches_naive_state_machine(k: int, n: int, m: int) -> None:
     [
         (
             {"method": "svm"},
-            r"'method' parameter must be one of 'indicators', 'lra', 'pca', 'mechanics'.* Got 'svm'",
+            r"'method' parameter must be one of 'indicators', 'lra', 'pca'.* Got 'svm'",
         ),
         ({"percentile": 100.0}, r"'percentile' parameter must be a float in \(0, 100\). Got 100"),
         ({"calibration_size": 1}, r"'calibration_size' parameter must be an int >= 2 .* Got 1"),
@@ -336,73 +331,6 @@ def test_chosen_baseline_and_a_changed_baseline_file(fleet: Path, tmp_path: Path
     assert summary.exit_code == 8
 
 
-def test_mechanics_method_alarms_on_the_developing_fault_only(tmp_path: Path) -> None:
-    # The product default (docs/evaluation.md): friction develops on axis2 from day 8 (severity
-    # 0.2 on day 8, 1.0 on day 12); axis1 stays healthy. Captures of 3 s (a task cycle at least).
-    root = tmp_path / "fleet"
-    awd.simulate_fleet(
-        root,
-        n_robots=1,
-        n_axes=2,
-        n_days=12,
-        task_change_days=(),
-        faults=[awd.FleetFault("robot01", "axis2", "friction", onset_day=8)],
-    )
-    settle(root)
-    with Store(tmp_path / "s.db") as store:
-        monitor_fleet(root, store, MonitorConfig(method="mechanics"))
-        results = fleet_results(store)
-    alarms = results[results.alarm].groupby("axis").capture.apply(list).to_dict()
-    assert "axis1" not in alarms
-    assert alarms["axis2"][-1] == "2026-03-12.parquet"
-    assert min(alarms["axis2"]) >= "2026-03-08"  # no alarm before the fault
-    params = json.loads(store_params(tmp_path / "s.db"))
-    assert params["stage"]["name"] == "MechanicsStage"
-    assert params["align_phase"] is False
-    # Same-task calibration gives a threshold below what healthy task changes need: the floor.
-    floor = MonitorConfig(method="mechanics").threshold_floor()
-    assert floor == pytest.approx(aw._mechanics.MECHANICS_TASK_CHANGE_SCALE * np.log(100))
-    assert (results.threshold.dropna() >= floor).all()
-    # Every monitored capture carries its explanation; every reason names where its threshold
-    # comes from (the floor, when the fit is lower) and, over it, the top indicator.
-    with Store(tmp_path / "s.db") as store:
-        fits = {}
-        for robot, axis in set(zip(results.robot, results.axis, strict=True)):
-            latest = store.latest_baseline(robot, axis, "mechanics")
-            assert latest is not None
-            assert latest.fit is not None
-            fits[robot + axis] = latest.fit
-    monitored = results[results.role == "monitor"]
-    for row in monitored.itertuples():
-        details = json.loads(row.details)
-        shares = [entry["share"] for entry in details["indicators"].values()]
-        assert set(details["indicators"]) == set(COLUMNS)
-        assert sum(shares) == pytest.approx(1.0 if row.distance > 0 else 0.0, abs=1e-9)
-        fitted = fits[row.robot + row.axis].threshold(99.0)
-        origin = "task-change allowance" if row.threshold > fitted else "99th pct of half"
-        assert f"threshold {row.threshold:.4g} ({origin}" in row.reason, row.reason
-        assert ("; top indicator " in row.reason) == bool(row.over or row.alarm), row.reason
-    raised = monitored[monitored.alarm]
-    assert "; top indicator viscous_friction +" in raised.reason.iloc[-1]
-    assert "likely friction" in raised.reason.iloc[-1]
-    assert raised.top_indicator.str.startswith("viscous_friction +").all()
-    assert results.top_indicator[~(results.over | results.alarm)].isna().all()
-    shown = CliRunner().invoke(
-        app, ["results", "--store", str(tmp_path / "s.db"), "--axis", "axis2", "--indicators"]
-    )
-    header = shown.output.splitlines()[0].split()
-    assert header[-7:] == ["top_indicator", *COLUMNS], header
-    assert "2026-03-12.parquet mechanics" in shown.output
-
-
 def test_threshold_floor_is_zero_for_the_papers_methods() -> None:
     assert MonitorConfig(method="lra").threshold_floor() == 0.0
     assert "threshold_floor" not in MonitorConfig(method="pca").params()
-
-
-def store_params(path: Path) -> str:
-    import sqlite3
-
-    with sqlite3.connect(path) as connection:
-        (text,) = connection.execute("SELECT params FROM baselines LIMIT 1").fetchone()
-    return str(text)

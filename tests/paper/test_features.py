@@ -177,11 +177,10 @@ def test_peak_memory_is_the_result_plus_a_block(rng: np.random.Generator) -> Non
     assert peak < X.nbytes + 14e6
 
 
-def test_non_spectral_stages_name_their_columns_instead_of_zero_frequencies(
-    robot_capture: aw.Capture,
-) -> None:
-    stage = aw.MechanicsStage()
-    features = stage.fit_transform(robot_capture)
+def test_non_spectral_stages_name_their_columns_instead_of_zero_frequencies() -> None:
+    # As a physical-indicator stage gives them: one channel, named columns, no frequencies.
+    names = ("viscous_friction", "impulsiveness", "bearing_lines")
+    features = aw.Features(np.ones((2, 3)), ("mechanics",), None, 2000.0, names)
     assert features.frequencies_hz is None
     assert features.column_names is not None
     assert len(features.column_names) == features.X.shape[1]

@@ -8,6 +8,7 @@ from axiswatch.datasets._family import (
     HELD_OUT_ROBOTS,
     SimulatedRobot,
     draw_robot,
+    draw_unit,
 )
 from axiswatch.datasets._lab import (
     LAB_DAYS,
@@ -22,10 +23,12 @@ from axiswatch.datasets._recorded import (
     read_recording,
 )
 from axiswatch.datasets._robot import (
+    FAULT_KINDS,
     NOMINAL_AXIS,
     TASKS,
     AxisSpec,
     Fault,
+    FaultKind,
     Task,
     simulate_capture,
 )
@@ -40,7 +43,9 @@ __all__ = [
     "AxisSpec",
     "DEFAULT_FLEET_FAULTS",
     "DEVELOPMENT_ROBOTS",
+    "FAULT_KINDS",
     "Fault",
+    "FaultKind",
     "FleetFault",
     "HELD_OUT_ROBOTS",
     "LAB_DAYS",
@@ -53,6 +58,7 @@ __all__ = [
     "Task",
     "default_data_dir",
     "draw_robot",
+    "draw_unit",
     "fleet_profile_toml",
     "lab_dataset",
     "read_dataset",

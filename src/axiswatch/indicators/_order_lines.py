@@ -379,7 +379,7 @@ def component_at(
         or a ripple, healthy).
     bearings : mapping of str to float
         Name -> defect order of the motor speed; its lines are
-        :func:`~axiswatch._mechanics.bearing_orders`.
+        :func:`~axiswatch.indicators._signals.bearing_orders`.
 
     Returns
     -------

@@ -43,9 +43,7 @@ class MonitorConfig:
         ``"indicators"``, the product default, an :class:`~axiswatch.IndicatorModel` per axis
         fitted on the baseline and the calibration captures, with its fleet's prior; the paper's
         Low Rank Alignment ``"lra"`` and ``"pca"``, library defaults of :class:`LRADetector` and
-        :class:`PCADetector` on ``features``; and ``"mechanics"``, the former default, the
-        physical indicators of :class:`MechanicsStage` with :class:`IndicatorDetector` in scales
-        measured on the project's simulator). The method's preset makes the detector, the stage
+        :class:`PCADetector` on ``features``). The method's preset makes the detector, the stage
         and the threshold floor.
     percentile : float in (0, 100), default=99.0
     calibration_size : int >= 2, default=5
@@ -102,8 +100,8 @@ class MonitorConfig:
     {'k': 2, 'n': 3, 'clear_m': 1}
     >>> MonitorConfig().method  # the product default
     'indicators'
-    >>> type(MonitorConfig(method="mechanics").model().stage).__name__
-    'MechanicsStage'
+    >>> type(MonitorConfig(method="pca").model().detector).__name__
+    'PCADetector'
     """
 
     method: str = DEFAULT_METHOD
@@ -183,8 +181,7 @@ class MonitorConfig:
 
     def threshold_floor(self) -> float:
         """Least threshold: the ``percentile`` of the half-Laplace fit of healthy task changes
-        in development, for a method that has one (``"mechanics"``:
-        ``MECHANICS_TASK_CHANGE_SCALE``); else 0."""
+        in development, for a method that has one; else 0."""
         floor = self.preset.threshold_floor(self.percentile)
         return 0.0 if floor is None else floor
 

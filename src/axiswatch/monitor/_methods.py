@@ -1,8 +1,8 @@
 """The monitor's methods: named presets, each a factory of a fresh model of an axis.
 
-Built in: ``indicators`` (the default), the paper's ``lra`` and ``pca``, and ``mechanics``. A
-new method is registered with :func:`register_method`, or under the entry-point group
-``axiswatch.methods``. The model is any :class:`~axiswatch._axis_model.MonitoredModel`.
+Built in: ``indicators`` (the default) and the paper's ``lra`` and ``pca``. A new method is
+registered with :func:`register_method`, or under the entry-point group ``axiswatch.methods``
+(the lab's ``mechanics`` is). The model is any :class:`~axiswatch._axis_model.MonitoredModel`.
 """
 
 from __future__ import annotations
@@ -14,12 +14,11 @@ from typing import TYPE_CHECKING, Any
 
 from axiswatch._axis_model import MonitoredModel
 from axiswatch._calibration import half_laplace_threshold
-from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch.indicators._axis import IndicatorBaseline
 from axiswatch.indicators._fleet import MIN_AXES
 from axiswatch.indicators._model import IndicatorModel
 from axiswatch.indicators._spreads import MIN_READINGS
-from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch.paper._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch.paper._model import HealthModel
 from axiswatch.paper._stages import FeatureStage
 
@@ -78,6 +77,9 @@ class MethodPreset:
         default model); a configuration that sets another is refused.
     distance_unit : str, default="healthy spreads"
         What a stored distance counts, for the report's axes.
+    stores_indicators : bool, default=False
+        Whether its scores carry each indicator's shift (``details["indicators"]``), which the
+        report charts below the distance.
 
     Examples
     --------
@@ -95,6 +97,7 @@ class MethodPreset:
     summary: str = ""
     options: frozenset[str] = frozenset()
     distance_unit: str = "healthy spreads"
+    stores_indicators: bool = False
 
     def __post_init__(self) -> None:
         if (self.model is None) == (self.detector is None):
@@ -224,18 +227,12 @@ _METHODS: dict[str, MethodPreset] = {
         params=_indicator_params,
         options=frozenset({"task_envelope", "order_lines", "whole_moves"}),
         distance_unit="thresholds",
+        stores_indicators=True,
         summary="physical indicators at any rate >= 20 Hz, in spreads of the axis's own "
         "calibration captures and of its fleet (default, docs/evaluation.md)",
     ),
     "lra": MethodPreset(detector=_lra, summary="the paper's Low Rank Alignment"),
     "pca": MethodPreset(detector=lambda config: PCADetector(), summary="the paper's PCA"),
-    "mechanics": MethodPreset(
-        detector=lambda config: IndicatorDetector(),
-        stage=lambda config: MechanicsStage(),
-        task_change_scale=MECHANICS_TASK_CHANGE_SCALE,
-        summary="the former default: physical indicators in scales measured on the project's "
-        "simulator (needs >= 600 Hz; kept for comparison)",
-    ),
 }
 _plugins_loaded = False
 

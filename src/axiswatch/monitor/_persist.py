@@ -45,7 +45,7 @@ __all__ = [
 #: ``n_pairs`` counts them; a format-8 model keeps a prior that depends on the order its fleet
 #: was listed in (and counts the pairs one way), so it is refitted and pooled again. 10:
 #: ``gap_ringing``'s windows and the rate floors of the indicators are counted in whole samples
-#: and compared within the rate's tolerance (:func:`~axiswatch._mechanics.whole_samples`,
+#: and compared within the rate's tolerance (:func:`~axiswatch.indicators._signals.whole_samples`,
 #: :func:`~axiswatch._capture.rate_at_least`), so a format-9 model's centre and spreads of
 #: ``gap_ringing`` were read with windows a sample longer or shorter: it is refitted.
 PERSIST_FORMAT = 10
@@ -60,7 +60,6 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch.IndicatorDetector",
     "axiswatch.IndicatorModel",
     "axiswatch.LRADetector",
-    "axiswatch.MechanicsStage",
     "axiswatch.PCADetector",
     "axiswatch.StftStage",
     "axiswatch.Threshold",

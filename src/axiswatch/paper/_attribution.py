@@ -1,6 +1,6 @@
 """Why an alarm fired: the share of a capture's distance carried by each channel and band.
 
-It is exact for PCA (paper, "Detection") and the indicator detector, by occlusion elsewhere.
+It is exact for PCA (paper, "Detection"), by occlusion for every other detector.
 The decomposition is in docs/internals.md, "Attribution".
 """
 
@@ -15,18 +15,29 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import check_is_fitted
 
-from axiswatch._mechanics import COLUMNS, LIKELY_FAULTS, MechanicsStage
-from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, PCADetector
+from axiswatch.paper._detectors import BaselineDetector, PCADetector
 from axiswatch.paper._features import Features
 
 __all__ = [
+    "LIKELY_FAULTS",
     "attribute",
     "describe_top_indicator",
     "difference_spectrogram",
-    "explain_indicators",
     "pca_contributions",
     "plot_difference_spectrogram",
 ]
+
+
+#: What a rise of an indicator most likely means, by the name a score's ``indicators`` details
+#: give it: the fault it watches, for the monitor's reasons and report.
+LIKELY_FAULTS: dict[str, str] = {
+    "viscous_friction": "friction (lubrication, seals, wear)",
+    "viscous_friction_deficit": "lost motion (backlash) breaking the energy balance",
+    "impulsiveness": "impacts (backlash or a damaged gear tooth)",
+    "reversal_bursts": "backlash in the gearbox",
+    "tooth_lines": "a damaged gear tooth",
+    "bearing_lines": "a bearing defect",
+}
 
 
 def pca_contributions(
@@ -62,69 +73,13 @@ def pca_contributions(
     return np.asarray(np.sum(difference * projected, axis=0))
 
 
-def explain_indicators(
-    stage: MechanicsStage, detector: IndicatorDetector, X: NDArray[np.float64]
-) -> dict[str, dict[str, float]]:
-    """Why a capture has its distance: each indicator's reading, shift and share.
-
-    Parameters
-    ----------
-    stage : MechanicsStage
-        Fitted on the baseline.
-    detector : IndicatorDetector
-        Fitted on the stage's baseline rows.
-    X : ndarray of shape (n_rows, 6)
-        The test capture's rows (``stage.transform(capture).X``).
-
-    Returns
-    -------
-    dict
-        One entry per column of :data:`~axiswatch._mechanics.COLUMNS`, in that order:
-        ``value`` and ``baseline`` (the indicator in its own unit, geometric mean over the two
-        directions of motion; the deficit column repeats the viscous friction), ``spreads`` (the
-        mean row's shift from the baseline's in that column, in healthy spreads
-        ``MechanicsStage.scales``; positive is worse: for the deficit column, friction that
-        fell) and ``share`` (the column's term of the distance over the distance, 0 when the
-        distance is 0; the shares add up to 1).
-
-    Examples
-    --------
-    >>> from axiswatch import IndicatorDetector, MechanicsStage
-    >>> from axiswatch.datasets import simulate_capture
-    >>> stage = MechanicsStage().fit(simulate_capture("short_fast", seed=0))
-    >>> detector = IndicatorDetector().fit(stage.baseline_rows_)
-    >>> X = stage.transform(simulate_capture("short_fast", seed=1)).X
-    >>> why = explain_indicators(stage, detector, X)
-    >>> list(why) == list(COLUMNS), round(sum(v["share"] for v in why.values()), 12)
-    (True, 1.0)
-    """
-    X = np.asarray(X, dtype=np.float64)
-    terms = detector.contributions(X)
-    total = float(terms.sum())
-    shift = X.mean(axis=0) - detector.centre_
-    scales = np.asarray(stage.scales, dtype=np.float64)
-    baseline_log = stage.baseline_readings_.mean(axis=0)
-    explanation = {}
-    for j, name in enumerate(COLUMNS):
-        indicator = max(j - 1, 0)  # the viscous friction has two columns: up, and negated
-        sign = -1.0 if j == 1 else 1.0
-        test_log = float(np.mean(sign * X[:, j] * scales[indicator]))
-        explanation[name] = {
-            "value": 10.0**test_log,
-            "baseline": float(10.0 ** baseline_log[indicator]),
-            "spreads": float(shift[j]),
-            "share": float(terms[j] / total) if total > 0 else 0.0,
-        }
-    return explanation
-
-
 def describe_top_indicator(explanation: dict[str, dict[str, float]]) -> str | None:
     """One line on the indicator with the largest share of the distance, and what it means.
 
     Parameters
     ----------
     explanation : dict
-        :func:`explain_indicators`'s output (as stored in a score's details).
+        A score's ``indicators`` details: per indicator its ``spreads`` and ``share``.
 
     Returns
     -------

@@ -282,7 +282,7 @@ class LRADetector(BaselineDetector):
 class IndicatorDetector(BaselineDetector):
     """Shift of the test's mean row from the baseline's: ``d = ||mean(X_t) - mean(X_s)||^2``.
 
-    Meant for compact indicator stages (:class:`~axiswatch.MechanicsStage`) whose rows are
+    Meant for compact indicator stages (the lab's ``MechanicsStage``) whose rows are
     repeated readings of the same quantities and whose columns are already on a common scale;
     rows are averaged, not paired, so a capture with fewer rows is compared all the same.
 

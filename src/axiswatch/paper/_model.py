@@ -9,7 +9,6 @@ from __future__ import annotations
 import copy
 import hashlib
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -22,14 +21,11 @@ from axiswatch._calibration import (
     HalfLaplaceFit,
     Threshold,
     alarm_threshold,
-    half_laplace_threshold,
 )
 from axiswatch._capture import Capture
-from axiswatch._mechanics import MECHANICS_TASK_CHANGE_SCALE, MechanicsStage
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError
-from axiswatch.paper._attribution import explain_indicators
-from axiswatch.paper._detectors import BaselineDetector, IndicatorDetector, LRADetector, PCADetector
+from axiswatch.paper._detectors import BaselineDetector, LRADetector, PCADetector
 from axiswatch.paper._features import Features, FeatureSpec
 from axiswatch.paper._stages import FeatureStage, StftStage
 
@@ -43,9 +39,8 @@ class HealthModel:
     paper's |STFT| with phase alignment, :class:`~axiswatch.StftStage`, unless another stage is
     given), the detector measures their distance to the baseline's, and
     :func:`~axiswatch.alarm_threshold` of healthy distances sets the threshold. The one-call
-    constructors :meth:`paper` and :meth:`mechanics` build the paper's method and the former
-    product default (the product default is :class:`~axiswatch.IndicatorModel`, the monitor's
-    ``indicators``).
+    constructor :meth:`paper` builds the paper's method (the product default is
+    :class:`~axiswatch.IndicatorModel`, the monitor's ``indicators``).
 
     Parameters
     ----------
@@ -63,9 +58,9 @@ class HealthModel:
         the paper's distances pair rows by index). Ignored with a ``stage``.
     min_threshold : float, default=0.0
         Floor of the threshold (what healthy task changes do to the distance, which same-task
-        calibration captures cannot show; :meth:`mechanics` sets it).
+        calibration captures cannot show).
     stage : FeatureStage, optional
-        The feature stage (:class:`~axiswatch.MechanicsStage`, ...): fitted on the baseline (a
+        The feature stage: fitted on the baseline (a
         copy; never modified), then it reads every capture.
 
     Attributes
@@ -111,46 +106,6 @@ class HealthModel:
         self.align_phase = align_phase
         self.min_threshold = min_threshold
         self.stage = stage
-
-    @classmethod
-    def mechanics(
-        cls, *, percentile: float = 99.0, features: FeatureSpec | None = None
-    ) -> HealthModel:
-        """The former product default (the monitor's ``mechanics``): :class:`~axiswatch.
-        MechanicsStage` physical indicators, :class:`~axiswatch.IndicatorDetector`, and a
-        threshold floored at the ``percentile`` of the half-Laplace fit of healthy task changes
-        measured on the project's simulator (``MECHANICS_TASK_CHANGE_SCALE``).
-
-        Kept for comparison: its scales and floor come from one simulator and its band needs more
-        than 600 Hz. The product default is :class:`~axiswatch.IndicatorModel`.
-
-        Examples
-        --------
-        >>> model = HealthModel.mechanics()
-        >>> type(model.stage).__name__, type(model.detector).__name__, round(model.min_threshold, 2)
-        ('MechanicsStage', 'IndicatorDetector', 12.94)
-        """
-        return cls(
-            features,
-            IndicatorDetector(),
-            percentile=percentile,
-            min_threshold=half_laplace_threshold(MECHANICS_TASK_CHANGE_SCALE, percentile),
-            stage=MechanicsStage(),
-        )
-
-    @classmethod
-    def product_default(
-        cls, *, percentile: float = 99.0, features: FeatureSpec | None = None
-    ) -> HealthModel:
-        """Deprecated name of :meth:`mechanics` (no longer the product default, which is
-        :class:`~axiswatch.IndicatorModel`); warns with a ``FutureWarning``."""
-        warnings.warn(
-            "HealthModel.product_default() is deprecated: it builds the former default, now "
-            "HealthModel.mechanics(); the product default is axiswatch.IndicatorModel.",
-            FutureWarning,
-            stacklevel=2,
-        )
-        return cls.mechanics(percentile=percentile, features=features)
 
     @classmethod
     def paper(
@@ -290,8 +245,11 @@ class HealthModel:
         detector = self.detector_
         distance, diagnostics = detector.distance_and_diagnostics(features.X)
         details.update(diagnostics)
-        if isinstance(self.stage_, MechanicsStage) and isinstance(detector, IndicatorDetector):
-            details["indicators"] = explain_indicators(self.stage_, detector, features.X)
+        # A stage that can say why (the lab's ``mechanics``) adds each indicator's share.
+        explain = getattr(self.stage_, "explain", None)
+        explanation = None if explain is None else explain(detector, features.X)
+        if explanation is not None:
+            details["indicators"] = explanation
         threshold = getattr(self, "threshold_", math.nan)
         return Assessment(
             distance, threshold, bool(distance > threshold), phase_lag=lag, details=details

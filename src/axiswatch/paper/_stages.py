@@ -1,7 +1,7 @@
 """The feature-stage interface: a capture becomes a feature matrix a detector can compare.
 
-The paper's |STFT| features are :class:`StftStage`. The former default's indicators are
-:class:`~axiswatch.MechanicsStage`.
+The paper's |STFT| features are :class:`StftStage`. A stage may say why a capture has its
+distance through an optional ``explain(detector, X)`` method (the lab's ``mechanics`` does).
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 The one table (:data:`ADVICE`) from an indicator's code name to words, read by the verdicts and
 the charts. Each row follows what the indicator measures (``axiswatch.indicators._readings``,
-``axiswatch.indicators._ringing``, ``axiswatch.indicators._order_lines``, ``axiswatch._mechanics``). The code names
-stay in the report's details.
+``axiswatch.indicators._ringing``, ``axiswatch.indicators._order_lines``). The code names stay
+in the report's details.
 """
 
 from __future__ import annotations
@@ -62,9 +62,9 @@ def _drive_load(direction: str, colour: str) -> Advice:
     )
 
 
-#: Indicator code name (or the family before ``:``) -> what its move means. Both the product
-#: default (method ``indicators``) and method ``mechanics`` are covered; ``""`` is a method
-#: whose distance names no indicator (the paper's PCA and LRA).
+#: Indicator code name (or the family before ``:``) -> what its move means, for the product
+#: default (method ``indicators``); ``""`` is a method whose distance names no indicator (the
+#: paper's PCA and LRA). Another method's indicators get :func:`advice_for`'s plain words.
 ADVICE: dict[str, Advice] = {
     "coulomb_friction": Advice(
         measures="the friction torque that does not depend on speed",
@@ -83,15 +83,6 @@ ADVICE: dict[str, Advice] = {
         action="Check the lubricant: grade, level and contamination.",
         action_falling=_PLAY,
         colour="#17becf",
-    ),
-    "viscous_friction_deficit": Advice(
-        measures="friction missing from the energy balance of each move",
-        rising="lost motion in the drive",
-        falling="lost motion in the drive",
-        component="gear train play (backlash)",
-        action="Measure the play at the axis output; plan a gearbox service if it grew.",
-        action_falling="Measure the play at the axis output; plan a gearbox service if it grew.",
-        colour="#9edae5",
     ),
     "load_forward": _drive_load("forward", "#393b79"),
     "load_backward": _drive_load("backward", "#8c6d31"),
@@ -112,15 +103,6 @@ ADVICE: dict[str, Advice] = {
         action="Measure the play at the axis output; plan a gearbox service if it grew.",
         action_falling="Measure the play at the axis output; plan a gearbox service if it grew.",
         colour="#637939",
-    ),
-    "reversal_bursts": Advice(
-        measures="torque bursts when the axis reverses",
-        rising="impacts at reversals",
-        falling="impacts at reversals",
-        component="backlash in the gear train",
-        action="Measure the play at the axis output; plan a gearbox service if it grew.",
-        action_falling="Measure the play at the axis output; plan a gearbox service if it grew.",
-        colour="#8ca252",
     ),
     "tooth_lines": Advice(
         measures="vibration at the turn of a gear whose teeth are watched",

@@ -30,7 +30,7 @@ KINDS: tuple[str, ...] = (
 )
 
 #: The method that leads the report when the store holds it: the product default first.
-METHOD_ORDER: tuple[str, ...] = ("indicators", "mechanics", "lra", "pca")
+METHOD_ORDER: tuple[str, ...] = ("indicators", "lra", "pca")
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,6 @@ from typing import Any
 
 import pandas as pd
 
-from axiswatch._mechanics import COLUMNS
 from axiswatch.monitor._methods import methods
 from axiswatch.monitor.report.advice import indicator_colour
 
@@ -245,7 +244,8 @@ def _indicator_panel(go: Any, figure: Any, lead: pd.DataFrame, panel: int) -> No
         else p.get("indicators", {})
         for p in parsed
     ]
-    names = sorted({n for e in explained for n in e}) if largest else list(COLUMNS)
+    first_seen = list(dict.fromkeys(n for e in explained for n in e))
+    names = sorted(first_seen) if largest else first_seen
     for name in names:
         entries = [e.get(name) for e in explained]
         keep = [e is not None for e in entries]

@@ -17,6 +17,7 @@ import pandas as pd
 
 from axiswatch.monitor._feedback import ACK_VERDICTS
 from axiswatch.monitor._methods import DEFAULT_METHOD
+from axiswatch.monitor._methods import methods as registered_methods
 from axiswatch.monitor.report.advice import indicator_colour
 from axiswatch.monitor.report.attention import METHOD_ORDER, lead_method, triage
 from axiswatch.monitor.report.charts import distance_chart, plotly_library
@@ -96,6 +97,12 @@ _LEGEND = (
     "one spread, the distance the sum of the squared upward shifts.) Drag to zoom, double-click "
     "to reset, hover for the capture, its value and the reason."
 )
+
+
+def _stores_indicators(method: str) -> bool:
+    """Whether a method's scores carry its indicators' shifts (one no longer registered: no)."""
+    preset = registered_methods().get(method)
+    return preset is not None and preset.stores_indicators
 
 
 def _esc(value: Any) -> str:
@@ -363,7 +370,7 @@ def write_report(
         if not lead_rows.empty:
             parts.append(
                 distance_chart(
-                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=lead in ("mechanics", "indicators"),
+                    lead_rows, div_id=f"chart-{robot}-{axis}", indicators=_stores_indicators(lead),
                     events=events, fault_dates=fault_dates,
                 )
             )  # fmt: skip

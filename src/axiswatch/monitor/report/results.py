@@ -12,10 +12,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from axiswatch._mechanics import COLUMNS
 from axiswatch.monitor._feedback import alarm_feedback
 from axiswatch.monitor.store import StoreBackend
-from axiswatch.paper._attribution import describe_top_indicator
+from axiswatch.paper._attribution import LIKELY_FAULTS, describe_top_indicator
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
@@ -70,7 +69,8 @@ def indicator_spreads(results: pd.DataFrame) -> pd.DataFrame:
         for d in results["details"]
     ]
     frame = pd.DataFrame(rows, index=results.index, dtype=np.float64)
-    known = [name for name in COLUMNS if name in frame.columns]  # in the stage's order
+    # Indicators with a known likely fault first, in that table's order.
+    known = [name for name in LIKELY_FAULTS if name in frame.columns]
     return frame[known + [name for name in frame.columns if name not in known]]
 
 

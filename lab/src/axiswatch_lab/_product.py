@@ -1,0 +1,146 @@
+"""The product's internals the lab reads, in one place.
+
+The studies take the product default apart: they rescore its readings with other rules, so they
+need its private helpers. Every such import goes through this module (an import contract
+checks it), and a refactor of the product edits the lab here only.
+"""
+
+import axiswatch.indicators._spreads as indicator_model
+from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._axis import fit_indicator_baseline, read_axis_indicators, with_fleet
+from axiswatch.indicators._fleet import (
+    MIN_AXES,
+    MIN_PAIRS,
+    FleetPrior,
+    _task_change_scales,
+    fleet_difference,
+    fleet_pair_shifts,
+    own_pair_allowances,
+    pool_fleet,
+    pool_fleet_without,
+)
+from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._modes import CaptureDescription, describe_capture
+from axiswatch.indicators._order_lines import (
+    CELLS_PER_DECADE,
+    OrderProfile,
+    OrderSpectrum,
+    order_spectrum,
+)
+from axiswatch.indicators._readings import (
+    BAND_FRACTION,
+    FRICTION,
+    INDICATORS,
+    MIN_BAND_MOTION_S,
+    MIN_BAND_RATE_HZ,
+    MIN_REVOLUTIONS,
+    MOVING_FRACTION,
+    SIGNATURE_MOVING_QUANTILES,
+    SIGNATURE_POSITION_QUANTILES,
+    Indicator,
+    Motion,
+    Readings,
+    _band,
+    drive_loads,
+    friction_design,
+    least_squares_errors,
+    motion,
+    read_indicators,
+    signature_distance,
+    whole_move_mask,
+)
+from axiswatch.indicators._ringing import CROSSING_HYSTERESIS, gap_ringing
+from axiswatch.indicators._signals import (
+    BEARING_OFFSETS,
+    WHOLE_ORDERS,
+    _NuisanceFree,
+    bearing_lines,
+    bearing_orders,
+    butter_sos,
+    line_ratio,
+    pearson_kurtosis,
+    running_rms,
+    whole_samples,
+)
+from axiswatch.indicators._spreads import (
+    MAD_TO_SD,
+    MIN_READINGS,
+    ORDER_LINES,
+    TASK_ENVELOPE_FACTOR,
+    _centre_without,
+    _declared,
+    _distance,
+    _transformed,
+    leave_one_out_distances,
+)
+from axiswatch.monitor._quality import QualityReference, data_quality_problem
+from axiswatch.paper._attribution import LIKELY_FAULTS, describe_top_indicator
+
+__all__ = [
+    "BAND_FRACTION",
+    "BEARING_OFFSETS",
+    "CELLS_PER_DECADE",
+    "CROSSING_HYSTERESIS",
+    "CaptureDescription",
+    "FRICTION",
+    "INDICATORS",
+    "LIKELY_FAULTS",
+    "MAD_TO_SD",
+    "MIN_AXES",
+    "MIN_BAND_MOTION_S",
+    "MIN_BAND_RATE_HZ",
+    "MIN_PAIRS",
+    "MIN_READINGS",
+    "MIN_REVOLUTIONS",
+    "MOVING_FRACTION",
+    "ModeLibrary",
+    "ORDER_LINES",
+    "SIGNATURE_MOVING_QUANTILES",
+    "SIGNATURE_POSITION_QUANTILES",
+    "TASK_ENVELOPE_FACTOR",
+    "WHOLE_ORDERS",
+    "FleetPrior",
+    "Indicator",
+    "IndicatorAssessment",
+    "Motion",
+    "QualityReference",
+    "OrderProfile",
+    "OrderSpectrum",
+    "Readings",
+    "_NuisanceFree",
+    "_band",
+    "_centre_without",
+    "_declared",
+    "_distance",
+    "_task_change_scales",
+    "_transformed",
+    "bearing_lines",
+    "data_quality_problem",
+    "describe_capture",
+    "describe_top_indicator",
+    "bearing_orders",
+    "butter_sos",
+    "drive_loads",
+    "fit_indicator_baseline",
+    "fleet_difference",
+    "fleet_pair_shifts",
+    "friction_design",
+    "gap_ringing",
+    "indicator_model",
+    "least_squares_errors",
+    "leave_one_out_distances",
+    "line_ratio",
+    "motion",
+    "order_spectrum",
+    "own_pair_allowances",
+    "pearson_kurtosis",
+    "pool_fleet",
+    "pool_fleet_without",
+    "read_indicators",
+    "read_axis_indicators",
+    "running_rms",
+    "signature_distance",
+    "whole_move_mask",
+    "whole_samples",
+    "with_fleet",
+]

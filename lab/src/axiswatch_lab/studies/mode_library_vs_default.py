@@ -1,0 +1,184 @@
+"""The mode library against the default on the robot family: within a mode, Robot A, faults
+growing after a mode change.
+
+``python -m axiswatch_lab.studies.mode_library_vs_default [development|held-out|SEEDS]`` prints one row per
+robot and case, then the means. The product's internals come through :mod:`axiswatch_lab._product`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+from sklearn.metrics import roc_auc_score
+
+from axiswatch import AxisProfile, IndicatorModel
+from axiswatch.datasets import (
+    DEVELOPMENT_ROBOTS,
+    HELD_OUT_ROBOTS,
+    Fault,
+    FaultKind,
+    SimulatedRobot,
+    draw_robot,
+)
+from axiswatch_lab._product import CaptureDescription, ModeLibrary, describe_capture
+
+FAULTS: tuple[FaultKind, ...] = ("backlash", "friction", "tooth", "bearing")
+N_FIT = 5
+SEVERITY = 0.6
+
+
+def _options(robot: SimulatedRobot) -> dict[str, object]:
+    return {
+        "gear_ratio": robot.spec.gear_ratio,
+        "gear_stages": {"tooth stage": robot.spec.tooth_stage_ratio},
+        "bearing_orders": {"motor bearing": robot.spec.bearing_order},
+    }
+
+
+def _profile(robot: SimulatedRobot) -> AxisProfile:
+    return AxisProfile(
+        name=robot.name,
+        gear_ratio=robot.spec.gear_ratio,
+        gear_stages={"tooth stage": robot.spec.tooth_stage_ratio},
+        bearing_orders={"motor bearing": robot.spec.bearing_order},
+    )
+
+
+def _describe(
+    robot: SimulatedRobot, task: int, seed: str, fault: Fault | None = None
+) -> CaptureDescription:
+    return describe_capture(robot.capture(task, fault=fault, seed=seed), None, _options(robot))
+
+
+def _auroc(healthy: Sequence[float], faulty: Sequence[float]) -> float:
+    h = [x if math.isfinite(x) else 0.0 for x in healthy]
+    f = [x if math.isfinite(x) else 0.0 for x in faulty]
+    labels = [0] * len(h) + [1] * len(f)
+    return float(roc_auc_score(labels, h + f))
+
+
+def _default_score(model: IndicatorModel, d: CaptureDescription) -> tuple[float, bool, bool]:
+    verdict = model.assess_readings(d.readings)
+    score = verdict.distance / verdict.threshold if verdict.scored else math.nan
+    return score, bool(verdict.alarm), bool(verdict.scored)
+
+
+def within_mode(robot: SimulatedRobot, n_test: int = 6, tasks: int = 4) -> dict[str, float]:
+    """Learn ``tasks`` modes (``N_FIT`` captures each), then score healthy and faulty captures
+    of each without learning; the default is fitted on task 0's same captures."""
+    library = ModeLibrary(n_fit=N_FIT)
+    fitting = {t: [_describe(robot, t, f"fit{k}") for k in range(N_FIT + 1)] for t in range(tasks)}
+    for t in range(tasks):
+        for d in fitting[t]:
+            library.update(d)
+    default = IndicatorModel(_profile(robot)).fit_readings([d.readings for d in fitting[0]])
+    out: dict[str, float] = {"modes": float(len(library.modes_))}
+    healthy = {t: [_describe(robot, t, f"test{k}") for k in range(n_test)] for t in range(tasks)}
+    h_lib = {t: [library.score(d).score for d in healthy[t]] for t in range(tasks)}
+    h_def = [_default_score(default, d)[0] for d in healthy[0]]
+    out["far_library"] = float(np.mean([s > 1 for t in range(tasks) for s in h_lib[t]]))
+    out["far_default"] = float(np.mean([s > 1 for s in h_def]))
+    for fault in FAULTS:
+        f_lib, f0_lib, f_def, auc = [], [], [], []
+        for t in range(tasks):
+            faulty = [
+                _describe(robot, t, f"{fault}{k}", Fault(fault, SEVERITY)) for k in range(n_test)
+            ]
+            scores = [library.score(d).score for d in faulty]
+            auc.append(_auroc(h_lib[t], scores))
+            f_lib += scores
+            if t == 0:
+                f0_lib = scores
+                f_def = [_default_score(default, d)[0] for d in faulty]
+        out[f"auroc_{fault}"] = float(np.mean(auc))
+        out[f"auroc0_{fault}"] = _auroc(h_lib[0], f0_lib)
+        out[f"auroc0_default_{fault}"] = _auroc(h_def, f_def)
+        out[f"dr_{fault}"] = float(np.mean([s > 1 for s in f_lib]))
+    return out
+
+
+def _payload_robot(robot: SimulatedRobot, task: int, extra_kg: float) -> SimulatedRobot:
+    tasks = list(robot.tasks)
+    tasks[task] = dataclasses.replace(tasks[task], payload_kg=tasks[task].payload_kg + extra_kg)
+    return dataclasses.replace(robot, tasks=tuple(tasks))
+
+
+def robot_a(robot: SimulatedRobot, days: int = 190) -> dict[str, float]:
+    """A healthy axis: tasks 0, 1, 2, 3 in four quarters, then task 1 at another payload for
+    the last tenth; a capture a day. Alarm days of the library and of the default."""
+    changes = [round(days * k / 4) for k in (1, 2, 3)]
+    heavy = _payload_robot(robot, 1, 5.0)
+    library = ModeLibrary(n_fit=N_FIT)
+    described = []
+    for day in range(days):
+        task = sum(day >= c for c in changes)
+        if day >= days - days // 10:
+            described.append(_describe(heavy, 1, f"robotA{day}"))
+        else:
+            described.append(_describe(robot, task, f"robotA{day}"))
+    verdicts = [library.update(d) for d in described]
+    default = IndicatorModel(_profile(robot)).fit_readings([d.readings for d in described[:6]])
+    scored = [_default_score(default, d) for d in described[6:]]
+    return {
+        "library_alarm_days": float(sum(v.alarm for v in verdicts)),
+        "library_learning_days": float(sum(v.state == "learning" for v in verdicts)),
+        "library_modes": float(len(library.modes_)),
+        "default_alarm_days": float(sum(a for _, a, _ in scored)),
+        "default_not_scored": float(sum(not s for _, _, s in scored)),
+    }
+
+
+def growing(
+    robot: SimulatedRobot, fault: FaultKind, onset: int, days: int = 70
+) -> dict[str, float]:
+    """Task 0 for 20 days, task 1 from day 20; the fault grows linearly from day ``onset`` to
+    severity 1 on the last day. Detection past severity 0.3, false alarms before onset."""
+    library = ModeLibrary(n_fit=N_FIT)
+    rows = []
+    for day in range(days):
+        severity = max(0.0, (day - onset) / (days - 1 - onset)) if day > onset else 0.0
+        task = 0 if day < 20 else 1
+        fault_now = Fault(fault, severity) if severity > 0 else None
+        verdict = library.update(_describe(robot, task, f"grow{day}", fault_now))
+        rows.append((severity, verdict))
+    past = [v.alarm for s, v in rows if s > 0.3]
+    before = [v.alarm for s, v in rows if s == 0.0]
+    first = next((s for s, v in rows if v.alarm and s > 0), math.nan)
+    return {
+        "detection": float(np.mean(past)),
+        "false_alarms": float(sum(before)),
+        "first_alarm_severity": first,
+        "learning_faulty": float(sum(v.state == "learning" for s, v in rows if s > 0)),
+    }
+
+
+def main(argv: Sequence[str]) -> None:
+    which = argv[0] if argv else "development"
+    seeds = {"development": DEVELOPMENT_ROBOTS, "held-out": HELD_OUT_ROBOTS}.get(which)
+    if seeds is None:
+        seeds = tuple(int(s) for s in which.split(","))
+    cases = argv[1].split(",") if len(argv) > 1 else ["within", "robot_a", "growing"]
+    rows: dict[str, list[dict[str, float]]] = {}
+    for seed in seeds:
+        robot = draw_robot(seed)
+        if "within" in cases:
+            rows.setdefault("within", []).append(within_mode(robot))
+            print(robot.name, "within", rows["within"][-1], flush=True)
+        if "robot_a" in cases:
+            rows.setdefault("robot_a", []).append(robot_a(robot))
+            print(robot.name, "robot_a", rows["robot_a"][-1], flush=True)
+        if "growing" in cases:
+            for fault in FAULTS:
+                rows.setdefault(f"growing {fault}", []).append(growing(robot, fault, 30))
+                print(robot.name, "growing", fault, rows[f"growing {fault}"][-1], flush=True)
+    for case, found in rows.items():
+        means = {k: round(float(np.nanmean([r[k] for r in found])), 3) for k in found[0]}
+        print("mean", case, means, flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
