@@ -7,6 +7,7 @@ The motion they read and the task signature live in :mod:`axiswatch.indicators._
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -36,6 +37,7 @@ from axiswatch.indicators._signals import (
     butter_sos,
     line_ratio,
     pearson_kurtosis,
+    repair_lone_spikes,
     running_rms,
     whole_orders,
     zero_phase,
@@ -495,7 +497,8 @@ def read_indicators(
             else f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
         )
         return Readings(values, reasons, capture.source, signature, profile, errors)
-    band = _band(m)
+    # A lone one-sample spike (a logger's glitch) would dominate the fourth moment on its own.
+    band = _band(dataclasses.replace(m, torque=repair_lone_spikes(m.torque)))
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
     values["impulsiveness"] = pearson_kurtosis(normalised[moving])
