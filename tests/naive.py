@@ -6,6 +6,7 @@ calling axiswatch or the SciPy routine it wraps.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -233,6 +234,27 @@ def isolated_glitches_naive(values: list[float], spans: float, width: int = 3) -
         if gaps and (all(g > limit for g in gaps) or all(g < -limit for g in gaps)):
             found.append(i)
     return found
+
+
+def repair_lone_spikes_naive(values: list[float], factor: float, width: int) -> list[float]:
+    """Each sample, ``width`` in from both ends, that departs from the median of its ``width``
+    neighbours on each side by more than ``factor`` times the larger of their range and the
+    noise (robust deviation of the first difference over sqrt 2, at least the smallest step)
+    becomes that median: sample by sample, every sample tested."""
+    steps = sorted(abs(b - a) for a, b in itertools.pairwise(values))
+    moving = [s for s in steps if s > 0]
+    if len(values) < 2 * width + 1 or not moving:
+        return list(values)
+    middle = len(steps) // 2
+    median_step = steps[middle] if len(steps) % 2 else (steps[middle - 1] + steps[middle]) / 2
+    noise = max(1.4826 * median_step / math.sqrt(2.0), moving[0])
+    out = list(values)
+    for i in range(width, len(values) - width):
+        near = sorted(values[i - width : i] + values[i + 1 : i + 1 + width])
+        centre = (near[width - 1] + near[width]) / 2
+        if abs(values[i] - centre) > factor * max(near[-1] - near[0], noise):
+            out[i] = centre
+    return out
 
 
 def indicator_terms(baseline: np.ndarray, test: np.ndarray, *, one_sided: bool) -> np.ndarray:

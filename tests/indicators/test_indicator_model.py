@@ -317,6 +317,7 @@ SIMULATOR_CONSTANTS = ("MECHANICS_SCALES", "MECHANICS_TASK_CHANGE_SCALE")
 #: monitor's method and its decision rule.
 DECISION_PATH = (
     "indicators/_signals.py",
+    "indicators/_motion.py",
     "indicators/_readings.py",
     "indicators/_ringing.py",
     "indicators/_order_lines.py",

@@ -177,3 +177,53 @@ def test_whole_samples_is_the_exact_nearest_count_away_from_halves() -> None:
     for seconds, rate, half in ((0.05, 50.0, 2.5), (0.05, 110.0, 5.5), (0.3, 125.0, 37.5)):
         for factor in (1 - 1e-9, 1.0, 1 + 1e-9):
             assert whole_samples(seconds, rate * factor) == int(half + 0.5)
+
+
+def _spiky(rng: np.random.Generator) -> np.ndarray:
+    """A smooth torque with noise, one lone spike and an event of two samples."""
+    t = np.arange(4000) / 2000.0
+    x = 10 * np.sin(2 * np.pi * t) + rng.normal(scale=0.05, size=t.size)
+    x[1000] += 8.0  # lone
+    x[2000:2002] += 8.0  # an event of two samples
+    return x
+
+
+def test_repair_lone_spikes_matches_the_naive_twin() -> None:
+    from axiswatch.indicators._signals import (
+        LONE_SPIKE_FACTOR,
+        LONE_SPIKE_NEIGHBOURS,
+        repair_lone_spikes,
+    )
+
+    rng = np.random.default_rng(5)
+    for x in (_spiky(rng), rng.normal(size=20000), np.round(5 * rng.normal(size=3000))):
+        expected = naive.repair_lone_spikes_naive(
+            x.tolist(), LONE_SPIKE_FACTOR, LONE_SPIKE_NEIGHBOURS
+        )
+        np.testing.assert_array_equal(repair_lone_spikes(x), expected)
+    x = _spiky(rng)
+    repaired = repair_lone_spikes(x)
+    assert np.flatnonzero(repaired != x).tolist() == [1000]  # the event of two samples is kept
+    clean = rng.normal(size=20000)
+    assert repair_lone_spikes(clean) is clean  # noise alone is never repaired
+
+
+def test_impulsiveness_shrugs_off_one_glitched_sample_but_not_a_fault() -> None:
+    from axiswatch.indicators._signals import repair_lone_spikes
+
+    capture = aw.datasets.simulate_capture("heavy", seed=1)
+    torque = np.array(capture.signals["torque"])
+    low, high = np.percentile(torque, [1.0, 99.0])
+    glitched = torque.copy()
+    glitched[torque.size // 2] = torque.max() + 0.5 * (high - low)
+    before = read_indicators(capture).values["impulsiveness"]
+    after = read_indicators(
+        aw.Capture({**capture.signals, "torque": glitched}, capture.rates_hz)
+    ).values["impulsiveness"]
+    assert after == pytest.approx(before, rel=1e-3)
+    # Impacts of a fault span several samples (or, sample-wide, stand among noise): nothing
+    # of them is repaired, so their readings are those read without the repair, bit for bit.
+    for kind in ("backlash", "bearing", "tooth", "friction"):
+        faulty = aw.datasets.simulate_capture("heavy", fault=aw.datasets.Fault(kind, 1.0), seed=1)
+        torque = motion(faulty).torque
+        assert repair_lone_spikes(torque) is torque, kind

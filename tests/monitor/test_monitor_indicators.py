@@ -979,3 +979,35 @@ def test_a_stored_baseline_below_20_hz_that_cannot_be_refitted_says_why_and_to_r
     assert line.endswith(f"; the stored baseline cannot be refitted {slow}")
     for run in (broken, archived):  # never an alarm, not scored, exit status 8
         assert (run.alarms, run.scored, run.baseline_checks, run.exit_code) == ([], 0, [], 8)
+
+
+def test_one_glitched_torque_sample_is_no_alarm_and_the_faulty_axis_still_alarms(
+    tmp_path: Path,
+) -> None:
+    # Before: one torque sample half the torque's range above its top, too small for the data
+    # quality check (twice the range), made the impulsiveness of a healthy axis an ALARM.
+    import axiswatch.datasets as awd
+    from axiswatch.monitor._quality import signal_range
+
+    root = tmp_path / "fleet"
+    awd.simulate_fleet(
+        root,
+        n_robots=1,
+        n_axes=3,
+        n_days=10,
+        task_change_days=(),
+        faults=[awd.FleetFault("robot01", "axis1", "friction", onset_day=8)],
+    )
+    (root / "labels.csv").unlink()
+    path = root / "robot01" / "axis2" / "2026-03-10.parquet"
+    capture = aw.read_capture(path)
+    torque = np.array(capture.signals["torque"])
+    torque[torque.size // 2] = torque.max() + 0.5 * signal_range(torque)
+    aw.write_capture(aw.Capture({**capture.signals, "torque": torque}, capture.rates_hz), path)
+    settle(root)
+    assert data_quality_problem(aw.read_capture(path)) is None  # not bad data: scored
+    scores = _scores(root, MonitorConfig(method="indicators"))
+    alarms = scores[scores["alarm"].fillna(False).astype(bool)]
+    assert set(alarms["axis"]) == {"axis1"}
+    glitched = scores[(scores["axis"] == "axis2") & (scores["capture"] == path.name)]
+    assert glitched["distance"].iloc[0] < 0.5

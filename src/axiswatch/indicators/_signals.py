@@ -15,6 +15,8 @@ from scipy.signal._arraytools import odd_ext
 
 __all__ = [
     "BEARING_OFFSETS",
+    "LONE_SPIKE_FACTOR",
+    "LONE_SPIKE_NEIGHBOURS",
     "GRAM_MIN_RCOND",
     "NuisanceProjection",
     "WHOLE_ORDERS",
@@ -24,11 +26,21 @@ __all__ = [
     "butter_sos",
     "line_ratio",
     "pearson_kurtosis",
+    "repair_lone_spikes",
     "running_rms",
     "whole_orders",
     "whole_samples",
     "zero_phase",
 ]
+
+#: Neighbours on each side of a sample that :func:`repair_lone_spikes` compares it with.
+LONE_SPIKE_NEIGHBOURS = 3
+#: A lone spike departs from its neighbours' median by more than this many times their range
+#: and the noise. Gaussian noise departs 8 sigma (7.1 times the departure's own 1.12 sigma)
+#: once in 1e12 samples, 15 years of a 2 kHz torque, before the range is counted. An impact
+#: whose next samples reach an eighth of its height is kept. Simulated faults (backlash,
+#: bearing, tooth, friction) at 100 Hz or more have no sample this far out.
+LONE_SPIKE_FACTOR = 8.0
 
 
 def _cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
@@ -531,3 +543,57 @@ def pearson_kurtosis(values: NDArray[np.float64]) -> float:
     squares = np.square(x - x.mean())
     m2 = float(squares.mean())
     return float(np.mean(np.square(squares)) / m2**2) if m2 > 0 else float("nan")
+
+
+def repair_lone_spikes(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``values`` with each lone one-sample spike replaced by its neighbours' median.
+
+    A Hampel-type repair made one sample wide. Sample ``i`` is a lone spike when it departs
+    from the median of its :data:`LONE_SPIKE_NEIGHBOURS` neighbours on each side by more than
+    :data:`LONE_SPIKE_FACTOR` times the larger of their range and the noise (the robust
+    standard deviation of the first difference over ``sqrt(2)``, at least its smallest step).
+    Two samples out together widen each other's neighbours' range, so an impact of two or more
+    samples is kept; a glitch of a logger or a transmission is one sample. The input is never
+    changed; without a lone spike it is returned as it is (the same object).
+
+    Parameters
+    ----------
+    values : ndarray of shape (n,)
+
+    Returns
+    -------
+    ndarray of shape (n,)
+
+    Examples
+    --------
+    >>> x = np.sin(np.arange(100) / 10.0)
+    >>> x[40] += 5.0
+    >>> bool(np.abs(repair_lone_spikes(x)[40] - np.sin(4.0)) < 0.1)
+    True
+    """
+    x = np.asarray(values, dtype=np.float64)
+    w = LONE_SPIKE_NEIGHBOURS
+    if x.size < 2 * w + 1:
+        return x
+    step = np.abs(np.diff(x))
+    moving = step[step > 0]
+    if not moving.size:
+        return x
+    noise = max(1.4826 * float(np.median(step)) / math.sqrt(2.0), float(np.min(moving)))
+    # Candidates first, with temporaries of the capture's length only: a lone spike departs
+    # from both next samples, in one direction, by more than (factor - 1) x noise.
+    limit = (LONE_SPIKE_FACTOR - 1.0) * noise
+    ahead, behind = x[1:-1] - x[:-2], x[1:-1] - x[2:]
+    candidates = np.flatnonzero(
+        ((ahead > limit) & (behind > limit)) | ((ahead < -limit) & (behind < -limit))
+    )
+    candidates = candidates[(candidates + 1 >= w) & (candidates + 1 < x.size - w)] + 1
+    repaired = x
+    for i in candidates.tolist():
+        neighbours = np.concatenate([x[i - w : i], x[i + 1 : i + 1 + w]])
+        centre = float(np.median(neighbours))
+        if abs(x[i] - centre) > LONE_SPIKE_FACTOR * max(float(np.ptp(neighbours)), noise):
+            if repaired is x:
+                repaired = x.copy()
+            repaired[i] = centre
+    return repaired

@@ -1,0 +1,214 @@
+"""A capture's motion on the torque's time base, and the task it runs.
+
+:func:`motion` puts position, speed, acceleration and torque on the torque's instants.
+:func:`task_signature` summarises the commanded motion; :func:`signature_distance` compares two.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import PchipInterpolator
+from scipy.signal import savgol_filter
+
+from axiswatch._capture import Capture, speed_from_position
+from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._signals import whole_samples
+
+__all__ = [
+    "MOVING_FRACTION",
+    "SIGNATURE_MOVING_QUANTILES",
+    "SIGNATURE_POSITION_QUANTILES",
+    "SIGNATURE_TOP_QUANTILE",
+    "Motion",
+    "motion",
+    "signature_distance",
+    "task_signature",
+]
+#: Share of the peak speed above which the axis counts as moving.
+MOVING_FRACTION = 0.1
+#: A task signature (:func:`task_signature`) holds the top speed (this quantile of ``|speed|``,
+#: away from the extreme one noisy sample sets), these quantiles of ``|speed|`` while moving,
+#: these of the position (the two ends of the stroke) and the share of time moving. Quantiles
+#: that fall where the axis passes from moving to dwelling (the median ``|speed|``, the median
+#: position) were left out: on the development robots they jumped by up to a third of the top
+#: speed or of the stroke with the capture's phase.
+SIGNATURE_TOP_QUANTILE = 0.98
+SIGNATURE_MOVING_QUANTILES: tuple[float, ...] = (0.5, 0.9)
+SIGNATURE_POSITION_QUANTILES: tuple[float, ...] = (0.02, 0.98)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A capture's signals on the torque's time base, in SI units (rad or m, per s)."""
+
+    time_s: NDArray[np.float64]
+    position: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    rate_hz: float
+
+
+def _on_times(
+    values: NDArray[np.float64], rate: float, start: float, times: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    own = start + np.arange(values.size) / rate
+    if values.size < 2:
+        return np.full(times.shape, float(values[0]))
+    return np.asarray(PchipInterpolator(own, values, extrapolate=True)(times), dtype=np.float64)
+
+
+def motion(capture: Capture) -> Motion:
+    """Position, speed, acceleration and torque of a capture on the torque's instants.
+
+    A missing speed is the derivative of the position; a missing position the integral of the
+    speed. Slower signals are interpolated (PCHIP) onto the torque's instants, within their span.
+    The acceleration is a Savitzky-Golay derivative of the speed over 50 ms (at least 5 samples).
+
+    Raises
+    ------
+    CaptureError
+        Without a ``torque`` signal, or with neither ``position`` nor ``speed``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(200) / 100.0
+    >>> m = motion(Capture({"position": np.sin(t), "torque": t}, {"position": 100.0,
+    ...                                                           "torque": 100.0}))
+    >>> round(float(m.speed[100]), 3)  # cos(1)
+    0.54
+    """
+    names = set(capture.names)
+    if "torque" not in names or not names & {"position", "speed"}:
+        raise CaptureError(
+            f"{capture.source}: the indicators need a 'torque' signal and a 'position' or "
+            f"'speed' signal; the capture has {list(capture.names)} (map other column names "
+            "with an AxisProfile)."
+        )
+    torque = np.asarray(capture.signals["torque"], dtype=np.float64)
+    rate = capture.rates_hz["torque"]
+    times = capture.start_s + np.arange(torque.size) / rate
+    if "position" in names:
+        position = _on_times(
+            capture.signals["position"], capture.rates_hz["position"], capture.start_s, times
+        )
+    if "speed" in names:
+        speed = _on_times(
+            capture.signals["speed"], capture.rates_hz["speed"], capture.start_s, times
+        )
+    else:
+        own_rate = capture.rates_hz["position"]
+        derivative = speed_from_position(capture.signals["position"], own_rate)
+        speed = _on_times(derivative, own_rate, capture.start_s, times)
+    if "position" not in names:
+        position = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) / rate)])
+    # Keep the instants every signal covers: interpolation beyond a slower signal's last sample
+    # would invent motion.
+    end = min(
+        capture.start_s
+        + capture.duration_s(n)
+        - (1.0 / capture.rates_hz[n] if n != "torque" else 0)
+        for n in names & {"position", "speed", "torque"}
+    )
+    keep = times <= end + 1e-12
+    window = max(5, whole_samples(0.05, rate) | 1)
+    speed_kept = speed[keep]
+    if speed_kept.size > window:
+        acceleration = savgol_filter(speed_kept, window, 2, deriv=1, delta=1.0 / rate)
+    else:
+        acceleration = np.gradient(speed_kept, 1.0 / rate) if speed_kept.size > 1 else speed_kept
+    return Motion(times[keep], position[keep], speed_kept, acceleration, torque[keep], rate)
+
+
+def task_signature(m: Motion) -> NDArray[np.float64]:
+    """A phase-invariant signature of the commanded motion of a capture: what task it runs.
+
+    A capture starts at a random phase of the task cycle, so the signature holds only what does
+    not depend much on where the capture starts: the top speed (:data:`SIGNATURE_TOP_QUANTILE`
+    of ``|speed|``), quantiles of ``|speed|`` while moving (above :data:`MOVING_FRACTION` of the
+    top speed; :data:`SIGNATURE_MOVING_QUANTILES`), the ends of the stroke
+    (:data:`SIGNATURE_POSITION_QUANTILES` of the position) and the share of time moving. It
+    reads the motion only, never the torque: a fault changes the torque, hardly the commanded
+    motion; a task change changes the motion.
+
+    Parameters
+    ----------
+    m : Motion
+        From :func:`motion` (SI units, any rate).
+
+    Returns
+    -------
+    ndarray of shape (6,)
+        Top speed and the moving speed quantiles (rad/s or m/s), the position quantiles (rad or
+        m), the share moving; all NaN when the axis does not move.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from axiswatch import Capture
+    >>> t = np.arange(0, 4, 0.01)
+    >>> def cap(phase):
+    ...     q = np.sin(2 * np.pi * (t + phase))
+    ...     return Capture({"position": q, "torque": q}, {"position": 100.0, "torque": 100.0})
+    >>> a, b = task_signature(motion(cap(0.0))), task_signature(motion(cap(0.37)))
+    >>> round(float(a[0]), 1), bool(signature_distance(b, a) < 0.02)  # top speed 2 pi
+    (6.3, True)
+    """
+    speed = np.abs(m.speed)
+    n = 1 + len(SIGNATURE_MOVING_QUANTILES) + len(SIGNATURE_POSITION_QUANTILES) + 1
+    top = float(np.quantile(speed, SIGNATURE_TOP_QUANTILE)) if speed.size >= 2 else 0.0
+    if not top > 0:
+        return np.full(n, np.nan)
+    moving = speed > MOVING_FRACTION * top
+    speeds = np.quantile(speed[moving], SIGNATURE_MOVING_QUANTILES)
+    positions = np.quantile(m.position, SIGNATURE_POSITION_QUANTILES)
+    share = float(np.mean(moving))
+    return np.asarray([top, *speeds, *positions, share], dtype=np.float64)
+
+
+def signature_distance(signature: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
+    """How far a :func:`task_signature` is from a reference one, as a share of the reference.
+
+    Speeds are compared in units of the reference's top speed, the ends of the stroke in units
+    of its stroke, the share moving as it is; the distance is the largest difference (0.1: a
+    tenth of the top speed, of the stroke, or of the time). Free of the axis's units and scale.
+
+    Parameters
+    ----------
+    signature, reference : ndarray of shape (6,)
+
+    Returns
+    -------
+    float
+        NaN when either is not finite or the reference has no speed or no stroke.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> reference = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5])
+    >>> round(signature_distance(reference * [1.1, 1, 1, 1, 1, 1], reference), 3)  # top +10 %
+    0.1
+    """
+    n_speed = 1 + len(SIGNATURE_MOVING_QUANTILES)
+    n_position = len(SIGNATURE_POSITION_QUANTILES)
+    top_speed = float(reference[0])
+    stroke = float(reference[n_speed + n_position - 1] - reference[n_speed])
+    if not (np.isfinite(signature).all() and np.isfinite(reference).all()):
+        return math.nan
+    if not (top_speed > 0 and stroke > 0):
+        return math.nan
+    difference = np.abs(np.asarray(signature, dtype=np.float64) - reference)
+    scaled = np.concatenate(
+        [
+            difference[:n_speed] / top_speed,
+            difference[n_speed : n_speed + n_position] / stroke,
+            difference[n_speed + n_position :],
+        ]
+    )
+    return float(np.max(scaled))
