@@ -14,7 +14,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
 
 from axiswatch.exceptions import CalibrationError
 
@@ -176,6 +175,8 @@ def fit_half_laplace(healthy_distances: ArrayLike | Sequence[float]) -> HalfLapl
             "All healthy distances are 0: the half-Laplace scale cannot be estimated "
             "(were the calibration captures copies of the baseline?)."
         )
+    from scipy import stats  # on first fit: a run that fits nothing never imports SciPy
+
     ks = stats.kstest(values, stats.expon(scale=scale).cdf)
     return HalfLaplaceFit(scale, int(values.size), float(ks.statistic), float(ks.pvalue))
 

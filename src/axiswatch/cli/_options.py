@@ -98,9 +98,9 @@ def duration(text: str, option: str) -> timedelta | None:
 
 def registered_method(name: str | None) -> str | None:
     """``--method``: a method registered when the command runs (plugins included)."""
-    from axiswatch.monitor._methods import methods
+    from axiswatch.monitor._methods import is_method, methods
 
-    if name is not None and name not in methods():
+    if name is not None and not is_method(name):
         raise typer.BadParameter(
             f"expected one of {', '.join(methods())}; got {name!r}.", param_hint="'--method'"
         )

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from axiswatch._calibration import half_laplace_threshold
 from axiswatch.exceptions import CalibrationError
+from axiswatch.indicators._minimums import MIN_AXES
 from axiswatch.indicators._order_lines import (
     grown_lines,
 )
@@ -39,10 +40,6 @@ __all__ = [
     "pool_fleet",
     "pool_fleet_without",
 ]
-
-#: Least axes for a fleet prior.
-MIN_AXES = 3
-
 
 #: Least ordered pairs of fleet axes reading an indicator for its own allowance (3 axes give 6,
 #: 2 axes 2).

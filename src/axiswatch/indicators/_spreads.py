@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from axiswatch.indicators._minimums import MIN_READINGS
 from axiswatch.indicators._order_lines import (
     OrderProfile,
     grown_lines,
@@ -34,10 +35,6 @@ __all__ = [
 
 #: ``1 / Phi^-1(3/4)``: MAD -> standard deviation for Gaussian data.
 MAD_TO_SD = 1.4826
-
-
-#: Least readings for a spread; least axes for a fleet prior.
-MIN_READINGS = 3
 
 
 #: The task envelope in units of the largest leave-one-out signature distance of the fitting

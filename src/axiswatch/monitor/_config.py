@@ -6,9 +6,8 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-from axiswatch._axis_model import MonitoredModel
 from axiswatch._capture_length import MAX_CAPTURE_ROWS
 from axiswatch._profiles import AxisProfile
 from axiswatch.monitor._decision import DecisionRule
@@ -19,9 +18,12 @@ from axiswatch.monitor._methods import (
     method_preset,
     methods,
 )
-from axiswatch.paper._detectors import BaselineDetector
 from axiswatch.paper._features import FeatureSpec
-from axiswatch.paper._stages import FeatureStage
+
+if TYPE_CHECKING:  # the models' modules are imported by the preset that makes one
+    from axiswatch._axis_model import MonitoredModel
+    from axiswatch.paper._detectors import BaselineDetector
+    from axiswatch.paper._stages import FeatureStage
 
 __all__ = ["MONITOR_FEATURES", "MonitorConfig", "params_hash"]
 

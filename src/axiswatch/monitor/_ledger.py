@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from axiswatch._likely_faults import describe_top_indicator
 from axiswatch.monitor._config import MonitorConfig, params_hash
 from axiswatch.monitor._decision import AxisHistory, Decision, decide
 from axiswatch.monitor._persist import library_version
@@ -21,7 +22,6 @@ from axiswatch.monitor.store import (
     StoreOperator,
     StoreWriter,
 )
-from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 

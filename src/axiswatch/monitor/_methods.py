@@ -3,6 +3,9 @@
 Built in: ``indicators`` (the default) and the paper's ``lra`` and ``pca``. A new method is
 registered with :func:`register_method`, or under the entry-point group ``axiswatch.methods``
 (the lab's ``mechanics`` is). The model is any :class:`~axiswatch._axis_model.MonitoredModel`.
+
+A preset imports its model's modules when it makes a model, and entry points load when a method
+that is not built in is looked up or the methods are listed: a run that scores nothing stays light.
 """
 
 from __future__ import annotations
@@ -12,18 +15,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from axiswatch._axis_model import MonitoredModel
 from axiswatch._calibration import half_laplace_threshold
-from axiswatch.indicators._axis import IndicatorBaseline
-from axiswatch.indicators._fleet import MIN_AXES
-from axiswatch.indicators._model import IndicatorModel
-from axiswatch.indicators._spreads import MIN_READINGS
-from axiswatch.paper._detectors import BaselineDetector, LRADetector, PCADetector
-from axiswatch.paper._model import HealthModel
-from axiswatch.paper._stages import FeatureStage
 
 if TYPE_CHECKING:
+    from axiswatch._axis_model import MonitoredModel
+    from axiswatch.indicators._axis import IndicatorBaseline
     from axiswatch.monitor._config import MonitorConfig
+    from axiswatch.paper._detectors import BaselineDetector
+    from axiswatch.paper._model import HealthModel
+    from axiswatch.paper._stages import FeatureStage
 
 __all__ = [
     "DEFAULT_METHOD",
@@ -140,6 +140,8 @@ class MethodPreset:
 
 def _health_model(preset: MethodPreset, config: MonitorConfig) -> HealthModel:
     """The paper's HealthModel of the preset's (or the configuration's) detector and stage."""
+    from axiswatch.paper._model import HealthModel
+
     stage = preset.stage(config) if config.stage is None else config.stage
     detector = config.detector
     if detector is None:
@@ -185,6 +187,9 @@ def _health_params(preset: MethodPreset, config: MonitorConfig) -> dict[str, Any
 
 def _indicators_model(config: MonitorConfig) -> IndicatorBaseline:
     """An unfitted :class:`~axiswatch.IndicatorModel` at the monitor's percentile."""
+    from axiswatch.indicators._axis import IndicatorBaseline
+    from axiswatch.indicators._model import IndicatorModel
+
     return IndicatorBaseline(
         IndicatorModel(
             percentile=config.percentile,
@@ -196,6 +201,8 @@ def _indicators_model(config: MonitorConfig) -> IndicatorBaseline:
 
 
 def _indicator_params(config: MonitorConfig) -> dict[str, Any]:
+    from axiswatch.indicators._minimums import MIN_AXES, MIN_READINGS
+
     params: dict[str, Any] = {
         "method": config.method,
         "model": {
@@ -218,7 +225,15 @@ def _indicator_params(config: MonitorConfig) -> dict[str, Any]:
 
 
 def _lra(config: MonitorConfig) -> BaselineDetector:
+    from axiswatch.paper._detectors import LRADetector
+
     return LRADetector(noise_level=config.lra_noise_level)
+
+
+def _pca(config: MonitorConfig) -> BaselineDetector:
+    from axiswatch.paper._detectors import PCADetector
+
+    return PCADetector()
 
 
 _METHODS: dict[str, MethodPreset] = {
@@ -232,7 +247,7 @@ _METHODS: dict[str, MethodPreset] = {
         "calibration captures and of its fleet (default, docs/evaluation.md)",
     ),
     "lra": MethodPreset(detector=_lra, summary="the paper's Low Rank Alignment"),
-    "pca": MethodPreset(detector=lambda config: PCADetector(), summary="the paper's PCA"),
+    "pca": MethodPreset(detector=_pca, summary="the paper's PCA"),
 }
 _plugins_loaded = False
 
@@ -273,8 +288,8 @@ def register_method(name: str, preset: MethodPreset, *, replace: bool = False) -
     _METHODS[name] = preset
 
 
-def methods() -> dict[str, MethodPreset]:
-    """The registered methods by name (built-in first, then in the order registered)."""
+def _load_plugins() -> None:
+    """Import the modules of the entry-point group :data:`METHOD_GROUP`, once."""
     global _plugins_loaded
     if not _plugins_loaded:
         # Set first: a plugin module that reads the table while it registers must not recurse.
@@ -283,7 +298,19 @@ def methods() -> dict[str, MethodPreset]:
 
         for entry in entry_points(group=METHOD_GROUP):
             entry.load()
+
+
+def methods() -> dict[str, MethodPreset]:
+    """The registered methods by name (built-in first, then in the order registered)."""
+    _load_plugins()
     return dict(_METHODS)
+
+
+def is_method(name: str) -> bool:
+    """Whether ``name`` is registered; entry points load only for a name not registered yet."""
+    if name not in _METHODS:
+        _load_plugins()
+    return name in _METHODS
 
 
 def method_preset(name: str) -> MethodPreset:
@@ -294,10 +321,9 @@ def method_preset(name: str) -> MethodPreset:
     ValueError
         If no method of that name is registered (the message lists those that are).
     """
-    table = methods()
-    if name not in table:
+    if not is_method(name):
         raise ValueError(
-            f"The 'method' parameter must be one of {', '.join(map(repr, table))}. "
+            f"The 'method' parameter must be one of {', '.join(map(repr, methods()))}. "
             f"Got {name!r} instead."
         )
-    return table[name]
+    return _METHODS[name]

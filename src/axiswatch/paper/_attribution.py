@@ -15,6 +15,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import check_is_fitted
 
+from axiswatch._likely_faults import LIKELY_FAULTS, describe_top_indicator
 from axiswatch.paper._detectors import BaselineDetector, PCADetector
 from axiswatch.paper._features import Features
 
@@ -26,18 +27,6 @@ __all__ = [
     "pca_contributions",
     "plot_difference_spectrogram",
 ]
-
-
-#: What a rise of an indicator most likely means, by the name a score's ``indicators`` details
-#: give it: the fault it watches, for the monitor's reasons and report.
-LIKELY_FAULTS: dict[str, str] = {
-    "viscous_friction": "friction (lubrication, seals, wear)",
-    "viscous_friction_deficit": "lost motion (backlash) breaking the energy balance",
-    "impulsiveness": "impacts (backlash or a damaged gear tooth)",
-    "reversal_bursts": "backlash in the gearbox",
-    "tooth_lines": "a damaged gear tooth",
-    "bearing_lines": "a bearing defect",
-}
 
 
 def pca_contributions(
@@ -71,35 +60,6 @@ def pca_contributions(
     difference = np.asarray(baseline, np.float64) - np.asarray(test, np.float64)
     projected = (difference @ components) @ components.T
     return np.asarray(np.sum(difference * projected, axis=0))
-
-
-def describe_top_indicator(explanation: dict[str, dict[str, float]]) -> str | None:
-    """One line on the indicator with the largest share of the distance, and what it means.
-
-    Parameters
-    ----------
-    explanation : dict
-        A score's ``indicators`` details: per indicator its ``spreads`` and ``share``.
-
-    Returns
-    -------
-    str or None
-        None when no indicator moved up (distance 0).
-
-    Examples
-    --------
-    >>> describe_top_indicator({"bearing_lines": {"value": 9.0, "baseline": 1.1,
-    ...                                           "spreads": 5.04, "share": 0.82}})
-    'bearing_lines +5.0 healthy spreads (82 % of the distance): likely a bearing defect'
-    """
-    moved = [(entry["share"], name) for name, entry in explanation.items() if entry["share"] > 0]
-    if not moved:
-        return None
-    share, name = max(moved)
-    spreads = explanation[name]["spreads"]
-    meaning = LIKELY_FAULTS.get(name)
-    text = f"{name} {spreads:+.1f} healthy spreads ({100 * share:.0f} % of the distance)"
-    return text + (f": likely {meaning}" if meaning else "")
 
 
 def _bands(n_bins: int, n_bands: int) -> list[NDArray[np.intp]]:

@@ -12,10 +12,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-import scipy.fft
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
-from scipy.signal import get_window
 
 from axiswatch._capture import Capture
 from axiswatch.exceptions import CaptureError
@@ -152,6 +150,9 @@ def stft_features(
             f"capture too short for one STFT window: {n_samples} samples at {rate_hz:g} Hz, "
             f"expected at least segment_length={segment_length}."
         )
+    import scipy.fft  # imported by the first transform: FeatureSpec alone stays light
+    from scipy.signal import get_window
+
     window_values = get_window(window, segment_length)
     if scaling == "magnitude":
         window_values = window_values / abs(window_values.sum())

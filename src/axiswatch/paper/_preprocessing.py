@@ -11,7 +11,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import PchipInterpolator
 
 from axiswatch._capture import Capture
 from axiswatch.exceptions import CaptureError
@@ -120,6 +119,8 @@ def upsample_pchip(
     fractions = np.arange(factor) / factor
     new_knots = (knots[:-1, None] + np.diff(knots)[:, None] * fractions).ravel()
     out = np.empty((samples.size - 1) * factor + 1)
+    from scipy.interpolate import PchipInterpolator  # imported by the first resampling
+
     out[:-1] = PchipInterpolator(knots, samples)(new_knots)
     # Exactly the original samples at their own instants (the interpolant's value there can be
     # off by one rounding error).

@@ -13,8 +13,8 @@ from typing import Any
 
 import pandas as pd
 
+from axiswatch._likely_faults import describe_top_indicator
 from axiswatch.monitor.store import AlarmState, BaselineCheck
-from axiswatch.paper._attribution import describe_top_indicator
 
 __all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
 

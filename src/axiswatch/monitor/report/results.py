@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from axiswatch._likely_faults import LIKELY_FAULTS, describe_top_indicator
 from axiswatch.monitor._feedback import alarm_feedback
 from axiswatch.monitor.store import StoreBackend
-from axiswatch.paper._attribution import LIKELY_FAULTS, describe_top_indicator
 
 __all__ = ["fleet_rejections", "fleet_results", "fleet_summary", "indicator_spreads"]
 
