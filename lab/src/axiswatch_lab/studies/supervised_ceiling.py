@@ -1,6 +1,6 @@
 """A supervised ceiling of fault detection on the transfer study's captures.
 
-Research study (docs/evaluation.md, "A supervised ceiling"). Issue 13 asks every fault's AUROC
+Research study (docs/evaluation.md, "A supervised ceiling"). The target asks every fault's AUROC
 to reach 0.95 against healthy captures of other tasks; the default and even its own-task oracle
 stay far below for backlash, tooth and bearing faults at the study's severity. Is there enough
 in the captures to reach it at all? Per robot and fault, a classifier that is *told* which
