@@ -201,3 +201,34 @@ def test_report_is_one_self_contained_page(fleet: Path, tmp_path: Path) -> None:
         assert f"href='#{anchor}'" in text
         assert f'id="chart-{anchor}"' in text
     assert "alarm acknowledged (pca)</td><td class='text'>by ana: checked the gearbox" in text
+
+
+def test_a_large_fleet_lists_the_first_axes_and_charts_only_those(
+    fleet: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Before: every axis needing attention was listed and every axis charted, so the first
+    # screen and the page grew with the fleet. Limits of 1 stand in for a fleet of 1,000 axes.
+    import axiswatch.monitor.report.html as report_html
+
+    for axis in ("axis1", "axis2"):
+        folder = fleet / "robot01" / axis
+        faulty_copy(folder / "2026-03-09.parquet", folder / "2026-03-10.parquet")
+    monkeypatch.setattr(report_html, "LISTED", 1)
+    monkeypatch.setattr(report_html, "CHARTED_AXES", 1)
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        page = write_report(store, tmp_path / "r").read_text(encoding="utf-8")
+    attention = page.split("<section id='attention'>")[1].split("<details id='healthy'>")[0]
+    assert "Needs attention now (2)" in attention
+    listed = re.findall(r"<li class='[^']*' data-axis='([^']+)'", attention)
+    assert listed == ["robot01/axis2"]  # the larger excursion first, as ranked
+    more = attention.split("<details id='more-attention'><summary>1 more axis needs attention")
+    assert len(more) == 2, attention
+    assert "<input class='filter' type='search'" in more[1]
+    assert "<tr class='row'><td>robot01/axis1</td><td class='text'>act now</td>" in more[1]
+    assert "<section class='axis' id='robot01-axis2'>" in page
+    assert 'id="chart-robot01-axis2"' in page
+    assert "id='robot01-axis1'" not in page
+    assert "chart-robot01-axis1" not in page
+    assert "href='#robot01-axis1'" not in page  # no link to a section the page lacks
+    assert "(1 of 2); every axis is in the tables above" in page

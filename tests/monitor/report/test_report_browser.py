@@ -240,3 +240,36 @@ def test_an_acknowledged_rejection_leaves_the_first_screen(
     assert screen.kinds == {"robot01/axis2": "bad data"}, screen.items
     assert "Needs attention now (1)" in loaded.stdout
     assert "1 capture file(s) rejected, seen on " in loaded.stdout.split('id="healthy"')[1]
+
+
+def test_the_filter_box_hides_the_rows_without_its_words(small_fleet: Path, tmp_path: Path) -> None:
+    # Before: the folded table of calm axes had no filter: on a fleet of 1,000 axes a reader
+    # scrolled. The page's own script runs; the probe types "axis2" and reads the shown rows.
+    from axiswatch.monitor._config import MonitorConfig
+    from axiswatch.monitor._monitor import monitor_fleet
+    from axiswatch.monitor.report.html import write_report
+    from axiswatch.monitor.store import Store
+
+    _chromium()
+    fleet = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, MonitorConfig(method="pca"), settle_s=0)
+        page = write_report(store, tmp_path / "report")
+    probe = tmp_path / "report" / "probe.html"
+    script = (
+        "<script>window.addEventListener('load', function () {"
+        " var box = document.querySelector('#healthy input.filter');"
+        " box.value = 'AXIS2'; box.dispatchEvent(new Event('input'));"
+        " var shown = Array.from(box.nextElementSibling.querySelectorAll('tr.row'))"
+        ".filter(function (r) { return r.style.display !== 'none'; })"
+        ".map(function (r) { return r.cells[0].textContent; });"
+        " document.documentElement.setAttribute('data-shown', shown.join(','));"
+        " });</script>"
+    )
+    probe.write_text(page.read_text(encoding="utf-8").replace("</body>", script + "</body>"))
+    loaded = _browse("--virtual-time-budget=5000", "--dump-dom", probe.as_uri())
+    assert loaded.returncode == 0, loaded.stderr[-2000:]
+    assert _console(loaded) == []
+    shown = re.search(r"<html[^>]* data-shown=\"([^\"]*)\"", loaded.stdout)
+    assert shown is not None, loaded.stdout[:500]
+    assert shown.group(1) == "robot01/axis2"

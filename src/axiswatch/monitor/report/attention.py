@@ -16,7 +16,7 @@ import pandas as pd
 from axiswatch._likely_faults import describe_top_indicator
 from axiswatch.monitor.store import AlarmState, BaselineCheck
 
-__all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "lead_method", "triage"]
+__all__ = ["KINDS", "METHOD_ORDER", "AxisAttention", "by_axis", "lead_method", "triage"]
 
 #: Kinds in order of urgency; all but the last two need attention.
 KINDS: tuple[str, ...] = (
@@ -149,7 +149,6 @@ def triage(
         Ranked: kind, then severity (largest first), then robot and axis.
     """
     own = results[(results.method == method) & (results.role != "baseline")]
-    scored_paths = set(results.path[results.method == method])
     rows = summary[summary.method == method]
     rejected = rejections[rejections.method == method]
     axes = sorted(
@@ -163,11 +162,17 @@ def triage(
     for check in checks:
         if check.method == method:
             checks_of.setdefault((check.robot, check.axis), []).append(check)
+    # Each table split by axis once: filtering the whole table per axis is quadratic in axes.
+    info_of = by_axis(rows)
+    history_of = by_axis(own)
+    # Rejected files since scored (a file repaired in place) are no longer rejected.
+    rejected_of = by_axis(rejected[~rejected.path.isin(results.path[results.method == method])])
+    changed_of = by_axis(changed)
     ranked = []
     for robot, axis in axes:
-        row = rows[(rows.robot == robot) & (rows.axis == axis)]
+        row = info_of.get((robot, axis), rows.iloc[:0])
         info = row.iloc[0] if not row.empty else None
-        history = own[(own.robot == robot) & (own.axis == axis)]
+        history = history_of.get((robot, axis), own.iloc[:0])
         if info is not None:
             history = history[history.epoch == info["epoch"]]
         last = history.iloc[-1] if not history.empty else None
@@ -190,8 +195,7 @@ def triage(
             else:
                 problems.append("alarm")
             lines.append(line)
-        everything = rejected[(rejected.robot == robot) & (rejected.axis == axis)]
-        everything = everything[~everything.path.isin(scored_paths)]
+        everything = rejected_of.get((robot, axis), rejected.iloc[:0])
         # Removed from the folder since, or acknowledged (`rejections --ack`): on the line as
         # history, no longer a problem, as in the monitor's exit status.
         removed = everything[everything.removed_at.notna()]
@@ -209,7 +213,7 @@ def triage(
         elif not bad.empty:
             problems.append("bad data")
             lines.append(f"{len(bad)} capture file(s) rejected, latest: {bad.error.iloc[-1]}")
-        moved = changed[(changed.robot == robot) & (changed.axis == axis)]
+        moved = changed_of.get((robot, axis), changed.iloc[:0])
         seen_moved = moved[moved.acknowledged_at.notna()]  # on the line as seen, like `seen`
         moved = moved[moved.acknowledged_at.isna()]
         if not moved.empty:
@@ -281,6 +285,14 @@ def triage(
             a.axis,
         ),
     )
+
+
+def by_axis(frame: pd.DataFrame) -> dict[tuple[str, str], pd.DataFrame]:
+    """The rows of each (robot, axis), in the frame's order: one pass over the frame."""
+    return {
+        (str(robot), str(axis)): part
+        for (robot, axis), part in frame.groupby(["robot", "axis"], sort=False)
+    }
 
 
 def _check_line(check: BaselineCheck) -> str:

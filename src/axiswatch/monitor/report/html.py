@@ -19,7 +19,7 @@ from axiswatch.monitor._feedback import ACK_VERDICTS
 from axiswatch.monitor._methods import DEFAULT_METHOD
 from axiswatch.monitor._methods import methods as registered_methods
 from axiswatch.monitor.report.advice import indicator_colour
-from axiswatch.monitor.report.attention import METHOD_ORDER, lead_method, triage
+from axiswatch.monitor.report.attention import METHOD_ORDER, by_axis, lead_method, triage
 from axiswatch.monitor.report.charts import distance_chart, plotly_library
 from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor.report.verdict import Verdict, axis_verdicts
@@ -51,10 +51,19 @@ details.why summary { font-weight: normal; }
 details { margin: 0.8em 0; }
 summary { cursor: pointer; font-weight: bold; }
 section.axis { border-top: 1px solid #ccc; margin-top: 1.5em; }
+input.filter { margin: 0.4em 0; width: 20em; }
 """
 
 # Charts in a folded section are drawn while hidden; resize them once they are shown.
+# A filter box hides the rows of the table after it that do not hold its text.
 _SCRIPT = """
+document.querySelectorAll('input.filter').forEach(function (box) {
+  box.addEventListener('input', function () {
+    var words = box.value.toLowerCase();
+    box.nextElementSibling.querySelectorAll('tr.row').forEach(function (r) {
+      r.style.display = r.textContent.toLowerCase().indexOf(words) < 0 ? 'none' : ''; });
+  });
+});
 document.querySelectorAll('details').forEach(function (d) {
   d.addEventListener('toggle', function () {
     if (d.open) { d.querySelectorAll('.plotly-graph-div').forEach(function (g) {
@@ -62,6 +71,12 @@ document.querySelectorAll('details').forEach(function (d) {
   });
 });
 """
+
+#: Axes listed with their verdict on the first screen; the others needing attention are folded.
+LISTED = 20
+
+#: Fleets up to this many axes get every axis's charts; larger ones only the listed axes'.
+CHARTED_AXES = 60
 
 #: The paper's methods, shown apart from the method leading the page.
 _PAPER_METHODS = {"lra", "pca"}
@@ -140,8 +155,10 @@ def _anchor(verdict: Verdict) -> str:
     return f"{verdict.robot}-{verdict.axis}"
 
 
-def _link(verdict: Verdict) -> str:
-    return f"<a href='#{_esc(_anchor(verdict))}'>{_esc(verdict.robot)}/{_esc(verdict.axis)}</a>"
+def _link(verdict: Verdict, charted: bool = True) -> str:
+    """The axis's name, linked to its section where the page has one."""
+    name = f"{_esc(verdict.robot)}/{_esc(verdict.axis)}"
+    return f"<a href='#{_esc(_anchor(verdict))}'>{name}</a>" if charted else name
 
 
 def _verdict_html(verdict: Verdict) -> str:
@@ -160,21 +177,52 @@ def _verdict_html(verdict: Verdict) -> str:
     )
 
 
-def _first_screen(verdicts: list[Verdict], method: str) -> list[str]:
+def _axis_table(verdicts: list[Verdict], charted: set[str], *, state: bool) -> str:
+    """A filterable table of axes: name, state (where asked), last capture, verdict."""
+    head = (
+        "<th>axis</th>"
+        + ("<th>state</th>" if state else "")
+        + ("<th>last capture</th><th>note</th>")
+    )
+    rows = [
+        f"<tr class='row'><td>{_link(v, _anchor(v) in charted)}</td>"
+        + (f"<td class='text'>{_esc(v.label)}</td>" if state else "")
+        + f"<td class='text'>{_esc(_when(v.last_capture_at))}</td>"
+        f"<td class='text'>{_esc(' '.join(v.sentences()))} "
+        f"<span class='note'>{_esc(v.details)}</span></td></tr>"
+        for v in verdicts
+    ]
+    return (
+        "<input class='filter' type='search' placeholder='Filter: robot, axis, state, words'>"
+        f"<table><tr>{head}</tr>{''.join(rows)}</table>"
+    )
+
+
+def _first_screen(verdicts: list[Verdict], method: str, charted: set[str]) -> list[str]:
+    """Needs attention now (the first :data:`LISTED`, the rest folded), then the calm axes
+    folded: the same size however large the fleet."""
     urgent = [v for v in verdicts if v.needs_attention]
     calm = [v for v in verdicts if not v.needs_attention]
     parts = [f"<section id='attention'><h2>Needs attention now ({len(urgent)})</h2>"]
     if urgent:
         parts.append("<ol class='attention'>")
-        for verdict in urgent:
+        for verdict in urgent[:LISTED]:
             css = verdict.state.replace(" ", "-") + ("" if verdict.confirmed else " unconfirmed")
             parts.append(
                 f"<li class='{css}' data-axis='{_esc(verdict.robot)}/{_esc(verdict.axis)}' "
                 f"data-kind='{_esc(verdict.kind)}' data-state='{_esc(verdict.label)}'>"
-                f"<span class='kind'>{_esc(verdict.label)} </span>{_link(verdict)} "
-                f"{_verdict_html(verdict)}</li>"
+                f"<span class='kind'>{_esc(verdict.label)} </span>"
+                f"{_link(verdict, _anchor(verdict) in charted)} {_verdict_html(verdict)}</li>"
             )
         parts.append("</ol>")
+        more = urgent[LISTED:]
+        if more:
+            parts.append(
+                f"<details id='more-attention'><summary>{len(more)} more "
+                f"{'axis needs' if len(more) == 1 else 'axes need'} attention</summary>"
+                + _axis_table(more, charted, state=True)
+                + "</details>"
+            )
     else:
         parts.append(
             f"<p class='all-clear'>No axis needs attention ({_esc(method)}): no alarm, no bad "
@@ -183,16 +231,9 @@ def _first_screen(verdicts: list[Verdict], method: str) -> list[str]:
     parts.append(
         f"<details id='healthy'><summary>No action needed ({len(calm)} "
         f"{'axis' if len(calm) == 1 else 'axes'})</summary>"
-        "<table><tr><th>axis</th><th>state</th><th>last capture</th><th>note</th></tr>"
+        + _axis_table(calm, charted, state=True)
+        + "</details></section>"
     )
-    for verdict in calm:
-        parts.append(
-            f"<tr><td>{_link(verdict)}</td><td class='text'>{_esc(verdict.label)}</td>"
-            f"<td class='text'>{_esc(_when(verdict.last_capture_at))}</td>"
-            f"<td class='text'>{_esc(' '.join(verdict.sentences()))} "
-            f"<span class='note'>{_esc(verdict.details)}</span></td></tr>"
-        )
-    parts.append("</table></details></section>")
     return parts
 
 
@@ -329,7 +370,15 @@ def write_report(
     items = triage(summary, results, rejections, changed, alarms, method=lead, checks=checks,
                    stale_factor=stale_factor)  # fmt: skip
     verdicts = axis_verdicts(items, results, alarms)
-    parts += _first_screen(verdicts, lead)
+    # A large fleet's page charts only the axes listed as needing attention: the charts are
+    # most of the page's size and of the time to write it.
+    shown = (
+        verdicts
+        if len(verdicts) <= CHARTED_AXES
+        else [v for v in verdicts if v.needs_attention][:LISTED]
+    )
+    charted = {_anchor(v) for v in shown}
+    parts += _first_screen(verdicts, lead, charted)
     others = [m for m in methods if m != lead]
     if others:
         note = f"<p class='note'>{_esc(_PAPER_NOTE)}</p>" if set(others) & _PAPER_METHODS else ""
@@ -351,9 +400,22 @@ def write_report(
         "<details id='legend'><summary>How to read the charts</summary>"
         f"<p class='note'>{_esc(_LEGEND)}</p></details>",
     ]
-    for verdict in verdicts:
+    if len(shown) < len(verdicts):
+        parts.append(
+            f"<p class='note'>Charts of the axes listed as needing attention ({len(shown)} of "
+            f"{len(verdicts)}); every axis is in the tables above, with its verdict.</p>"
+        )
+    # Each table split by axis once: filtering the whole table per axis is quadratic in axes.
+    results_of = by_axis(results)
+    acks_of = by_axis(acks)
+    rebaselines_of = by_axis(rebaselines)
+    labels_of = by_axis(labels) if labels is not None else {}
+    checks_of: dict[tuple[str, str], list[BaselineCheck]] = {}
+    for check in checks:
+        checks_of.setdefault((check.robot, check.axis), []).append(check)
+    for verdict in shown:
         robot, axis = verdict.robot, verdict.axis
-        own = results[(results.robot == robot) & (results.axis == axis)]
+        own = results_of.get((robot, axis), results.iloc[:0])
         parts.append(
             f"<section class='axis' id='{_esc(_anchor(verdict))}'><h3>{_esc(robot)} / "
             f"{_esc(axis)} <span class='note'>({_esc(verdict.label)})</span></h3>"
@@ -362,7 +424,7 @@ def write_report(
         events: list[tuple[str, str]] = []
         fault_dates: list[str] = []
         if labels is not None:
-            truth = labels[(labels.robot == robot) & (labels.axis == axis)].sort_values("date")
+            truth = labels_of.get((robot, axis), labels.iloc[:0]).sort_values("date")
             fault_dates = [str(d) for d in truth[truth.fault != "none"].date]
             change = truth.task.ne(truth.task.shift()) & truth.task.shift().notna()
             events = [(str(r.date), f"task -> {r.task}") for r in truth[change].itertuples()]
@@ -376,9 +438,9 @@ def write_report(
             )  # fmt: skip
         history = _events(
             lead_rows,
-            acks[(acks.robot == robot) & (acks.axis == axis)],
-            rebaselines[(rebaselines.robot == robot) & (rebaselines.axis == axis)],
-            [c for c in checks if (c.robot, c.axis) == (robot, axis)],
+            acks_of.get((robot, axis), acks.iloc[:0]),
+            rebaselines_of.get((robot, axis), rebaselines.iloc[:0]),
+            checks_of.get((robot, axis), []),
         )
         if not history.empty:
             parts += [

@@ -390,19 +390,15 @@ def axis_verdicts(
     """
     verdicts = []
     rows = {key: part for key, part in results.groupby(["robot", "axis", "method"], sort=False)}
+    alarm_of: dict[tuple[str, str, str], AlarmState] = {}
+    for a in alarms:  # the first of each axis and method, as a search in order finds
+        alarm_of.setdefault((a.robot, a.axis, a.method), a)
     for item in items:
         own = rows.get((item.robot, item.axis, item.method), results.iloc[:0])
         if not own.empty:
             own = own[own.epoch == own.epoch.max()]
             own = own[own.role.isin(("calibration", "monitor"))]
-        alarm = next(
-            (
-                a
-                for a in alarms
-                if (a.robot, a.axis, a.method) == (item.robot, item.axis, item.method)
-            ),
-            None,
-        )
+        alarm = alarm_of.get((item.robot, item.axis, item.method))
         monitored = own[own.role == "monitor"].dropna(subset=["distance"]) if len(own) else own
         excursion = not monitored.empty and (
             item.kind in ("alarm", "acknowledged")
