@@ -18,7 +18,7 @@ end inside the capture, so every reading averages the same stretch of positions.
 without a whole steady move gives NaN and a reason. No constant is added.
 
 :func:`~axiswatch.indicators._readings.whole_move_mask` is the pure function (in the product since the
-opt-in operating point ``whole_moves``, i16a); :func:`whole_move_readings` replaces the two loads
+opt-in operating point ``whole_moves``); :func:`whole_move_readings` replaces the two loads
 of a product reading with :func:`~axiswatch._readings.drive_loads` over whole moves. ``python -m axiswatch_lab.studies.drive_loads_from_whole_moves OUT [SEED ...]`` scores the
 product (``current``) and the candidate (``whole moves``), :data:`STUDY`, from the same
 captures (:mod:`axiswatch_lab._variant_study`): the transfer design (paired AUROC / ``dr99`` /

@@ -23,7 +23,7 @@ the factor can only lower a distance).
 
 :func:`friction_standard_errors` is the pure function (its arithmetic
 :func:`~axiswatch._readings.least_squares_errors`, shared with the product's opt-in
-``whole_moves``, i16a). ``python -m axiswatch_lab.studies.friction_standard_errors
+``whole_moves``). ``python -m axiswatch_lab.studies.friction_standard_errors
 OUT [SEED ...]`` scores ``current`` (the product), ``whole moves``
 (:mod:`axiswatch_lab.studies.drive_loads_from_whole_moves`), ``friction errors`` and ``whole moves, friction errors`` from
 the same captures (:data:`STUDY`, :mod:`axiswatch_lab._variant_study`); development robots
