@@ -32,6 +32,7 @@ import pyarrow.parquet as pq
 import scipy.fft
 
 import axiswatch as aw
+from axiswatch._profiles import FLEET_PROFILE
 from axiswatch.datasets._robot_fleet import simulate_fleet
 from axiswatch.monitor._config import MonitorConfig
 from axiswatch.monitor._monitor import monitor_fleet
@@ -73,6 +74,8 @@ def build_fleet(root: Path, robots: int, days: int, *, processes: int | None = N
             tasks.append((str(source), str(target), len(tasks)))
     with concurrent.futures.ProcessPoolExecutor(processes or os.cpu_count()) as pool:
         list(pool.map(_noisy_copy, tasks, chunksize=32))
+    # The axis profile the simulator writes (its kinematics): a fleet as a user runs it.
+    shutil.copy(templates / FLEET_PROFILE, root / FLEET_PROFILE)
     shutil.rmtree(templates)
 
 
