@@ -58,7 +58,18 @@ def launch(target: str, importer: Callable[[str], ModuleType] = import_module) -
         if "--debug" in sys.argv[1:]:
             raise
         print(INTERRUPTED, file=sys.stderr)
+        forget_the_interrupt()
         raise SystemExit(INTERRUPTED_STATUS) from None
+
+
+def forget_the_interrupt() -> None:
+    """Clear CPython's record of a ``KeyboardInterrupt`` that left an ``exec`` of a string.
+
+    Under ``python -m``, that record makes the interpreter end by SIGINT (status -2 to its
+    parent) instead of exit status 130, even though the interrupt was caught here. Running a
+    string clears the record; the record is CPython's ``_Py_UnhandledKeyboardInterrupt``.
+    """
+    exec("")  # runs nothing; its only effect is clearing that record
 
 
 def axiswatch() -> None:

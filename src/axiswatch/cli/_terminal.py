@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from axiswatch_launcher import INTERRUPTED, INTERRUPTED_STATUS
+from axiswatch_launcher import INTERRUPTED, INTERRUPTED_STATUS, forget_the_interrupt
 
 __all__ = ["echo", "failures", "printable", "progress", "show_guesses", "usage"]
 
@@ -58,6 +58,7 @@ def failures(debug: bool) -> Iterator[None]:
         if debug:
             raise
         echo(INTERRUPTED, err=True)
+        forget_the_interrupt()
         raise typer.Exit(INTERRUPTED_STATUS) from None
     except (AxiswatchError, ValueError, OSError, NotImplementedError) as exc:
         if debug:
