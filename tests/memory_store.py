@@ -76,6 +76,7 @@ class MemoryStore:
         self._activity: dict[tuple[str, str], tuple[int, str, str]] = {}
         #: (baseline id, kind) -> (note, detected_at, acknowledged_at)
         self._checks: dict[tuple[int, str], tuple[str, str, str | None]] = {}
+        self._mode_libraries: dict[int, bytes] = {}
 
     @property
     def location(self) -> str:
@@ -83,6 +84,12 @@ class MemoryStore:
 
     def close(self) -> None:
         pass
+
+    def mode_library(self, baseline_id: int) -> bytes | None:
+        return self._mode_libraries.get(baseline_id)
+
+    def save_mode_library(self, baseline_id: int, blob: bytes) -> None:
+        self._mode_libraries[baseline_id] = blob
 
     @contextlib.contextmanager
     def batch(self) -> Iterator[None]:

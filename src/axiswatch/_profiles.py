@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from axiswatch._mode_declaration import ModeDeclaration, parse_mode_section
 from axiswatch._timebase import (
     check_increasing,
     check_stamp_unit,
@@ -132,6 +133,16 @@ def _text(data: Mapping[str, Any], key: str, where: str, default: str | None) ->
     return value
 
 
+def _mode(data: Mapping[str, Any], source: str) -> ModeDeclaration | None:
+    """The ``[mode]`` table as a :class:`ModeDeclaration` (None when absent)."""
+    if "mode" not in data:
+        return None
+    try:
+        return parse_mode_section(_table(data, "mode", source), source=source)
+    except ValueError as exc:
+        raise ProfileError(str(exc)) from None
+
+
 def _number(value: object, key: str, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ProfileError(f"{where}: '{key}' must be a number > 0; got {_got(value)}.")
@@ -169,6 +180,9 @@ class AxisProfile:
     encoding : str, optional
         Text encoding of the axis's CSV files (a Python codec name, such as ``"cp1250"``).
         Without it a CSV file is read as UTF-8, else as Windows-1252.
+    mode : ModeDeclaration, optional
+        Where a capture names its operating mode (the ``[mode]`` table); without it the modes
+        are read from the motion and the load.
     source : str, default="<memory>"
 
     Examples
@@ -189,6 +203,7 @@ class AxisProfile:
     gear_stages: Mapping[str, float] = field(default_factory=dict)
     bearing_orders: Mapping[str, float] = field(default_factory=dict)
     encoding: str | None = None
+    mode: ModeDeclaration | None = None
     source: str = "<memory>"
 
     def __post_init__(self) -> None:
@@ -250,10 +265,10 @@ class AxisProfile:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "<memory>") -> AxisProfile:
         """A profile from the TOML file's tables (``name``, ``columns``, ``units``,
-        ``resample_irregular``, ``encoding``, ``kinematics``)."""
+        ``resample_irregular``, ``encoding``, ``kinematics``, ``mode``)."""
         _check(
             data,
-            {"name", "columns", "units", "resample_irregular", "encoding", "kinematics"},
+            {"name", "columns", "units", "resample_irregular", "encoding", "kinematics", "mode"},
             source,
         )
         columns = _table(data, "columns", source)
@@ -304,6 +319,7 @@ class AxisProfile:
             gear_stages=_table(kinematics, "gear_stages", where),
             bearing_orders=_table(kinematics, "bearing_orders", where),
             encoding=_text(data, "encoding", source, None),
+            mode=_mode(data, source),
             source=source,
         )
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from axiswatch import Capture
+from axiswatch._mode_declaration import ModeDeclaration, parse_mode_section
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import Fault
 from axiswatch.exceptions import CaptureError
@@ -16,11 +17,9 @@ from axiswatch.indicators._modes import (
     PRIOR_MODE_TOLERANCE,
     SPECTRUM_BANDS,
     CaptureDescription,
-    ModeDeclaration,
     declared_mode,
     describe_capture,
     mode_differences,
-    parse_mode_section,
 )
 from axiswatch.indicators._readings import Readings
 

@@ -162,6 +162,14 @@ def monitor(
         "(docs/evaluation.md, 'An opt-in operating point').",
         hidden=True,
     ),
+    modes: bool | None = typer.Option(
+        None,
+        "--modes/--no-modes",
+        help="Method indicators, opt-in: learn each axis's operating modes; every capture "
+        "of a moving axis is scored in its mode, or by a guard while a new mode is learned "
+        "(docs/evaluation.md, 'Modes').",
+        hidden=True,
+    ),
     dask_timeout: float = typer.Option(
         10.0, min=0.1, help="Seconds the Dask scheduler has to answer.", hidden=True
     ),
@@ -192,7 +200,7 @@ def monitor(
         "alarm_k": alarm_k, "alarm_n": alarm_n, "clear_m": clear_m, "signals": signals,
         "hop": hop, "segment_length": segment_length, "lra_noise_level": lra_noise_level,
         "align": align, "order_lines": order_lines, "whole_moves": whole_moves,
-        "max_capture_rows": max_capture_rows,
+        "modes": modes, "max_capture_rows": max_capture_rows,
     }  # fmt: skip
     value: dict[str, Any] = {
         name: default if given[name] is None else given[name]
@@ -221,6 +229,7 @@ def monitor(
                 task_envelope=task_envelope,
                 order_lines=value["order_lines"],
                 whole_moves=value["whole_moves"],
+                modes=value["modes"],
                 max_capture_rows=value["max_capture_rows"],
             )
             silence = _duration(stale_after, "--stale-after")
@@ -309,8 +318,8 @@ def results(
 
     Then captured_at, epoch, role, over, reason, details (JSON: for the indicator methods each
     indicator's value, baseline, shift in healthy spreads and share of the distance) and
-    top_indicator, feedback (the verdict of an acknowledged alarm). The table shows the first
-    seven, role, feedback (when any) and top_indicator.
+    top_indicator, feedback (the verdict of an acknowledged alarm), mode (with --modes). The
+    table shows the first seven, role, feedback and mode (when any) and top_indicator.
     """
     import json
 
@@ -334,8 +343,9 @@ def results(
         else:
             # The engineer's feedback on an acknowledged alarm (ack --false-alarm, ...).
             said = ["feedback"] if frame.feedback.notna().any() else []
+            said += ["mode"] if frame["mode"].notna().any() else []
             table = frame[[*columns, "role", *said, "top_indicator"]].fillna(
-                {"top_indicator": "", "feedback": ""}
+                {"top_indicator": "", "feedback": "", "mode": ""}
             )
             if indicators:
                 table = table.join(indicator_spreads(frame))
@@ -526,6 +536,7 @@ def ack(
     also retired; the next monitor run starts a new one (see 'axiswatch rebaseline').
     """
     from axiswatch.monitor._ledger import rebaseline as retire
+    from axiswatch.monitor._mode_decision import teach_mode
     from axiswatch.monitor.store import Store
 
     if list_:
@@ -560,12 +571,19 @@ def ack(
                 # Retire first: it checks the request (active baseline, --from not alarmed)
                 # before anything is written, so a refused request records nothing.
                 retire(opened, robot, axis, method=chosen, from_capture=from_capture)
+            alarms = [a for a in opened.alarms(chosen) if (a.robot, a.axis) == (robot, axis)]
             methods = opened.acknowledge(
                 robot, axis, by=by, note=note, method=chosen, rebaseline=rebaseline,
                 verdict=verdict,
             )  # fmt: skip
+            taught: dict[str, str] = {}
+            if verdict == "task-changed" and not rebaseline:
+                for alarm in alarms:
+                    taught |= teach_mode(opened, alarm.baseline_id, alarm.raised_capture)
         said = f": {verdict}" if verdict else ""
         echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}{said}.")
+        for capture, mode in taught.items():
+            echo(f"  {capture}: learned as healthy, mode {mode}.")
         if rebaseline:
             start = from_capture or "the next capture that arrives"
             echo(f"Baseline retired; the next monitor run starts a new baseline at {start}.")

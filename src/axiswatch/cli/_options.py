@@ -130,6 +130,7 @@ def monitor_defaults() -> dict[str, Any]:
         "align": config.align_phase,
         "order_lines": config.order_lines,
         "whole_moves": config.whole_moves,
+        "modes": config.modes,
         "max_capture_rows": config.max_capture_rows,
     }
 

@@ -128,7 +128,17 @@ class IndicatorBaseline:
     def score(self, capture: Capture, file_hash: str, profile: AxisProfile | None) -> Assessment:
         """:func:`assess_capture` in units of the threshold that applied
         (:func:`threshold_units`), with :func:`indicator_details`."""
-        assessment = assess_capture(self, capture, file_hash, profile)
+        return self._in_units(assess_capture(self, capture, file_hash, profile), file_hash)
+
+    def score_read(self, read: Readings, file_hash: str) -> Assessment:
+        """:meth:`score` of a capture's readings already read (:meth:`read`)."""
+        if file_hash in self.file_hashes:
+            assessment = self.model.assess_fitting(self.file_hashes.index(file_hash))
+        else:
+            assessment = self.model.assess_readings(read)
+        return self._in_units(assessment, file_hash)
+
+    def _in_units(self, assessment: IndicatorAssessment, file_hash: str) -> Assessment:
         if not assessment.scored:
             # Not an alarm and not a healthy score: no indicator of the model could be read.
             return Assessment(math.nan, 1.0, False, explanation=assessment.reason())

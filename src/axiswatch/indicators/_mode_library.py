@@ -223,6 +223,10 @@ class ModeLibrary:
         self._cache: dict[str, object] = {}
         self._normals: dict[str, _Normal] = {}
 
+    def __getstate__(self) -> dict[str, object]:
+        # What the learned captures give is recomputed: a stored library keeps the captures.
+        return {**self.__dict__, "_cache": {}, "_normals": {}}
+
     # -- the modes' normals ------------------------------------------------------------------
     def _known(self) -> list[_Mode]:
         return [m for m in self.modes_.values() if m.reference is not None]
@@ -458,8 +462,14 @@ class ModeLibrary:
     def update(self, description: CaptureDescription) -> ModeAssessment:
         """Score a capture, then learn from it if it was scored healthy."""
         verdict = self.score(description)
+        self.learn(description, verdict)
+        return verdict
+
+    def learn(self, description: CaptureDescription, verdict: ModeAssessment) -> bool:
+        """Learn a capture from its verdict (:meth:`score`): only a healthy capture of a
+        moving axis joins its mode. Returns whether it joined."""
         if verdict.state == "still" or verdict.alarm:
-            return verdict
+            return False
         mode = self.modes_.setdefault(verdict.mode, _Mode(verdict.mode))
         mode.members.append(description)
         self._cache.clear()
@@ -468,7 +478,7 @@ class ModeLibrary:
             mode.reference = self._centre(mode.members)
         elif mode.reference is not None:
             mode.drifted = self._drifted(mode)
-        return verdict
+        return True
 
     def teach(self, description: CaptureDescription, mode: str | None = None) -> str:
         """Learn a capture the engineer says is healthy (an alarm that was a mode change).

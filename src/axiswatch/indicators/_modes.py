@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from scipy.signal import welch
 
 from axiswatch._capture import Capture
+from axiswatch._mode_declaration import ModeDeclaration
 from axiswatch.exceptions import CaptureError
 from axiswatch.indicators._readings import (
     MOVING_FRACTION,
@@ -33,28 +34,17 @@ from axiswatch.indicators._readings import (
 )
 
 __all__ = [
-    "MODE_KEYS",
     "PRIOR_MODE_TOLERANCE",
     "CaptureDescription",
-    "ModeDeclaration",
     "declared_mode",
     "describe_capture",
     "load_level",
     "mode_differences",
     "mode_distance",
     "mode_tolerance",
-    "parse_mode_section",
     "torque_spectrum",
 ]
 
-#: The keys of a profile's ``[mode]`` table.
-MODE_KEYS: tuple[str, ...] = (
-    "column",
-    "metadata",
-    "file_pattern",
-    "payload_column",
-    "payload_metadata",
-)
 #: How far two captures' mode signatures may be and still be one mode, before the axis's own
 #: modes give a tolerance (:func:`mode_tolerance`): a fifth of the top speed, of the stroke, of
 #: the time moving or of the torque level. An engineering prior, not a measured figure.
@@ -73,59 +63,6 @@ SPECTRUM_SEGMENT = 256
 #: Readings of the motion signature (:func:`~axiswatch.indicators._readings.task_signature`).
 _N_SPEED = 1 + len(SIGNATURE_MOVING_QUANTILES)
 _N_MOTION = _N_SPEED + len(SIGNATURE_POSITION_QUANTILES) + 1
-
-
-@dataclass(frozen=True)
-class ModeDeclaration:
-    """Where a capture says its mode: a column, a metadata key or its file name.
-
-    Attributes
-    ----------
-    column, metadata : str or None
-        A numeric signal (its most frequent value) or a metadata key naming the program.
-    file_pattern : str or None
-        A regular expression searched in the file name; its group ``program`` (else the whole
-        match) names the program, its group ``payload``, when present, the payload.
-    payload_column, payload_metadata : str or None
-        Where the payload is, when not in the file name.
-    """
-
-    column: str | None = None
-    metadata: str | None = None
-    file_pattern: str | None = None
-    payload_column: str | None = None
-    payload_metadata: str | None = None
-
-
-def parse_mode_section(section: Mapping[str, Any], *, source: str = "<memory>") -> ModeDeclaration:
-    """A profile's ``[mode]`` table as a :class:`ModeDeclaration`.
-
-    Examples
-    --------
-    >>> parse_mode_section({"file_pattern": r"prog(?P<program>\\d+)"}).file_pattern
-    'prog(?P<program>\\\\d+)'
-    """
-    unknown = sorted(set(section) - set(MODE_KEYS))
-    if unknown:
-        raise ValueError(
-            f"{source} [mode]: unknown key {unknown[0]!r}; expected some of {list(MODE_KEYS)}."
-        )
-    for key, value in section.items():
-        if not isinstance(value, str) or not value:
-            raise ValueError(f"{source} [mode]: {key} must be a non-empty string; got {value!r}.")
-    programs = [k for k in ("column", "metadata", "file_pattern") if k in section]
-    if len(programs) != 1:
-        raise ValueError(
-            f"{source} [mode]: give exactly one of column, metadata, file_pattern; got {programs}."
-        )
-    if "file_pattern" in section:
-        try:
-            re.compile(section["file_pattern"])
-        except re.error as error:
-            raise ValueError(
-                f"{source} [mode]: file_pattern is not a regular expression ({error})."
-            ) from None
-    return ModeDeclaration(**{key: section[key] for key in section})
 
 
 def _column_value(capture: Capture, name: str) -> str:
@@ -284,8 +221,12 @@ def describe_capture(
     capture: Capture,
     declaration: ModeDeclaration | None = None,
     reading_options: Mapping[str, Any] | None = None,
+    *,
+    readings: Readings | None = None,
 ) -> CaptureDescription:
     """Read a capture's mode signature, physical indicators and torque spectrum.
+
+    ``readings``: the capture's indicators when already read (``reading_options`` then unused).
 
     Raises
     ------
@@ -296,7 +237,8 @@ def describe_capture(
     m = motion(capture)
     signature = np.concatenate([task_signature(m), load_level(m)])
     scale = float(np.quantile(np.abs(m.torque), 0.98)) if m.torque.size else math.nan
-    readings = read_indicators(capture, **dict(reading_options or {}))
+    if readings is None:
+        readings = read_indicators(capture, **dict(reading_options or {}))
     spectrum = torque_spectrum(m.torque, m.rate_hz)
     return CaptureDescription(capture.source, signature, scale, readings, spectrum, declared)
 

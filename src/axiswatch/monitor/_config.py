@@ -91,6 +91,11 @@ class MonitorConfig:
         scored in a wider spread. Fewer false alarms after task changes (Robot A 32 -> 3 days on
         development robots 0-7), slightly fewer detections at the 99 % threshold (``dr99`` up
         to 0.03 lower): docs/evaluation.md, "An opt-in operating point: ``--whole-moves``".
+    modes : bool, default=False
+        Method ``"indicators"``: learn each axis's operating modes
+        (:mod:`axiswatch.monitor._mode_decision`): every capture of a moving axis is scored in
+        its mode's normal, or by a guard while a new mode is learned; ``ack --task-changed``
+        teaches a mode change. Opt-in while it is measured (docs/evaluation.md, "Modes").
     max_capture_rows : int >= 1, default=MAX_CAPTURE_ROWS
         A capture file of more rows is rejected before it is loaded (one line naming its rows
         and the limit): memory stays bounded whatever a file's length. Not stored with the
@@ -122,6 +127,7 @@ class MonitorConfig:
     task_envelope: float | None = None
     order_lines: bool = False
     whole_moves: bool = False
+    modes: bool = False
     max_capture_rows: int = MAX_CAPTURE_ROWS
 
     def __post_init__(self) -> None:

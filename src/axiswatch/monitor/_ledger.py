@@ -7,7 +7,8 @@ is made inside the store's transaction, from what the store holds at that moment
 from __future__ import annotations
 
 import json
-from typing import Any
+import math
+from typing import TYPE_CHECKING, Any
 
 from axiswatch._likely_faults import describe_top_indicator
 from axiswatch.monitor._config import MonitorConfig, params_hash
@@ -22,6 +23,9 @@ from axiswatch.monitor.store import (
     StoreOperator,
     StoreWriter,
 )
+
+if TYPE_CHECKING:
+    from axiswatch.monitor._mode_decision import ModeBook
 
 __all__ = ["commit_score", "insert_baseline", "params_json", "rebaseline", "reject"]
 
@@ -100,11 +104,13 @@ def commit_score(
     outcome: ScoreOutcome,
     config: MonitorConfig,
     rejection_key: str | None = None,
+    modes: ModeBook | None = None,
 ) -> bool:
     """Decide and write one capture's result (or its rejection); True when this call wrote it.
 
     ``rejection_key``: what a rejection depends on (default: the parameters' hash); the monitor
-    adds its axis profile's."""
+    adds its axis profile's. ``modes``: the run's mode libraries, which decide a capture that
+    carries a description (``MonitorConfig.modes``)."""
     job = outcome.job
     file = job.file
     if outcome.error is not None:
@@ -122,6 +128,8 @@ def commit_score(
         )
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
     rule = config.decision_rule()
+    if modes is not None and outcome.description is not None:
+        return _commit_in_mode(store, outcome, config, modes)
     top = outcome.details.get("top_indicator") or describe_top_indicator(
         outcome.details.get("indicators", {})
     )
@@ -144,6 +152,36 @@ def commit_score(
         details=dict(outcome.details),
     )
     return store.record_score(score, decision, window=rule.window)
+
+
+def _commit_in_mode(
+    store: StoreWriter, outcome: ScoreOutcome, config: MonitorConfig, modes: ModeBook
+) -> bool:
+    """Write a capture decided by its axis's mode library, then let the library learn."""
+    job, file = outcome.job, outcome.job.file
+    assert outcome.description is not None
+    distance, decision, stored = modes.decide(job.baseline_id, outcome.description, file.capture)
+    details = dict(outcome.details)
+    if math.isfinite(outcome.distance):
+        details["baseline_distance"] = outcome.distance
+    score = NewScore(
+        baseline_id=job.baseline_id,
+        robot=file.robot,
+        axis=file.axis,
+        method=config.method,
+        capture=file.capture,
+        captured_at=file.captured_at,
+        path=job.relative,
+        file_hash=outcome.file_hash,
+        file_size=outcome.file_size,
+        file_mtime_ns=outcome.file_mtime_ns,
+        distance=distance,
+        details=details,
+    )
+    written = store.record_score(score, decision, window=config.decision_rule().window)
+    if written:
+        stored()
+    return written
 
 
 def rebaseline(

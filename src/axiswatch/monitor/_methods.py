@@ -42,7 +42,7 @@ DEFAULT_METHOD = "indicators"
 METHOD_GROUP = "axiswatch.methods"
 
 #: Options of :class:`~axiswatch.monitor.MonitorConfig` that only some methods read.
-METHOD_OPTIONS = ("detector", "stage", "task_envelope", "order_lines", "whole_moves")
+METHOD_OPTIONS = ("detector", "stage", "task_envelope", "order_lines", "whole_moves", "modes")
 
 
 def _no_stage(config: MonitorConfig) -> FeatureStage | None:
@@ -221,6 +221,8 @@ def _indicator_params(config: MonitorConfig) -> dict[str, Any]:
         params["order_lines"] = True
     if config.whole_moves:
         params["whole_moves"] = True
+    if config.modes:
+        params["modes"] = True
     return params
 
 
@@ -240,7 +242,7 @@ _METHODS: dict[str, MethodPreset] = {
     "indicators": MethodPreset(
         model=_indicators_model,
         params=_indicator_params,
-        options=frozenset({"task_envelope", "order_lines", "whole_moves"}),
+        options=frozenset({"task_envelope", "order_lines", "whole_moves", "modes"}),
         distance_unit="thresholds",
         stores_indicators=True,
         summary="physical indicators at any rate >= 20 Hz, in spreads of the axis's own "

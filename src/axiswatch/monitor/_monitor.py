@@ -148,7 +148,10 @@ def _score_in_order(run: Run, planned: Iterable[ScoreJob], *, expected: int | No
                 while queue and queue[0] in pending:
                     ready = pending.pop(queue.pop(0))
                     key = run.rejection_key(ready.job.file.robot, ready.job.file.axis)
-                    if commit_score(run.store, ready, run.config, key) and ready.error is None:
+                    if (
+                        commit_score(run.store, ready, run.config, key, run.modes)
+                        and ready.error is None
+                    ):
                         run.summary.scored += 1
         count += len(group)
         run.report("captures", first + count, first + len(jobs))

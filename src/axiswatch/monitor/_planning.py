@@ -387,6 +387,7 @@ def score_jobs_of(run: Run, states: Sequence[AxisState]) -> list[ScoreJob]:
                     profile=run.config.profile,
                     reference=state.reference,
                     max_rows=run.config.max_capture_rows,
+                    modes=run.config.modes,
                 )
             )
     return jobs

@@ -20,6 +20,7 @@ from axiswatch.monitor._index import (
     FileIndex,
 )
 from axiswatch.monitor._ledger import reject
+from axiswatch.monitor._mode_decision import ModeBook
 from axiswatch.monitor._models import ModelRef
 from axiswatch.monitor._parallel import WorkerPool
 from axiswatch.monitor._persist import load_model, model_version
@@ -132,6 +133,14 @@ class Run:
     rejected: set[tuple[str, str]] = field(default_factory=set)
     alarmed: set[tuple[str, str, str]] = field(default_factory=set)
     done: dict[str, int] = field(default_factory=lambda: {"baselines": 0, "captures": 0})
+    #: The axes' mode libraries (``MonitorConfig.modes``), else None.
+    modes: ModeBook | None = None
+
+    def __post_init__(self) -> None:
+        if self.config.modes and self.modes is None:
+            self.modes = ModeBook(
+                self.store, self.config.decision_rule(), self.config.calibration_size
+            )
 
     @property
     def method(self) -> str:

@@ -14,7 +14,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from axiswatch._axis_model import MonitoredModel
 from axiswatch._capture import DEFAULT_SIGNALS, Capture, read_capture, with_speed
@@ -24,6 +24,9 @@ from axiswatch.exceptions import CalibrationError, CaptureError, ProfileError
 from axiswatch.monitor._fleet import FleetFile
 from axiswatch.monitor._models import ModelRef, keep_model, resolve_model
 from axiswatch.monitor._quality import QualityReference, data_quality_problem
+
+if TYPE_CHECKING:
+    from axiswatch.indicators._modes import CaptureDescription
 
 __all__ = [
     "FitJob",
@@ -166,6 +169,8 @@ class FitJob:
     refit: bool = False
     #: Files of more rows are rejected before they are loaded.
     max_rows: int = MAX_CAPTURE_ROWS
+    #: Also describe the capture for its axis's mode library (``MonitorConfig.modes``).
+    modes: bool = False
 
 
 @dataclass(frozen=True)
@@ -184,6 +189,8 @@ class FitOutcome:
     error: str | None
     kind: str = "invalid"
     transient: bool = False
+    #: What the axis's mode library reads of the capture (``ScoreJob.modes``).
+    description: CaptureDescription | None = None
     reference: QualityReference | None = None
     waiting: str | None = None
     summary: dict[str, Any] | None = None
@@ -287,6 +294,8 @@ class ScoreJob:
     reference: QualityReference | None = None
     #: Files of more rows are rejected before they are loaded.
     max_rows: int = MAX_CAPTURE_ROWS
+    #: Also describe the capture for its axis's mode library (``MonitorConfig.modes``).
+    modes: bool = False
 
 
 @dataclass(frozen=True)
@@ -302,6 +311,8 @@ class ScoreOutcome:
     error: str | None
     kind: str = "invalid"
     transient: bool = False
+    #: What the axis's mode library reads of the capture (``ScoreJob.modes``).
+    description: CaptureDescription | None = None
 
 
 def score_capture(job: ScoreJob) -> ScoreOutcome:
@@ -326,6 +337,8 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
         if problem is not None:
             error = _bad_data(job.relative, problem)
             return ScoreOutcome(job, digest, size, mtime, math.nan, {}, error, "bad data")
+        if job.modes:
+            return _described(job, model, capture, profile, (digest, size, mtime))
         assessment = model.score(capture, digest, profile)
     except _DATA_ERRORS as exc:
         kind, transient = _failure_kind(exc)
@@ -340,3 +353,28 @@ def score_capture(job: ScoreJob) -> ScoreOutcome:
     if note is not None and not details.get("baseline_check"):
         details["baseline_check"] = note
     return ScoreOutcome(job, digest, size, mtime, assessment.distance, details, None)
+
+
+def _described(
+    job: ScoreJob,
+    model: MonitoredModel,
+    capture: Capture,
+    profile: AxisProfile | None,
+    file: tuple[str, int, int],
+) -> ScoreOutcome:
+    """The capture's description for its mode library, with the baseline's details where its
+    readings compare with the baseline's (a capture of another mode has none)."""
+    from axiswatch.indicators._axis import IndicatorBaseline
+    from axiswatch.indicators._modes import describe_capture
+
+    if not isinstance(model, IndicatorBaseline):
+        raise TypeError(f"modes need the indicators method; got {type(model).__name__}")
+    read, _ = model.read(capture, profile)
+    declaration = None if profile is None else profile.mode
+    description = describe_capture(capture, declaration, readings=read)
+    if not description.moving:
+        error = f"{job.relative}: the axis hardly moved; nothing to compare with a mode"
+        return ScoreOutcome(job, *file, math.nan, {}, error, "not scored")
+    assessment = model.score_read(read, file[0])
+    details = dict(assessment.details) if math.isfinite(assessment.distance) else {}
+    return ScoreOutcome(job, *file, assessment.distance, details, None, description=description)

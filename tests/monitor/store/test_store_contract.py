@@ -234,6 +234,25 @@ def test_a_batch_keeps_all_its_writes_or_none(store: StoreBackend) -> None:
     assert "2026-03-06.csv" in store.scored_captures(baseline_id)
 
 
+def test_a_mode_library_is_kept_per_baseline_and_with_its_batch(store: StoreBackend) -> None:
+    baseline_id = add(store, new_baseline())
+    assert store.mode_library(baseline_id) is None
+    store.save_mode_library(baseline_id, b"first")
+    store.save_mode_library(baseline_id, b"second")  # replaced, not added
+    assert store.mode_library(baseline_id) == b"second"
+
+    def stopped_in_a_batch() -> None:
+        with store.batch():
+            assert store.record_score(new_score(baseline_id, 2), fixed(CALIBRATING), window=1)
+            store.save_mode_library(baseline_id, b"learned from capture 2")
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        stopped_in_a_batch()
+    # The library learns only with the score it learned from.
+    assert store.mode_library(baseline_id) == b"second"
+
+
 def _boom(history: AxisHistory) -> Decision:
     raise RuntimeError("boom")
 

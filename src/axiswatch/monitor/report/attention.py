@@ -244,7 +244,8 @@ def triage(
         if set(problems) - {"baseline check"}:
             kind = min(problems, key=KINDS.index)
         else:
-            calm = "calibrating" if info is None or pd.isna(info["threshold"]) else "ok"
+            learning = info is None or pd.isna(info["threshold"]) or _learning(last)
+            calm = "calibrating" if learning else "ok"
             kind = "baseline check" if problems else calm
             lines.append(_healthy_line(info, last, history))
         if not seen.empty:
@@ -302,11 +303,27 @@ def _check_line(check: BaselineCheck) -> str:
     return f"Baseline to check, seen on {_day(check.acknowledged_at)}: {check.note}."
 
 
+def _learning(last: Any) -> bool:
+    """Whether the last capture's mode is being learned (``MonitorConfig.modes``)."""
+    return last is not None and json.loads(last["details"]).get("mode_state") == "learning"
+
+
 def _healthy_line(info: Any, last: Any, history: pd.DataFrame) -> str:
     if info is None:  # only acknowledged (`rejections --ack`) or removed rejections
         return "No baseline yet."
     if last is None:
         return "Baseline set; no capture scored yet."
+    if _learning(last):
+        details = json.loads(last["details"])
+        guard = (
+            f", guard at {last['distance']:.2f} of the alarm level"
+            if last["distance"] > 0
+            else ", no guard yet"
+        )
+        return (
+            f"Learning new mode {details['mode']} ({details['mode_seen']} of "
+            f"{details['mode_fit']} captures){guard}; last {_day(last['captured_at'])}."
+        )
     if pd.isna(info["threshold"]):
         return (
             f"Calibrating: {int(info['scored'])} of the captures that set the threshold "

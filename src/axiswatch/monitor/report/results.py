@@ -30,8 +30,9 @@ def fleet_results(
     the part it watches and its shift; ``mechanics``, the one with the largest share of the
     distance and its likely meaning; None otherwise), ``feedback`` (on the captures of an
     acknowledged alarm: the engineer's verdict, ``seen`` without one; None otherwise:
-    :func:`~axiswatch.monitor._feedback.alarm_feedback`). Baseline rows are included
-    (role ``baseline``, no distance).
+    :func:`~axiswatch.monitor._feedback.alarm_feedback`), ``mode`` (with ``--modes``: the
+    capture's operating mode, and ``learning n of K`` while it is learned; None otherwise).
+    Baseline rows are included (role ``baseline``, no distance).
     """
     frame = store.score_table(robot=robot, axis=axis)
     # Named only where it explains an alarm: "likely a damaged gear tooth" on a capture under
@@ -41,7 +42,18 @@ def fleet_results(
         for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
     ]
     frame["feedback"] = alarm_feedback(frame, store.acknowledgements(robot, axis))
+    frame["mode"] = [_mode(json.loads(details)) for details in frame["details"]]
     return frame
+
+
+def _mode(details: dict[str, Any]) -> str | None:
+    """The capture's operating mode and its state, in words (``MonitorConfig.modes``)."""
+    mode, state = details.get("mode"), details.get("mode_state")
+    if mode is None:
+        return None
+    if state == "learning":
+        return f"{mode} (learning {details.get('mode_seen')} of {details.get('mode_fit')})"
+    return f"{mode} (drifted)" if state == "drift" else str(mode)
 
 
 def _top_indicator(details: dict[str, Any]) -> str | None:

@@ -136,6 +136,12 @@ class Verdict:
         ]
 
 
+#: How the line of an axis learning a new operating mode starts (``MonitorConfig.modes``).
+NEW_MODE = "Learning new mode"
+#: Axes learning a new mode listed by name in the terminal's summary; the others counted.
+LISTED_NEW_MODES = 10
+
+
 def _capital(text: str) -> str:
     return text[:1].upper() + text[1:]
 
@@ -353,6 +359,14 @@ def _other_verdict(item: AxisAttention) -> Verdict:
             f"Last capture {_day(item.last_capture_at) or 'none'}.", "", "", item.line, None,
             item.severity, item.last_capture_at,
         )  # fmt: skip
+    if item.kind == "calibrating" and item.line.startswith(NEW_MODE):
+        return Verdict(
+            item.robot, item.axis, item.method, item.kind, "learning", True, "", "",
+            "None: a guard watches it meanwhile; if it alarms, 'axiswatch ack --task-changed' "
+            "teaches a mode change, '--fault-confirmed' keeps it a fault.",
+            item.line.split(";")[0] + ".", "", "", item.line, None, item.severity,
+            item.last_capture_at,
+        )  # fmt: skip
     if item.kind == "calibrating":
         return Verdict(
             item.robot, item.axis, item.method, item.kind, "learning", True, "", "",
@@ -448,6 +462,10 @@ def attention_lines(verdicts: Sequence[Verdict], method: str) -> list[str]:
     if calm:
         ranked = sorted(calm.items(), key=lambda s: STATES.index(s[0]))
         lines.append("  " + ", ".join(f"{_axes(n)} {state}" for state, n in ranked) + ".")
+    modes = [v for v in verdicts if v.since.startswith(NEW_MODE)]
+    lines += [f"    {v.robot}/{v.axis}: {v.since}" for v in modes[:LISTED_NEW_MODES]]
+    if len(modes) > LISTED_NEW_MODES:
+        lines.append(f"    and {len(modes) - LISTED_NEW_MODES} more axes learning a new mode.")
     return lines
 
 

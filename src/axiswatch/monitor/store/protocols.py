@@ -62,7 +62,19 @@ class _Standing(_Opened, Protocol):
         ...
 
 
-class StoreWriter(_Standing, Protocol):
+class _ModeLibraries(Protocol):
+    """The mode library of a baseline: what it learned of the axis's operating modes."""
+
+    def mode_library(self, baseline_id: int) -> bytes | None:
+        """The baseline's stored mode library (None before its first capture)."""
+        ...
+
+    def save_mode_library(self, baseline_id: int, blob: bytes) -> None:
+        """Keep (or replace) the baseline's mode library."""
+        ...
+
+
+class StoreWriter(_Standing, _ModeLibraries, Protocol):
     """What the monitor's driver reads and writes while it scores a fleet.
 
     Every write is atomic: it happens whole or not at all, also when the process is killed, and
@@ -245,7 +257,7 @@ class StoreReader(_Standing, Protocol):
         ...
 
 
-class StoreOperator(_Opened, Protocol):
+class StoreOperator(_Opened, _ModeLibraries, Protocol):
     """What a person changes: re-baselines, retries and acknowledgements."""
 
     def retire_baselines(

@@ -202,6 +202,20 @@ class SQLiteStore(SQLiteTables):
         ).fetchone()
         return None if row is None else bytes(row[0])
 
+    def mode_library(self, baseline_id: int) -> bytes | None:
+        row = self._connection.execute(
+            "SELECT library FROM mode_libraries WHERE baseline_id=?", (baseline_id,)
+        ).fetchone()
+        return None if row is None else bytes(row[0])
+
+    def save_mode_library(self, baseline_id: int, blob: bytes) -> None:
+        with self._write() as db:
+            db.execute(
+                "INSERT OR REPLACE INTO mode_libraries (baseline_id, library, saved_at) "
+                "VALUES (?, ?, ?)",
+                (baseline_id, blob, now()),
+            )
+
     def start_run(self) -> int:
         with self._write() as db:
             cursor = db.execute("INSERT INTO runs (started_at) VALUES (?)", (now(),))

@@ -380,7 +380,11 @@ class SQLiteTables:
     def summary_table(self) -> pd.DataFrame:
         frame = self._frame(
             "SELECT b.id AS baseline_id, b.robot, b.axis, b.method, b.epoch, "
-            "b.capture AS baseline, b.threshold, "
+            "b.capture AS baseline, "
+            # A baseline whose modes decide has no fitted threshold: its scores are in
+            # threshold units, compared with 1.
+            "coalesce(b.threshold, (SELECT s.threshold FROM scores s WHERE s.baseline_id=b.id "
+            "AND s.role='monitor' ORDER BY s.id DESC LIMIT 1)) AS threshold, "
             "(SELECT count(*) FROM scores s WHERE s.baseline_id=b.id AND s.role!='baseline') "
             "+ (SELECT count(*) FROM thinned_scores t WHERE t.baseline_id=b.id) AS scored, "
             "(SELECT coalesce(sum(s.over), 0) FROM scores s WHERE s.baseline_id=b.id) AS over, "

@@ -161,6 +161,11 @@ CREATE INDEX IF NOT EXISTS scores_latest ON scores (baseline_id, role, id);
 CREATE INDEX IF NOT EXISTS scores_path ON scores (path);
 CREATE INDEX IF NOT EXISTS scores_alarmed ON scores (method) WHERE alarm=1;
 CREATE TABLE IF NOT EXISTS runs (id INTEGER PRIMARY KEY, started_at TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS mode_libraries (
+    baseline_id INTEGER PRIMARY KEY REFERENCES baselines (id),
+    library BLOB NOT NULL,
+    saved_at TEXT NOT NULL
+);
 """
 )
 
