@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import shutil
@@ -18,6 +19,7 @@ from axiswatch._profiles import AxisProfile
 from axiswatch.datasets._robot_fleet import fleet_profile_toml, simulate_fleet
 from axiswatch.exceptions import CaptureError, ProfileError
 from axiswatch.indicators._readings import read_indicators
+from tests._cli import run
 from tests.conftest import settle
 
 GEAR_RATIO = 100.0  # the simulated axis's (fleet_profile_toml)
@@ -184,3 +186,55 @@ def test_lines_of_signals_on_two_sides_of_the_gear_are_not_read_and_say_why(sign
         assert math.isfinite(as_simulated.values[name])
         assert math.isnan(read.values[name])
         assert "declare the motor's in the axis profile's [sides]" in read.reasons[name]
+
+
+# --- through the command line ------------------------------------------------------------------
+
+
+def _monitor(root: Path, store: Path) -> tuple[int, str]:
+    ran = run("monitor", root, "--store", store, "--no-progress")
+    return ran.returncode, ran.stdout + ran.stderr
+
+
+def _stored_lines(store: Path) -> list[dict[str, float]]:
+    ran = run("results", "--store", store, "--format", "json")
+    assert ran.returncode == 0, ran.stderr
+    rows = [row for row in json.loads(ran.stdout) if row["role"] != "baseline"]
+    assert len(rows) == 6  # the 5 calibration captures and the one after
+    return [
+        {name: row["details"]["indicators"].get(name, {}).get("value", math.nan) for name in LINES}
+        for row in rows
+    ]
+
+
+def test_the_monitor_says_which_indicators_it_could_not_read(
+    fleets: tuple[Path, Path], tmp_path: Path
+) -> None:
+    # A motor-side speed without [sides]: the lines cannot be read. Before, they were left out
+    # without a word in the monitor's output.
+    root = _copy(fleets[1], tmp_path)
+    _profile(root)
+    code, output = _monitor(root, tmp_path / "s.db")
+    assert code in (0, 4), output  # read and scored; the verdict is not the point here
+    said = output.split("Axes with indicators not read (1):\n", 1)[1].splitlines()[0]
+    assert said.startswith("  robot01/axis1: ")
+    assert "bearing_lines:motor_inner_race, tooth_lines:intermediate on 6 of 6 captures" in said
+    assert "declare the motor's in the axis profile's [sides]" in said
+    assert output.count("tooth_lines:intermediate") == 1  # once for the axis, not per capture
+    table = run("results", "--store", tmp_path / "s.db").stdout
+    assert table.split("Indicators not read:\n", 1)[1] == f"{said}\n"
+    assert all(math.isnan(v) for row in _stored_lines(tmp_path / "s.db") for v in row.values())
+
+
+@pytest.mark.parametrize(
+    ("extra", "above"), [('[sides]\nspeed = "motor"\n', ""), ("", 'ignore = ["speed"]\n')]
+)
+def test_a_declared_side_or_an_ignored_speed_reads_the_lines(
+    fleets: tuple[Path, Path], tmp_path: Path, extra: str, above: str
+) -> None:
+    root = _copy(fleets[1], tmp_path)
+    _profile(root, extra, above)
+    code, output = _monitor(root, tmp_path / "s.db")
+    assert code in (0, 4), output
+    assert "tooth_lines" not in output
+    assert all(math.isfinite(v) for row in _stored_lines(tmp_path / "s.db") for v in row.values())

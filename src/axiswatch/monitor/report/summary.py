@@ -13,9 +13,17 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from axiswatch.monitor._run import MonitorSummary
+    from axiswatch.monitor._unread import UnreadIndicators
     from axiswatch.monitor.store import StoreBackend
 
-__all__ = ["fleet_table", "fold_same_reason", "run_header", "run_problems", "verdict_lines"]
+__all__ = [
+    "fleet_table",
+    "fold_same_reason",
+    "run_header",
+    "run_problems",
+    "unread_lines",
+    "verdict_lines",
+]
 
 
 def run_header(result: MonitorSummary) -> str:
@@ -82,6 +90,7 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
         ("Baselines to check", result.baseline_checks),
         ("Axes calibrating", result.calibrating),
         ("Fleet allowances now applied", result.fleet_priors),
+        ("Axes with indicators not read", unread_lines(result.unread)),
         ("Stale axes", result.stale),
     ):
         if items:
@@ -106,6 +115,35 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
             f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
             for seen in result.acknowledged_alarms
         )
+    return lines
+
+
+def unread_lines(unread: UnreadIndicators) -> list[str]:
+    """One line per axis: the indicators its scored captures could not give, on how many, and
+    why. Indicators whose reasons differ only in their numbers share one, said once.
+
+    Examples
+    --------
+    >>> from axiswatch.monitor._unread import UnreadIndicators
+    >>> unread = UnreadIndicators()
+    >>> for _ in range(3):
+    ...     unread.add("r1/a1", {"tooth_lines:out": "needs its order 7.8 below 45 Hz",
+    ...                          "bearing_lines:in": "needs its order 11.9 below 45 Hz"})
+    >>> unread_lines(unread)
+    ['r1/a1: bearing_lines:in, tooth_lines:out on 3 of 3 captures: needs its order 11.9 below 45 Hz']
+    """
+    lines = []
+    for axis, scored, missing in unread.axes():
+        groups: dict[tuple[int, str], list[str]] = {}
+        # By name: a run's captures list them in reading order, the stored details by name.
+        for name in sorted(missing):
+            count, why = missing[name]
+            groups.setdefault((count, _NUMBER.sub("#", why)), []).append(name)
+        said = [
+            f"{', '.join(names)} on {count} of {scored} captures: {missing[names[0]][1]}"
+            for (count, _), names in groups.items()
+        ]
+        lines.append(f"{axis}: {'; '.join(said)}")
     return lines
 
 
