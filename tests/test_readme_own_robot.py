@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import re
+import tomllib
 from pathlib import Path
 
 import pytest
 from threadpoolctl import threadpool_limits
+
+import axiswatch as aw
 
 MANUAL = Path(__file__).resolve().parents[1] / "docs" / "monitor.md"
 
@@ -19,6 +22,14 @@ def _blocks() -> list[str]:
 
 def test_the_section_has_its_example() -> None:
     assert len(_blocks()) == 5
+
+
+def test_the_section_s_profile_with_sides_is_valid() -> None:
+    section = MANUAL.read_text(encoding="utf-8").split("## Monitor your own robot", 1)[1]
+    (block,) = re.findall(r"```toml\n(.*?)```", section.split("\n## ", 1)[0], flags=re.DOTALL)
+    profile = aw.AxisProfile.from_dict(tomllib.loads(block))
+    assert profile.sides == {"position": "motor"}
+    assert profile.ignore == ("speed",)
 
 
 def test_readme_example_runs_as_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -32,6 +32,12 @@ __all__ = ["AxisProfile", "find_profile"]
 ROLES: tuple[str, ...] = ("time", "position", "speed", "torque")
 #: Roles a capture must have when a profile maps them (speed is derived from the position).
 REQUIRED_ROLES: tuple[str, ...] = ("position", "torque")
+#: Roles measured on one side of the gear, and the sides (``[sides]``). The output is the
+#: default: the gear ratio is motor turns per turn of the position the file gives.
+SIDED_ROLES: tuple[str, ...] = ("position", "speed")
+SIDES: tuple[str, ...] = ("motor", "output")
+#: Roles a profile may ``ignore``: the motion signals, one of which the indicators need.
+IGNORABLE_ROLES: tuple[str, ...] = ("position", "speed")
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 POSITION_UNITS: dict[str, float] = {
     "rad": 1.0,
@@ -76,7 +82,7 @@ FLEET_PROFILE = "axiswatch.toml"
 
 #: The profile's keys that are plain values, not tables: written under a ``[table]`` line
 #: they belong to that table (TOML), a mistake :func:`_above_tables` names.
-TOP_LEVEL_VALUES: tuple[str, ...] = ("name", "resample_irregular", "encoding")
+TOP_LEVEL_VALUES: tuple[str, ...] = ("name", "resample_irregular", "encoding", "ignore")
 
 
 def _above_tables(keys: Iterable[str], table: str | None) -> str:
@@ -177,6 +183,13 @@ class AxisProfile:
         Name -> motor turns per turn of a gear whose teeth are watched.
     bearing_orders : mapping of str to float, default={}
         Name -> bearing defect frequency in orders of the motor speed.
+    sides : mapping of str to str, default={}
+        Role (``position``, ``speed``) -> ``"motor"`` or ``"output"``: the side of the gear the
+        file's signal is measured on. A motor-side signal is divided by ``gear_ratio`` when
+        read, so every reading sees the output. Default: the output.
+    ignore : tuple of str, default=()
+        Roles (``position`` or ``speed``) whose column is not read. An ignored speed is
+        derived from the position, as when the file has none.
     encoding : str, optional
         Text encoding of the axis's CSV files (a Python codec name, such as ``"cp1250"``).
         Without it a CSV file is read as UTF-8, else as Windows-1252.
@@ -202,6 +215,8 @@ class AxisProfile:
     gear_ratio: float | None = None
     gear_stages: Mapping[str, float] = field(default_factory=dict)
     bearing_orders: Mapping[str, float] = field(default_factory=dict)
+    sides: Mapping[str, str] = field(default_factory=dict)
+    ignore: tuple[str, ...] = ()
     encoding: str | None = None
     mode: ModeDeclaration | None = None
     source: str = "<memory>"
@@ -261,16 +276,45 @@ class AxisProfile:
                     raise ProfileError(
                         f"{where}: {label}.{key} must be a number > 0. Got {value!r}."
                     )
+        self._check_sides(where)
+
+    def _check_sides(self, where: str) -> None:
+        object.__setattr__(self, "ignore", tuple(self.ignore))  # a list given in Python
+        for role, side in self.sides.items():
+            if role not in SIDED_ROLES or side not in SIDES:
+                raise ProfileError(
+                    f"{where}: sides maps {role!r} to {side!r}; expected {list(SIDED_ROLES)} "
+                    f"mapped to one of {list(SIDES)}."
+                )
+            if side == "motor" and self.gear_ratio is None:
+                raise ProfileError(
+                    f'{where}: [sides] {role} = "motor" needs [kinematics] gear_ratio (motor '
+                    "turns per output turn) to read it at the output; got none."
+                )
+        for role in self.ignore:
+            if role not in IGNORABLE_ROLES:
+                raise ProfileError(
+                    f"{where}: ignore lists {role!r}; expected some of {list(IGNORABLE_ROLES)} "
+                    "(the indicators need the time and the torque)."
+                )
+        if set(IGNORABLE_ROLES) <= set(self.ignore):
+            raise ProfileError(
+                f"{where}: ignore lists both 'position' and 'speed'; the indicators need one of "
+                "them."
+            )
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "<memory>") -> AxisProfile:
         """A profile from the TOML file's tables (``name``, ``columns``, ``units``,
-        ``resample_irregular``, ``encoding``, ``kinematics``, ``mode``)."""
+        ``resample_irregular``, ``encoding``, ``kinematics``, ``sides``, ``ignore``, ``mode``)."""
         _check(
             data,
-            {"name", "columns", "units", "resample_irregular", "encoding", "kinematics", "mode"},
+            {
+                "name", "columns", "units", "resample_irregular", "encoding", "kinematics",
+                "sides", "ignore", "mode",
+            },
             source,
-        )
+        )  # fmt: skip
         columns = _table(data, "columns", source)
         for column, role in columns.items():
             if not isinstance(role, str):
@@ -304,6 +348,20 @@ class AxisProfile:
         )
         ratio = kinematics.get("gear_ratio")
         where = f"{source} [kinematics]"
+        sides = _table(data, "sides", source)
+        _check(sides, set(SIDED_ROLES), f"{source} [sides]", "sides")
+        for role, side in sides.items():
+            if side not in SIDES:
+                raise ProfileError(
+                    f'{source} [sides]: {role} must be "motor" or "output" (the side of the gear '
+                    f"it is measured on); got {_got(side)}."
+                )
+        ignore = data.get("ignore", [])
+        if not isinstance(ignore, list) or not all(isinstance(r, str) for r in ignore):
+            raise ProfileError(
+                f"{source}: 'ignore' must be a list of roles, such as ignore = [\"speed\"]; "
+                f"got {_got(ignore)}."
+            )
         return cls(
             name=_text(data, "name", source, None),
             columns=columns,
@@ -318,6 +376,8 @@ class AxisProfile:
             gear_ratio=None if ratio is None else _number(ratio, "gear_ratio", where),
             gear_stages=_table(kinematics, "gear_stages", where),
             bearing_orders=_table(kinematics, "bearing_orders", where),
+            sides=sides,
+            ignore=tuple(ignore),
             encoding=_text(data, "encoding", source, None),
             mode=_mode(data, source),
             source=source,
@@ -380,6 +440,8 @@ class AxisProfile:
             if role.lower() in ROLES and role not in self.columns.values():
                 role = role.lower()
             word = text.strip().strip("[]()").lower()
+            if role in self.ignore:
+                continue  # not read: its unit does not matter (a speed in rpm, say)
             if role == "speed":
                 word = word.removesuffix("/s").removesuffix("/sec")
             elif role not in ("time", "position"):
@@ -445,7 +507,8 @@ class AxisProfile:
         self, frame: pd.DataFrame, path: Path, *, step_s: float | None = None
     ) -> pd.DataFrame:
         """The file's table in the project's format: roles as column names, time in seconds from
-        the first stamp, position in rad (or m) and speed per second; with
+        the first stamp, position in rad (or m) and speed per second, both at the output (a
+        motor-side one divided by the gear ratio), ignored roles left out; with
         ``resample_irregular``, on a uniform grid every ``step_s`` seconds (default: the rows'
         own :func:`~axiswatch._timebase.sampling_period`)."""
         renamed = frame.rename(columns={c: self.role_of(str(c)) for c in frame.columns})
@@ -454,6 +517,7 @@ class AxisProfile:
             raise CaptureError(
                 f"{path}: the axis profile {self.source} maps two columns to {duplicated}."
             )
+        renamed = renamed.drop(columns=[role for role in self.ignore if role in renamed.columns])
         if "time" not in renamed.columns:
             found = list(map(str, frame.columns))
             if not self.columns:  # the file's own names: the same words as without a profile
@@ -469,7 +533,8 @@ class AxisProfile:
             # A mapped position or torque the file lacks: say which profile line points where,
             # not only that the indicators miss a torque. An optional signal (speed) may be
             # absent: it is derived from the position.
-            if role in REQUIRED_ROLES and column not in frame.columns and role not in renamed:
+            required = role in REQUIRED_ROLES and role not in self.ignore
+            if required and column not in frame.columns and role not in renamed:
                 raise ProfileError(
                     f"{path}: the axis profile {self.source} maps [columns] {column!r} = "
                     f"{role!r}, but the file has no column {column!r}; found columns "
@@ -491,8 +556,11 @@ class AxisProfile:
             check_stamp_unit(float(first) * TIME_UNITS[self.time_unit], self.time_unit, path)
             relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
         renamed["time"] = relative
-        scale = self.position_scale()
         for role in ("position", "speed"):
+            scale = self.position_scale()
+            if self.sides.get(role) == "motor":
+                assert self.gear_ratio is not None  # checked on construction
+                scale /= self.gear_ratio
             if role in renamed.columns and scale != 1.0:
                 renamed[role] = pd.to_numeric(renamed[role], errors="coerce") * scale
         if self.resample_irregular and len(relative) > 2:

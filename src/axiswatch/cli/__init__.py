@@ -319,11 +319,14 @@ def results(
     Then captured_at, epoch, role, over, reason, details (JSON: for the indicator methods each
     indicator's value, baseline, shift in healthy spreads and share of the distance) and
     top_indicator, feedback (the verdict of an acknowledged alarm), mode (with --modes). The
-    table shows the first seven, role, feedback and mode (when any) and top_indicator.
+    table shows the first seven, role, feedback and mode (when any) and top_indicator; below
+    it, once per axis, the indicators its captures could not give.
     """
     import json
 
+    from axiswatch.monitor._unread import UnreadIndicators
     from axiswatch.monitor.report.results import fleet_results, indicator_spreads
+    from axiswatch.monitor.report.summary import unread_lines
     from axiswatch.monitor.store import Store
 
     with _failures(debug):
@@ -350,6 +353,11 @@ def results(
             if indicators:
                 table = table.join(indicator_spreads(frame))
             echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+            unread = unread_lines(UnreadIndicators.from_results(frame))
+            if unread:
+                echo("\nIndicators not read:")
+                for line in unread:
+                    echo(f"  {line}")
 
 
 def _require_store(store: Path) -> None:

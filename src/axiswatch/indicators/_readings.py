@@ -505,6 +505,27 @@ def read_indicators(
     return Readings(values, reasons, capture.source, signature, profile, errors)
 
 
+def _sides_disagree(m: Motion, fast: NDArray[np.bool_], gear_ratio: float) -> str | None:
+    """Why the lines cannot be read when the position and the speed are on two sides of the gear.
+
+    The position's travel over the ``fast`` samples is compared with the speed's integral there.
+    A ratio nearer the gear ratio (or its inverse) than 1, in decades, means one of them is the
+    motor's: the lines would be read at orders off by the gear ratio, or beyond the rate.
+    """
+    position_travel = float(np.sum(np.abs(np.diff(m.position))[fast[1:]]))
+    speed_travel = float(np.sum(np.abs(m.speed[fast]))) / m.rate_hz
+    if not (position_travel > 0 and speed_travel > 0 and gear_ratio > 1):
+        return None
+    ratio = position_travel / speed_travel
+    if abs(math.log(ratio)) <= 0.5 * math.log(gear_ratio):
+        return None
+    return (
+        f"needs the position and the speed on one side of the gear (the position travels "
+        f"{ratio:.3g} times what the speed says; the gear ratio is {gear_ratio:g}): declare the "
+        "motor's in the axis profile's [sides], or ignore the speed"
+    )
+
+
 def _kinematic_lines(
     m: Motion,
     gear_ratio: float,
@@ -517,6 +538,10 @@ def _kinematic_lines(
     of the capture (not the rate's band: a 4 kHz log of a slow axis has its lines far below it).
     """
     fast = np.abs(m.speed) > 0.2 * peak
+    why = _sides_disagree(m, fast, gear_ratio)
+    if why is not None:
+        reasons.update(dict.fromkeys(kinematic, why))
+        return
     motor_angle = gear_ratio * m.position
     theta = motor_angle[fast]
     shared: NuisanceProjection | None = None  # one projection for every line

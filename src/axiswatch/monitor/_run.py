@@ -26,6 +26,7 @@ from axiswatch.monitor._parallel import WorkerPool
 from axiswatch.monitor._persist import load_model, model_version
 from axiswatch.monitor._quality import QualityReference
 from axiswatch.monitor._scoring import FitJob, FitOutcome
+from axiswatch.monitor._unread import UnreadIndicators
 from axiswatch.monitor.store import (
     AlarmState,
     Baseline,
@@ -61,6 +62,8 @@ class MonitorSummary:
     run until re-baselined), which need attention;
     ``fleet_priors``: axes fitted before their fleet had 3 axes that got its task-change
     allowances in this run (their later captures are scored with them; no attention needed).
+    ``unread``: per axis, the indicators the captures scored in this run could not give, and why
+    (said once per axis; no attention needed).
 
     ``n_files`` counts the capture files of the axis folders this run listed;
     ``unchanged_folders`` the axis folders it did not list, unchanged since a run finished them
@@ -83,6 +86,7 @@ class MonitorSummary:
     calibrating: list[str] = field(default_factory=list)
     baseline_checks: list[str] = field(default_factory=list)
     fleet_priors: list[str] = field(default_factory=list)
+    unread: UnreadIndicators = field(default_factory=UnreadIndicators)
 
     @property
     def exit_code(self) -> int:

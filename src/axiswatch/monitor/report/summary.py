@@ -13,9 +13,17 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from axiswatch.monitor._run import MonitorSummary
+    from axiswatch.monitor._unread import UnreadIndicators
     from axiswatch.monitor.store import StoreBackend
 
-__all__ = ["fleet_table", "fold_same_reason", "run_header", "run_problems", "verdict_lines"]
+__all__ = [
+    "fleet_table",
+    "fold_same_reason",
+    "run_header",
+    "run_problems",
+    "unread_lines",
+    "verdict_lines",
+]
 
 
 def run_header(result: MonitorSummary) -> str:
@@ -82,10 +90,16 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
         ("Baselines to check", result.baseline_checks),
         ("Axes calibrating", result.calibrating),
         ("Fleet allowances now applied", result.fleet_priors),
+        ("Axes with indicators not read", unread_lines(result.unread)),
         ("Stale axes", result.stale),
     ):
         if items:
-            count = len(result.rejected) if title == "Rejected captures" else len(items)
+            # Folded lines: the heading counts every file, every axis.
+            counts = {
+                "Rejected captures": len(result.rejected),
+                "Axes with indicators not read": len(list(result.unread.axes())),
+            }
+            count = counts.get(title, len(items))
             lines.append(f"\n{title} ({count}):")
             lines.extend(f"  {item}" for item in items)
             if title == "Rejected captures":
@@ -106,6 +120,47 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
             f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
             for seen in result.acknowledged_alarms
         )
+    return lines
+
+
+def unread_lines(unread: UnreadIndicators) -> list[str]:
+    """One line per axis: the indicators its scored captures could not give, on how many, and
+    why. Reasons that differ only in their numbers are said once: for several indicators of an
+    axis, and for several axes (a fleet logged at 20 Hz has no impact band anywhere).
+
+    Examples
+    --------
+    >>> from axiswatch.monitor._unread import UnreadIndicators
+    >>> unread = UnreadIndicators()
+    >>> for axis in ("r1/a1", "r1/a2", "r2/a1"):
+    ...     unread.add(axis, {"tooth_lines:out": "needs its order 7.8 below 45 Hz",
+    ...                       "bearing_lines:in": "needs its order 11.9 below 45 Hz"})
+    >>> unread.add("r2/a1", {})
+    >>> for line in unread_lines(unread):
+    ...     print(line)
+    r1/a1 (and 1 more axis): bearing_lines:in, tooth_lines:out on 1 of 1 captures: needs its
+    order 11.9 below 45 Hz
+    r2/a1: bearing_lines:in, tooth_lines:out on 1 of 2 captures: needs its order 11.9 below 45 Hz
+    """
+    axes: dict[str, list[tuple[str, str]]] = {}
+    for axis, scored, missing in unread.axes():
+        groups: dict[tuple[int, str], list[str]] = {}
+        # By name: a run's captures list them in reading order, the stored details by name.
+        for name in sorted(missing):
+            count, why = missing[name]
+            groups.setdefault((count, _NUMBER.sub("#", why)), []).append(name)
+        said = "; ".join(
+            f"{', '.join(names)} on {count} of {scored} captures: {missing[names[0]][1]}"
+            for (count, _), names in groups.items()
+        )
+        axes.setdefault(_NUMBER.sub("#", said), []).append((axis, said))
+    lines = []
+    for members in axes.values():
+        (axis, said), more = members[0], len(members) - 1
+        if more:
+            aside = "" if len({s for _, s in members}) == 1 else ", numbers aside"
+            axis += f" (and {more} more {'axis' if more == 1 else 'axes'}{aside})"
+        lines.append(f"{axis}: {said}")
     return lines
 
 
