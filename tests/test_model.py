@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pytest
 
@@ -128,3 +130,30 @@ def test_the_one_call_constructor_builds_the_papers_method(robot_capture: aw.Cap
 def test_paper_rejects_an_unknown_method() -> None:
     with pytest.raises(ValueError, match=r"'method' parameter of HealthModel.paper must be 'lra'"):
         aw.HealthModel.paper("mechanics")  # type: ignore[arg-type]
+
+
+def test_an_lra_model_keeps_its_baselines_signals_not_its_features() -> None:
+    import pickle
+
+    from axiswatch.paper._stages import RecomputedFeatures
+
+    baseline = awd.simulate_capture("heavy", seed=1, duration_s=0.5)
+    model = aw.HealthModel(aw.FeatureSpec(), aw.LRADetector()).fit(baseline)
+    features = aw.extract_features(baseline).X  # 1,000 rows x 390 columns at hop 1
+    assert isinstance(model.detector_.baseline_, RecomputedFeatures)
+    assert len(pickle.dumps(model)) < features.nbytes / 2  # the basis and the signals
+    assert model.fingerprint() == hashlib.sha256(features.tobytes()).hexdigest()
+    # A shorter test capture is compared with the baseline's leading rows, recomputed.
+    reference = aw.LRADetector().fit(features)
+    for seconds in (0.5, 0.4):
+        test, _ = model.featurize(awd.simulate_capture("palletize", seed=2, duration_s=seconds))
+        assert model.detector_.distance(test.X) == pytest.approx(
+            reference.distance(test.X), rel=1e-12
+        )
+
+
+def test_a_detector_that_reads_the_baseline_on_every_test_keeps_it() -> None:
+    baseline = awd.simulate_capture("heavy", seed=1, duration_s=0.3)
+    for detector in (aw.PCADetector(), aw.LRADetector(solver="dense")):
+        model = aw.HealthModel(aw.FeatureSpec(hop=8), detector).fit(baseline)
+        assert isinstance(model.detector_.baseline_, np.ndarray)

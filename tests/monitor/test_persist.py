@@ -47,8 +47,26 @@ def test_round_trip_gives_identical_distances(method: str) -> None:
         # Exact: the stored model is the fitted one, bit for bit.
         assert back.distance(capture) == model.distance(capture)
         assert back.assess(capture) == model.assess(capture)
-    np.testing.assert_array_equal(back.baseline_features_.X, model.baseline_features_.X)
+    assert back.fingerprint() == model.fingerprint()
     assert model_digest(dump_model(back)) == model_digest(dump_model(model))
+
+
+def test_an_lra_model_stored_with_its_baseline_features_still_scores() -> None:
+    # Written by the previous layout, which kept the baseline's |STFT| features in the model
+    # and in its detector; the distances and fingerprint it gave then.
+    blob = (Path(__file__).parents[1] / "data" / "lra-model-format10.npz").read_bytes()
+    model = load_model(blob)
+    assert isinstance(model.detector_.baseline_, np.ndarray)  # the stored form, as it was
+    expected = {0.3: 0.05487800949954262, 0.25: 0.06274353083066554}  # 0.25 s: shorter
+    for seconds, distance in expected.items():
+        capture = simulate_capture("palletize", seed=4, duration_s=seconds)
+        assert model.distance(capture) == pytest.approx(distance, rel=1e-9)
+    fingerprint = "12a638fd47d19de413696970d4a979771edc591a0b9176a8a58c7d4f90916cb8"
+    assert model.fingerprint() == fingerprint
+    refitted = aw.HealthModel(aw.FeatureSpec(segment_length=16, hop=8), aw.LRADetector())
+    assert refitted.fit(simulate_capture("heavy", seed=1, duration_s=0.3)).fingerprint() == (
+        fingerprint
+    )
 
 
 def test_blob_is_arrays_and_json_only() -> None:

@@ -187,3 +187,23 @@ def test_non_spectral_stages_name_their_columns_instead_of_zero_frequencies() ->
     assert set(features.column_channel) == {"mechanics"}
     with pytest.raises(ValueError, match=r"no frequency bins \(channels \['mechanics'\], columns"):
         _ = features.column_frequency_hz
+
+
+def test_leading_rows_alone_equal_the_whole_matrix_s(rng: np.random.Generator) -> None:
+    signals = rng.normal(size=(5000, 2))
+    whole = aw.stft_features(signals, 2000.0, segment_length=64)
+    for rows in (1, 1234, 2048, 4097, 6000):
+        np.testing.assert_array_equal(
+            aw.stft_features(signals, 2000.0, segment_length=64, max_rows=rows), whole[:rows]
+        )
+
+
+def test_recomputed_features_give_the_leading_rows(robot_capture: aw.Capture) -> None:
+    stage = aw.StftStage(aw.FeatureSpec(hop=2))
+    X = stage.fit_transform(robot_capture).X
+    rows = stage.baseline_rows_
+    assert rows.shape == X.shape
+    np.testing.assert_array_equal(rows[:300], X[:300])
+    np.testing.assert_array_equal(rows[10:20], X[10:20])
+    with pytest.raises(TypeError, match=r"RecomputedFeatures takes a slice of rows; got 3"):
+        rows[3]  # type: ignore[index]

@@ -77,12 +77,14 @@ def test_joint_basis_spans_both_and_is_orthogonal_to_source(rng: np.random.Gener
     )[0]
     tilted = source[:, 1] + 1e-8 * extra[:, 2]
     target = np.column_stack([source[:, 0], tilted / np.linalg.norm(tilted), extra[:, :2]])
-    added = aw_alignment._joint_basis(source, target)
+    added, shared, coordinates = aw_alignment._joint_basis(source, target.copy())
     assert added.shape[1] == 3  # two new directions and the tilt (sine 1e-8 > _SPAN_RTOL)
     np.testing.assert_allclose(added.T @ added, np.eye(3), atol=1e-13, rtol=0)
     np.testing.assert_allclose(source.T @ added, 0.0, atol=1e-13)
     joint = np.hstack([source, added])
     np.testing.assert_allclose(joint @ (joint.T @ target), target, atol=1e-13)
+    np.testing.assert_allclose(shared, source.T @ target, atol=1e-15)
+    np.testing.assert_allclose(coordinates, added.T @ target, atol=1e-13)
 
 
 @pytest.mark.parametrize(("task_s", "task_t"), [("heavy", "palletize"), ("heavy", "heavy")])
@@ -97,3 +99,27 @@ def test_structured_equals_dense_on_robot_features(task_s: str, task_t: str) -> 
         assert min(fast.rank_source, fast.rank_target) > 20  # not the synthetic low rank
         assert abs(fast.delta - dense.delta) <= _delta_tolerance(dense.delta)
         np.testing.assert_allclose(fast.eigenvalues, dense.eigenvalues, atol=1e-10)
+
+
+@pytest.mark.parametrize("smallest", [1e-3, 1e-9])  # the Gram's sines, then the QR's
+def test_residual_sines_equal_the_direct_svd(rng: np.random.Generator, smallest: float) -> None:
+    sines = np.array([1.0, 0.5, 0.1, 0.01, smallest])
+    E = _spectrum_matrix(rng, 3000, sines)
+    fast, right = aw_alignment._residual_sines(E)
+    _, reference, reference_right = np.linalg.svd(E, full_matrices=False)
+    np.testing.assert_allclose(fast, reference, rtol=1e-7 if smallest > 1e-8 else 1e-6)
+    # Right vectors up to sign: distinct sines, so each is determined.
+    np.testing.assert_allclose(np.abs(right @ reference_right.T), np.eye(5), atol=1e-7)
+
+
+def test_lowest_eigenpairs_widen_until_the_cut_is_clear(rng: np.random.Generator) -> None:
+    # 20 equal eigenvalues straddle the first subset (13 pairs): all of them must come back.
+    spectrum = np.concatenate([[0.0], np.full(20, 0.3), np.linspace(1.0, 2.0, 30)])
+    rotation = np.linalg.qr(rng.normal(size=(51, 51)))[0]
+    matrix = (rotation * spectrum) @ rotation.T
+    values, vectors = aw_alignment._lowest_eigenpairs(matrix, np.array([0.5, 1.5]), 3, 1e-9)
+    assert values.size >= 21
+    np.testing.assert_allclose(values[:21], spectrum[:21], atol=1e-12)
+    np.testing.assert_allclose(matrix @ vectors, vectors * values, atol=1e-12)
+    few, _ = aw_alignment._lowest_eigenpairs(matrix, np.array([0.5, 1.5]), 1, 1e-9)
+    assert few.size == 11  # wanted + 10: the cut at 0.0 is clear at once

@@ -68,6 +68,7 @@ ALLOWED_CLASSES: tuple[str, ...] = (
     "axiswatch._order_lines.OrderProfile",
     "axiswatch._readings.Readings",
     "axiswatch.monitor._indicators.IndicatorBaseline",
+    "axiswatch.paper._stages.RecomputedFeatures",
 )
 
 #: Where a stored name's class lives now. A stored name is part of the blob's format: a class

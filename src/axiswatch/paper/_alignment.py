@@ -32,6 +32,9 @@ GRAM_RCOND = 1e-10
 _QR_BLOCK_ROWS = 4096
 #: Principal angles between span(V_s) and span(V_t) with a sine below this count as shared (W's basis).
 _SPAN_RTOL = 1e-10
+#: The joint basis reads the sines from the Gram of V_t's residual when all their squares exceed
+#: this (relative error below about 1e-7); else from the R of its Householder QR.
+_GRAM_SINE2 = 1e-8
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,8 @@ def _check_features(X: NDArray[np.float64], name: str) -> NDArray[np.float64]:
     array = np.asarray(X, dtype=np.float64)
     if array.ndim != 2 or array.shape[0] < 1 or array.shape[1] < 1:
         raise ValueError(f"{name} must have shape (n_rows, n_features); got shape {array.shape}.")
-    if not np.isfinite(array).all():
+    # A finite sum is a finite matrix, and costs no mask as large as the features.
+    if not np.isfinite(array.sum()) and not np.isfinite(array).all():
         raise ValueError(f"{name} contains NaN or inf; expected finite features.")
     return array
 
@@ -144,6 +148,7 @@ def low_rank_basis(
     noise_level: float = 1.0,
     *,
     method: Literal["auto", "gram", "qr", "svd"] = "auto",
+    overwrite_x: bool = False,
 ) -> LowRankBasis:
     """Singular vectors and values of ``X`` that enter ``R`` (those above ``sqrt(noise_level)``).
 
@@ -162,6 +167,9 @@ def low_rank_basis(
         few thousand rows at a time) locate the subspace, then the same Rayleigh-Ritz step.
         ``"auto"``: for tall ``X`` (``N > K``) ``"gram"``, or ``"qr"`` where ``"gram"`` would
         fall back; else ``"svd"``. See Notes for the accuracy.
+    overwrite_x : bool, default=False
+        Let the Gram and QR routes build the vectors in ``X``'s memory (``X`` is destroyed): no
+        ``N x r`` array is allocated, the vectors are a view of ``X``'s leading columns.
 
     Returns
     -------
@@ -211,17 +219,19 @@ def low_rank_basis(
     noise_level = float(noise_level)
     tall = X.shape[0] > X.shape[1]
     if method == "gram" or (method == "auto" and tall):
-        basis = _gram_basis(X, noise_level)
+        basis = _gram_basis(X, noise_level, overwrite_x)
         if basis is not None:
             return basis
     if method == "qr" or (method == "auto" and tall):
-        return _qr_basis(X, noise_level)
+        return _qr_basis(X, noise_level, overwrite_x)
     left, singular, _ = scipy.linalg.svd(X, full_matrices=False, check_finite=False)
     keep = singular > np.sqrt(noise_level)
     return LowRankBasis(left[:, keep], singular[keep], noise_level)
 
 
-def _gram_basis(X: NDArray[np.float64], noise_level: float) -> LowRankBasis | None:
+def _gram_basis(
+    X: NDArray[np.float64], noise_level: float, overwrite_x: bool = False
+) -> LowRankBasis | None:
     """:func:`low_rank_basis` through ``X^T X``; None when ``X`` is too ill conditioned for it."""
     gram = X.T @ X
     # Divide and conquer: faster here than a subset by the default driver (8.9 -> 6.7 ms, K=390).
@@ -230,14 +240,18 @@ def _gram_basis(X: NDArray[np.float64], noise_level: float) -> LowRankBasis | No
     if noise_level < GRAM_RCOND * largest:
         return None
     guarded = eigenvalues > noise_level / 4.0
-    return _ritz_basis(X, eigenvectors[:, guarded], np.sqrt(eigenvalues[guarded]), noise_level)
+    return _ritz_basis(
+        X, eigenvectors[:, guarded], np.sqrt(eigenvalues[guarded]), noise_level, overwrite_x
+    )
 
 
-def _qr_basis(X: NDArray[np.float64], noise_level: float) -> LowRankBasis:
+def _qr_basis(
+    X: NDArray[np.float64], noise_level: float, overwrite_x: bool = False
+) -> LowRankBasis:
     """:func:`low_rank_basis` through the ``R`` of a blocked (TSQR) Householder QR of ``X``."""
     _, singular, right = scipy.linalg.svd(_tsqr_r(X), check_finite=False)
     count = int(np.sum(singular**2 > noise_level / 4.0))
-    return _ritz_basis(X, right[:count].T, singular[:count], noise_level)
+    return _ritz_basis(X, right[:count].T, singular[:count], noise_level, overwrite_x)
 
 
 def _tsqr_r(Y: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -260,6 +274,7 @@ def _ritz_basis(
     guarded: NDArray[np.float64],
     scales: NDArray[np.float64],
     noise_level: float,
+    overwrite_x: bool = False,
 ) -> LowRankBasis:
     """Rayleigh-Ritz: the SVD of ``X`` restricted to the orthonormal columns of ``guarded``
     (``K x r``), as ``(N x r) Q`` times ``(r x r) R``.
@@ -268,12 +283,36 @@ def _ritz_basis(
     as the Gram or QR route computed them. ``X @ guarded / scales`` then has orthonormal columns
     up to about ``4 eps s_max^2 / lambda`` (Gram route, at most ``1e-5`` above ``GRAM_RCOND``)
     or ``2 eps s_max / sqrt(lambda)`` (QR route), so one Cholesky QR pass makes ``Q``
-    orthonormal to rounding.
+    orthonormal to rounding. ``Q`` is rotated onto the singular vectors in place: the vectors
+    are a view of its leading columns, and no second ``N x r`` array is made. With
+    ``overwrite_x``, ``Q`` itself is built in ``X``'s leading columns.
     """
-    Q, R = _cholesky_qr(X @ (guarded / scales), passes=1)
+    scaled = guarded / scales
+    Q, R = _cholesky_qr(_times_in_place(X, scaled) if overwrite_x else X @ scaled, passes=1)
     left, singular, _ = scipy.linalg.svd(R * scales, check_finite=False)
     keep = singular > np.sqrt(noise_level)
-    return LowRankBasis(Q @ left[:, keep], singular[keep], noise_level)
+    return LowRankBasis(_times_in_place(Q, left[:, keep]), singular[keep], noise_level)
+
+
+def _row_blocks(n_rows: int) -> list[slice]:
+    return [slice(start, start + _QR_BLOCK_ROWS) for start in range(0, n_rows, _QR_BLOCK_ROWS)]
+
+
+def _times_in_place(Y: NDArray[np.float64], right: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``Y @ right`` written over ``Y``'s leading columns, a block of rows at a time (rows do
+    not mix); ``right`` has at most as many columns as ``Y``. Returns the view."""
+    width = right.shape[1]
+    for rows in _row_blocks(Y.shape[0]):
+        Y[rows, :width] = Y[rows] @ right
+    return Y[:, :width]
+
+
+def _project_out(
+    Y: NDArray[np.float64], V: NDArray[np.float64], coefficients: NDArray[np.float64]
+) -> None:
+    """``Y -= V @ coefficients`` in place, a block of rows at a time (no ``N x r`` temporary)."""
+    for rows in _row_blocks(Y.shape[0]):
+        Y[rows] -= V[rows] @ coefficients
 
 
 def _cholesky_qr(
@@ -285,42 +324,77 @@ def _cholesky_qr(
     about ``1e7`` (Yamamoto et al., "Roundoff error analysis of the CholeskyQR2 algorithm", 2015);
     one pass when ``Y``'s columns are orthonormal up to ``1e-5`` or so (its error is about
     ``eps cond(Y)^2``). It is BLAS-3 and several times faster than Householder QR or an SVD of a
-    tall ``Y``. ``Y`` is overwritten by ``Q``.
+    tall ``Y``. ``Y`` is overwritten by ``Q`` (also where it is a view of wider rows).
     """
-    Q = Y
     R = np.eye(Y.shape[1])
+    contiguous = Y.flags.c_contiguous
     for _ in range(passes):
-        factor = scipy.linalg.cholesky(Q.T @ Q, lower=False, check_finite=False)
-        # In place: Q.T is Fortran-ordered, so the triangular solve writes into Y's memory.
-        Q = scipy.linalg.solve_triangular(
-            factor, Q.T, trans="T", overwrite_b=True, check_finite=False
-        ).T
+        factor = scipy.linalg.cholesky(Y.T @ Y, lower=False, check_finite=False)
+        if contiguous:
+            # Y.T is Fortran-ordered: the triangular solve writes into Y's memory.
+            Y = scipy.linalg.solve_triangular(
+                factor, Y.T, trans="T", overwrite_b=True, check_finite=False
+            ).T
+        else:
+            for rows in _row_blocks(Y.shape[0]):
+                Y[rows] = scipy.linalg.solve_triangular(
+                    factor, Y[rows].T, trans="T", check_finite=False
+                ).T
         R = factor @ R
-    return np.ascontiguousarray(Q), R
+    return (np.ascontiguousarray(Y) if contiguous else Y), R
 
 
-def _joint_basis(V_s: NDArray[np.float64], V_t: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Orthonormal ``A`` with ``[V_s, A]`` a basis of ``span(V_s) + span(V_t)``: what ``V_t`` adds.
+def _joint_basis(
+    V_s: NDArray[np.float64], work: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """What ``V_t`` adds to ``span(V_s)``, computed in ``work`` (``V_t`` on entry, overwritten).
 
-    ``O(N r^2)``. The part of ``V_t`` outside ``span(V_s)`` (projected out twice: "twice is
-    enough") has singular values ``sin(theta)``, the principal angles between the two spans,
-    read from the ``R`` of its QR; directions with ``sin(theta) <= _SPAN_RTOL`` are taken as
-    shared, which moves ``V_t`` by at most that much. The kept directions, scaled to unit
-    length, are orthonormal up to about ``eps / sin(theta)`` (at most ``2e-6``): projected out
-    once more and orthonormalised by Cholesky QR.
+    Returns ``A``, ``V_s^T V_t`` and ``A^T V_t``, where ``A`` is orthonormal with ``[V_s, A]`` a
+    basis of ``span(V_s) + span(V_t)``; ``A`` is a view of ``work``'s leading columns.
+    ``O(N r^2)``, with no ``N x r`` temporary. The part ``E`` of ``V_t`` outside ``span(V_s)``
+    (projected out twice: "twice is enough") has singular values ``sin(theta)``, the principal
+    angles between the two spans (:func:`_residual_sines`). Directions with ``sin(theta) <=
+    _SPAN_RTOL`` are taken as shared, which moves ``V_t`` by at most that much. The kept
+    directions ``E W`` (``W = right / sines``) are orthonormal up to about ``eps / sin(theta)``
+    (at most ``2e-6``): projected out once more and orthonormalised by one Cholesky QR pass,
+    ``E W = A R_A``. ``A`` is orthogonal to ``V_s``, so ``A^T V_t = A^T E = R_A^{-T} (E W)^T
+    E``; the product is taken block by block, before ``E W`` overwrites ``E``.
     """
-    n_rows = V_s.shape[0]
-    if V_t.shape[1] == 0:
-        return np.zeros((n_rows, 0))
-    residual = V_t - V_s @ (V_s.T @ V_t)
-    residual -= V_s @ (V_s.T @ residual)
-    _, sines, right = scipy.linalg.svd(_tsqr_r(residual), check_finite=False)
-    keep = sines > _SPAN_RTOL
-    if not keep.any():
-        return np.zeros((n_rows, 0))
-    added = residual @ (right[: int(keep.sum())].T / sines[keep])
-    added -= V_s @ (V_s.T @ added)
-    return _cholesky_qr(added)[0]
+    n_rows, n_target = work.shape
+    shared = V_s.T @ work
+    if n_target == 0:
+        return np.zeros((n_rows, 0)), shared, np.zeros((0, 0))
+    _project_out(work, V_s, shared)
+    _project_out(work, V_s, V_s.T @ work)
+    sines, right = _residual_sines(work)
+    count = int(np.sum(sines > _SPAN_RTOL))
+    if count == 0:
+        return np.zeros((n_rows, 0)), shared, np.zeros((0, n_target))
+    scaled = right[:count].T / sines[:count]
+    products = np.zeros((count, n_target))  # (E W)^T E, as E W is computed
+    for rows in _row_blocks(n_rows):
+        block = work[rows] @ scaled
+        products += block.T @ work[rows]
+        work[rows, :count] = block
+    added = work[:, :count]
+    _project_out(added, V_s, V_s.T @ added)
+    added, factor = _cholesky_qr(added, passes=1)
+    coordinates = scipy.linalg.solve_triangular(factor, products, trans="T", check_finite=False)
+    return added, shared, coordinates
+
+
+def _residual_sines(E: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Singular values (descending) and right singular vectors (rows) of ``E``.
+
+    The eigenvalues of ``E^T E`` when they all exceed ``_GRAM_SINE2``: ``E`` is then well
+    conditioned, and this is ten times faster than a QR. Else the SVD of the ``R`` of its
+    Householder QR, accurate for sines down to ``eps``.
+    """
+    squares, vectors = scipy.linalg.eigh(E.T @ E, check_finite=False)
+    if squares[0] > _GRAM_SINE2:
+        return np.sqrt(squares[::-1]), vectors[:, ::-1].T
+    _, sines, right = scipy.linalg.svd(_tsqr_r(E), check_finite=False)
+    return sines, right
 
 
 def low_rank_representation(
@@ -434,6 +508,31 @@ def lra_dense(
     return _result(values, vectors, l_forms, n_components, degeneracy_tol, basis_ranks)
 
 
+def _lowest_eigenpairs(
+    matrix: NDArray[np.float64], others: NDArray[np.float64], wanted: int, tol: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The lowest eigenpairs of the symmetric ``matrix``, enough of them that no value left out
+    can reach a cluster (``tol``) that touches the ``wanted`` lowest of them and ``others``.
+
+    A subset costs half the full eigendecomposition here; widened until the cut is clear.
+    """
+    size = matrix.shape[0]
+    count = min(size, wanted + 10)
+    while True:
+        if count == 0:
+            return np.zeros(0), np.zeros((0, 0))
+        values, vectors = scipy.linalg.eigh(
+            matrix, subset_by_index=[0, count - 1], driver="evr", check_finite=False
+        )
+        if count == size:
+            return values, vectors
+        union = np.sort(np.concatenate([values, others]))
+        _, stop = next(run for run in _clusters(union, tol) if run[0] < wanted <= run[1])
+        if values[-1] > union[stop - 1] + tol:
+            return values, vectors
+        count = min(size, 2 * count)
+
+
 def _complement_vectors(
     blocks: tuple[NDArray[np.float64], ...], n_rows: int, count: int
 ) -> NDArray[np.float64]:
@@ -457,6 +556,7 @@ def lra_structured(
     mu: float = 0.5,
     n_components: int = 2,
     degeneracy_tol: float = DEGENERACY_TOL,
+    overwrite_target: bool = False,
 ) -> LRAResult:
     """Exact LRA from the two low-rank bases, in ``O(N k^2 + k^3)`` (see the module docstring).
 
@@ -467,6 +567,8 @@ def lra_structured(
         The source basis can be computed once per baseline and reused for every test capture.
     mu, n_components, degeneracy_tol
         As in :func:`lra_embedding`.
+    overwrite_target : bool, default=False
+        Work in ``target.vectors`` (destroyed) instead of a copy: saves an ``N x r`` array.
 
     Examples
     --------
@@ -490,27 +592,28 @@ def lra_structured(
     n_rows = source.vectors.shape[0]
     _check_parameters(mu, n_components, source.noise_level, n_rows)
     # The joint basis B = [V_s, A], never formed: in it V_s is [I; 0] and V_t is P_t.
-    V_s, V_t = source.vectors, target.vectors
-    A = _joint_basis(V_s, V_t)
+    V_s = source.vectors
+    work = target.vectors if overwrite_target else target.vectors.copy()
+    A, shared, added = _joint_basis(V_s, work)
     r_s, k = V_s.shape[1], V_s.shape[1] + A.shape[1]
-    P_t = np.vstack([V_s.T @ V_t, A.T @ V_t])
+    P_t = np.vstack([shared, added])
     G_s = np.zeros((k, k))
     G_s[np.arange(r_s), np.arange(r_s)] = source.weights
     G_t = (P_t * target.weights) @ P_t.T
     small = np.eye(2 * k) * (1.0 - mu)
     small[k:, k:] += 4.0 * mu * np.eye(k)
     small -= 0.5 * (1.0 - mu) * np.block([[G_s + G_t, G_s - G_t], [G_s - G_t, G_s + G_t]])
-    small_values, Z = np.linalg.eigh(small)
     # Closed-form part: only the first few copies of each bulk eigenvalue can reach the cuts.
     n_bulk = min(n_rows - k, n_components + 2)
-    values = np.concatenate(
-        [small_values, np.full(n_bulk, 1.0 - mu), np.full(n_bulk, 1.0 + 3.0 * mu)]
-    )
-    kind = np.concatenate([np.zeros(2 * k, int), np.ones(n_bulk, int), np.full(n_bulk, 2)])
+    bulk = np.concatenate([np.full(n_bulk, 1.0 - mu), np.full(n_bulk, 1.0 + 3.0 * mu)])
+    small_values, Z = _lowest_eigenpairs(small, bulk, n_components + 2, degeneracy_tol)
+    n_small = small_values.size
+    values = np.concatenate([small_values, bulk])
+    kind = np.concatenate([np.zeros(n_small, int), np.ones(n_bulk, int), np.full(n_bulk, 2)])
     l_forms = np.concatenate(
         [2.0 * np.einsum("ij,ij->j", Z[k:], Z[k:]), np.zeros(n_bulk), np.full(n_bulk, 2.0)]
     )
-    column = np.concatenate([np.arange(2 * k), np.arange(n_bulk), np.arange(n_bulk)])
+    column = np.concatenate([np.arange(n_small), np.arange(n_bulk), np.arange(n_bulk)])
     # Sort by eigenvalue, then by correspondence cost inside exact ties (bulk copies are identical).
     order = np.lexsort((l_forms, values))
     values, kind, l_forms, column = values[order], kind[order], l_forms[order], column[order]

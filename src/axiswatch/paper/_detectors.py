@@ -40,9 +40,19 @@ class BaselineDetector(TransformerMixin, BaseEstimator):  # type: ignore[misc]
         ``"paired"`` (default): row ``i`` of a test matrix is compared with row ``i`` of the
         baseline, the first ``min(n_baseline, n_test)`` rows of both. ``"set"``: the rows are
         readings of the same quantities, all kept.
+    baseline_ : ndarray of shape (n_rows, n_features)
+        The baseline's features; or, where they are not kept in memory (see
+        :attr:`reads_baseline_rows`), an object with their ``shape`` that computes their leading
+        rows ``baseline_[:n]`` (:class:`~axiswatch.paper._stages.RecomputedFeatures`).
     """
 
     row_policy: ClassVar[RowPolicy] = "paired"
+
+    @property
+    def reads_baseline_rows(self) -> bool:
+        """Whether every distance reads the baseline's rows (``baseline_``), not only the
+        fitted state: then they are better kept in memory than recomputed."""
+        return True
 
     def fit(self, X: Any, y: Any = None) -> BaselineDetector:
         """Store the healthy baseline's features.
@@ -232,14 +242,23 @@ class LRADetector(BaselineDetector):
             self.noise_level_ = float(self.noise_level)
         self.basis_ = low_rank_basis(X, self.noise_level_)
 
+    @property
+    def reads_baseline_rows(self) -> bool:
+        """Only the dense solver: the structured one reads them for a shorter test alone."""
+        return self.solver == "dense"
+
     def _source_basis(self, n_rows: int) -> LowRankBasis:
         # Computed once in fit; a shorter test capture needs the SVD of the baseline's leading rows.
         if n_rows == self.basis_.vectors.shape[0]:
             return self.basis_
         return low_rank_basis(self.baseline_[:n_rows], self.noise_level_)
 
-    def align(self, X: Any) -> LRAResult:
-        """Full LRA outcome (embedding, eigenvalues, eigengap) of test features ``X``."""
+    def align(self, X: Any, *, overwrite_x: bool = False) -> LRAResult:
+        """Full LRA outcome (embedding, eigenvalues, eigengap) of test features ``X``.
+
+        With ``overwrite_x`` the test basis is built in ``X``'s memory (``X`` is destroyed): a
+        caller that owns the features and does not read them again saves an ``N x r`` array.
+        """
         X = self._check_test(X)
         n = self._rows(X)
         if self.solver == "dense":
@@ -253,19 +272,22 @@ class LRADetector(BaselineDetector):
         else:
             result = lra_structured(
                 self._source_basis(n),
-                low_rank_basis(X[:n], self.noise_level_),
+                low_rank_basis(X[:n], self.noise_level_, overwrite_x=overwrite_x),
                 mu=self.mu,
                 n_components=self.n_components,
+                overwrite_target=True,
             )
         return result
 
-    def distance(self, X: Any) -> float:
-        return self.align(X).delta
+    def distance(self, X: Any, *, overwrite_x: bool = False) -> float:
+        return self.align(X, overwrite_x=overwrite_x).delta
 
-    def distance_and_diagnostics(self, X: Any) -> tuple[float, dict[str, float | bool]]:
+    def distance_and_diagnostics(
+        self, X: Any, *, overwrite_x: bool = False
+    ) -> tuple[float, dict[str, float | bool]]:
         """The LRA distance, the eigengap of its eigenproblem and whether a tie was broken
-        (:class:`~axiswatch.paper._alignment.LRAResult`)."""
-        result = self.align(X)
+        (:class:`~axiswatch.paper._alignment.LRAResult`); ``overwrite_x`` as in :meth:`align`."""
+        result = self.align(X, overwrite_x=overwrite_x)
         return float(result.delta), {
             "lra_eigengap": float(result.eigengap),
             "lra_tie_broken": bool(result.tie_broken),
@@ -304,6 +326,11 @@ class IndicatorDetector(BaselineDetector):
     """
 
     row_policy: ClassVar[RowPolicy] = "set"  # rows are averaged, not paired: keep them all
+
+    @property
+    def reads_baseline_rows(self) -> bool:
+        """Never: the baseline's mean row is its fitted state."""
+        return False
 
     def __init__(self, one_sided: bool = True) -> None:
         self.one_sided = one_sided

@@ -74,6 +74,7 @@ def stft_features(
     window: str = "hann",
     padding: Padding = "circular",
     scaling: Scaling = "magnitude",
+    max_rows: int | None = None,
 ) -> NDArray[np.float64]:
     """|STFT| of every channel, one row per time slice, channels side by side.
 
@@ -100,6 +101,8 @@ def stft_features(
         divides by ``sum(w)``, ``"psd"`` by ``sqrt(rate_hz * sum(w**2))``); ``"magnitude"`` makes a
         unit sine give a peak of 0.5 whatever the window length, which keeps the LRA noise level
         ``lambda`` meaningful across settings.
+    max_rows : int, optional
+        Compute only the first ``max_rows`` rows (the same values as the whole matrix's).
 
     Returns
     -------
@@ -171,6 +174,8 @@ def stft_features(
             f"segment_length={segment_length}, hop={hop}; expected a slice centre (a multiple of "
             "hop) with the whole window inside. Use a smaller hop or padding='circular'."
         )
+    if max_rows is not None:
+        n_rows = min(n_rows, max_rows)
     # Frames are views into the (padded) channel; they are windowed into one reused buffer, a
     # block of rows at a time, and only the magnitudes are written: no frame matrix and no
     # complex spectrum of the whole capture is ever held.
@@ -320,9 +325,15 @@ def extract_features(capture: Capture, spec: FeatureSpec | None = None) -> Featu
 
 
 def features_from_signals(
-    signals: NDArray[np.float64], rate_hz: float, spec: FeatureSpec, *, source: str = "<memory>"
+    signals: NDArray[np.float64],
+    rate_hz: float,
+    spec: FeatureSpec,
+    *,
+    source: str = "<memory>",
+    max_rows: int | None = None,
 ) -> Features:
-    """Features of signals already on one rate, columns in the order of ``spec.signals``.
+    """Features of signals already on one rate, columns in the order of ``spec.signals``
+    (only the first ``max_rows`` rows when given).
 
     Examples
     --------
@@ -345,6 +356,7 @@ def features_from_signals(
         window=spec.window,
         padding=spec.padding,
         scaling=spec.scaling,
+        max_rows=max_rows,
     )
     frequencies = np.fft.rfftfreq(spec.segment_length, d=1.0 / rate_hz).astype(np.float64)
     return Features(X, tuple(channels), frequencies, rate_hz)

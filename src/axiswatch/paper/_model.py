@@ -68,7 +68,10 @@ class HealthModel:
     stage_ : FeatureStage
         The fitted stage.
     detector_ : BaselineDetector
-        The fitted detector.
+        The fitted detector. With the |STFT| stage, a detector that reads the baseline's rows only
+        for a shorter test (LRA's) keeps them as the baseline's signals, recomputed when needed.
+    baseline_fingerprint_ : str
+        :meth:`fingerprint`, taken in ``fit``.
     alarm_threshold_ : Threshold
         The threshold and where it came from (after :meth:`calibrate`).
 
@@ -138,6 +141,9 @@ class HealthModel:
         features = self.stage_.transform(capture)
         return features, features.phase_lag
 
+    #: Kept by a model stored before it kept its fingerprint: the baseline's features.
+    baseline_features_: Features
+
     #: The monitor fits on the baseline alone and calibrates from the next captures' distances.
     fits_calibration: ClassVar[bool] = False
     #: Each axis's model is its own: no fleet prior.
@@ -162,15 +168,35 @@ class HealthModel:
             if self.stage is None
             else copy.deepcopy(self.stage)
         )
-        self.baseline_features_ = self.stage_.fit_transform(baseline)
-        self.detector_ = clone(self.detector).fit(self.baseline_features_.X)
+        features = self.stage_.fit_transform(baseline)
+        self.detector_ = clone(self.detector).fit(features.X)
+        # The array's own buffer: tobytes() would copy the features.
+        self.baseline_fingerprint_ = hashlib.sha256(
+            np.ascontiguousarray(features.X).data
+        ).hexdigest()
+        rows = getattr(self.stage_, "baseline_rows_", None)
+        if rows is not None and not self.detector_.reads_baseline_rows:
+            # The features are not kept: a shorter test capture's baseline rows are recomputed.
+            self.detector_.baseline_ = rows
         self.calibration_: HalfLaplaceFit | None = None
         return self
 
     def distance(self, capture: Capture) -> float:
         """Distance of ``capture`` to the baseline."""
         features, _ = self.featurize(capture)
-        return float(self.detector_.distance(features.X))
+        return self._measure(features.X, reused=False)[0]
+
+    def _measure(
+        self, X: NDArray[np.float64], *, reused: bool
+    ) -> tuple[float, dict[str, float | bool]]:
+        """The detector's distance and diagnostics of features the model made; LRA may build
+        its test basis in their memory when they are not ``reused`` afterwards."""
+        detector = self.detector_
+        if isinstance(detector, LRADetector) and not reused:
+            distance, diagnostics = detector.distance_and_diagnostics(X, overwrite_x=True)
+        else:
+            distance, diagnostics = detector.distance_and_diagnostics(X)
+        return float(distance), diagnostics
 
     def calibrate(
         self, healthy: Sequence[Capture] | NDArray[np.float64], *, percentile: float | None = None
@@ -198,7 +224,7 @@ class HealthModel:
                 "The model is not calibrated: call calibrate() with healthy captures first."
             )
         features, lag = self.featurize(capture)
-        distance = float(self.detector_.distance(features.X))
+        distance = self._measure(features.X, reused=False)[0]
         assert self.calibration_ is not None
         return Assessment(
             distance=distance,
@@ -227,7 +253,10 @@ class HealthModel:
 
     def fingerprint(self) -> str:
         """SHA-256 of the baseline's features."""
-        return hashlib.sha256(self.baseline_features_.X.tobytes()).hexdigest()
+        fingerprint = getattr(self, "baseline_fingerprint_", None)
+        if fingerprint is None:  # a model stored with its baseline's features
+            return hashlib.sha256(self.baseline_features_.X.tobytes()).hexdigest()
+        return str(fingerprint)
 
     def summary(self) -> None:
         """Nothing beyond the stored model."""
@@ -242,12 +271,11 @@ class HealthModel:
             "phase_lag_s": float(lag / features.rate_hz),
             "n_rows": int(features.X.shape[0]),
         }
-        detector = self.detector_
-        distance, diagnostics = detector.distance_and_diagnostics(features.X)
-        details.update(diagnostics)
         # A stage that can say why (the lab's ``mechanics``) adds each indicator's share.
         explain = getattr(self.stage_, "explain", None)
-        explanation = None if explain is None else explain(detector, features.X)
+        distance, diagnostics = self._measure(features.X, reused=explain is not None)
+        details.update(diagnostics)
+        explanation = None if explain is None else explain(self.detector_, features.X)
         if explanation is not None:
             details["indicators"] = explanation
         threshold = getattr(self, "threshold_", math.nan)

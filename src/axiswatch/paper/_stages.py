@@ -7,6 +7,7 @@ distance through an optional ``explain(detector, X)`` method (the lab's ``mechan
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -16,7 +17,7 @@ from axiswatch._capture import Capture
 from axiswatch.paper._features import Features, FeatureSpec, features_from_signals
 from axiswatch.paper._preprocessing import phase_lag, resample_capture
 
-__all__ = ["FeatureStage", "StftStage"]
+__all__ = ["FeatureStage", "RecomputedFeatures", "StftStage"]
 
 
 class FeatureStage(Protocol):
@@ -33,6 +34,46 @@ class FeatureStage(Protocol):
     def fit_transform(self, baseline: Capture) -> Features:
         """Fit on the baseline and return its features."""
         return self.fit(baseline).transform(baseline)
+
+
+@dataclass(frozen=True)
+class RecomputedFeatures:
+    """A feature matrix kept as the signals it comes from: its leading rows on demand.
+
+    A 60 s capture's |STFT| at hop 1 is 374 MB; its resampled signals are 3 MB.
+
+    Attributes
+    ----------
+    signals : ndarray of shape (n_samples, n_signals)
+        Resampled signals, as :func:`~axiswatch.features_from_signals` takes them.
+    rate_hz : float
+    spec : FeatureSpec
+    shape : tuple of int
+        Shape of the whole feature matrix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> spec = FeatureSpec(signals=("speed",), combinations="none", segment_length=16)
+    >>> signals = np.sin(np.arange(200.0))[:, None]
+    >>> X = features_from_signals(signals, 100.0, spec).X
+    >>> rows = RecomputedFeatures(signals, 100.0, spec, X.shape)
+    >>> bool(np.array_equal(rows[:50], X[:50]))
+    True
+    """
+
+    signals: NDArray[np.float64]
+    rate_hz: float
+    spec: FeatureSpec
+    shape: tuple[int, ...]
+
+    def __getitem__(self, rows: slice) -> NDArray[np.float64]:
+        """Rows ``rows`` (a slice with unit step), computed from the signals."""
+        if not isinstance(rows, slice) or rows.step not in (None, 1):
+            raise TypeError(f"RecomputedFeatures takes a slice of rows; got {rows!r}.")
+        start, stop, _ = rows.indices(self.shape[0])
+        X = features_from_signals(self.signals, self.rate_hz, self.spec, max_rows=stop).X
+        return X[start:]
 
 
 class StftStage(FeatureStage):
@@ -54,6 +95,8 @@ class StftStage(FeatureStage):
     ----------
     baseline_signals_ : ndarray of shape (n_samples, n_signals)
         The baseline's resampled signals, the phase reference (only with ``align``).
+    baseline_rows_ : RecomputedFeatures
+        The baseline's features, kept as its resampled signals (after :meth:`fit_transform`).
 
     Examples
     --------
@@ -98,4 +141,6 @@ class StftStage(FeatureStage):
         signals, rate = self._signals(baseline)
         if self.align:
             self.baseline_signals_ = signals
-        return features_from_signals(signals, rate, self.spec, source=baseline.source)
+        features = features_from_signals(signals, rate, self.spec, source=baseline.source)
+        self.baseline_rows_ = RecomputedFeatures(signals, rate, self.spec, features.X.shape)
+        return features
