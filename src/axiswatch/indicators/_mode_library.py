@@ -191,6 +191,12 @@ class ModeLibrary:
         Latest healthy captures of a mode its centre is the median of.
     fleet_distances : sequence of float, default=()
         Within-mode distances of other axes of the profile, pooled into the threshold.
+    frozen : bool, default=False
+        Score a known mode's captures against its first fit (the median of its first
+        ``n_fit`` captures) instead of the median of its latest ``window``.
+    learn_below : float, default=1.0
+        A known mode learns a capture scored at most this (in thresholds): one nearer the
+        threshold is not an alarm, and does not widen the normal either.
 
     Examples
     --------
@@ -205,6 +211,8 @@ class ModeLibrary:
         percentile: float = 99.9,
         window: int = 30,
         fleet_distances: Sequence[float] = (),
+        frozen: bool = False,
+        learn_below: float = 1.0,
     ) -> None:
         if not (isinstance(n_fit, int) and n_fit >= 3):
             raise ValueError(f"The 'n_fit' parameter must be an int >= 3. Got {n_fit!r}.")
@@ -218,6 +226,8 @@ class ModeLibrary:
         self.percentile = percentile
         self.window = window
         self.fleet_distances = tuple(fleet_distances)
+        self.frozen = frozen
+        self.learn_below = learn_below
         self.modes_: dict[str, _Mode] = {}
         # What the learned captures give, cached until a capture is learned.
         self._cache: dict[str, object] = {}
@@ -441,7 +451,7 @@ class ModeLibrary:
             )
         if mode.name not in self._normals:
             self._normals[mode.name] = (
-                self._centre(self._recent(mode)),
+                mode.reference if self.frozen else self._centre(self._recent(mode)),
                 self.spreads(mode.name),
                 self._spectrum_centre(mode),
                 self._spectrum_spread(),
@@ -469,6 +479,8 @@ class ModeLibrary:
         """Learn a capture from its verdict (:meth:`score`): only a healthy capture of a
         moving axis joins its mode. Returns whether it joined."""
         if verdict.state == "still" or verdict.alarm:
+            return False
+        if verdict.state == "known" and verdict.score > self.learn_below:
             return False
         mode = self.modes_.setdefault(verdict.mode, _Mode(verdict.mode))
         mode.members.append(description)

@@ -160,7 +160,10 @@ def _commit_in_mode(
     """Write a capture decided by its axis's mode library, then let the library learn."""
     job, file = outcome.job, outcome.job.file
     assert outcome.description is not None
-    distance, decision, stored = modes.decide(job.baseline_id, outcome.description, file.capture)
+    top = outcome.details.get("top_indicator")
+    distance, decision, stored = modes.decide(
+        job.baseline_id, outcome.description, file.capture, (outcome.distance, top)
+    )
     details = dict(outcome.details)
     if math.isfinite(outcome.distance):
         details["baseline_distance"] = outcome.distance

@@ -9,6 +9,7 @@ learns only from captures it scored healthy, and an engineer teaches it a mode c
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import pickle
 from collections.abc import Callable
@@ -46,6 +47,16 @@ def new_axis_modes(n_fit: int) -> AxisModes:
     from axiswatch.indicators._mode_library import ModeLibrary
 
     return AxisModes(ModeLibrary(n_fit=n_fit, percentile=MODE_PERCENTILE))
+
+
+def guarded(verdict: ModeAssessment, baseline: float, top: str | None) -> ModeAssessment:
+    """A learning capture's verdict, also guarded by the baseline model's score (its task's
+    spreads, or its fleet's allowance for a task change) when that is higher."""
+    guard = verdict.score if math.isfinite(verdict.score) else -math.inf
+    if verdict.state != "learning" or not baseline > guard:
+        return verdict
+    where = f"{top or 'baseline'}, against the baseline"
+    return dataclasses.replace(verdict, score=baseline, alarm=baseline > 1.0, where=where)
 
 
 def _state_words(verdict: ModeAssessment) -> str:
@@ -111,12 +122,20 @@ class ModeBook:
         return self._axes[baseline_id]
 
     def decide(
-        self, baseline_id: int, description: CaptureDescription, capture: str
+        self,
+        baseline_id: int,
+        description: CaptureDescription,
+        capture: str,
+        baseline: tuple[float, str | None] = (math.nan, None),
     ) -> tuple[float, Callable[[AxisHistory], Decision], Callable[[], None]]:
         """The capture's score, its decision, and what to do once it is stored: learn from it
-        (or keep it while in alarm) and save the library in the same transaction."""
+        (or keep it while in alarm) and save the library in the same transaction.
+
+        ``baseline``: the axis's baseline model's score of the capture, in thresholds, and its
+        top indicator. It guards a new mode too: where the fleet's task-change allowance
+        applies, or the capture is of the baseline's own task."""
         modes = self.axis(baseline_id)
-        verdict = modes.library.score(description)
+        verdict = guarded(modes.library.score(description), *baseline)
         decision = mode_decision(verdict, modes.recent, self.rule)
 
         def stored() -> None:
