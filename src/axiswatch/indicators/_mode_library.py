@@ -213,6 +213,7 @@ class ModeLibrary:
         fleet_distances: Sequence[float] = (),
         frozen: bool = False,
         learn_below: float = 1.0,
+        first_window: bool = False,
     ) -> None:
         if not (isinstance(n_fit, int) and n_fit >= 3):
             raise ValueError(f"The 'n_fit' parameter must be an int >= 3. Got {n_fit!r}.")
@@ -228,6 +229,7 @@ class ModeLibrary:
         self.fleet_distances = tuple(fleet_distances)
         self.frozen = frozen
         self.learn_below = learn_below
+        self.first_window = first_window
         self.modes_: dict[str, _Mode] = {}
         # What the learned captures give, cached until a capture is learned.
         self._cache: dict[str, object] = {}
@@ -242,6 +244,8 @@ class ModeLibrary:
         return [m for m in self.modes_.values() if m.reference is not None]
 
     def _recent(self, mode: _Mode) -> list[CaptureDescription]:
+        if self.first_window:
+            return mode.members[: self.window]
         return mode.members[-self.window :]
 
     def _centre(self, members: Sequence[CaptureDescription]) -> dict[str, float]:
