@@ -54,12 +54,15 @@ def _write(capture: Capture, root: Path, robot: str, axis: str, index: int) -> N
 
 def _config(variant: str) -> MonitorConfig:
     """``indicators-envelope``: the method with the task envelope chosen on the development
-    robots; ``indicators-order-lines``: with its order-lines option; ``indicators-own`` is the
-    method itself (the profiles make the difference)."""
+    robots; ``indicators-order-lines``: with its order-lines option; ``indicators-modes``: with
+    its mode libraries; ``indicators-own`` is the method itself (the profiles make the
+    difference)."""
     if variant == "indicators-envelope":
         return MonitorConfig(method="indicators", task_envelope=TASK_ENVELOPE_FACTOR)
     if variant == "indicators-order-lines":
         return MonitorConfig(method="indicators", order_lines=True)
+    if variant == "indicators-modes":
+        return MonitorConfig(method="indicators", modes=True)
     return MonitorConfig(method=variant.split("-")[0])
 
 
@@ -74,10 +77,14 @@ def _run(root: Path, variant: str) -> tuple[pd.DataFrame, list[str], str]:
 
 
 def _rates(scores: pd.DataFrame, selected: pd.Series) -> tuple[int, int]:
-    """Monitored captures among ``selected`` over the threshold, and how many there are."""
+    """Captures among ``selected`` after each axis's baseline and calibration over the
+    threshold, and how many there are: the same captures for every method (with modes, the
+    calibration captures are scored too, as a new mode's)."""
     if scores.empty:
         return 0, 0
-    monitored = scores[(scores["role"] == "monitor") & selected]
+    order = scores.sort_values("captured_at", kind="stable").groupby(["robot", "axis"]).cumcount()
+    monitored = scores[(order.reindex(scores.index) >= _CALIBRATION) & selected]
+    monitored = monitored[monitored["role"].isin(["monitor", "calibration"])]
     return int(monitored["over"].astype(bool).sum()), len(monitored)
 
 
