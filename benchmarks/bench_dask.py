@@ -10,7 +10,10 @@ children), the scheduler, the workers and the nannies. Each run's cluster CPU is
 into what the cluster costs when idle for as long (its event loops) and the rest. Models are
 dropped from every process before a run, so that both backends read each model once per worker.
 
-    .venv/bin/python benchmarks/bench_dask.py --robots 60 --rounds 3 --csv dask.csv
+``--tuned-cluster`` also times a second cluster started with :data:`TUNED_CLUSTER`;
+``--allocator`` times serial scoring under the allocator settings a nanny gives its workers.
+
+    .venv/bin/python benchmarks/bench_dask.py --robots 60 --rounds 5 --tuned-cluster --allocator
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager, nullcontext
+from contextlib import ExitStack, contextmanager, nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +69,7 @@ def _forget_models() -> None:
 @contextmanager
 def cluster(folder: Path, workers: int, env: dict[str, str]) -> Iterator[dict[str, Any]]:
     """A scheduler and ``workers`` single-threaded workers, each with its nanny."""
+    folder.mkdir(parents=True, exist_ok=True)
     address_file = folder / "scheduler.json"
     address_file.unlink(missing_ok=True)
     log = (folder / "cluster.log").open("ab")
@@ -259,7 +263,7 @@ def main() -> None:
     parser.add_argument("--csv", type=Path, default=None)
     parser.add_argument(
         "--tuned-cluster", action="store_true",
-        help="start the cluster with the settings of TUNED_CLUSTER",
+        help="also time a second cluster, started with the settings of TUNED_CLUSTER",
     )  # fmt: skip
     parser.add_argument(
         "--allocator", action="store_true",
@@ -271,7 +275,7 @@ def main() -> None:
     if args.serial_child:
         _serial_child(args.serial_child, args.reused)
         return
-    env = TUNED_CLUSTER if args.tuned_cluster else {}
+    clusters = {"dask": {}, "dask-tuned": TUNED_CLUSTER} if args.tuned_cluster else {"dask": {}}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         root = folder / "fleet"
@@ -286,32 +290,43 @@ def main() -> None:
             monitor_fleet(root, store, config, workers=1, settle_s=0.0)
             serial = fleet.score_hash(store)[:16]
         rows = []
-        with cluster(folder, args.workers, env) as where:
-            # A first run warms the workers (imports beyond the preload, caches of filters).
-            timed_run(folder, template, root, config, "warm-up", where, args.workers)
+        with ExitStack() as stack:
+            started = {
+                name: stack.enter_context(cluster(folder / name, args.workers, env))
+                for name, env in clusters.items()
+            }
+            for where in started.values():
+                # A first run warms the workers (imports beyond the preload, filters' caches).
+                timed_run(folder, template, root, config, "warm-up", where, args.workers)
             for _ in range(args.rounds):
                 rows.append(
                     timed_run(folder, template, root, config, "processes", None, args.workers)
                 )
-                rows.append(timed_run(folder, template, root, config, "dask", where, args.workers))
+                for name, where in started.items():
+                    rows.append(
+                        timed_run(folder, template, root, config, name, where, args.workers)
+                    )
         if args.allocator:
             allocator_case(folder, args.rounds)
     for row in rows:
         row["identical_to_serial"] = row["hash"] == serial
     print(f"\n{len(new_day)} captures, {args.workers} workers, median of {args.rounds} rounds:")
-    pool = [r for r in rows if r["backend"] == "processes"]
-    dask = [r for r in rows if r["backend"] == "dask"]
-    for key in ("all_cpu_s", "wall_s"):
-        p = statistics.median(r[key] for r in pool)
-        d = statistics.median(r[key] for r in dask)
-        print(f"  {key}: processes {p:.3f}, dask {d:.3f}, dask / processes {d / p:.3f}")
-    for backend, runs in (("processes", pool), ("dask", dask)):
+    by_backend = {
+        name: [r for r in rows if r["backend"] == name] for name in ("processes", *clusters)
+    }
+    pool = by_backend["processes"]
+    for name in clusters:
+        for key in ("all_cpu_s", "wall_s"):
+            p = statistics.median(r[key] for r in pool)
+            d = statistics.median(r[key] for r in by_backend[name])
+            print(f"  {key}: processes {p:.3f}, {name} {d:.3f}, {name} / processes {d / p:.3f}")
+    for name, runs in by_backend.items():
         for key in [k for k in runs[0] if k.endswith("_cpu_s") and k != "all_cpu_s"]:
-            print(f"  {backend} {key}: {statistics.median(r[key] for r in runs):.3f}")
+            print(f"  {name} {key}: {statistics.median(r[key] for r in runs):.3f}")
     print(f"  every run identical to the serial run: {all(r['identical_to_serial'] for r in rows)}")
     if args.csv:
         with args.csv.open("w", newline="") as stream:
-            writer = csv.DictWriter(stream, fieldnames=list(dask[0]))
+            writer = csv.DictWriter(stream, fieldnames=list(by_backend["dask"][0]))
             writer.writeheader()
             writer.writerows(rows)
 
