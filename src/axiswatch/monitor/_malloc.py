@@ -1,9 +1,8 @@
 """The C allocator of a Dask worker, set to reuse freed arrays while it scores a batch.
 
-Dask's nanny starts every worker with ``MALLOC_TRIM_THRESHOLD_=65536``. That also pins glibc's
-mmap threshold at 128 kB, so every array above it is mapped and its pages faulted in afresh.
-A scoring job makes and frees many such arrays: this cost a fifth more CPU per job
-(docs/performance.md). Processes whose environment sets no threshold are left alone.
+A nanny starts its worker with ``MALLOC_TRIM_THRESHOLD_=65536``, which pins glibc's mmap
+threshold at 128 kB: every larger array is mapped and faulted in afresh, a quarter more CPU per
+job (docs/performance.md). Processes whose environment sets no threshold are left alone.
 """
 
 from __future__ import annotations
