@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import platform
+import resource
 import sys
 
 import numpy as np
@@ -66,6 +68,37 @@ def test_dask_local_cluster_gives_identical_results(serial: dict[int, tuple[int,
         assert client.status == "running"  # a given client is left open
     for results in (by_client, by_address):
         assert {i: (seed, distance) for i, (seed, distance, _) in results.items()} == serial
+
+
+#: Elements of the array :func:`_freed_array_faults` makes and frees: 1 MB of float64 (NumPy
+#: asks for huge pages from 4 MB, which would hide the faults counted).
+_ARRAY_SIZE = 128 * 1024
+_ARRAY_PAGES = _ARRAY_SIZE * 8 // resource.getpagesize()
+
+
+def _freed_array_faults(_: int) -> int:
+    """Minor page faults of this thread while it makes and frees a 1 MB array ten times."""
+    before = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt
+    for _ in range(10):
+        np.ones(_ARRAY_SIZE)
+    return resource.getrusage(resource.RUSAGE_THREAD).ru_minflt - before
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="glibc's allocator only")
+def test_dask_workers_reuse_freed_arrays_while_they_run_a_batch() -> None:
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        if not any(client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_").values()):
+            pytest.skip("this Dask's nanny sets no trim threshold")
+        ours = dict(awm.parallel_map(_freed_array_faults, [0], dask=client))[0]
+        after = client.submit(_freed_array_faults, 0, pure=False).result()
+    assert ours < 2 * _ARRAY_PAGES  # its pages faulted in once, then reused
+    assert after > 5 * _ARRAY_PAGES  # the worker's own thresholds back once the batch ended
 
 
 @pytest.mark.parametrize("workers", [1, 2])

@@ -20,6 +20,8 @@ from typing import Any, TypeVar
 
 from threadpoolctl import threadpool_limits
 
+from axiswatch.monitor._malloc import arrays_reused
+
 __all__ = ["WorkerPool", "connect_dask", "parallel_map"]
 
 T = TypeVar("T")
@@ -96,6 +98,12 @@ def _start_worker(parent: int) -> None:
 def _run_batch(fn: Callable[[T], R], batch: Sequence[T]) -> list[R]:
     _one_blas_thread()
     return [fn(item) for item in batch]
+
+
+def _run_dask_batch(fn: Callable[[T], R], batch: Sequence[T]) -> list[R]:
+    """:func:`_run_batch` on a Dask worker: freed arrays reused while it runs (``_malloc``)."""
+    with arrays_reused():
+        return _run_batch(fn, batch)
 
 
 def _batch_size(items: Iterable[Any], slots: int) -> int:
@@ -223,7 +231,7 @@ class WorkerPool:
 
         def submit(batch: list[tuple[int, T]]) -> Any:
             # pure=False: every batch is a task of its own, even when two batches are equal.
-            future = client.submit(_run_batch, fn, [item for _, item in batch], pure=False)
+            future = client.submit(_run_dask_batch, fn, [item for _, item in batch], pure=False)
             submitted.append(future)
             return future
 
