@@ -101,6 +101,14 @@ def test_dask_workers_reuse_freed_arrays_while_they_run_a_batch() -> None:
     assert after > 5 * _ARRAY_PAGES  # the worker's own thresholds back once the batch ended
 
 
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="glibc's allocator only")
+def test_pool_workers_reuse_freed_arrays_from_their_start() -> None:
+    # An untuned glibc maps a large array afresh until a free raises its threshold, and trims
+    # the heap back to the OS: the first arrays of each size fault their pages in twice.
+    faults = dict(awm.parallel_map(_freed_array_faults, [0, 1], workers=2))
+    assert max(faults.values()) < 2 * _ARRAY_PAGES
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_errors_reach_the_caller(workers: int) -> None:
     with pytest.raises(ArithmeticError, match=r"item 3 failed"):

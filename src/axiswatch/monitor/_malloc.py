@@ -2,7 +2,8 @@
 
 A nanny starts its worker with ``MALLOC_TRIM_THRESHOLD_=65536``, which pins glibc's mmap
 threshold at 128 kB: every larger array is mapped and faulted in afresh, a quarter more CPU per
-job (docs/performance.md). Processes whose environment sets no threshold are left alone.
+job (docs/performance.md). Processes whose environment sets no threshold are left alone. A
+process pool's worker keeps freed arrays from its start (:func:`reuse_freed_arrays`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["arrays_reused"]
+__all__ = ["arrays_reused", "reuse_freed_arrays"]
 
 #: ``mallopt`` parameters (glibc's malloc.h), with the variables that set them at start.
 _THRESHOLDS = {"MALLOC_TRIM_THRESHOLD_": -1, "MALLOC_MMAP_THRESHOLD_": -3}
@@ -51,6 +52,13 @@ def _apply(settings: dict[str, int]) -> None:
     assert libc is not None
     for variable, value in settings.items():
         libc.mallopt(_THRESHOLDS[variable], value)
+
+
+def reuse_freed_arrays() -> None:
+    """Keep freed arrays for reuse for the rest of this process (a pool's worker): glibc's
+    thresholds at the ceiling an untuned process reaches only after it freed a large array."""
+    if _glibc() is not None:
+        _apply(REUSED)
 
 
 _lock = threading.Lock()

@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 from threadpoolctl import threadpool_limits
 
-from axiswatch.monitor._malloc import arrays_reused
+from axiswatch.monitor._malloc import arrays_reused, reuse_freed_arrays
 
 __all__ = ["WorkerPool", "connect_dask", "parallel_map"]
 
@@ -93,6 +93,7 @@ def _start_worker(parent: int) -> None:
     # in the driver sets both, and its ``threadpool_limits`` context restores the limits).
     _limited = False
     _one_blas_thread()
+    reuse_freed_arrays()
 
 
 def _run_batch(fn: Callable[[T], R], batch: Sequence[T]) -> list[R]:
