@@ -419,6 +419,7 @@ SECTION_COMMANDS = {
     "Real data": {"monitor"},
     "Options that are off by default": {"monitor"},
     "An opt-in operating point: `--whole-moves`": {"monitor", "transfer"},
+    "Modes: `--modes`": {"monitor"},
     "The paper's methods on recorded data": {"gearbox", "cwru"},
 }
 #: Sections that give an option's default as `--name value`.
