@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Sequence
 from functools import lru_cache
 
@@ -52,65 +53,117 @@ def _cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
     return out
 
 
-def _grid_phasors(
-    angle: NDArray[np.float64], values: NDArray[np.float64], step: float
-) -> NDArray[np.complex128] | None:
-    """``exp(1j * o * angle)`` for orders ``values`` on a grid of ``step`` (None if they are not),
-    by repeated multiplication from the smallest."""
-    steps = np.rint((values - values.min()) / step).astype(np.int64)
-    if float(np.max(np.abs(values - (values.min() + steps * step)))) > 1e-9:
-        return None
-    rotation = _cis(step * angle)
-    waves = np.empty((angle.size, int(steps.max()) + 1), dtype=np.complex128)
-    waves[:, 0] = _cis(values.min() * angle)
-    for k in range(1, waves.shape[1]):
-        np.multiply(waves[:, k - 1], rotation, out=waves[:, k])
-    return waves[:, steps]
+def _grids(values: NDArray[np.float64]) -> list[tuple[NDArray[np.int64], float, float]]:
+    """The orders ``values`` as grids: ``(members, start, step)``, each member at a whole number
+    of steps from ``start``. One grid when they are multiples of their smallest spacing (the
+    tooth sets); else one per class of equal fractional part, of step 1 (a bearing order and its
+    double, each with whole-order sidebands)."""
+    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
+    every = np.arange(values.size)
+    if step > 0:
+        steps = np.rint((values - values.min()) / step)
+        if float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9:
+            return [(every, float(values.min()), step)]
+    fraction = np.round(values - np.floor(values), 9) % 1.0
+    return [
+        (every[fraction == value], float(values[fraction == value].min()), 1.0)
+        for value in np.unique(fraction)
+    ]
 
 
-def _phasors(angle: NDArray[np.float64], orders: Sequence[float]) -> NDArray[np.complex128]:
-    """``exp(1j * o * angle)`` for every order ``o``, shape ``(n, len(orders))``.
+def _wave_rows(
+    angle: NDArray[np.float64], orders: Sequence[float], out: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
+    """``sin(o angle)`` for every order ``o``, then ``cos(o angle)``: shape ``(2 p, n)``, a row a
+    wave (the products with the waves read whole rows); written in ``out`` when given.
 
-    Orders on a common grid (multiples of their smallest spacing, as the tooth sets are) are
-    powers of one complex exponential, built by repeated multiplication: one ``exp`` instead of
-    two trigonometric functions per order (the stage's hot spot). Orders that are not (a bearing
-    order and its double, each with whole-order sidebands) are built the same way per class of
-    equal fractional part, each class a grid of whole orders. The recurrence's rounding error
-    grows by about one ulp per step, far below the signals' noise; tested against
-    ``np.sin``/``np.cos`` to 1e-10.
+    Orders on a grid (:func:`_grids`) are powers of one complex exponential, built by repeated
+    multiplication of one row: one ``exp`` per grid instead of two trigonometric functions per
+    order (the stage's hot spot), and no wave of the grid kept that is not an order. The
+    recurrence's rounding error grows by about one ulp per step, far below the signals' noise;
+    tested against ``np.sin``/``np.cos`` to 1e-10.
     """
     values = np.asarray(orders, dtype=np.float64)
-    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
-    phasors = _grid_phasors(angle, values, step) if step > 0 else None
-    if phasors is None:
-        phasors = np.empty((angle.size, values.size), dtype=np.complex128)
-        fraction = np.round(values - np.floor(values), 9) % 1.0
-        for value in np.unique(fraction):
-            members = np.flatnonzero(fraction == value)
-            grid = _grid_phasors(angle, values[members], 1.0)
-            if grid is None:  # a whole-order class is on the grid of 1 by construction
-                grid = _cis(np.multiply.outer(angle, values[members]))
-            phasors[:, members] = grid
-    return phasors
+    count = values.size
+    rows = np.empty((2 * count, angle.size)) if out is None else out
+    rotations: dict[float, NDArray[np.complex128]] = {}
+    for members, start, step in _grids(values):
+        steps = np.rint((values[members] - start) / step).astype(np.int64)
+        wave = _cis(start * angle)
+        if step not in rotations and steps.max() > 0:
+            rotations[step] = _cis(step * angle)
+        done = 0
+        for index in np.argsort(steps, kind="stable"):
+            while done < steps[index]:
+                np.multiply(wave, rotations[step], out=wave)
+                done += 1
+            rows[members[index]] = wave.imag
+            rows[count + members[index]] = wave.real
+    return rows
 
 
-def _columns(
-    phasors: NDArray[np.complex128], direction: NDArray[np.float64] | None
+def _signed_rows(
+    rows: NDArray[np.float64], direction: NDArray[np.float64] | None
 ) -> NDArray[np.float64]:
-    """Regression columns of phasors: the sines, then the cosines (then the same times
-    ``direction``)."""
-    result = np.concatenate([phasors.imag, phasors.real], axis=1)
-    if direction is not None:
-        result = np.concatenate([result, result * direction[:, None]], axis=1)
-    return result
+    """The wave rows, then the same times ``direction`` (a load opposing the motion)."""
+    if direction is None:
+        return rows
+    return np.concatenate([rows, rows * direction])
+
+
+def _shifted_rows(
+    rows: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    shift: float,
+    out: NDArray[np.float64],
+    scratch: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """:func:`_wave_rows` of the orders plus ``shift``, from the rows of the orders: the waves
+    times ``exp(1j * shift * angle)``, written in ``out`` (``scratch``: half its rows). One
+    complex product, the same rounding as the recurrence; no new set of waves, no new memory."""
+    count = rows.shape[0] // 2
+    sines, cosines = rows[:count], rows[count:]
+    rotation = _cis(shift * angle)
+    np.multiply(sines, rotation.real, out=out[:count])
+    out[:count] += np.multiply(cosines, rotation.imag, out=scratch)
+    np.multiply(cosines, rotation.real, out=out[count:])
+    out[count:] -= np.multiply(sines, rotation.imag, out=scratch)
+    return out
+
+
+#: Largest scratch array of the line statistics kept for the next capture (bytes): the waves of
+#: a 3 s capture's tooth lines take 1.6 MB, whose fresh pages cost as much as their products.
+WORKSPACE_MAX_BYTES = 8 << 20
+
+_workspace = threading.local()
+
+
+def _scratch(name: str, shape: tuple[int, int]) -> NDArray[np.float64]:
+    """An uninitialised array of ``shape`` kept per thread under ``name`` for the next call (up
+    to :data:`WORKSPACE_MAX_BYTES`; larger ones are new each time). Valid until the next call
+    with the same ``name`` in this thread: the line statistics read it and let it go."""
+    size = shape[0] * shape[1]
+    if 8 * size > WORKSPACE_MAX_BYTES:
+        return np.empty(shape)
+    kept: dict[str, NDArray[np.float64]] = _workspace.__dict__.setdefault("arrays", {})
+    flat = kept.get(name)
+    if flat is None or flat.size < size:
+        flat = kept[name] = np.empty(size)
+    return flat[:size].reshape(shape)
 
 
 def _harmonics(
     angle: NDArray[np.float64], orders: Sequence[float], direction: NDArray[np.float64] | None
 ) -> NDArray[np.float64]:
     """Columns ``sin(o angle)`` then ``cos(o angle)`` for every order ``o`` (then the same times
-    ``direction``): :func:`_columns` of :func:`_phasors`."""
-    return _columns(_phasors(angle, orders), direction)
+    ``direction``): :func:`_wave_rows` as columns."""
+    return _signed_rows(_wave_rows(angle, orders), direction).T
+
+
+def _row_gram(rows: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``rows @ rows.T`` by BLAS's symmetric rank-k update (half the products of a general one)."""
+    upper = scipy.linalg.blas.dsyrk(1.0, rows.T, trans=1)
+    return np.asarray(np.triu(upper) + np.triu(upper, 1).T, dtype=np.float64)
 
 
 def angle_locked_f(
@@ -283,16 +336,17 @@ class _NuisanceFree:
         self.residual = nuisance.residual(y)
         self.rss0 = float(self.residual @ self.residual)
 
-    def explained(self, tests: NDArray[np.float64], *, exact: bool = False) -> float:
-        """Sum of squares of the residual explained by the columns ``tests`` (``n x p``, not
-        yet projected); ``exact`` forces the QR path."""
+    def explained(self, rows: NDArray[np.float64], *, exact: bool = False) -> float:
+        """Sum of squares of the residual explained by the waves ``rows`` (``p x n``, a row a
+        wave, not yet projected); ``exact`` forces the QR path."""
         assert self.basis is not None
         if not exact:
-            cross = self.basis.T @ tests
-            gram = tests.T @ tests - cross.T @ cross
-            explained = _gram_explained(gram, tests.T @ self.residual)
+            cross = rows @ self.basis
+            gram = _row_gram(rows) - cross @ cross.T
+            explained = _gram_explained(gram, rows @ self.residual)
             if explained is not None:
                 return explained
+        tests = rows.T
         projected = tests - self.basis @ (self.basis.T @ tests)
         q = scipy.linalg.qr(projected, mode="economic", check_finite=False)[0]
         return float(np.sum((q.T @ self.residual) ** 2))
@@ -300,7 +354,7 @@ class _NuisanceFree:
     def f_statistic(self, orders: Sequence[float], *, exact: bool = False) -> float:
         if self.basis is None:
             return self._blocked(orders, [None])[0]
-        return self._f(_phasors(self.angle, orders), exact=exact)
+        return self._f(_wave_rows(self.angle, orders), exact=exact)
 
     def _ratio(self, explained: float, p: int) -> float:
         """The F statistic of ``explained`` by ``p`` columns (NaN without the degrees)."""
@@ -310,9 +364,9 @@ class _NuisanceFree:
         rss1 = self.rss0 - explained
         return float(max(explained, 0.0) / p / (rss1 / (n - self.k - p)))
 
-    def _f(self, phasors: NDArray[np.complex128], *, exact: bool = False) -> float:
-        tests = _columns(phasors, self.direction)
-        p = tests.shape[1]
+    def _f(self, rows: NDArray[np.float64], *, exact: bool = False) -> float:
+        tests = _signed_rows(rows, self.direction)
+        p = tests.shape[0]
         if self.residual.size <= self.k + p + 1:
             return float("nan")
         return self._ratio(self.explained(tests, exact=exact), p)
@@ -323,21 +377,26 @@ class _NuisanceFree:
         factor = self.nuisance.factor
         assert factor is not None
         p = 2 * len(orders) * (1 if self.direction is None else 2)
-        sums = [(np.zeros((self.k, p)), np.zeros((p, p)), np.zeros(p)) for _ in shifts]
+        sums = [(np.zeros((p, self.k)), np.zeros((p, p)), np.zeros(p)) for _ in shifts]
         for b in self.nuisance.blocks:
             angle = self.angle[b]
             direction = None if self.direction is None else self.direction[b]
-            phasors = _phasors(angle, orders)
+            rows = _wave_rows(angle, orders)
+            shifted, scratch = np.empty_like(rows), np.empty((rows.shape[0] // 2, angle.size))
             waves = self.nuisance.waves(b)
             for (cross, gram, right), shift in zip(sums, shifts, strict=True):
-                shifted = phasors if shift is None else phasors * _cis(shift * angle)[:, None]
-                tests = _columns(shifted, direction)
-                cross += waves.T @ tests
-                gram += tests.T @ tests
-                right += tests.T @ self.residual[b]
+                moved = (
+                    rows if shift is None else _shifted_rows(rows, angle, shift, shifted, scratch)
+                )
+                tests = _signed_rows(moved, direction)
+                cross += tests @ waves
+                gram += _row_gram(tests)
+                right += tests @ self.residual[b]
         out = []
         for cross, gram, right in sums:
-            projected = scipy.linalg.solve_triangular(factor, cross, trans="T", check_finite=False)
+            projected = scipy.linalg.solve_triangular(
+                factor, cross.T, trans="T", check_finite=False
+            )
             gram -= projected.T @ projected
             explained = _gram_explained(gram, right)
             if explained is None:  # nearly collinear waves: the least-squares solve
@@ -350,14 +409,20 @@ class _NuisanceFree:
         """:func:`line_ratio` of this stretch of signal.
 
         The waves at the shifted orders are the waves at ``orders`` times ``exp(1j * d * angle)``
-        (one product instead of a new set of waves; the same rounding as the recurrence).
+        (:func:`_shifted_rows`: one product instead of a new set of waves). The waves are
+        written in arrays kept for the next capture (:func:`_scratch`): fresh pages for a
+        capture's few megabytes of waves cost as much as their products.
         """
         if self.basis is None:
             main, *shifted = self._blocked(orders, [None, *offsets])
             return main / float(np.mean(shifted))
-        phasors = _phasors(self.angle, orders)
-        reference = np.mean([self._f(phasors * _cis(d * self.angle)[:, None]) for d in offsets])
-        return self._f(phasors) / float(reference)
+        n, p = self.angle.size, 2 * len(orders)
+        rows = _wave_rows(self.angle, orders, _scratch("waves", (p, n)))
+        moved, scratch = _scratch("shifted", (p, n)), _scratch("half", (p // 2, n))
+        reference = np.mean(
+            [self._f(_shifted_rows(rows, self.angle, d, moved, scratch)) for d in offsets]
+        )
+        return self._f(rows) / float(reference)
 
 
 #: Nuisance orders of the line statistics: the whole orders (gear mesh, ripple).
