@@ -11,8 +11,9 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter1d
-from scipy.signal import butter, sosfilt, sosfilt_zi
+from scipy.signal import butter, sosfilt_zi
 from scipy.signal._arraytools import odd_ext
+from scipy.signal._sosfilt import _sosfilt
 
 from axiswatch.indicators._wave_sums import phasor_sums, wave_products
 from axiswatch.indicators._workspace import scratch
@@ -92,9 +93,10 @@ def _wave_rows(
     rotations: dict[float, NDArray[np.complex128]] = {}
     for members, start, step in _grids(values):
         steps = np.rint((values[members] - start) / step).astype(np.int64)
-        wave = _cis(start * angle)
         if step not in rotations and steps.max() > 0:
             rotations[step] = _cis(step * angle)
+        # The whole orders start at their step: one exponential for both.
+        wave = rotations[step].copy() if start == step in rotations else _cis(start * angle)
         done = 0
         for index in np.argsort(steps, kind="stable"):
             while done < steps[index]:
@@ -585,9 +587,13 @@ def zero_phase(
     if x.size <= padlen:
         raise ValueError(f"The length of the input vector x must be greater than padlen, {padlen}.")
     ext = odd_ext(x, padlen) if padlen > 0 else x
-    y, _ = sosfilt(sos, ext, zi=zi * ext[:1])
-    y, _ = sosfilt(sos, y[::-1], zi=zi * y[-1:])
-    y = y[::-1]
+    # SciPy's sosfilt of a 1-D signal, without its checks and axis moves (ten calls a capture).
+    sections = np.asarray(sos, dtype=np.float64)
+    y = np.array(ext, dtype=np.float64, order="C")[None, :]
+    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
+    y = np.array(y[:, ::-1], order="C")
+    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
+    y = y[0, ::-1]
     return np.asarray(y[padlen:-padlen] if padlen > 0 else y, dtype=np.float64)
 
 

@@ -58,16 +58,21 @@ def phasor_sums(
     whole[wrap] += 1
     fraction[wrap] -= 1
     keys = np.rint(fraction * 1e6).astype(np.int64)
-    classes = set(keys.tolist())
-    if len(classes) > MAX_GRIDS:
+    classes = np.unique(keys)
+    if classes.size > MAX_GRIDS:
         return None
     n, count_weights = angle.size, weights.shape[0]
     out = np.empty((count_weights, flat.size), dtype=np.complex128)
     rotation = _cis(step * angle)
-    for key in sorted(classes):
+    for key in classes:
         members = np.flatnonzero(keys == key)
         offset = flat[members[0]] - whole[members[0]] * step
+        if abs(offset) <= 1e-12 * step:
+            offset = 0.0
         index = np.rint((flat[members] - offset) / step).astype(np.int64)
+        off_grid = np.abs(flat[members] - (offset + index * step))
+        if np.any(off_grid > 1e-12 * np.maximum(1.0, flat[members])):
+            return None  # not a grid after all: summed at the wrong frequencies
         count = int(index.max()) + 1
         baby_count = math.isqrt(count - 1) + 1
         giant_count = -(-count // baby_count)
@@ -77,9 +82,12 @@ def phasor_sums(
             np.multiply(baby[j - 1], rotation, out=baby[j])
         leap = baby[-1] * rotation
         giant = scratch("giant", (count_weights, giant_count, n), np.complex128)
-        start = _cis(offset * angle)
-        np.multiply(start.real, weights, out=giant.real[:, 0])
-        np.multiply(start.imag, weights, out=giant.imag[:, 0])
+        if offset == 0.0:  # exp(0j): the weights themselves
+            giant.real[:, 0], giant.imag[:, 0] = weights, 0.0
+        else:
+            start = _cis(offset * angle)
+            np.multiply(start.real, weights, out=giant.real[:, 0])
+            np.multiply(start.imag, weights, out=giant.imag[:, 0])
         for g in range(1, giant_count):
             np.multiply(giant[:, g - 1], leap, out=giant[:, g])
         table = (giant.reshape(-1, n) @ baby.T).reshape(count_weights, -1)
@@ -109,9 +117,11 @@ def wave_products(
     >>> bool(np.allclose(products, waves(a) @ waves(b).T))
     True
     """
-    return 0.5 * np.block(
-        [
-            [(difference - total).real, (total + difference).imag],
-            [(total - difference).imag, (difference + total).real],
-        ]
-    )
+    rows, columns = difference.shape
+    out = np.empty((2 * rows, 2 * columns))
+    plus, minus = difference + total, difference - total
+    np.multiply(minus.real, 0.5, out=out[:rows, :columns])
+    np.multiply(plus.imag, 0.5, out=out[:rows, columns:])
+    np.multiply(minus.imag, -0.5, out=out[rows:, :columns])
+    np.multiply(plus.real, 0.5, out=out[rows:, columns:])
+    return out
