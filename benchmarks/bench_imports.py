@@ -8,9 +8,10 @@ two references measured in the same run: importing ``typer`` alone (the CLI's ow
 importing every public name of the library (what every start paid when ``import axiswatch``
 imported everything). The target is under 0.5 s for both starts.
 
-Last run (2026-11-28, 2 cores, load 1.8-2.1, medians of 5): ``--help`` 0.058 s; an idle run
-0.445 s, was 1.212 s (SciPy, scikit-learn and the lab gone). pandas and pyarrow remain, 0.18 s:
-the capture, profile and store records import pandas at module top.
+Last run (2026-11-28 08:01, 2 cores, load 2.8-3.8, medians of 5): ``--help`` 0.065 s; idle
+runs 0.38-0.44 s for the three methods (``lra`` and ``pca`` 1.00 s before, with SciPy and
+scikit-learn). pandas and pyarrow remain: the capture, profile and store records import pandas
+at module top.
 """
 
 from __future__ import annotations
