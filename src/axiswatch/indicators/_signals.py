@@ -96,7 +96,8 @@ def _wave_rows(
         if step not in rotations and steps.max() > 0:
             rotations[step] = _cis(step * angle)
         # The whole orders start at their step: one exponential for both.
-        wave = rotations[step].copy() if start == step in rotations else _cis(start * angle)
+        same = start == step and step in rotations
+        wave = rotations[step].copy() if same else _cis(start * angle)
         done = 0
         for index in np.argsort(steps, kind="stable"):
             while done < steps[index]:
@@ -124,8 +125,9 @@ def _shifted_rows(
     half: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """:func:`_wave_rows` of the orders plus ``shift``, from the rows of the orders: the waves
-    times ``exp(1j * shift * angle)``, written in ``out`` (``half``: an array of half its rows). One
-    complex product, the same rounding as the recurrence; no new set of waves, no new memory."""
+    times ``exp(1j * shift * angle)``, written in ``out`` (``half``: scratch of half its rows).
+    One complex product, the same rounding as the recurrence; no new set of waves, no new
+    memory."""
     count = rows.shape[0] // 2
     sines, cosines = rows[:count], rows[count:]
     rotation = _cis(shift * angle)
@@ -423,7 +425,8 @@ class _NuisanceFree:
         ranges = np.cumsum([0, *(part.size for part in parts)])
         at = [sums[:, i:j] for i, j in itertools.pairwise(ranges)]
         apart = steps[:, None] - steps[None, :]
-        difference = np.where(apart >= 0, at[0][0, np.abs(apart)], np.conj(at[0][0, np.abs(apart)]))
+        difference = at[0][0, np.abs(apart)]
+        difference[apart < 0] = np.conj(difference[apart < 0])
         out = []
         for k in range(1, len(at), 4):
             total, plus, minus, orders_sums = at[k : k + 4]
@@ -448,8 +451,9 @@ class _NuisanceFree:
 
         The waves at the shifted orders are the waves at ``orders`` times ``exp(1j * d * angle)``
         (:func:`_shifted_rows`: one product instead of a new set of waves). The waves are
-        written in arrays kept for the next capture (:func:`._workspace.scratch`): fresh pages for a
-        capture's few megabytes of waves cost as much as their products.
+        written in arrays kept for the next capture (:func:`._workspace.scratch`): fresh pages
+        for a capture's few megabytes of waves cost as much as their products. A tooth set is
+        read from sums of phasors instead (:meth:`_sums_f`).
         """
         if self.basis is None:
             main, *shifted = self._blocked(orders, [None, *offsets])
