@@ -15,7 +15,7 @@ from scipy.signal import butter, sosfilt_zi
 from scipy.signal._arraytools import odd_ext
 from scipy.signal._sosfilt import _sosfilt
 
-from axiswatch.indicators._wave_sums import phasor_sums, wave_products
+from axiswatch.indicators._wave_sums import cis, phasor_sums, wave_products
 from axiswatch.indicators._workspace import scratch
 
 __all__ = [
@@ -46,15 +46,6 @@ LONE_SPIKE_NEIGHBOURS = 3
 #: whose next samples reach an eighth of its height is kept. Simulated faults (backlash,
 #: bearing, tooth, friction) at 100 Hz or more have no sample this far out.
 LONE_SPIKE_FACTOR = 8.0
-
-
-def _cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """``exp(1j * angle)`` from NumPy's vectorised ``cos`` and ``sin`` (its complex ``exp`` is
-    about 3x slower on the large angles of a motor's revolutions)."""
-    out = np.empty(angle.shape, dtype=np.complex128)
-    np.cos(angle, out=out.real)
-    np.sin(angle, out=out.imag)
-    return out
 
 
 def _grids(values: NDArray[np.float64]) -> list[tuple[NDArray[np.int64], float, float]]:
@@ -94,10 +85,10 @@ def _wave_rows(
     for members, start, step in _grids(values):
         steps = np.rint((values[members] - start) / step).astype(np.int64)
         if step not in rotations and steps.max() > 0:
-            rotations[step] = _cis(step * angle)
+            rotations[step] = cis(step * angle)
         # The whole orders start at their step: one exponential for both.
         same = start == step and step in rotations
-        wave = rotations[step].copy() if same else _cis(start * angle)
+        wave = rotations[step].copy() if same else cis(start * angle)
         done = 0
         for index in np.argsort(steps, kind="stable"):
             while done < steps[index]:
@@ -130,7 +121,7 @@ def _shifted_rows(
     memory."""
     count = rows.shape[0] // 2
     sines, cosines = rows[:count], rows[count:]
-    rotation = _cis(shift * angle)
+    rotation = cis(shift * angle)
     np.multiply(sines, rotation.real, out=out[:count])
     out[:count] += np.multiply(cosines, rotation.imag, out=half)
     np.multiply(cosines, rotation.real, out=out[count:])

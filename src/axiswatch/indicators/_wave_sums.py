@@ -14,14 +14,16 @@ from numpy.typing import NDArray
 
 from axiswatch.indicators._workspace import scratch
 
-__all__ = ["MAX_GRIDS", "phasor_sums", "wave_products"]
+__all__ = ["MAX_GRIDS", "cis", "phasor_sums", "wave_products"]
 
 #: Most grids (classes of frequencies equal modulo the step) summed; beyond, the waves' own
 #: products cost less.
 MAX_GRIDS = 4
 
 
-def _cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
+def cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
+    """``exp(1j * angle)`` from NumPy's vectorised ``cos`` and ``sin`` (its complex ``exp`` is
+    about 3x slower on the large angles of a motor's revolutions)."""
     out = np.empty(angle.shape, dtype=np.complex128)
     np.cos(angle, out=out.real)
     np.sin(angle, out=out.imag)
@@ -63,7 +65,7 @@ def phasor_sums(
         return None
     n, count_weights = angle.size, weights.shape[0]
     out = np.empty((count_weights, flat.size), dtype=np.complex128)
-    rotation = _cis(step * angle)
+    rotation = cis(step * angle)
     for key in classes:
         members = np.flatnonzero(keys == key)
         offset = flat[members[0]] - whole[members[0]] * step
@@ -85,7 +87,7 @@ def phasor_sums(
         if offset == 0.0:  # exp(0j): the weights themselves
             giant.real[:, 0], giant.imag[:, 0] = weights, 0.0
         else:
-            start = _cis(offset * angle)
+            start = cis(offset * angle)
             np.multiply(start.real, weights, out=giant.real[:, 0])
             np.multiply(start.imag, weights, out=giant.imag[:, 0])
         for g in range(1, giant_count):
