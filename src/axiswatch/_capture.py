@@ -356,7 +356,7 @@ def _repeated_rows(frame: pd.DataFrame) -> NDArray[np.bool_]:
     >>> _repeated_rows(frame).tolist()
     [False, True, False]
     """
-    if all(dtype.kind == "f" for dtype in frame.dtypes):
+    if all(isinstance(dtype, np.dtype) and dtype.kind == "f" for dtype in frame.dtypes):
         # A capture's usual table: NumPy compares it in a hundredth of pandas' time.
         values = frame.to_numpy(dtype=np.float64)
         after, before = values[1:], values[:-1]
