@@ -288,3 +288,19 @@ def test_signals_not_starting_together(tmp_path: Path) -> None:
     frame.loc[:40, "torque"] = np.nan
     with pytest.raises(CaptureError, match=r"signals start at different times"):
         aw.read_capture(_write(tmp_path, frame))
+
+
+def test_repeated_rows_by_numpy_equal_pandas_comparison(rng: np.random.Generator) -> None:
+    from axiswatch._capture import _repeated_rows
+
+    values = rng.integers(0, 2, size=(400, 3)).astype(float)
+    values[rng.random(values.shape) < 0.2] = np.nan
+    frame = pd.DataFrame(values, columns=["time", "speed", "torque"])
+    previous = frame.shift()
+    expected = (frame.eq(previous) | (frame.isna() & previous.isna())).all(axis=1).to_numpy()
+    assert expected.sum() > 10  # the case is exercised
+    np.testing.assert_array_equal(_repeated_rows(frame), expected)
+    mixed = frame.assign(mode=np.where(values[:, 0] == 1, "run", "stop"))
+    previous = mixed.shift()
+    expected = (mixed.eq(previous) | (mixed.isna() & previous.isna())).all(axis=1).to_numpy()
+    np.testing.assert_array_equal(_repeated_rows(mixed), expected)

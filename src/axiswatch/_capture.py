@@ -347,6 +347,26 @@ def _signal_from_column(
     return column[present], 1.0 / sampling_period(stamps), float(stamps[0])
 
 
+def _repeated_rows(frame: pd.DataFrame) -> NDArray[np.bool_]:
+    """Rows equal to the row before them, NaN matching NaN (never the first row).
+
+    Examples
+    --------
+    >>> frame = pd.DataFrame({"time": [0.0, 0.0, 1.0], "x": [np.nan, np.nan, 2.0]})
+    >>> _repeated_rows(frame).tolist()
+    [False, True, False]
+    """
+    if all(isinstance(dtype, np.dtype) and dtype.kind == "f" for dtype in frame.dtypes):
+        # A capture's usual table: NumPy compares it in a hundredth of pandas' time.
+        values = frame.to_numpy(dtype=np.float64)
+        after, before = values[1:], values[:-1]
+        repeated = np.zeros(values.shape[0], dtype=bool)
+        repeated[1:] = ((after == before) | (np.isnan(after) & np.isnan(before))).all(axis=1)
+        return repeated
+    previous = frame.shift()
+    return np.asarray((frame.eq(previous) | (frame.isna() & previous.isna())).all(axis=1))
+
+
 def read_capture(
     path: str | Path,
     signals: Sequence[str] | None = None,
@@ -399,8 +419,7 @@ def read_capture(
         (profile or AxisProfile()).check_units_row(json.loads(units_row), path)
     # A row written twice (a logger's double write: the same stamp and the same values) carries
     # nothing new; a repeated stamp with other values is an error below.
-    previous = frame.shift()
-    repeated = (frame.eq(previous) | (frame.isna() & previous.isna())).all(axis=1).to_numpy()
+    repeated = _repeated_rows(frame)
     if repeated[1:].any():
         frame = frame.loc[~repeated].reset_index(drop=True)
     frame = _tidy_headers(frame, profile, path)

@@ -250,3 +250,25 @@ def test_library_and_cli_share_one_default(fleet: Path, tmp_path: Path) -> None:
     assert len(by_cli) > 0
     columns = ["robot", "axis", "capture", "method", "role", "distance", "threshold", "alarm"]
     pd.testing.assert_frame_equal(by_library[columns], by_cli[columns])
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"method": "lra"},
+        {"method": "lra", "lra_noise_level": "auto"},
+        {"method": "lra", "lra_noise_level": 0.25, "align_phase": False},
+        {"method": "pca"},
+        {"method": "pca", "detector": aw.PCADetector(n_components=3)},
+    ],
+)
+def test_the_paper_methods_store_the_parameters_of_the_detector_they_make(
+    options: dict[str, Any],
+) -> None:
+    # Read without making the detector (no scikit-learn in a run that fits nothing): they are
+    # the parameters of the model the preset makes, as before.
+    config = MonitorConfig(**options)
+    making = dataclasses.replace(config.preset, detector_params=None)
+    made = making.stored_params(config)
+    assert made["detector"] == config.preset.make(config).detector.get_params()
+    assert json.dumps(config.params(), sort_keys=True) == json.dumps(made, sort_keys=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from functools import lru_cache
@@ -10,8 +11,12 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter1d
-from scipy.signal import butter, sosfilt, sosfilt_zi
+from scipy.signal import butter, sosfilt_zi
 from scipy.signal._arraytools import odd_ext
+from scipy.signal._sosfilt import _sosfilt
+
+from axiswatch.indicators._wave_sums import cis, phasor_sums, wave_products
+from axiswatch.indicators._workspace import scratch
 
 __all__ = [
     "BEARING_OFFSETS",
@@ -43,74 +48,93 @@ LONE_SPIKE_NEIGHBOURS = 3
 LONE_SPIKE_FACTOR = 8.0
 
 
-def _cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """``exp(1j * angle)`` from NumPy's vectorised ``cos`` and ``sin`` (its complex ``exp`` is
-    about 3x slower on the large angles of a motor's revolutions)."""
-    out = np.empty(angle.shape, dtype=np.complex128)
-    np.cos(angle, out=out.real)
-    np.sin(angle, out=out.imag)
-    return out
+def _grids(values: NDArray[np.float64]) -> list[tuple[NDArray[np.int64], float, float]]:
+    """The orders ``values`` as grids: ``(members, start, step)``, each member at a whole number
+    of steps from ``start``. One grid when they are multiples of their smallest spacing (the
+    tooth sets); else one per class of equal fractional part, of step 1 (a bearing order and its
+    double, each with whole-order sidebands)."""
+    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
+    every = np.arange(values.size)
+    if step > 0:
+        steps = np.rint((values - values.min()) / step)
+        if float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9:
+            return [(every, float(values.min()), step)]
+    fraction = np.round(values - np.floor(values), 9) % 1.0
+    return [
+        (every[fraction == value], float(values[fraction == value].min()), 1.0)
+        for value in np.unique(fraction)
+    ]
 
 
-def _grid_phasors(
-    angle: NDArray[np.float64], values: NDArray[np.float64], step: float
-) -> NDArray[np.complex128] | None:
-    """``exp(1j * o * angle)`` for orders ``values`` on a grid of ``step`` (None if they are not),
-    by repeated multiplication from the smallest."""
-    steps = np.rint((values - values.min()) / step).astype(np.int64)
-    if float(np.max(np.abs(values - (values.min() + steps * step)))) > 1e-9:
-        return None
-    rotation = _cis(step * angle)
-    waves = np.empty((angle.size, int(steps.max()) + 1), dtype=np.complex128)
-    waves[:, 0] = _cis(values.min() * angle)
-    for k in range(1, waves.shape[1]):
-        np.multiply(waves[:, k - 1], rotation, out=waves[:, k])
-    return waves[:, steps]
+def _wave_rows(
+    angle: NDArray[np.float64], orders: Sequence[float], out: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
+    """``sin(o angle)`` for every order ``o``, then ``cos(o angle)``: shape ``(2 p, n)``, a row a
+    wave (the products with the waves read whole rows); written in ``out`` when given.
 
-
-def _phasors(angle: NDArray[np.float64], orders: Sequence[float]) -> NDArray[np.complex128]:
-    """``exp(1j * o * angle)`` for every order ``o``, shape ``(n, len(orders))``.
-
-    Orders on a common grid (multiples of their smallest spacing, as the tooth sets are) are
-    powers of one complex exponential, built by repeated multiplication: one ``exp`` instead of
-    two trigonometric functions per order (the stage's hot spot). Orders that are not (a bearing
-    order and its double, each with whole-order sidebands) are built the same way per class of
-    equal fractional part, each class a grid of whole orders. The recurrence's rounding error
-    grows by about one ulp per step, far below the signals' noise; tested against
-    ``np.sin``/``np.cos`` to 1e-10.
+    Orders on a grid (:func:`_grids`) are powers of one complex exponential, built by repeated
+    multiplication of one row: one ``exp`` per grid instead of two trigonometric functions per
+    order (the stage's hot spot), and no wave of the grid kept that is not an order. The
+    recurrence's rounding error grows by about one ulp per step, far below the signals' noise;
+    tested against ``np.sin``/``np.cos`` to 1e-10.
     """
     values = np.asarray(orders, dtype=np.float64)
-    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
-    phasors = _grid_phasors(angle, values, step) if step > 0 else None
-    if phasors is None:
-        phasors = np.empty((angle.size, values.size), dtype=np.complex128)
-        fraction = np.round(values - np.floor(values), 9) % 1.0
-        for value in np.unique(fraction):
-            members = np.flatnonzero(fraction == value)
-            grid = _grid_phasors(angle, values[members], 1.0)
-            if grid is None:  # a whole-order class is on the grid of 1 by construction
-                grid = _cis(np.multiply.outer(angle, values[members]))
-            phasors[:, members] = grid
-    return phasors
+    count = values.size
+    rows = np.empty((2 * count, angle.size)) if out is None else out
+    rotations: dict[float, NDArray[np.complex128]] = {}
+    for members, start, step in _grids(values):
+        steps = np.rint((values[members] - start) / step).astype(np.int64)
+        if step not in rotations and steps.max() > 0:
+            rotations[step] = cis(step * angle)
+        # The whole orders start at their step: one exponential for both.
+        same = start == step and step in rotations
+        wave = rotations[step].copy() if same else cis(start * angle)
+        done = 0
+        for index in np.argsort(steps, kind="stable"):
+            while done < steps[index]:
+                np.multiply(wave, rotations[step], out=wave)
+                done += 1
+            rows[members[index]] = wave.imag
+            rows[count + members[index]] = wave.real
+    return rows
 
 
-def _columns(
-    phasors: NDArray[np.complex128], direction: NDArray[np.float64] | None
+def _signed_rows(
+    rows: NDArray[np.float64], direction: NDArray[np.float64] | None
 ) -> NDArray[np.float64]:
-    """Regression columns of phasors: the sines, then the cosines (then the same times
-    ``direction``)."""
-    result = np.concatenate([phasors.imag, phasors.real], axis=1)
-    if direction is not None:
-        result = np.concatenate([result, result * direction[:, None]], axis=1)
-    return result
+    """The wave rows, then the same times ``direction`` (a load opposing the motion)."""
+    if direction is None:
+        return rows
+    return np.concatenate([rows, rows * direction])
+
+
+def _shifted_rows(
+    rows: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    shift: float,
+    out: NDArray[np.float64],
+    half: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """:func:`_wave_rows` of the orders plus ``shift``, from the rows of the orders: the waves
+    times ``exp(1j * shift * angle)``, written in ``out`` (``half``: scratch of half its rows).
+    One complex product, the same rounding as the recurrence; no new set of waves, no new
+    memory."""
+    count = rows.shape[0] // 2
+    sines, cosines = rows[:count], rows[count:]
+    rotation = cis(shift * angle)
+    np.multiply(sines, rotation.real, out=out[:count])
+    out[:count] += np.multiply(cosines, rotation.imag, out=half)
+    np.multiply(cosines, rotation.real, out=out[count:])
+    out[count:] -= np.multiply(sines, rotation.imag, out=half)
+    return out
 
 
 def _harmonics(
     angle: NDArray[np.float64], orders: Sequence[float], direction: NDArray[np.float64] | None
 ) -> NDArray[np.float64]:
     """Columns ``sin(o angle)`` then ``cos(o angle)`` for every order ``o`` (then the same times
-    ``direction``): :func:`_columns` of :func:`_phasors`."""
-    return _columns(_phasors(angle, orders), direction)
+    ``direction``): :func:`_wave_rows` as columns."""
+    return _signed_rows(_wave_rows(angle, orders), direction).T
 
 
 def angle_locked_f(
@@ -170,17 +194,17 @@ LINE_BLOCK_SAMPLES = 1 << 16
 
 def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> float | None:
     """``right' gram^-1 right`` by Cholesky; None when ``gram`` is not positive definite or its
-    reciprocal condition is below :data:`GRAM_MIN_RCOND`."""
-    try:
-        factor = scipy.linalg.cholesky(gram, lower=False, check_finite=False)
-    except np.linalg.LinAlgError:
+    reciprocal condition is below :data:`GRAM_MIN_RCOND`. LAPACK is called directly: SciPy's
+    wrappers of these small solves cost more than the solves (five a capture)."""
+    factor, info = scipy.linalg.lapack.dpotrf(gram, lower=0, clean=1)
+    if info != 0:
         return None
     # LAPACK's estimate of the reciprocal 1-norm condition number from the factor.
     rcond, _ = scipy.linalg.lapack.dpocon(factor, np.abs(gram).sum(axis=0).max())
     if rcond < GRAM_MIN_RCOND:
         return None
-    half = scipy.linalg.solve_triangular(factor, right, trans="T", check_finite=False)
-    return float(half @ half)
+    half, _ = scipy.linalg.lapack.dtrtrs(factor, right[:, None], lower=0, trans=1)
+    return float(half[:, 0] @ half[:, 0])
 
 
 class NuisanceProjection:
@@ -206,6 +230,7 @@ class NuisanceProjection:
         size = LINE_BLOCK_SAMPLES
         self.blocks = [slice(i, i + size) for i in range(0, max(angle.size, 1), size)]
         self.basis: NDArray[np.float64] | None = None
+        self.triangle: NDArray[np.float64] | None = None  # of the QR: waves = basis @ triangle
         self.factor: NDArray[np.float64] | None = None
         if len(self.blocks) > 1:
             gram = sum(w.T @ w for w in map(self.waves, self.blocks))
@@ -215,7 +240,9 @@ class NuisanceProjection:
                 self.blocks = [slice(0, angle.size)]  # degenerate waves: the exact QR
         if self.factor is None:
             nuisance = _harmonics(angle, nuisance_orders, direction)
-            self.basis = scipy.linalg.qr(nuisance, mode="economic", check_finite=False)[0]
+            self.basis, self.triangle = scipy.linalg.qr(
+                nuisance, mode="economic", check_finite=False
+            )
         self.k = 2 * len(self.orders) * (1 if direction is None else 2)
 
     def waves(self, block: slice) -> NDArray[np.float64]:
@@ -283,16 +310,17 @@ class _NuisanceFree:
         self.residual = nuisance.residual(y)
         self.rss0 = float(self.residual @ self.residual)
 
-    def explained(self, tests: NDArray[np.float64], *, exact: bool = False) -> float:
-        """Sum of squares of the residual explained by the columns ``tests`` (``n x p``, not
-        yet projected); ``exact`` forces the QR path."""
+    def explained(self, rows: NDArray[np.float64], *, exact: bool = False) -> float:
+        """Sum of squares of the residual explained by the waves ``rows`` (``p x n``, a row a
+        wave, not yet projected); ``exact`` forces the QR path."""
         assert self.basis is not None
         if not exact:
-            cross = self.basis.T @ tests
-            gram = tests.T @ tests - cross.T @ cross
-            explained = _gram_explained(gram, tests.T @ self.residual)
+            cross = rows @ self.basis
+            gram = rows @ rows.T - cross @ cross.T
+            explained = _gram_explained(gram, rows @ self.residual)
             if explained is not None:
                 return explained
+        tests = rows.T
         projected = tests - self.basis @ (self.basis.T @ tests)
         q = scipy.linalg.qr(projected, mode="economic", check_finite=False)[0]
         return float(np.sum((q.T @ self.residual) ** 2))
@@ -300,7 +328,7 @@ class _NuisanceFree:
     def f_statistic(self, orders: Sequence[float], *, exact: bool = False) -> float:
         if self.basis is None:
             return self._blocked(orders, [None])[0]
-        return self._f(_phasors(self.angle, orders), exact=exact)
+        return self._f(_wave_rows(self.angle, orders), exact=exact)
 
     def _ratio(self, explained: float, p: int) -> float:
         """The F statistic of ``explained`` by ``p`` columns (NaN without the degrees)."""
@@ -310,9 +338,9 @@ class _NuisanceFree:
         rss1 = self.rss0 - explained
         return float(max(explained, 0.0) / p / (rss1 / (n - self.k - p)))
 
-    def _f(self, phasors: NDArray[np.complex128], *, exact: bool = False) -> float:
-        tests = _columns(phasors, self.direction)
-        p = tests.shape[1]
+    def _f(self, rows: NDArray[np.float64], *, exact: bool = False) -> float:
+        tests = _signed_rows(rows, self.direction)
+        p = tests.shape[0]
         if self.residual.size <= self.k + p + 1:
             return float("nan")
         return self._ratio(self.explained(tests, exact=exact), p)
@@ -323,21 +351,24 @@ class _NuisanceFree:
         factor = self.nuisance.factor
         assert factor is not None
         p = 2 * len(orders) * (1 if self.direction is None else 2)
-        sums = [(np.zeros((self.k, p)), np.zeros((p, p)), np.zeros(p)) for _ in shifts]
+        sums = [(np.zeros((p, self.k)), np.zeros((p, p)), np.zeros(p)) for _ in shifts]
         for b in self.nuisance.blocks:
             angle = self.angle[b]
             direction = None if self.direction is None else self.direction[b]
-            phasors = _phasors(angle, orders)
+            rows = _wave_rows(angle, orders)
+            shifted, half = np.empty_like(rows), np.empty((rows.shape[0] // 2, angle.size))
             waves = self.nuisance.waves(b)
             for (cross, gram, right), shift in zip(sums, shifts, strict=True):
-                shifted = phasors if shift is None else phasors * _cis(shift * angle)[:, None]
-                tests = _columns(shifted, direction)
-                cross += waves.T @ tests
-                gram += tests.T @ tests
-                right += tests.T @ self.residual[b]
+                moved = rows if shift is None else _shifted_rows(rows, angle, shift, shifted, half)
+                tests = _signed_rows(moved, direction)
+                cross += tests @ waves
+                gram += tests @ tests.T
+                right += tests @ self.residual[b]
         out = []
         for cross, gram, right in sums:
-            projected = scipy.linalg.solve_triangular(factor, cross, trans="T", check_finite=False)
+            projected = scipy.linalg.solve_triangular(
+                factor, cross.T, trans="T", check_finite=False
+            )
             gram -= projected.T @ projected
             explained = _gram_explained(gram, right)
             if explained is None:  # nearly collinear waves: the least-squares solve
@@ -346,18 +377,88 @@ class _NuisanceFree:
             out.append(self._ratio(explained, p))
         return out
 
+    def _sums_f(self, orders: Sequence[float], offsets: Sequence[float]) -> list[float] | None:
+        """F statistics at ``orders`` and at the orders shifted by each of ``offsets``, from
+        sums of phasors (:mod:`._wave_sums`) instead of the waves; None where that does not
+        apply (orders on no single grid, more than a few classes of frequencies, signed waves,
+        ill-conditioned waves) and the waves' products are computed instead.
+
+        The Gram matrix of the waves and their products with the nuisance waves are sums of
+        phasors at the orders' sums and differences, ``T' r`` the residual's phasor sums at
+        the orders: for a tooth set (32 orders) a few small complex products instead of
+        ``n x 64 x 64`` multiplications. Equal to the waves' path to about 1e-12 (tested).
+        """
+        if self.basis is None or self.direction is not None or self.nuisance.triangle is None:
+            return None
+        values = np.asarray(orders, dtype=np.float64)
+        grids = _grids(values)
+        p = 2 * values.size
+        if len(grids) != 1 or self.residual.size <= self.k + p + 1:
+            return None
+        _, start, step = grids[0]
+        steps = np.rint((values - start) / step).astype(np.int64)
+        top = int(steps.max())
+        grid = np.arange(2 * top + 1) * step
+        whole = np.asarray(self.nuisance.orders, dtype=np.float64)[:, None]
+        # Per set of orders (shifted by d): the sums at the differences of two orders (the same
+        # for every d), at their totals, at a whole order plus or minus an order, and the
+        # residual's sums at the orders; each on the grid of the orders' steps.
+        parts = [grid[: top + 1]]
+        for shift in (0.0, *offsets):
+            first = start + shift
+            parts += [2 * first + grid, whole + first + grid[: top + 1]]
+            parts += [whole - first - grid[: top + 1], first + grid[: top + 1]]
+        frequencies = np.concatenate([part.ravel() for part in parts])
+        weights = np.stack([np.ones(self.angle.size), self.residual])
+        sums = phasor_sums(self.angle, weights, frequencies, step)
+        if sums is None:
+            return None
+        ranges = np.cumsum([0, *(part.size for part in parts)])
+        at = [sums[:, i:j] for i, j in itertools.pairwise(ranges)]
+        apart = steps[:, None] - steps[None, :]
+        difference = at[0][0, np.abs(apart)]
+        difference[apart < 0] = np.conj(difference[apart < 0])
+        out = []
+        for k in range(1, len(at), 4):
+            total, plus, minus, orders_sums = at[k : k + 4]
+            gram = wave_products(difference, total[0, steps[:, None] + steps[None, :]])
+            shape = (whole.size, top + 1)
+            cross = wave_products(
+                minus[0].reshape(shape)[:, steps], plus[0].reshape(shape)[:, steps]
+            )
+            # The projected waves' Gram matrix: T'T - (Q'T)'(Q'T), Q'T = R^-T N'T.
+            projected, _ = scipy.linalg.lapack.dtrtrs(self.nuisance.triangle, cross, trans=1)
+            gram -= projected.T @ projected
+            residual_sums = orders_sums[1, steps]
+            right = np.concatenate([residual_sums.imag, residual_sums.real])
+            explained = _gram_explained(gram, right)
+            if explained is None:
+                return None
+            out.append(self._ratio(explained, p))
+        return out
+
     def line_ratio(self, orders: Sequence[float], offsets: Sequence[float]) -> float:
         """:func:`line_ratio` of this stretch of signal.
 
         The waves at the shifted orders are the waves at ``orders`` times ``exp(1j * d * angle)``
-        (one product instead of a new set of waves; the same rounding as the recurrence).
+        (:func:`_shifted_rows`: one product instead of a new set of waves). The waves are
+        written in arrays kept for the next capture (:func:`._workspace.scratch`): fresh pages
+        for a capture's few megabytes of waves cost as much as their products. A tooth set is
+        read from sums of phasors instead (:meth:`_sums_f`).
         """
         if self.basis is None:
             main, *shifted = self._blocked(orders, [None, *offsets])
             return main / float(np.mean(shifted))
-        phasors = _phasors(self.angle, orders)
-        reference = np.mean([self._f(phasors * _cis(d * self.angle)[:, None]) for d in offsets])
-        return self._f(phasors) / float(reference)
+        by_sums = self._sums_f(orders, offsets)
+        if by_sums is not None:
+            return by_sums[0] / float(np.mean(by_sums[1:]))
+        n, p = self.angle.size, 2 * len(orders)
+        rows = _wave_rows(self.angle, orders, scratch("waves", (p, n)))
+        moved, half = scratch("shifted", (p, n)), scratch("half", (p // 2, n))
+        reference = np.mean(
+            [self._f(_shifted_rows(rows, self.angle, d, moved, half)) for d in offsets]
+        )
+        return self._f(rows) / float(reference)
 
 
 #: Nuisance orders of the line statistics: the whole orders (gear mesh, ripple).
@@ -481,9 +582,13 @@ def zero_phase(
     if x.size <= padlen:
         raise ValueError(f"The length of the input vector x must be greater than padlen, {padlen}.")
     ext = odd_ext(x, padlen) if padlen > 0 else x
-    y, _ = sosfilt(sos, ext, zi=zi * ext[:1])
-    y, _ = sosfilt(sos, y[::-1], zi=zi * y[-1:])
-    y = y[::-1]
+    # SciPy's sosfilt of a 1-D signal, without its checks and axis moves (ten calls a capture).
+    sections = np.asarray(sos, dtype=np.float64)
+    y = np.array(ext, dtype=np.float64, order="C")[None, :]
+    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
+    y = np.array(y[:, ::-1], order="C")
+    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
+    y = y[0, ::-1]
     return np.asarray(y[padlen:-padlen] if padlen > 0 else y, dtype=np.float64)
 
 

@@ -67,6 +67,10 @@ class MethodPreset:
     params : callable (MonitorConfig) -> dict, optional
         The parameters stored with every baseline (a changed value refits it). Default: the
         default model's detector, features and stage.
+    detector_params : callable (MonitorConfig) -> dict, optional
+        The ``get_params()`` of the detector that ``detector`` makes, without making it: the
+        default ``params`` then import no scikit-learn (a run that fits nothing stays light).
+        Default: the detector is made to read them.
     task_change_scale : float or None, default=None
         Half-Laplace scale of the distances of healthy *task changes* measured in development;
         the threshold floor is its ``percentile`` (None: no floor).
@@ -93,6 +97,7 @@ class MethodPreset:
     detector: Callable[[MonitorConfig], BaselineDetector] | None = None
     stage: Callable[[MonitorConfig], FeatureStage | None] = _no_stage
     params: Callable[[MonitorConfig], dict[str, Any]] | None = None
+    detector_params: Callable[[MonitorConfig], dict[str, Any]] | None = None
     task_change_scale: float | None = None
     summary: str = ""
     options: frozenset[str] = frozenset()
@@ -168,18 +173,25 @@ def _common_params(config: MonitorConfig) -> dict[str, Any]:
 
 def _health_params(preset: MethodPreset, config: MonitorConfig) -> dict[str, Any]:
     """Features, detector and (for a stage method) the stage and the threshold floor; the key is
-    absent otherwise, so stores made before it still match."""
-    model = _health_model(preset, config)
+    absent otherwise, so stores made before it still match. Without a stage or a configured
+    detector, a preset's ``detector_params`` stand for its detector's (no model is made)."""
+    stage = preset.stage(config) if config.stage is None else config.stage
+    floor = None
+    if stage is None and config.detector is None and preset.detector_params is not None:
+        detector = preset.detector_params(config)
+    else:
+        model = _health_model(preset, config)
+        detector, stage, floor = model.detector.get_params(), model.stage, model.min_threshold
     params = {
         "method": config.method,
-        "detector": model.detector.get_params(),
+        "detector": detector,
         "features": dataclasses.asdict(config.features),
-        "align_phase": config.align_phase and model.stage is None,
+        "align_phase": config.align_phase and stage is None,
         **_common_params(config),
     }
-    if model.stage is not None:
-        params["stage"] = {"name": type(model.stage).__name__, **vars(model.stage)}
-        params["threshold_floor"] = model.min_threshold
+    if stage is not None:
+        params["stage"] = {"name": type(stage).__name__, **vars(stage)}
+        params["threshold_floor"] = floor
     if config.profile is not None:  # absent otherwise, so stores made before it still match
         params["profile"] = config.profile.source
     return params
@@ -226,16 +238,31 @@ def _indicator_params(config: MonitorConfig) -> dict[str, Any]:
     return params
 
 
+def _lra_params(config: MonitorConfig) -> dict[str, Any]:
+    """The ``lra`` method's detector parameters: the preset makes its detector of these."""
+    return {
+        "mu": 0.5,
+        "n_components": 2,
+        "noise_level": config.lra_noise_level,
+        "solver": "structured",
+    }
+
+
 def _lra(config: MonitorConfig) -> BaselineDetector:
     from axiswatch.paper._detectors import LRADetector
 
-    return LRADetector(noise_level=config.lra_noise_level)
+    return LRADetector(**_lra_params(config))
+
+
+def _pca_params(config: MonitorConfig) -> dict[str, Any]:
+    """The ``pca`` method's detector parameters: the preset makes its detector of these."""
+    return {"n_components": 0.95}
 
 
 def _pca(config: MonitorConfig) -> BaselineDetector:
     from axiswatch.paper._detectors import PCADetector
 
-    return PCADetector()
+    return PCADetector(**_pca_params(config))
 
 
 _METHODS: dict[str, MethodPreset] = {
@@ -248,8 +275,12 @@ _METHODS: dict[str, MethodPreset] = {
         summary="physical indicators at any rate >= 20 Hz, in spreads of the axis's own "
         "calibration captures and of its fleet (default, docs/evaluation.md)",
     ),
-    "lra": MethodPreset(detector=_lra, summary="the paper's Low Rank Alignment"),
-    "pca": MethodPreset(detector=_pca, summary="the paper's PCA"),
+    "lra": MethodPreset(
+        detector=_lra,
+        detector_params=_lra_params,
+        summary="the paper's Low Rank Alignment",
+    ),
+    "pca": MethodPreset(detector=_pca, detector_params=_pca_params, summary="the paper's PCA"),
 }
 _plugins_loaded = False
 

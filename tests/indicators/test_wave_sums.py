@@ -1,0 +1,76 @@
+"""The line statistics from sums of phasors equal those from the waves' own products."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import axiswatch.indicators._signals as signals
+from axiswatch.indicators._wave_sums import MAX_GRIDS, phasor_sums, wave_products
+
+
+def _exact_sums(angle: np.ndarray, weights: np.ndarray, frequencies: np.ndarray) -> np.ndarray:
+    return weights @ np.exp(1j * np.multiply.outer(angle, frequencies))
+
+
+def test_phasor_sums_equal_the_direct_sums_on_grids_and_off(rng: np.random.Generator) -> None:
+    angle = np.sort(rng.uniform(40.0, 400.0, 2000))  # 57 revolutions, as a 3 s capture
+    weights = np.stack([np.ones(angle.size), rng.normal(size=angle.size)])
+    # Two classes modulo 0.2 (whole and half steps), both signs, up to 90 steps.
+    frequencies = np.concatenate([np.arange(-40, 91) * 0.2, np.arange(0, 60) * 0.2 + 0.1])
+    sums = phasor_sums(angle, weights, frequencies, 0.2)
+    assert sums is not None
+    exact = _exact_sums(angle, weights, frequencies)
+    np.testing.assert_allclose(sums, exact, rtol=0, atol=1e-10 * angle.size)
+    spread = np.array([0.0, 0.03, 0.05, 0.07, 0.11])  # five classes: beyond MAX_GRIDS
+    assert spread.size > MAX_GRIDS
+    assert phasor_sums(angle, weights, spread, 0.2) is None
+
+
+def test_wave_products_are_the_waves_products(rng: np.random.Generator) -> None:
+    angle = np.sort(rng.uniform(0.0, 100.0, 700))
+    a, b = np.array([1.0, 2.0, 5.5]), np.array([0.2, 0.4, 1.6, 7.0])
+    ones = np.ones((1, angle.size))
+    difference = _exact_sums(angle, ones, np.subtract.outer(a, b).ravel())[0].reshape(3, 4)
+    total = _exact_sums(angle, ones, np.add.outer(a, b).ravel())[0].reshape(3, 4)
+    expected = signals._wave_rows(angle, a) @ signals._wave_rows(angle, b).T
+    np.testing.assert_allclose(wave_products(difference, total), expected, atol=1e-9)
+
+
+def _stretch(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    # A motor angle going back and forth, as the fast samples of a capture, and a band-passed
+    # torque with a tooth line and a whole-order ripple.
+    theta = 60.0 + 45.0 * np.sin(np.linspace(0.0, 9.0, n)) + np.linspace(0.0, 40.0, n)
+    noise = np.convolve(rng.normal(size=n), np.ones(4) / 4, mode="same")
+    return theta, noise + 0.1 * np.cos(0.4 * theta) + 0.5 * np.sin(3 * theta)
+
+
+@pytest.mark.parametrize("stage", [5.0, 4.0, 2.0])
+def test_tooth_lines_by_sums_equal_the_waves_path(rng: np.random.Generator, stage: float) -> None:
+    theta, y = _stretch(rng, 3000)
+    orders = [k / stage for k in range(1, int(8 * stage) + 1) if k % stage]
+    free = signals._NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
+    by_sums = free._sums_f(orders, [0.5 / stage])
+    assert by_sums is not None  # a tooth set on one grid, the whole orders on it
+    rows = signals._wave_rows(theta, orders)
+    shifted = signals._wave_rows(theta, [o + 0.5 / stage for o in orders])
+    by_waves = [free._f(rows), free._f(shifted)]
+    np.testing.assert_allclose(by_sums, by_waves, rtol=1e-11)
+    exact = [free._f(rows, exact=True), free._f(shifted, exact=True)]  # the QR path
+    np.testing.assert_allclose(by_sums, exact, rtol=1e-9)
+
+
+def test_orders_off_one_grid_take_the_waves_path(rng: np.random.Generator) -> None:
+    theta, y = _stretch(rng, 2000)
+    free = signals._NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
+    assert free._sums_f(signals.bearing_orders(5.43), [-0.25, 0.25]) is None
+    # A stage of 3.6 teeth: the whole orders fall in five classes of its grid. Its tooth set
+    # leaves out the whole orders, as the readings do, and no shifted order is whole.
+    odd_stage = [k / 3.6 for k in range(1, 29) if k % 18]
+    assert free._sums_f(odd_stage, [0.5 / 3.6]) is None
+    ratio = free.line_ratio(odd_stage, [0.5 / 3.6])
+    rows = signals._wave_rows(theta, odd_stage)
+    shifted = signals._wave_rows(theta, [o + 0.5 / 3.6 for o in odd_stage])
+    assert ratio == pytest.approx(
+        free._f(rows, exact=True) / free._f(shifted, exact=True), rel=1e-9
+    )
