@@ -252,3 +252,19 @@ def test_teach_refuses_a_capture_that_does_not_move() -> None:
     still = _description(np.random.default_rng(10), signature=np.full(7, np.nan), source="s.csv")
     with pytest.raises(ValueError, match=r"s\.csv: the axis did not move"):
         ModeLibrary().teach(still)
+
+
+def test_a_known_motion_at_another_load_is_scored_in_its_mode_when_asked() -> None:
+    heavier = SIGNATURE * [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.5]  # the carried load: 3 -> 4.5
+    for motion_match, expected in ((False, ("mode1", "learning")), (True, ("mode0", "known"))):
+        rng = np.random.default_rng(11)
+        library = ModeLibrary(n_fit=5, motion_match=motion_match)
+        for _ in range(8):
+            library.update(_description(rng))
+        loaded = _description(rng, signature=heavier, friction=1.6)
+        verdict = library.score(loaded)
+        assert (verdict.mode, verdict.state) == expected
+    # The engineer says it is another mode: taught as a new one, which its like then match.
+    assert verdict.alarm
+    assert library.teach(loaded) == "mode1"
+    assert library.match(_description(rng, signature=heavier)) == "mode1"

@@ -19,6 +19,7 @@ from scipy.stats import t as student_t
 
 from axiswatch._calibration import fit_half_laplace
 from axiswatch.indicators._modes import (
+    MOTION_READINGS,
     SPECTRUM_BANDS,
     CaptureDescription,
     mode_differences,
@@ -194,6 +195,9 @@ class ModeLibrary:
     frozen : bool, default=False
         Score a known mode's captures against its first fit (the median of its first
         ``n_fit`` captures) instead of the median of its latest ``window``.
+    motion_match : bool, default=False
+        A capture of a known mode's motion at another load is scored in that mode, not
+        learned as a new one (:meth:`match`).
     learn_below : float, default=1.0
         A known mode learns a capture scored at most this (in thresholds): one nearer the
         threshold is not an alarm, and does not widen the normal either.
@@ -214,6 +218,7 @@ class ModeLibrary:
         frozen: bool = False,
         learn_below: float = 1.0,
         first_window: bool = False,
+        motion_match: bool = False,
     ) -> None:
         if not (isinstance(n_fit, int) and n_fit >= 3):
             raise ValueError(f"The 'n_fit' parameter must be an int >= 3. Got {n_fit!r}.")
@@ -230,6 +235,7 @@ class ModeLibrary:
         self.frozen = frozen
         self.learn_below = learn_below
         self.first_window = first_window
+        self.motion_match = motion_match
         self.modes_: dict[str, _Mode] = {}
         # What the learned captures give, cached until a capture is learned.
         self._cache: dict[str, object] = {}
@@ -397,17 +403,35 @@ class ModeLibrary:
                 size = d.signature.size
         return mode_tolerance(differences, size)
 
-    def match(self, description: CaptureDescription) -> str | None:
-        """The mode a capture belongs to; None for a new mode."""
+    def match(self, description: CaptureDescription, *, taught: bool = False) -> str | None:
+        """The mode a capture belongs to; None for a new mode.
+
+        With ``motion_match``, a capture whose motion is a known mode's but whose load is not
+        is scored in that mode (a load change, or a fault, is then an alarm to teach), unless
+        ``taught``: the engineer said it is a new mode."""
         if description.declared is not None:
             return description.declared if description.declared in self.modes_ else None
+        found = self._nearest(description, None)
+        if found is None and self.motion_match and not taught:
+            known = [m for m in self.modes_.values() if m.reference is not None]
+            found = self._nearest(description, slice(0, MOTION_READINGS), known)
+        return found
+
+    def _nearest(
+        self,
+        description: CaptureDescription,
+        part: slice | None,
+        modes: Sequence[_Mode] | None = None,
+    ) -> str | None:
         best, name = math.inf, None
-        for mode in self.modes_.values():
+        for mode in self.modes_.values() if modes is None else modes:
             centre, scale = self._signature(mode)
             differences = mode_differences(description.signature, centre, scale)
             tolerance = self.tolerance(mode.name)
             if tolerance.size != differences.size:
                 tolerance = mode_tolerance([], differences.size)
+            if part is not None:
+                differences, tolerance = differences[part], tolerance[part]
             distance = mode_distance(differences, tolerance)
             if distance <= 1.0 and distance < best:
                 best, name = distance, mode.name
@@ -504,7 +528,7 @@ class ModeLibrary:
         """
         if not description.moving:
             raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
-        name = mode or self.match(description) or description.declared
+        name = mode or self.match(description, taught=True) or description.declared
         name = name or f"mode{len(self.modes_)}"
         target = self.modes_.setdefault(name, _Mode(name))
         target.members.append(description)

@@ -63,6 +63,8 @@ SPECTRUM_SEGMENT = 256
 #: Readings of the motion signature (:func:`~axiswatch.indicators._readings.task_signature`).
 _N_SPEED = 1 + len(SIGNATURE_MOVING_QUANTILES)
 _N_MOTION = _N_SPEED + len(SIGNATURE_POSITION_QUANTILES) + 1
+#: The signature's motion readings, ahead of the carried load.
+MOTION_READINGS = _N_MOTION
 
 
 def _column_value(capture: Capture, name: str) -> str:
