@@ -105,3 +105,48 @@ def test_a_fleet_exported_on_windows_is_read(
     code, output = _monitor(controller_fleet, tmp_path / "s.sqlite")
     assert code == 0, output
     assert "16 capture(s) scored in this run" in output
+
+
+def test_a_profile_edited_after_the_baseline_refits_it_instead_of_alarming(
+    tmp_path: Path,
+) -> None:
+    # The export writes degrees; the first profile said radians, and is fixed once the fleet
+    # was scored. Every new capture was then judged against the baseline read before the fix:
+    # "bad data (no motion: position spans 1.7 % of the baseline's)", never scored until a
+    # re-baseline. The model and its data-quality reference are now refitted from the
+    # baseline's own captures, read as the profile now says.
+    from axiswatch.datasets import draw_robot
+    from axiswatch.monitor import MonitorConfig, SQLiteStore
+    from axiswatch.monitor._monitor import monitor_fleet
+
+    robot = draw_robot(4)
+    root = tmp_path / "fleet"
+    folder = root / "r1" / "a0"
+    folder.mkdir(parents=True)
+    profile = folder / "axis.toml"
+    profile.write_text('[units]\nposition = "rad"\n', encoding="utf-8")
+
+    def write(day: int) -> None:
+        capture = robot.capture(0, seed=day)
+        signals = dict(capture.signals)
+        signals["position"] = np.degrees(signals["position"])
+        signals["speed"] = np.degrees(signals["speed"])
+        name = f"2026-03-{day:02d}.parquet"
+        aw.write_capture(aw.Capture(signals, capture.rates_hz), folder / name)
+
+    for day in range(1, 10):
+        write(day)
+    settle(root)
+    store = tmp_path / "s.db"
+    with SQLiteStore(store) as opened:
+        monitor_fleet(root, opened, MonitorConfig())
+    profile.write_text('[units]\nposition = "deg"\n', encoding="utf-8")
+    for day in (10, 11):
+        write(day)
+    settle(root)
+    with SQLiteStore(store) as opened:
+        summary = monitor_fleet(root, opened, MonitorConfig())
+        scores = opened.score_table()
+    new = scores[scores.capture.isin(["2026-03-10.parquet", "2026-03-11.parquet"])]
+    assert len(new) == 2, summary.rejected
+    assert not new.alarm.any(), new[["capture", "distance", "reason"]].to_string()

@@ -104,14 +104,15 @@ def _refit_failed(
 
 def _still_valid(run: Run, saved: SavedModel, baseline: Baseline) -> bool:
     """A stored model of the baseline that this run can use as it is: same file, parameters,
-    library version and model format. Any other is refitted (and never read: a blob of an
+    axis profile, library version and model format. Any other is refitted (and never read: a blob of an
     older format cannot be). A model saved without the baseline's data-quality reference is
     refitted too: the reference judges "no motion" in every later capture."""
+    params = run.model_params(baseline.robot, baseline.axis)
     return saved.reference is not None and (
         saved.file_hash,
         saved.params,
         saved.library_version,
-    ) == (baseline.file_hash, run.params, model_version())
+    ) == (baseline.file_hash, params, model_version())
 
 
 def _plan_new(run: Run, state: AxisState, retired: Baseline | None) -> FitJob | None:

@@ -183,7 +183,7 @@ class Run:
         reference = None if outcome.reference is None else dict(outcome.reference.spans)
         saved = SavedModel(
             outcome.file_hash,
-            self.params,
+            self.model_params(outcome.job.file.robot, outcome.job.file.axis),
             model_version(),
             outcome.model_key,
             outcome.rates_hz,
@@ -196,6 +196,11 @@ class Run:
         """What a rejection of the axis's captures depends on: the parameters, and the content
         of the axis profile that applied (none, or a malformed one: its error). Adding or fixing
         the profile changes it, and the captures are read again."""
+        return f"{self.params_hash}+{self.profile_hash(robot, axis)}"
+
+    def profile_hash(self, robot: str, axis: str) -> str:
+        """A hash of the axis profile that applies to the axis (none, or a malformed one: its
+        error)."""
         key = (robot, axis)
         if key not in self.profile_hashes:
             try:
@@ -204,7 +209,14 @@ class Run:
             except (ProfileError, OSError) as exc:  # its captures are rejected with this error
                 text = str(exc)
             self.profile_hashes[key] = hashlib.sha256(text.encode()).hexdigest()[:16]
-        return f"{self.params_hash}+{self.profile_hashes[key]}"
+        return self.profile_hashes[key]
+
+    def model_params(self, robot: str, axis: str) -> str:
+        """What a stored model of the axis was fitted under: the parameters and the axis
+        profile. A profile edited since (units, sides, columns) refits the model from the
+        baseline's own captures, read as the profile now says: a reading moved by the edit is
+        never scored against a model fitted before it."""
+        return f"{self.params}\nprofile {self.profile_hash(robot, axis)}"
 
     def unreadable(self, file: FleetFile, reason: str) -> None:
         relative = self.relative(file.path)
