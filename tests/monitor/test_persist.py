@@ -53,8 +53,9 @@ def test_round_trip_gives_identical_distances(method: str) -> None:
 
 def test_an_lra_model_stored_with_its_baseline_features_still_scores() -> None:
     # Written by the previous layout, which kept the baseline's |STFT| features in the model
-    # and in its detector; the distances and fingerprint it gave then.
-    blob = (Path(__file__).parents[1] / "data" / "lra-model-format10.npz").read_bytes()
+    # and in its detector; the distances and fingerprint it gave then. A stored blob of a model
+    # fitted on simulated captures (an .npz archive, named .blob: it is no recorded data).
+    blob = (Path(__file__).parents[1] / "data" / "lra-model-format10.blob").read_bytes()
     model = load_model(blob)
     assert isinstance(model.detector_.baseline_, np.ndarray)  # the stored form, as it was
     expected = {0.3: 0.05487800949954262, 0.25: 0.06274353083066554}  # 0.25 s: shorter
