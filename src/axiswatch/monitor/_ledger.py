@@ -137,37 +137,15 @@ def commit_score(
     def decision(history: AxisHistory) -> Decision:
         return decide(history, outcome.distance, rule, top_indicator=top)
 
-    score = NewScore(
-        baseline_id=job.baseline_id,
-        robot=file.robot,
-        axis=file.axis,
-        method=config.method,
-        capture=file.capture,
-        captured_at=file.captured_at,
-        path=job.relative,
-        file_hash=outcome.file_hash,
-        file_size=outcome.file_size,
-        file_mtime_ns=outcome.file_mtime_ns,
-        distance=outcome.distance,
-        details=dict(outcome.details),
-    )
+    score = _new_score(outcome, config, outcome.distance, dict(outcome.details))
     return store.record_score(score, decision, window=rule.window)
 
 
-def _commit_in_mode(
-    store: StoreWriter, outcome: ScoreOutcome, config: MonitorConfig, modes: ModeBook
-) -> bool:
-    """Write a capture decided by its axis's mode library, then let the library learn."""
+def _new_score(
+    outcome: ScoreOutcome, config: MonitorConfig, distance: float, details: dict[str, Any]
+) -> NewScore:
     job, file = outcome.job, outcome.job.file
-    assert outcome.description is not None
-    top = outcome.details.get("top_indicator")
-    distance, decision, stored = modes.decide(
-        job.baseline_id, outcome.description, file.capture, (outcome.distance, top)
-    )
-    details = dict(outcome.details)
-    if math.isfinite(outcome.distance):
-        details["baseline_distance"] = outcome.distance
-    score = NewScore(
+    return NewScore(
         baseline_id=job.baseline_id,
         robot=file.robot,
         axis=file.axis,
@@ -181,6 +159,21 @@ def _commit_in_mode(
         distance=distance,
         details=details,
     )
+
+
+def _commit_in_mode(
+    store: StoreWriter, outcome: ScoreOutcome, config: MonitorConfig, modes: ModeBook
+) -> bool:
+    """Write a capture decided by its axis's mode library, then let the library learn."""
+    assert outcome.description is not None
+    baseline = (outcome.distance, outcome.details.get("top_indicator"))
+    distance, decision, stored = modes.decide(
+        outcome.job.baseline_id, outcome.description, outcome.job.file.capture, baseline
+    )
+    details = dict(outcome.details)
+    if math.isfinite(outcome.distance):
+        details["baseline_distance"] = outcome.distance
+    score = _new_score(outcome, config, distance, details)
     written = store.record_score(score, decision, window=config.decision_rule().window)
     if written:
         stored()
