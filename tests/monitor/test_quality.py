@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -135,3 +137,33 @@ def test_a_torque_in_another_unit_is_a_scale_change_a_larger_move_is_not(
         "scale changed: signal 'speed' scale changed by 57x (it spans 687.6, the baseline's 12, while the position (1x) and the torque (1x) kept"
     )
     assert data_quality_problem(_with(moving, "torque", 1000.0 * torque)) is None  # no baseline
+
+
+def test_a_repaired_spike_is_a_data_quality_note_not_an_alarm(tmp_path: Path) -> None:
+    # A lone torque spike under the bad-data limit (half the torque's range above its peak) is
+    # repaired before impulsiveness is read. The monitor now says so once per axis.
+    from typer.testing import CliRunner
+
+    from axiswatch.cli import app
+    from tests.conftest import settle
+
+    folder = tmp_path / "fleet" / "r1" / "a0"
+    folder.mkdir(parents=True)
+    for day in range(1, 10):
+        capture = aw.datasets.simulate_capture("heavy", seed=day)
+        if day == 9:
+            torque = np.array(capture.signals["torque"])
+            low, high = np.percentile(torque, [1.0, 99.0])
+            torque[torque.size // 2] = torque.max() + 0.5 * (high - low)
+            capture = aw.Capture({**capture.signals, "torque": torque}, capture.rates_hz)
+        aw.write_capture(capture, folder / f"2026-03-{day:02d}.parquet")
+    settle(tmp_path / "fleet")
+    store = tmp_path / "s.db"
+    done = CliRunner().invoke(app, ["monitor", str(tmp_path / "fleet"), "--store", str(store)])
+    assert done.exit_code == 0, done.output
+    assert "Data-quality notes (1):" in done.output
+    assert "r1/a0: 1 lone torque spike(s) in 1 capture(s) repaired" in done.output
+    with aw.Store(store, read_only=True) as opened:
+        last = opened.score_table().iloc[-1]
+    assert not last.alarm
+    assert '"repaired_spikes": 1' in last.details

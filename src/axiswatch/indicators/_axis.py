@@ -128,7 +128,9 @@ class IndicatorBaseline:
     def score(self, capture: Capture, file_hash: str, profile: AxisProfile | None) -> Assessment:
         """:func:`assess_capture` in units of the threshold that applied
         (:func:`threshold_units`), with :func:`indicator_details`."""
-        return self._in_units(assess_capture(self, capture, file_hash, profile), file_hash)
+        if file_hash in self.file_hashes:  # read when it was fitted
+            return self._in_units(assess_capture(self, capture, file_hash, profile), file_hash)
+        return self.score_read(self.read(capture, profile)[0], file_hash)
 
     def score_read(self, read: Readings, file_hash: str) -> Assessment:
         """:meth:`score` of a capture's readings already read (:meth:`read`)."""
@@ -136,13 +138,17 @@ class IndicatorBaseline:
             assessment = self.model.assess_fitting(self.file_hashes.index(file_hash))
         else:
             assessment = self.model.assess_readings(read)
-        return self._in_units(assessment, file_hash)
+        return self._in_units(assessment, file_hash, read.repaired)
 
-    def _in_units(self, assessment: IndicatorAssessment, file_hash: str) -> Assessment:
+    def _in_units(
+        self, assessment: IndicatorAssessment, file_hash: str, repaired: int = 0
+    ) -> Assessment:
         if not assessment.scored:
             # Not an alarm and not a healthy score: no indicator of the model could be read.
             return Assessment(math.nan, 1.0, False, explanation=assessment.reason())
         details = indicator_details(self, assessment, left_out=file_hash in self.file_hashes)
+        if repaired:
+            details["repaired_spikes"] = repaired
         distance = threshold_units(assessment)
         return Assessment(distance, 1.0, distance > 1.0, leading=assessment.top, details=details)
 

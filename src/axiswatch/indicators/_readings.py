@@ -158,6 +158,8 @@ class Readings:
         Read with ``whole_moves=True``: the least-squares standard errors of
         ``coulomb_friction`` and ``viscous_friction`` (:data:`FRICTION`; NaN where the
         coefficient is not read). Empty otherwise.
+    repaired : int
+        Lone torque spikes (a logger's glitch) repaired before ``impulsiveness`` was read.
     """
 
     values: dict[str, float]
@@ -166,6 +168,7 @@ class Readings:
     signature: tuple[float, ...] = ()
     order_profile: OrderProfile | None = field(default=None, compare=False)
     errors: dict[str, float] = field(default_factory=dict)
+    repaired: int = 0
 
     def available(self) -> list[str]:
         """Names of the indicators that were read."""
@@ -498,11 +501,13 @@ def read_indicators(
         )
         return Readings(values, reasons, capture.source, signature, profile, errors)
     # A lone one-sample spike (a logger's glitch) would dominate the fourth moment on its own.
-    band = _band(dataclasses.replace(m, torque=repair_lone_spikes(m.torque)))
+    torque = repair_lone_spikes(m.torque)
+    repaired = 0 if torque is m.torque else int(np.count_nonzero(torque != m.torque))
+    band = _band(dataclasses.replace(m, torque=torque))
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
     values["impulsiveness"] = pearson_kurtosis(normalised[moving])
-    return Readings(values, reasons, capture.source, signature, profile, errors)
+    return Readings(values, reasons, capture.source, signature, profile, errors, repaired)
 
 
 def _sides_disagree(m: Motion, fast: NDArray[np.bool_], gear_ratio: float) -> str | None:

@@ -155,6 +155,7 @@ def _score_in_order(run: Run, planned: Iterable[ScoreJob], *, expected: int | No
                         run.summary.scored += 1
                         file = ready.job.file
                         run.summary.unread.add_details(f"{file.robot}/{file.axis}", ready.details)
+                        run.summary.note_repairs(f"{file.robot}/{file.axis}", ready.details)
         count += len(group)
         run.report("captures", first + count, first + len(jobs))
     run.done["captures"] += len(jobs)

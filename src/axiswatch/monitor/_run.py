@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import functools
 import hashlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 from axiswatch._axis_model import MonitoredModel
 from axiswatch._profiles import AxisProfile
@@ -63,7 +64,8 @@ class MonitorSummary:
     ``fleet_priors``: axes fitted before their fleet had 3 axes that got its task-change
     allowances in this run (their later captures are scored with them; no attention needed).
     ``unread``: per axis, the indicators the captures scored in this run could not give, and why
-    (said once per axis; no attention needed).
+    (said once per axis; no attention needed). ``repaired``: per axis, captures whose lone
+    torque spikes were repaired before ``impulsiveness`` was read (no attention needed).
 
     ``n_files`` counts the capture files of the axis folders this run listed;
     ``unchanged_folders`` the axis folders it did not list, unchanged since a run finished them
@@ -87,6 +89,15 @@ class MonitorSummary:
     baseline_checks: list[str] = field(default_factory=list)
     fleet_priors: list[str] = field(default_factory=list)
     unread: UnreadIndicators = field(default_factory=UnreadIndicators)
+    #: Per axis: captures of this run with lone torque spikes repaired, and the spikes.
+    repaired: dict[str, tuple[int, int]] = field(default_factory=dict)
+
+    def note_repairs(self, axis: str, details: Mapping[str, Any]) -> None:
+        """Count a scored capture's repaired spikes (``details["repaired_spikes"]``)."""
+        spikes = int(details.get("repaired_spikes", 0))
+        if spikes:
+            captures, total = self.repaired.get(axis, (0, 0))
+            self.repaired[axis] = (captures + 1, total + spikes)
 
     @property
     def exit_code(self) -> int:

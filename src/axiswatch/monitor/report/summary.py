@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import re
 import shlex
+from collections.abc import Mapping
 from datetime import timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -91,6 +92,7 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
         ("Axes calibrating", result.calibrating),
         ("Fleet allowances now applied", result.fleet_priors),
         ("Axes with indicators not read", unread_lines(result.unread)),
+        ("Data-quality notes", repair_lines(result.repaired)),
         ("Stale axes", result.stale),
     ):
         if items:
@@ -121,6 +123,21 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
             for seen in result.acknowledged_alarms
         )
     return lines
+
+
+def repair_lines(repaired: Mapping[str, tuple[int, int]]) -> list[str]:
+    """One line per axis whose captures had lone torque spikes repaired.
+
+    Examples
+    --------
+    >>> repair_lines({"r1/a0": (2, 3)})
+    ['r1/a0: 3 lone torque spike(s) in 2 capture(s) repaired before impulsiveness was read (a logger or cable glitch?); scored as usual']
+    """
+    return [
+        f"{axis}: {spikes} lone torque spike(s) in {captures} capture(s) repaired before "
+        "impulsiveness was read (a logger or cable glitch?); scored as usual"
+        for axis, (captures, spikes) in repaired.items()
+    ]
 
 
 def unread_lines(unread: UnreadIndicators) -> list[str]:
