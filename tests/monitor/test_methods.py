@@ -40,7 +40,9 @@ class RmsDetector(aw.BaselineDetector):
 
 @pytest.fixture
 def registry(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Registrations of a test go to a copy of the table, dropped afterwards."""
+    """Registrations of a test go to a copy of the table, dropped afterwards (the plugins
+    loaded before the copy: loaded into it, they would be dropped with it, and never again)."""
+    methods()
     monkeypatch.setattr(
         axiswatch.monitor._methods, "_METHODS", dict(axiswatch.monitor._methods._METHODS)
     )
@@ -272,3 +274,25 @@ def test_the_paper_methods_store_the_parameters_of_the_detector_they_make(
     made = making.stored_params(config)
     assert made["detector"] == config.preset.make(config).detector.get_params()
     assert json.dumps(config.params(), sort_keys=True) == json.dumps(made, sort_keys=True)
+
+
+def test_a_method_registered_before_the_plugins_load_still_comes_after_them() -> None:
+    # In a fresh process the plugins load on first use; registering first used to put them
+    # after the user's method, and the order then hung on what a process asked before.
+    from importlib.metadata import entry_points
+
+    if not list(entry_points(group=axiswatch.monitor._methods.METHOD_GROUP)):
+        pytest.skip("no plugin method installed")
+    import subprocess
+    import sys
+
+    code = (
+        "from axiswatch.monitor import MethodPreset, methods, register_method\n"
+        "register_method('rms', MethodPreset(detector=lambda config: None))\n"
+        "print(list(methods())[-1])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "rms"

@@ -314,6 +314,9 @@ def register_method(name: str, preset: MethodPreset, *, replace: bool = False) -
         raise ValueError(
             f"The method name must be letters, digits, '_' and '-'. Got {name!r} instead."
         )
+    # The plugins first: a method registered here then comes after them whatever was asked
+    # before, and a plugin's own name is never taken unknowingly.
+    _load_plugins()
     if name in _METHODS and not replace:
         raise ValueError(
             f"The method {name!r} is registered already; pass replace=True to replace it."
