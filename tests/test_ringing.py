@@ -172,7 +172,6 @@ def test_it_matches_its_naive_twin(seed: int, task: int, candidate: str) -> None
     assert fast == pytest.approx(slow, rel=1e-6)
 
 
-
 @pytest.mark.parametrize(("seed", "task"), [(0, 0), (1, 1), (6, 2), (7, 3)])
 def test_the_friction_solve_it_reuses_is_its_own_fit(seed: int, task: int) -> None:
     # read_indicators hands the friction reading's coefficients to gap_ringing: on the moving

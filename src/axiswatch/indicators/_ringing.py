@@ -209,9 +209,7 @@ def gap_ringing(
     moving = np.abs(speed) > moving_fraction * peak
     if peak <= 0 or int(moving.sum()) < 8:
         return math.nan, "needs motion"
-    whole, rigid = _fit(
-        position, speed, acceleration, torque, moving, moving_fraction * peak, fit
-    )
+    whole, rigid = _fit(position, speed, acceleration, torque, moving, moving_fraction * peak, fit)
     low, high = RINGING_BAND_HZ[0], min(RINGING_BAND_HZ[1], NYQUIST_MARGIN * rate_hz)
     residual = _filtered(butter_sos(4, (low, high), rate_hz), torque - whole)
     near = np.zeros(time_s.size, dtype=bool)
