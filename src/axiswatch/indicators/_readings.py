@@ -193,10 +193,11 @@ def friction_design(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.fl
     position = m.position[moving]
     span = float(np.ptp(position)) or 1.0
     q = (position - float(np.mean(position))) / span
-    # Written column by column in Fortran order, the layout LAPACK solves in: NumPy's
-    # column_stack of 1-D arrays wrote a row at a time and cost as much as the solve.
+    # The cube as a product: NumPy's q**3 calls pow(), which cost as much as the solve. The
+    # columns are written in Fortran order, the layout LAPACK solves in.
+    square = q**2
     design = np.empty((v.size, 7), order="F")
-    for k, column in enumerate((np.sign(v), v, m.acceleration[moving], 1.0, q, q**2, q**3)):
+    for k, column in enumerate((np.sign(v), v, m.acceleration[moving], 1.0, q, square, square * q)):
         design[:, k] = column
     speeds = np.abs(v)
     return design, float(np.std(speeds)) > 0.1 * float(np.mean(speeds))

@@ -73,10 +73,11 @@ def _fit(
     span = float(np.ptp(position[moving])) or 1.0
     q = (position - float(np.mean(position[moving]))) / span
     saturated = np.clip(speed / moving_speed, -1.0, 1.0)
-    # Column by column in Fortran order: column_stack wrote a row at a time (a quarter of the
-    # reading's time).
+    # As the friction's design: the cube as a product (q**3 calls pow(), a quarter of the
+    # reading's time), the columns in Fortran order.
+    square = q**2
     design = np.empty((q.size, 7), order="F")
-    for k, column in enumerate((saturated, speed, acceleration, 1.0, q, q**2, q**3)):
+    for k, column in enumerate((saturated, speed, acceleration, 1.0, q, square, square * q)):
         design[:, k] = column
     if coefficients is None:
         coefficients, *_ = scipy.linalg.lstsq(design[moving], torque[moving])
