@@ -197,7 +197,16 @@ def friction_design(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.fl
     # columns are written in Fortran order, the layout LAPACK solves in.
     square = q**2
     design = np.empty((v.size, 7), order="F")
-    for k, column in enumerate((np.sign(v), v, m.acceleration[moving], 1.0, q, square, square * q)):
+    columns: tuple[NDArray[np.float64] | float, ...] = (
+        np.sign(v),
+        v,
+        m.acceleration[moving],
+        1.0,
+        q,
+        square,
+        square * q,
+    )
+    for k, column in enumerate(columns):
         design[:, k] = column
     speeds = np.abs(v)
     return design, float(np.std(speeds)) > 0.1 * float(np.mean(speeds))

@@ -77,7 +77,16 @@ def _fit(
     # reading's time), the columns in Fortran order.
     square = q**2
     design = np.empty((q.size, 7), order="F")
-    for k, column in enumerate((saturated, speed, acceleration, 1.0, q, square, square * q)):
+    columns: tuple[NDArray[np.float64] | float, ...] = (
+        saturated,
+        speed,
+        acceleration,
+        1.0,
+        q,
+        square,
+        square * q,
+    )
+    for k, column in enumerate(columns):
         design[:, k] = column
     if coefficients is None:
         coefficients, *_ = scipy.linalg.lstsq(design[moving], torque[moving])
