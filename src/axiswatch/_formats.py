@@ -143,8 +143,12 @@ def _read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, str]]:
     import pyarrow.parquet as pq
 
     # One file: read_table's dataset machinery (partitions, many files) doubled the read's cost.
-    with pq.ParquetFile(path) as parquet:
-        table = parquet.read()
+    try:
+        with pq.ParquetFile(path) as parquet:
+            table = parquet.read()
+    except Exception:  # pyarrow raises many types for a corrupt file
+        # read_table's error says the same and names the file, as the rejections list it.
+        table = pq.read_table(path)
     raw = (table.schema.metadata or {}).get(_METADATA_KEY)
     metadata = {str(k): str(v) for k, v in json.loads(raw).items()} if raw else {}
     frame = _float_frame(table)
