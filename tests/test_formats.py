@@ -277,3 +277,53 @@ def test_a_declared_encoding_is_used_and_a_wrong_one_named(tmp_path: Path) -> No
         aw.read_capture(path, profile=aw.AxisProfile(encoding="utf-8"))
     with pytest.raises(ProfileError, match=r"encoding 'klingon' is not a text encoding"):
         aw.AxisProfile(encoding="klingon")
+
+
+def _write_parquet_as(how: str, frame: pd.DataFrame, path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    if how == "no pandas metadata":
+        # NaN written as nulls (from_pandas), as a logger writing Arrow itself leaves a gap.
+        columns = {k: pa.array(v.to_numpy(), from_pandas=True) for k, v in frame.items()}
+        assert columns["speed"].null_count > 0
+        pq.write_table(pa.Table.from_pydict(columns), path)
+    elif how == "index column":
+        frame.set_index("time").to_parquet(path)
+    elif how == "float32":
+        frame.astype({"speed": np.float32}).to_parquet(path)
+    elif how == "text column":
+        frame.assign(mode="run").to_parquet(path)
+    else:  # pandas' default: a RangeIndex kept as metadata
+        frame.to_parquet(path, index=None if how == "range index" else False)
+
+
+@pytest.mark.parametrize(
+    ("how", "fast"),
+    [
+        ("no index", True),
+        ("no pandas metadata", True),
+        ("range index", False),
+        ("index column", False),
+        ("float32", False),
+        ("text column", False),
+    ],
+)
+def test_parquet_float_columns_are_read_as_pandas_reads_them(
+    tmp_path: Path, how: str, fast: bool
+) -> None:
+    # A table of float columns is read without to_pandas (half the read's time): the same frame.
+    import pyarrow.parquet as pq
+
+    t = np.arange(40) / 100.0
+    speed = np.where(np.arange(40) % 7 == 3, np.nan, np.sin(t))  # NaN: nulls or NaN in the file
+    frame = pd.DataFrame({"time": t, "speed": speed, "torque": np.cos(t)})
+    path = tmp_path / "c.parquet"
+    _write_parquet_as(how, frame, path)
+    table = pq.read_table(path)
+    assert (axiswatch._formats._float_frame(table) is not None) == fast
+    expected = table.to_pandas()
+    if not isinstance(expected.index, pd.RangeIndex):
+        expected = expected.reset_index()
+    read, _ = axiswatch._formats._read_parquet(path)
+    pd.testing.assert_frame_equal(read, expected, check_exact=True)

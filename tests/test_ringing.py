@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 from axiswatch.datasets import DEVELOPMENT_ROBOTS, Fault, draw_robot
-from axiswatch.indicators._readings import Motion, motion, read_indicators
+from axiswatch.indicators._readings import (
+    MOVING_FRACTION,
+    Motion,
+    _friction,
+    motion,
+    read_indicators,
+)
 from axiswatch.indicators._ringing import (
     CROSSING_HYSTERESIS,
     MIN_RINGING_RATE_HZ,
@@ -164,3 +170,19 @@ def test_it_matches_its_naive_twin(seed: int, task: int, candidate: str) -> None
     )
     # Normal equations against LAPACK's least squares: the fit's condition number squared.
     assert fast == pytest.approx(slow, rel=1e-6)
+
+
+@pytest.mark.parametrize(("seed", "task"), [(0, 0), (1, 1), (6, 2), (7, 3)])
+def test_the_friction_solve_it_reuses_is_its_own_fit(seed: int, task: int) -> None:
+    # read_indicators hands the friction reading's coefficients to gap_ringing: on the moving
+    # samples the two designs are one, so the reading is the one gap_ringing solves itself.
+    capture = draw_robot(DEVELOPMENT_ROBOTS[seed]).capture(task, seed="fit")
+    m = motion(capture)
+    moving = np.abs(m.speed) > MOVING_FRACTION * float(np.max(np.abs(m.speed)))
+    friction = _friction(m, moving, errors=False)
+    assert friction.coefficients is not None
+    signals = (m.time_s, m.position, m.speed, m.acceleration, m.torque, m.rate_hz)
+    alone = gap_ringing(*signals)
+    assert math.isfinite(alone[0])
+    assert gap_ringing(*signals, fit=friction.coefficients) == alone
+    assert read_indicators(capture).values["gap_ringing"] == alone[0]

@@ -262,6 +262,8 @@ def _tidy_headers(frame: pd.DataFrame, profile: AxisProfile | None, path: Path) 
             f"{path}: columns {[str(c) for c in frame.columns]} name {repeated} more than once "
             "(up to case and spaces); expected one column per name."
         )
+    if tidy == list(frame.columns):
+        return frame  # already tidy: pandas' set_axis copies the frame
     return frame.set_axis(tidy, axis=1)
 
 
@@ -296,8 +298,9 @@ def _signal_from_column(
         raise CaptureError(
             f"{path}: column '{name}' has {count} value(s); a signal needs at least 2 to have a rate."
         )
-    first, last = np.flatnonzero(present)[[0, -1]]
-    stamps = time_s[present]
+    whole = count == column.size  # in every row: no boolean indexing needed
+    first, last = (0, column.size - 1) if whole else np.flatnonzero(present)[[0, -1]]
+    stamps = time_s if whole else time_s[present]
     steps = np.diff(stamps)
     period = float(np.median(steps))
     off = np.flatnonzero(np.abs(steps - period) > _SPACING_RTOL * period)
@@ -331,20 +334,25 @@ def _signal_from_column(
             f"t={stamps[k]:.6g} s{into} where the signal's period is {period:.6g} s ({cause})."
         )
     # A signal sampled on a coarser grid than the file's rows: every row between its first and last
-    # sample that lies on its own grid must hold a value.
-    window = slice(first, last + 1)
-    on_grid = np.abs(
-        ((time_s[window] - stamps[0]) / period) - np.round((time_s[window] - stamps[0]) / period)
-    )
-    holes = np.flatnonzero((on_grid < 1e-3) & np.isnan(column[window]))
-    if holes.size:
-        raise CaptureError(
-            f"{path}: column '{name}' has NaN inside the signal at t={time_s[first + holes[0]]:.6g} s; "
-            "expected a value at each of the signal's own sampling instants."
+    # sample that lies on its own grid must hold a value. A signal in every row has no hole.
+    if not whole:
+        window = slice(first, last + 1)
+        on_grid = np.abs(
+            ((time_s[window] - stamps[0]) / period)
+            - np.round((time_s[window] - stamps[0]) / period)
         )
+        holes = np.flatnonzero((on_grid < 1e-3) & np.isnan(column[window]))
+        if holes.size:
+            raise CaptureError(
+                f"{path}: column '{name}' has NaN inside the signal at "
+                f"t={time_s[first + holes[0]]:.6g} s; "
+                "expected a value at each of the signal's own sampling instants."
+            )
     # With the median step, 1 % jitter gave 99.94 Hz against the baseline's 100.06 Hz, and a
     # readable capture was rejected.
-    return column[present], 1.0 / sampling_period(stamps), float(stamps[0])
+    own_period = sampling_period(stamps, median_step=period)
+    values = column.copy() if whole else column[present]
+    return values, 1.0 / own_period, float(stamps[0])
 
 
 def _repeated_rows(frame: pd.DataFrame) -> NDArray[np.bool_]:

@@ -511,14 +511,26 @@ class AxisProfile:
         motor-side one divided by the gear ratio), ignored roles left out; with
         ``resample_irregular``, on a uniform grid every ``step_s`` seconds (default: the rows'
         own :func:`~axiswatch._timebase.sampling_period`)."""
-        renamed = frame.rename(columns={c: self.role_of(str(c)) for c in frame.columns})
-        duplicated = renamed.columns[renamed.columns.duplicated()].tolist()
+        # Each step only where it changes something: pandas' rename and drop cost a fifth of
+        # reading a 3 s capture even when they change nothing.
+        roles = [self.role_of(str(c)) for c in frame.columns]
+        renamed = frame.copy(deep=False)
+        if roles != list(frame.columns):
+            renamed.columns = pd.Index(roles)
+        seen: set[str] = set()
+        duplicated: list[str] = []
+        for role in roles:
+            if role in seen:
+                duplicated.append(role)
+            seen.add(role)
         if duplicated:
             raise CaptureError(
                 f"{path}: the axis profile {self.source} maps two columns to {duplicated}."
             )
-        renamed = renamed.drop(columns=[role for role in self.ignore if role in renamed.columns])
-        if "time" not in renamed.columns:
+        ignored = [role for role in self.ignore if role in seen]
+        if ignored:
+            renamed = renamed.drop(columns=ignored)
+        if "time" not in seen or "time" in ignored:
             found = list(map(str, frame.columns))
             if not self.columns:  # the file's own names: the same words as without a profile
                 raise CaptureError(
@@ -554,7 +566,11 @@ class AxisProfile:
             # nanoseconds as float64 would lose the sub-microsecond steps.
             first = stamps.iloc[0]
             check_stamp_unit(float(first) * TIME_UNITS[self.time_unit], self.time_unit, path)
-            relative = (stamps - first).to_numpy(dtype=np.float64) * TIME_UNITS[self.time_unit]
+            if isinstance(stamps.dtype, np.dtype) and stamps.dtype.kind in "if":
+                difference = stamps.to_numpy() - first  # pandas' subtraction, without its cost
+            else:
+                difference = (stamps - first).to_numpy()
+            relative = difference.astype(np.float64) * TIME_UNITS[self.time_unit]
         renamed["time"] = relative
         for role in ("position", "speed"):
             scale = self.position_scale()

@@ -120,7 +120,7 @@ def check_increasing(time_s: NDArray[np.float64], path: Path) -> None:
         )
 
 
-def sampling_period(stamps: NDArray[np.float64]) -> float:
+def sampling_period(stamps: NDArray[np.float64], *, median_step: float | None = None) -> float:
     """Sampling period of uniformly meant time stamps, in their unit.
 
     Exact stamps (every step within 1e-9 of their median) give their median step; jittered ones
@@ -133,6 +133,8 @@ def sampling_period(stamps: NDArray[np.float64]) -> float:
     ----------
     stamps : ndarray of shape (n_samples,)
         Increasing time stamps, at least 2.
+    median_step : float, optional
+        The median of the stamps' steps, when the caller has it (``np.median(np.diff(stamps))``).
 
     Returns
     -------
@@ -146,7 +148,7 @@ def sampling_period(stamps: NDArray[np.float64]) -> float:
     0.1
     """
     steps = np.diff(stamps)
-    median = float(np.median(steps))
+    median = float(np.median(steps)) if median_step is None else median_step
     if np.abs(steps - median).max() <= 1e-9 * median:
         return median
     index = np.arange(stamps.size, dtype=np.float64)

@@ -74,3 +74,46 @@ def test_orders_off_one_grid_take_the_waves_path(rng: np.random.Generator) -> No
     assert ratio == pytest.approx(
         free._f(rows, exact=True) / free._f(shifted, exact=True), rel=1e-9
     )
+
+
+def test_shared_phasors_give_the_same_waves_bit_for_bit(rng: np.random.Generator) -> None:
+    from axiswatch.indicators._wave_sums import Phasors
+
+    angle = np.sort(rng.uniform(40.0, 400.0, 2000))
+    orders = signals.bearing_orders(5.43)
+    phasors = Phasors(angle)
+    signals._harmonics(angle, signals.WHOLE_ORDERS, None, phasors)  # keeps exp(1j angle)
+    shared = signals._wave_rows(angle, orders, phasors=phasors)
+    alone = signals._wave_rows(angle, orders)
+    assert np.array_equal(shared, alone)
+    for shift in (-0.25, 0.25):  # the second is the first's conjugate
+        out, half = np.empty_like(alone), np.empty((alone.shape[0] // 2, angle.size))
+        moved = signals._shifted_rows(shared, angle, shift, out, half, phasors).copy()
+        assert np.array_equal(moved, signals._shifted_rows(alone, angle, shift, out, half))
+
+
+def test_a_captures_lines_share_their_exponentials(
+    rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # exp(1j f angle) costs about fifty complex products: the whole orders' exp(1j angle) serves
+    # the bearing's grid of step 1, and the shifts -0.25 and 0.25 share one. Was 8 a capture.
+    import axiswatch.indicators._wave_sums as wave_sums
+
+    calls: list[int] = []
+    cis = wave_sums.cis
+
+    def counted(angle: np.ndarray) -> np.ndarray:
+        calls.append(angle.size)
+        return cis(angle)
+
+    monkeypatch.setattr(wave_sums, "cis", counted)
+    monkeypatch.setattr(signals, "cis", counted)
+    angle = np.sort(rng.uniform(40.0, 400.0, 2000))
+    torque = rng.normal(size=angle.size)
+    shared = signals.whole_orders(angle)
+    tooth = [k / 5.0 for k in range(1, 41) if k % 5]
+    signals.line_ratio(torque, angle, tooth, [0.1], nuisance=shared)
+    signals.bearing_lines(torque, angle, 5.43, nuisance=shared)
+    # Whole orders 1; the tooth's sums 2 (their step and the half step); the bearing's two grid
+    # starts and one shift.
+    assert len(calls) == 6

@@ -193,11 +193,24 @@ def friction_design(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.fl
     ((186, 7), True)
     """
     v = m.speed[moving]
-    span = float(np.ptp(m.position[moving])) or 1.0
-    q = (m.position[moving] - float(np.mean(m.position[moving]))) / span
-    design = np.column_stack(
-        [np.sign(v), v, m.acceleration[moving], np.ones_like(v), q, q**2, q**3]
+    position = m.position[moving]
+    span = float(np.ptp(position)) or 1.0
+    q = (position - float(np.mean(position))) / span
+    # The cube as a product: NumPy's q**3 calls pow(), which cost as much as the solve. The
+    # columns are written in Fortran order, the layout LAPACK solves in.
+    square = q**2
+    design = np.empty((v.size, 7), order="F")
+    columns: tuple[NDArray[np.float64] | float, ...] = (
+        np.sign(v),
+        v,
+        m.acceleration[moving],
+        1.0,
+        q,
+        square,
+        square * q,
     )
+    for k, column in enumerate(columns):
+        design[:, k] = column
     speeds = np.abs(v)
     return design, float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
 
@@ -279,9 +292,20 @@ def whole_move_mask(speed: NDArray[np.float64], moving_fraction: float) -> NDArr
     return np.asarray(np.repeat(keep, stops - starts), dtype=bool)
 
 
-def _friction(
-    m: Motion, moving: NDArray[np.bool_], *, errors: bool
-) -> tuple[float, float, str | None, dict[str, float]]:
+@dataclass(frozen=True)
+class _FrictionFit:
+    """The friction reading of a capture and its least-squares solve."""
+
+    coulomb: float
+    viscous: float
+    why: str | None
+    errors: dict[str, float]
+    #: The seven coefficients of :func:`friction_design`'s every column; None when the viscous
+    #: column was dropped. ``gap_ringing`` fits the same design on the same samples.
+    coefficients: NDArray[np.float64] | None
+
+
+def _friction(m: Motion, moving: NDArray[np.bool_], *, errors: bool) -> _FrictionFit:
     """Coulomb and viscous coefficients, why the viscous one is missing (or None), and, with
     ``errors``, their standard errors from the same design and solve (else empty)."""
     design, separable = friction_design(m, moving)
@@ -296,8 +320,8 @@ def _friction(
         if separable:
             se["viscous_friction"] = float(each[1])
     if not separable:
-        return float(coefficients[0]), math.nan, "moves at one speed only", se
-    return float(coefficients[0]), float(coefficients[1]), None, se
+        return _FrictionFit(float(coefficients[0]), math.nan, "moves at one speed only", se, None)
+    return _FrictionFit(float(coefficients[0]), float(coefficients[1]), None, se, coefficients)
 
 
 def drive_loads(
@@ -461,12 +485,14 @@ def read_indicators(
             profile = order_profile(spectrum)
     direction = np.sign(m.speed)
     both = [int(np.sum(moving & (direction == d))) >= min_samples for d in (1.0, -1.0)]
+    fit: NDArray[np.float64] | None = None
     if all(both):
-        coulomb, viscous, why, se = _friction(m, moving, errors=whole_moves)
-        values["coulomb_friction"], values["viscous_friction"] = coulomb, viscous
-        errors.update(se)
-        if why is not None:
-            reasons["viscous_friction"] = f"needs moves at more than one speed ({why})"
+        friction = _friction(m, moving, errors=whole_moves)
+        values["coulomb_friction"], values["viscous_friction"] = friction.coulomb, friction.viscous
+        errors.update(friction.errors)
+        fit = friction.coefficients
+        if friction.why is not None:
+            reasons["viscous_friction"] = f"needs moves at more than one speed ({friction.why})"
     else:
         for name in ("coulomb_friction", "viscous_friction"):
             reasons[name] = "needs motion in both directions (the capture moves one way)"
@@ -487,6 +513,7 @@ def read_indicators(
         m.torque,
         m.rate_hz,
         moving_fraction=MOVING_FRACTION,
+        fit=fit,
     )
     values["gap_ringing"] = ringing
     if why is not None:

@@ -61,18 +61,35 @@ def _fit(
     torque: NDArray[np.float64],
     moving: NDArray[np.bool_],
     moving_speed: float,
+    coefficients: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(whole fit, rigid part) of the torque on every sample, fitted on the moving ones.
 
     The friction column is ``sign(speed)`` saturated linearly below ``moving_speed``, so that the
     fit can be evaluated at rest (where ``sign`` would follow the speed's noise); on the moving
-    samples it is ``sign(speed)``, as the friction reading's.
+    samples it is ``sign(speed)``, as the friction reading's: the moving rows are its design,
+    and its ``coefficients``, when given, are this fit's.
     """
     span = float(np.ptp(position[moving])) or 1.0
     q = (position - float(np.mean(position[moving]))) / span
     saturated = np.clip(speed / moving_speed, -1.0, 1.0)
-    design = np.column_stack([saturated, speed, acceleration, np.ones_like(q), q, q**2, q**3])
-    coefficients, *_ = scipy.linalg.lstsq(design[moving], torque[moving])
+    # As the friction's design: the cube as a product (q**3 calls pow(), a quarter of the
+    # reading's time), the columns in Fortran order.
+    square = q**2
+    design = np.empty((q.size, 7), order="F")
+    columns: tuple[NDArray[np.float64] | float, ...] = (
+        saturated,
+        speed,
+        acceleration,
+        1.0,
+        q,
+        square,
+        square * q,
+    )
+    for k, column in enumerate(columns):
+        design[:, k] = column
+    if coefficients is None:
+        coefficients, *_ = scipy.linalg.lstsq(design[moving], torque[moving])
     return design @ coefficients, design[:, 2:] @ coefficients[2:]
 
 
@@ -152,6 +169,7 @@ def gap_ringing(
     moving_fraction: float = 0.1,
     hysteresis: float = CROSSING_HYSTERESIS,
     reference: Literal["away", "motion"] = "away",
+    fit: NDArray[np.float64] | None = None,
 ) -> tuple[float, str | None]:
     """The drive's ringing after the estimated gap crossings over its level in the motion.
 
@@ -169,6 +187,10 @@ def gap_ringing(
         The level the ringing is divided by: the residual's mean square over the moving samples
         outside every window, or the square of its robust level over all moving samples
         (``1.4826 x`` its median absolute value; the first candidate of lab/docs/decision-log.md).
+    fit : ndarray of shape (7,), optional
+        The torque fit's coefficients when already solved: the friction reading's
+        (:func:`~axiswatch.indicators._readings.friction_design` with ``sign(speed)``, fitted on
+        the same moving samples), which are this fit's. Default: solved here.
 
     Returns
     -------
@@ -197,7 +219,7 @@ def gap_ringing(
     moving = np.abs(speed) > moving_fraction * peak
     if peak <= 0 or int(moving.sum()) < 8:
         return math.nan, "needs motion"
-    whole, rigid = _fit(position, speed, acceleration, torque, moving, moving_fraction * peak)
+    whole, rigid = _fit(position, speed, acceleration, torque, moving, moving_fraction * peak, fit)
     low, high = RINGING_BAND_HZ[0], min(RINGING_BAND_HZ[1], NYQUIST_MARGIN * rate_hz)
     residual = _filtered(butter_sos(4, (low, high), rate_hz), torque - whole)
     near = np.zeros(time_s.size, dtype=bool)

@@ -15,7 +15,7 @@ from scipy.signal import butter, sosfilt_zi
 from scipy.signal._arraytools import odd_ext
 from scipy.signal._sosfilt import _sosfilt
 
-from axiswatch.indicators._wave_sums import cis, phasor_sums, wave_products
+from axiswatch.indicators._wave_sums import Phasors, cis, phasor_sums, wave_products
 from axiswatch.indicators._workspace import scratch
 
 __all__ = [
@@ -67,10 +67,14 @@ def _grids(values: NDArray[np.float64]) -> list[tuple[NDArray[np.int64], float, 
 
 
 def _wave_rows(
-    angle: NDArray[np.float64], orders: Sequence[float], out: NDArray[np.float64] | None = None
+    angle: NDArray[np.float64],
+    orders: Sequence[float],
+    out: NDArray[np.float64] | None = None,
+    phasors: Phasors | None = None,
 ) -> NDArray[np.float64]:
     """``sin(o angle)`` for every order ``o``, then ``cos(o angle)``: shape ``(2 p, n)``, a row a
-    wave (the products with the waves read whole rows); written in ``out`` when given.
+    wave (the products with the waves read whole rows); written in ``out`` when given; the
+    exponentials from ``phasors`` when given (the angle's, kept for its other lines).
 
     Orders on a grid (:func:`_grids`) are powers of one complex exponential, built by repeated
     multiplication of one row: one ``exp`` per grid instead of two trigonometric functions per
@@ -78,6 +82,7 @@ def _wave_rows(
     recurrence's rounding error grows by about one ulp per step, far below the signals' noise;
     tested against ``np.sin``/``np.cos`` to 1e-10.
     """
+    phasor = Phasors(angle) if phasors is None else phasors
     values = np.asarray(orders, dtype=np.float64)
     count = values.size
     rows = np.empty((2 * count, angle.size)) if out is None else out
@@ -85,10 +90,8 @@ def _wave_rows(
     for members, start, step in _grids(values):
         steps = np.rint((values[members] - start) / step).astype(np.int64)
         if step not in rotations and steps.max() > 0:
-            rotations[step] = cis(step * angle)
-        # The whole orders start at their step: one exponential for both.
-        same = start == step and step in rotations
-        wave = rotations[step].copy() if same else cis(start * angle)
+            rotations[step] = phasor(step)
+        wave = phasor(start).copy()  # multiplied in place below
         done = 0
         for index in np.argsort(steps, kind="stable"):
             while done < steps[index]:
@@ -114,14 +117,15 @@ def _shifted_rows(
     shift: float,
     out: NDArray[np.float64],
     half: NDArray[np.float64],
+    phasors: Phasors | None = None,
 ) -> NDArray[np.float64]:
     """:func:`_wave_rows` of the orders plus ``shift``, from the rows of the orders: the waves
-    times ``exp(1j * shift * angle)``, written in ``out`` (``half``: scratch of half its rows).
-    One complex product, the same rounding as the recurrence; no new set of waves, no new
-    memory."""
+    times ``exp(1j * shift * angle)`` (from ``phasors`` when given), written in ``out``
+    (``half``: scratch of half its rows). One complex product, the same rounding as the
+    recurrence; no new set of waves, no new memory."""
     count = rows.shape[0] // 2
     sines, cosines = rows[:count], rows[count:]
-    rotation = cis(shift * angle)
+    rotation = cis(shift * angle) if phasors is None else phasors(shift)
     np.multiply(sines, rotation.real, out=out[:count])
     out[:count] += np.multiply(cosines, rotation.imag, out=half)
     np.multiply(cosines, rotation.real, out=out[count:])
@@ -130,11 +134,14 @@ def _shifted_rows(
 
 
 def _harmonics(
-    angle: NDArray[np.float64], orders: Sequence[float], direction: NDArray[np.float64] | None
+    angle: NDArray[np.float64],
+    orders: Sequence[float],
+    direction: NDArray[np.float64] | None,
+    phasors: Phasors | None = None,
 ) -> NDArray[np.float64]:
     """Columns ``sin(o angle)`` then ``cos(o angle)`` for every order ``o`` (then the same times
     ``direction``): :func:`_wave_rows` as columns."""
-    return _signed_rows(_wave_rows(angle, orders), direction).T
+    return _signed_rows(_wave_rows(angle, orders, phasors=phasors), direction).T
 
 
 def angle_locked_f(
@@ -232,6 +239,9 @@ class NuisanceProjection:
         self.basis: NDArray[np.float64] | None = None
         self.triangle: NDArray[np.float64] | None = None  # of the QR: waves = basis @ triangle
         self.factor: NDArray[np.float64] | None = None
+        #: The angle's exponentials, shared by the lines read on it (one block only: a longer
+        #: stretch builds its waves a block at a time, and keeps none).
+        self.phasors: Phasors | None = None
         if len(self.blocks) > 1:
             gram = sum(w.T @ w for w in map(self.waves, self.blocks))
             try:
@@ -239,7 +249,9 @@ class NuisanceProjection:
             except np.linalg.LinAlgError:
                 self.blocks = [slice(0, angle.size)]  # degenerate waves: the exact QR
         if self.factor is None:
-            nuisance = _harmonics(angle, nuisance_orders, direction)
+            if angle.size <= LINE_BLOCK_SAMPLES:
+                self.phasors = Phasors(angle)
+            nuisance = _harmonics(angle, nuisance_orders, direction, self.phasors)
             self.basis, self.triangle = scipy.linalg.qr(
                 nuisance, mode="economic", check_finite=False
             )
@@ -453,10 +465,11 @@ class _NuisanceFree:
         if by_sums is not None:
             return by_sums[0] / float(np.mean(by_sums[1:]))
         n, p = self.angle.size, 2 * len(orders)
-        rows = _wave_rows(self.angle, orders, scratch("waves", (p, n)))
+        phasors = self.nuisance.phasors
+        rows = _wave_rows(self.angle, orders, scratch("waves", (p, n)), phasors)
         moved, half = scratch("shifted", (p, n)), scratch("half", (p // 2, n))
         reference = np.mean(
-            [self._f(_shifted_rows(rows, self.angle, d, moved, half)) for d in offsets]
+            [self._f(_shifted_rows(rows, self.angle, d, moved, half, phasors)) for d in offsets]
         )
         return self._f(rows) / float(reference)
 

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from axiswatch.indicators._workspace import scratch
 
-__all__ = ["MAX_GRIDS", "cis", "phasor_sums", "wave_products"]
+__all__ = ["MAX_GRIDS", "Phasors", "cis", "phasor_sums", "wave_products"]
 
 #: Most grids (classes of frequencies equal modulo the step) summed; beyond, the waves' own
 #: products cost less.
@@ -28,6 +28,34 @@ def cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
     np.cos(angle, out=out.real)
     np.sin(angle, out=out.imag)
     return out
+
+
+class Phasors:
+    """``exp(1j * f * angle)`` of one angle, each frequency ``f`` computed once: a capture's
+    lines share the whole orders' ``exp(1j * angle)``, and a shift and its opposite share one
+    ``cis`` (the conjugate). Each ``cis`` costs about fifty complex products.
+
+    The arrays are read-only: a caller that writes copies first.
+
+    Examples
+    --------
+    >>> phasors = Phasors(np.linspace(0.0, 30.0, 500))
+    >>> phasors(0.25) is phasors(0.25), bool(np.array_equal(phasors(-0.25), np.conj(phasors(0.25))))
+    (True, True)
+    """
+
+    def __init__(self, angle: NDArray[np.float64]) -> None:
+        self.angle = angle
+        self._kept: dict[float, NDArray[np.complex128]] = {}
+
+    def __call__(self, frequency: float) -> NDArray[np.complex128]:
+        kept = self._kept.get(frequency)
+        if kept is None:
+            opposite = self._kept.get(-frequency)
+            kept = cis(frequency * self.angle) if opposite is None else np.conj(opposite)
+            kept.flags.writeable = False
+            self._kept[frequency] = kept
+        return kept
 
 
 def phasor_sums(
