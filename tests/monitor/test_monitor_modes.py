@@ -187,3 +187,14 @@ def test_a_still_capture_is_not_scored(tmp_path: Path) -> None:
     settle(root)
     summary = _run(root, tmp_path / "s.db")
     assert any("2026-03-09.parquet" in line for line in summary.rejected)
+
+
+def test_the_report_shows_a_new_mode_in_the_axis_history(task_change: Path, tmp_path: Path) -> None:
+    from axiswatch.monitor.report.html import write_report
+
+    store = tmp_path / "s.db"
+    _run(task_change, store)
+    with SQLiteStore(store, read_only=True) as opened:
+        html = write_report(opened, tmp_path / "report").read_text(encoding="utf-8")
+    assert "new operating mode mode1" in html
+    assert "learned from its first 5 captures, under a guard" in html

@@ -259,6 +259,11 @@ def _events(
             tail = str(row.reason).split("; ", 1)[1]
             events.append((when, capture, "threshold set", tail))
         elif row.role == "monitor":
+            mode = getattr(row, "mode", None)
+            if isinstance(mode, str) and " (learning 1 of " in mode:
+                name, total = mode.split(" (learning 1 of ")
+                detail = f"learned from its first {total.rstrip(')')} captures, under a guard"
+                events.append((when, capture, f"new operating mode {name}", detail))
             if row.alarm and not previous:
                 events.append((when, capture, "ALARM raised", str(row.top_indicator or row.reason)))
             elif previous and not row.alarm:
