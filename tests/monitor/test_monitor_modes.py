@@ -198,3 +198,14 @@ def test_the_report_shows_a_new_mode_in_the_axis_history(task_change: Path, tmp_
         html = write_report(opened, tmp_path / "report").read_text(encoding="utf-8")
     assert "new operating mode mode1" in html
     assert "learned from its first 5 captures, under a guard" in html
+
+
+def test_two_workers_reach_the_results_of_one(task_change: Path, tmp_path: Path) -> None:
+    # The libraries learn in the driver, in each axis's capture order, whatever the workers.
+    serial, pooled = tmp_path / "serial.db", tmp_path / "pooled.db"
+    _run(task_change, serial)
+    with SQLiteStore(pooled) as opened:
+        monitor_fleet(task_change, opened, MODES, workers=2)
+    columns = ["capture", "distance", "over", "alarm", "reason", "mode"]
+    first = [{k: r[k] for k in columns} for r in _results(serial)]
+    assert [{k: r[k] for k in columns} for r in _results(pooled)] == first
