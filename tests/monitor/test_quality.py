@@ -139,6 +139,37 @@ def test_a_torque_in_another_unit_is_a_scale_change_a_larger_move_is_not(
     assert data_quality_problem(_with(moving, "torque", 1000.0 * torque)) is None  # no baseline
 
 
+def test_a_position_and_speed_in_another_unit_are_a_scale_change(moving: aw.Capture) -> None:
+    # The position's unit moves the speed with it (read in the same unit per second), and
+    # leaves the torque alone: no task does that. Before, --method pca alarmed on every such
+    # capture and the default called it another task.
+    t = np.arange(2000) / 2000.0
+    with_speed = _with(moving, "speed", 6 * np.cos(6 * t))
+    reference = QualityReference.of(with_speed)
+    for factor, said in (
+        (
+            180 / np.pi,
+            "scale changed: the position and speed scale changed by 57x while the torque",
+        ),
+        (np.pi / 180, "no motion: position spans"),
+    ):
+        moved = _with(
+            _with(with_speed, "position", factor * with_speed.signals["position"]),
+            "speed",
+            factor * with_speed.signals["speed"],
+        )
+        # Degrees to rad shrinks the motion as an idle axis does: bad data either way.
+        assert str(data_quality_problem(moved, reference)).startswith(said)
+    # A faster, longer move that loads the axis more is a task, not a unit.
+    task = _with(
+        _with(with_speed, "position", 40 * with_speed.signals["position"]),
+        "speed",
+        40 * with_speed.signals["speed"],
+    )
+    task = _with(task, "torque", 5 * task.signals["torque"])
+    assert data_quality_problem(task, reference) is None
+
+
 def test_a_repaired_spike_is_a_data_quality_note_not_an_alarm(tmp_path: Path) -> None:
     # A lone torque spike under the bad-data limit (half the torque's range above its peak) is
     # repaired before impulsiveness is read. The monitor now says so once per axis.

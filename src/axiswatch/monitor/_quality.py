@@ -134,13 +134,21 @@ def _factor(ratio: float) -> str:
     return f"{ratio:,.0f}" if ratio >= 1 else f"1/{1 / ratio:,.0f}"
 
 
-def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
-    """The ``scale changed`` verdict (:data:`SCALE_CHANGE`), or None."""
-    ratios = {
+def _span_ratios(capture: Capture, reference: QualityReference) -> dict[str, float]:
+    """Each signal's span over the baseline's."""
+    return {
         name: float(np.ptp(values)) / reference.spans[name]
         for name, values in capture.signals.items()
         if reference.spans.get(name, 0.0) > 0
     }
+
+
+def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
+    """The ``scale changed`` verdict (:data:`SCALE_CHANGE`), or None."""
+    ratios = _span_ratios(capture, reference)
+    moved = _position_unit_change(ratios)
+    if moved is not None:
+        return moved
     changed = [
         n
         for n, r in ratios.items()
@@ -159,6 +167,27 @@ def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
         f"{np.ptp(capture.signals[name]):.4g}, the baseline's {reference.spans[name]:.4g}, "
         f"while the {others} kept the baseline's span): a change of unit, not a fault (a "
         "fault changes it by tens of per cent); a new baseline reads the new scale"
+    )
+
+
+def _position_unit_change(ratios: dict[str, float]) -> str | None:
+    """The position's unit changed (rad to degrees): the position and the speed, read in the
+    same unit per second, span :data:`SCALE_CHANGE` times more or less together, and the torque
+    keeps its span. A task moves the torque with them. The position alone is no witness: a
+    capture may hold a part of a task's moves."""
+    position, speed, torque = (ratios.get(n) for n in ("position", "speed", "torque"))
+    if position is None or speed is None or torque is None:
+        return None
+    far = position >= SCALE_CHANGE or position <= 1.0 / SCALE_CHANGE
+    if not (far and 1.0 / SAME_SCALE <= torque <= SAME_SCALE):
+        return None
+    if not 1.0 / SAME_SCALE <= speed / position <= SAME_SCALE:
+        return None
+    return (
+        f"scale changed: the position and speed scale changed by {_factor(position)}x while the "
+        f"torque ({torque:.2g}x) kept the baseline's span: a change of the position's unit (rad, "
+        "degrees, revolutions), not a fault; declare it in the axis profile's [units], or a new "
+        "baseline reads the new scale"
     )
 
 
