@@ -62,6 +62,11 @@ def _results(store: Path) -> list[dict[str, object]]:
     return frame[frame.role != "baseline"].to_dict("records")
 
 
+def _verdicts(store: Path) -> list[dict[str, object]]:
+    columns = ["capture", "distance", "over", "alarm", "reason", "mode"]
+    return [{k: row[k] for k in columns} for row in _results(store)]
+
+
 def test_every_capture_after_a_task_change_gets_a_verdict(
     task_change: Path, tmp_path: Path
 ) -> None:
@@ -111,10 +116,7 @@ def test_split_runs_reach_the_results_of_one_run(task_change: Path, tmp_path: Pa
         path.rename(split / "r1" / "a0" / path.name)
     settle(split)
     _run(split, store)
-    columns = ["capture", "distance", "over", "alarm", "reason", "mode"]
-    first = [{k: r[k] for k in columns} for r in _results(whole)]
-    second = [{k: r[k] for k in columns} for r in _results(store)]
-    assert second == first
+    assert _verdicts(store) == _verdicts(whole)
 
 
 def test_a_fault_in_a_known_mode_alarms_and_ack_task_changed_teaches_it(tmp_path: Path) -> None:
@@ -206,6 +208,4 @@ def test_two_workers_reach_the_results_of_one(task_change: Path, tmp_path: Path)
     _run(task_change, serial)
     with SQLiteStore(pooled) as opened:
         monitor_fleet(task_change, opened, MODES, workers=2)
-    columns = ["capture", "distance", "over", "alarm", "reason", "mode"]
-    first = [{k: r[k] for k in columns} for r in _results(serial)]
-    assert [{k: r[k] for k in columns} for r in _results(pooled)] == first
+    assert _verdicts(pooled) == _verdicts(serial)

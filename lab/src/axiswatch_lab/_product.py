@@ -19,7 +19,7 @@ from axiswatch.indicators._fleet import (
     pool_fleet,
     pool_fleet_without,
 )
-from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._mode_library import ModeAssessment, ModeLibrary
 from axiswatch.indicators._modes import CaptureDescription, describe_capture
 from axiswatch.indicators._order_lines import (
     CELLS_PER_DECADE,
@@ -93,6 +93,7 @@ __all__ = [
     "MIN_READINGS",
     "MIN_REVOLUTIONS",
     "MOVING_FRACTION",
+    "ModeAssessment",
     "ModeLibrary",
     "ORDER_LINES",
     "SIGNATURE_MOVING_QUANTILES",

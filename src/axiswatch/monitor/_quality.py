@@ -134,18 +134,13 @@ def _factor(ratio: float) -> str:
     return f"{ratio:,.0f}" if ratio >= 1 else f"1/{1 / ratio:,.0f}"
 
 
-def _span_ratios(capture: Capture, reference: QualityReference) -> dict[str, float]:
-    """Each signal's span over the baseline's."""
-    return {
+def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
+    """The ``scale changed`` verdict (:data:`SCALE_CHANGE`), or None."""
+    ratios = {
         name: float(np.ptp(values)) / reference.spans[name]
         for name, values in capture.signals.items()
         if reference.spans.get(name, 0.0) > 0
     }
-
-
-def _scale_change(capture: Capture, reference: QualityReference) -> str | None:
-    """The ``scale changed`` verdict (:data:`SCALE_CHANGE`), or None."""
-    ratios = _span_ratios(capture, reference)
     moved = _position_unit_change(ratios)
     if moved is not None:
         return moved

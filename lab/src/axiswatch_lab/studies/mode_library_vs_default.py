@@ -1,8 +1,9 @@
 """The mode library against the default on the robot family: within a mode, Robot A, faults
 growing after a mode change.
 
-``python -m axiswatch_lab.studies.mode_library_vs_default [development|held-out|SEEDS]`` prints one row per
-robot and case, then the means. The product's internals come through :mod:`axiswatch_lab._product`.
+``python -m axiswatch_lab.studies.mode_library_vs_default [development|held-out|SEEDS] [CASES]``
+prints one row per robot and case, then the means. ``CASES``: some of ``within``, ``robot_a``,
+``growing`` (default) and ``variants`` (the library's options, :data:`VARIANTS`). The product's internals come through :mod:`axiswatch_lab._product`.
 """
 
 from __future__ import annotations
@@ -10,7 +11,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from sklearn.metrics import roc_auc_score
@@ -24,7 +26,12 @@ from axiswatch.datasets import (
     SimulatedRobot,
     draw_robot,
 )
-from axiswatch_lab._product import CaptureDescription, ModeLibrary, describe_capture
+from axiswatch_lab._product import (
+    CaptureDescription,
+    ModeAssessment,
+    ModeLibrary,
+    describe_capture,
+)
 
 FAULTS: tuple[FaultKind, ...] = ("backlash", "friction", "tooth", "bearing")
 N_FIT = 5
@@ -107,12 +114,49 @@ def _payload_robot(robot: SimulatedRobot, task: int, extra_kg: float) -> Simulat
     return dataclasses.replace(robot, tasks=tuple(tasks))
 
 
-def robot_a(robot: SimulatedRobot, days: int = 190) -> dict[str, float]:
+#: Library options the decision log compares (``variants`` case); the first is the default.
+VARIANTS: dict[str, dict[str, Any]] = {
+    "base": {},
+    "frozen, learn under 0.5": {"frozen": True, "learn_below": 0.5},
+    "first 30": {"first_window": True},
+    "first 30, learn under 0.5": {"first_window": True, "learn_below": 0.5},
+    "motion match": {"motion_match": True},
+}
+#: Days after a change the engineer made within which they teach its alarms (``teach=True``).
+TEACH_DAYS = 5
+
+
+def _replay(
+    library: ModeLibrary,
+    described: Sequence[CaptureDescription],
+    changes: Sequence[int],
+    teach: bool,
+) -> list[ModeAssessment]:
+    """Score each capture in turn; learn it, or, with ``teach``, teach an alarm that follows a
+    change by at most :data:`TEACH_DAYS` (``ack --task-changed``)."""
+    verdicts = []
+    for day, d in enumerate(described):
+        verdict = library.score(d)
+        if teach and verdict.alarm and any(0 <= day - c < TEACH_DAYS for c in changes):
+            library.teach(d)
+        else:
+            library.learn(d, verdict)
+        verdicts.append(verdict)
+    return verdicts
+
+
+def robot_a(
+    robot: SimulatedRobot,
+    days: int = 190,
+    *,
+    teach: bool = False,
+    options: Mapping[str, Any] | None = None,
+) -> dict[str, float]:
     """A healthy axis: tasks 0, 1, 2, 3 in four quarters, then task 1 at another payload for
     the last tenth; a capture a day. Alarm days of the library and of the default."""
     changes = [round(days * k / 4) for k in (1, 2, 3)]
     heavy = _payload_robot(robot, 1, 5.0)
-    library = ModeLibrary(n_fit=N_FIT)
+    library = ModeLibrary(n_fit=N_FIT, **(options or {}))
     described = []
     for day in range(days):
         task = sum(day >= c for c in changes)
@@ -120,7 +164,7 @@ def robot_a(robot: SimulatedRobot, days: int = 190) -> dict[str, float]:
             described.append(_describe(heavy, 1, f"robotA{day}"))
         else:
             described.append(_describe(robot, task, f"robotA{day}"))
-    verdicts = [library.update(d) for d in described]
+    verdicts = _replay(library, described, [*changes, days - days // 10], teach)
     default = IndicatorModel(_profile(robot)).fit_readings([d.readings for d in described[:6]])
     scored = [_default_score(default, d) for d in described[6:]]
     return {
@@ -133,18 +177,25 @@ def robot_a(robot: SimulatedRobot, days: int = 190) -> dict[str, float]:
 
 
 def growing(
-    robot: SimulatedRobot, fault: FaultKind, onset: int, days: int = 70
+    robot: SimulatedRobot,
+    fault: FaultKind,
+    onset: int,
+    days: int = 70,
+    *,
+    teach: bool = False,
+    options: Mapping[str, Any] | None = None,
 ) -> dict[str, float]:
     """Task 0 for 20 days, task 1 from day 20; the fault grows linearly from day ``onset`` to
     severity 1 on the last day. Detection past severity 0.3, false alarms before onset."""
-    library = ModeLibrary(n_fit=N_FIT)
-    rows = []
+    library = ModeLibrary(n_fit=N_FIT, **(options or {}))
+    severities, described = [], []
     for day in range(days):
         severity = max(0.0, (day - onset) / (days - 1 - onset)) if day > onset else 0.0
         task = 0 if day < 20 else 1
         fault_now = Fault(fault, severity) if severity > 0 else None
-        verdict = library.update(_describe(robot, task, f"grow{day}", fault_now))
-        rows.append((severity, verdict))
+        severities.append(severity)
+        described.append(_describe(robot, task, f"grow{day}", fault_now))
+    rows = list(zip(severities, _replay(library, described, [20], teach), strict=True))
     past = [v.alarm for s, v in rows if s > 0.3]
     before = [v.alarm for s, v in rows if s == 0.0]
     first = next((s for s, v in rows if v.alarm and s > 0), math.nan)
@@ -175,6 +226,15 @@ def main(argv: Sequence[str]) -> None:
             for fault in FAULTS:
                 rows.setdefault(f"growing {fault}", []).append(growing(robot, fault, 30))
                 print(robot.name, "growing", fault, rows[f"growing {fault}"][-1], flush=True)
+        if "variants" in cases:  # each library option, an engineer teaching after a change
+            for name, options in VARIANTS.items():
+                rows.setdefault(f"{name}: robot_a", []).append(
+                    robot_a(robot, teach=True, options=options)
+                )
+                for fault in FAULTS:
+                    rows.setdefault(f"{name}: growing {fault}", []).append(
+                        growing(robot, fault, 30, teach=True, options=options)
+                    )
     for case, found in rows.items():
         means = {k: round(float(np.nanmean([r[k] for r in found])), 3) for k in found[0]}
         print("mean", case, means, flush=True)
