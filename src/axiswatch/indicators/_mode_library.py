@@ -15,9 +15,15 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
-from scipy.stats import t as student_t
 
 from axiswatch._calibration import fit_half_laplace
+from axiswatch.indicators._mode_normals import (
+    ModeBlock,
+    NormalStats,
+    nan_median,
+    normal_shift,
+    other_rows,
+)
 from axiswatch.indicators._modes import (
     MOTION_READINGS,
     SPECTRUM_BANDS,
@@ -77,7 +83,8 @@ def _indicator_distance(
 
     A spread estimated from ``dof + 1`` captures is itself uncertain: the shift is a Student
     t with ``dof`` degrees of freedom, and is taken to the normal shift of equal tail
-    probability, so that a young mode's distances compare with a mature mode's.
+    probability (:func:`~._mode_normals.normal_shift`), so that a young mode's distances
+    compare with a mature mode's.
     """
     best, where = math.nan, ""
     for name, spread in spreads.items():
@@ -86,10 +93,9 @@ def _indicator_distance(
             continue
         z = (x - c) / spread
         z = abs(z) if name in _BOTH else max(z, 0.0)
-        z = float(norm.isf(student_t.sf(z, dof))) if z > 0 else 0.0
         if not z <= best:
             best, where = z, name
-    return best, where
+    return float(normal_shift(best, dof)), where
 
 
 def _spectrum_distance(
@@ -98,8 +104,7 @@ def _spectrum_distance(
     # The largest rise over the bands: a line or an impact band grows; the mean over the
     # bands diluted it (development robots: tooth AUROC 0.64 -> 0.72, bearing 0.67 -> 0.82).
     # On the normal scale, as the readings' shifts (_indicator_distance).
-    z = max(float(np.max((x - centre) / spread)), 0.0)
-    return float(norm.isf(student_t.sf(z, dof))) if z > 0 else 0.0
+    return float(normal_shift(max(float(np.max((x - centre) / spread)), 0.0), dof))
 
 
 @dataclass(frozen=True)
@@ -171,11 +176,6 @@ def tail_threshold(healthy_distances: Sequence[float], percentile: float) -> flo
 _Normal = tuple[
     dict[str, float], dict[str, float], NDArray[np.float64], tuple[NDArray[np.float64], int]
 ]
-
-
-def _pooled(variances: Sequence[tuple[int, float]]) -> float:
-    dof = sum(d for d, _ in variances)
-    return sum(d * v for d, v in variances) / dof if dof else math.nan
 
 
 class ModeLibrary:
@@ -263,64 +263,33 @@ class ModeLibrary:
             centre[n] = float(np.median(finite)) if finite else math.nan
         return centre
 
-    def _members(self, mode: _Mode, leave_out: tuple[str, int] | None) -> list[CaptureDescription]:
-        members = self._recent(mode)
-        if leave_out is not None and leave_out[0] == mode.name:
-            k = leave_out[1]
-            return [*members[:k], *members[k + 1 :]]
-        return members
+    def _stats(self) -> NormalStats:
+        """The known modes' recent readings and spectra as arrays (:mod:`._mode_normals`)."""
+        if "stats" not in self._cache:
+            known = self._known()
+            rows = [[_row(d) for d in self._recent(m)] for m in known]
+            names = sorted({n for block in rows for r in block for n in r})
+            blocks = [
+                ModeBlock(
+                    np.array([[r.get(n, math.nan) for n in names] for r in block], np.float64),
+                    np.stack([d.spectrum for d in self._recent(m)]),
+                )
+                for m, block in zip(known, rows, strict=True)
+            ]
+            both = np.array([n in _BOTH for n in names], bool)
+            self._cache["stats"] = (names, NormalStats(blocks, both, self.n_fit))
+        return self._cache["stats"][1]  # type: ignore[index, no-any-return]
 
-    def _variances(
-        self, leave_out: tuple[str, int] | None = None
-    ) -> dict[str, list[tuple[int, float]]]:
-        out: dict[str, list[tuple[int, float]]] = {}
-        for mode in self._known():
-            rows = [_row(d) for d in self._members(mode, leave_out)]
-            for n in {n for r in rows for n in r}:
-                finite = [r[n] for r in rows if math.isfinite(r.get(n, math.nan))]
-                if len(finite) >= 3:
-                    out.setdefault(n, []).append((len(finite) - 1, float(np.var(finite, ddof=1))))
-        return out
+    def _names(self) -> list[str]:
+        self._stats()
+        return self._cache["stats"][0]  # type: ignore[index, no-any-return]
 
-    def spreads(self, mode: str, leave_out: int | None = None) -> dict[str, float]:
+    def spreads(self, mode: str) -> dict[str, float]:
         """A known mode's within-mode spread of each reading: its own variance, raised towards
-        the variance pooled over the axis's modes (``n_fit - 1`` degrees of weight) when lower.
-
-        ``leave_out`` drops one of the mode's recent captures (a leave-one-out distance);
-        with it in, its own shift would shrink the spread it is scored in."""
-        out_of = None if leave_out is None else (mode, leave_out)
-        pooled = self._variances(out_of)
-        rows = [_row(d) for d in self._members(self.modes_[mode], out_of)]
-        out = {}
-        for n, parts in pooled.items():
-            finite = [r[n] for r in rows if math.isfinite(r.get(n, math.nan))]
-            prior = _pooled(parts)
-            if len(finite) >= 3:
-                dof = len(finite) - 1
-                own = float(np.var(finite, ddof=1))
-                shrunk = (dof * own + (self.n_fit - 1) * prior) / (dof + self.n_fit - 1)
-                # Never below its own: modes differ in spread (one task's friction reading
-                # spread 10x another's on development robots) and a quiet mode's pooled spread
-                # would make a noisy mode alarm.
-                variance = max(own, shrunk)
-            else:
-                variance = prior
-            if variance > 0:
-                out[n] = math.sqrt(variance)
-        return out
-
-    def _spectrum_spread(
-        self, leave_out: tuple[str, int] | None = None
-    ) -> tuple[NDArray[np.float64], int]:
-        parts = []
-        for mode in self._known():
-            spectra = np.stack([d.spectrum for d in self._members(mode, leave_out)])
-            if len(spectra) >= 2:
-                parts.append((len(spectra) - 1, np.var(spectra, 0, ddof=1)))
-        dof = sum(p[0] for p in parts)
-        variance = sum(p[0] * p[1] for p in parts) / dof
-        spread = np.sqrt(np.maximum(variance, np.finfo(np.float64).tiny))
-        return np.asarray(spread, np.float64), max(dof, 1)
+        the variance pooled over the axis's modes (``n_fit - 1`` degrees of weight) when lower."""
+        k = [m.name for m in self._known()].index(mode)
+        spreads = self._stats().spreads(k)
+        return {n: float(v) for n, v in zip(self._names(), spreads, strict=True) if v > 0}
 
     def _spectrum_centre(self, mode: _Mode) -> NDArray[np.float64]:
         return np.asarray(np.median([d.spectrum for d in self._recent(mode)], 0), np.float64)
@@ -331,21 +300,7 @@ class ModeLibrary:
         Each capture against the median of its mode's other recent captures, in spreads
         estimated without it: the healthy distances the thresholds are fitted on.
         """
-        readings, spectra = [], []
-        for mode in self._known():
-            members = self._recent(mode)
-            for k, d in enumerate(members):
-                others = [*members[:k], *members[k + 1 :]]
-                spreads = self.spreads(mode.name, k)
-                distance, _ = _indicator_distance(
-                    _row(d), self._centre(others), spreads, max(len(others) - 1, 1)
-                )
-                if math.isfinite(distance):
-                    readings.append(distance)
-                centre = np.median([o.spectrum for o in others], 0)
-                band = self._spectrum_spread((mode.name, k))
-                spectra.append(_spectrum_distance(d.spectrum, centre, *band))
-        return readings, spectra
+        return self._stats().leave_one_out()
 
     def thresholds(self) -> tuple[float, float]:
         """The readings' and the spectrum's thresholds (:func:`tail_threshold` of the pooled
@@ -372,9 +327,12 @@ class ModeLibrary:
 
     # -- which mode ---------------------------------------------------------------------------
     def _signature(self, mode: _Mode) -> tuple[NDArray[np.float64], float]:
-        signatures = np.stack([d.signature for d in self._recent(mode)])
-        scale = float(np.median([d.torque_scale for d in self._recent(mode)]))
-        return np.asarray(np.nanmedian(signatures, 0), np.float64), scale
+        key = f"signature:{mode.name}"
+        if key not in self._cache:
+            signatures = np.stack([d.signature for d in self._recent(mode)])
+            scale = float(np.median([d.torque_scale for d in self._recent(mode)]))
+            self._cache[key] = (nan_median(signatures, 0), scale)
+        return self._cache[key]  # type: ignore[return-value]
 
     def tolerance(self, mode: str | None = None) -> NDArray[np.float64]:
         """How far each signature reading may be from a known mode's: from that mode's own
@@ -395,12 +353,12 @@ class ModeLibrary:
         size = 0
         for mode in modes:
             members = self._recent(mode)
-            for k, d in enumerate(members):
-                others = [*members[:k], *members[k + 1 :]]
-                centre = np.nanmedian(np.stack([o.signature for o in others]), 0)
-                scale = float(np.median([o.torque_scale for o in others]))
-                differences.append(mode_differences(d.signature, centre, scale))
-                size = d.signature.size
+            signatures = np.stack([d.signature for d in members])
+            centres = nan_median(other_rows(signatures), 1)
+            scales = np.median(other_rows(np.array([d.torque_scale for d in members])), 1)
+            for d, centre, scale in zip(members, centres, scales, strict=True):
+                differences.append(mode_differences(d.signature, centre, float(scale)))
+            size = signatures.shape[1]
         return mode_tolerance(differences, size)
 
     def match(self, description: CaptureDescription, *, taught: bool = False) -> str | None:
@@ -445,7 +403,12 @@ class ModeLibrary:
         known = self._known()
         if len(known) < 2:
             return math.nan, ""
-        pooled = {n: _pooled(p) for n, p in self._variances().items() if _guarded(n)}
+        variances = self._stats().pooled_variance()
+        pooled = {
+            n: float(v)
+            for n, v in zip(self._names(), variances, strict=True)
+            if _guarded(n) and math.isfinite(v)
+        }
         row = _row(description)
         centres = [self._centre(self._recent(m)) for m in known]
         best, where = math.nan, ""
@@ -482,7 +445,7 @@ class ModeLibrary:
                 mode.reference if self.frozen else self._centre(self._recent(mode)),
                 self.spreads(mode.name),
                 self._spectrum_centre(mode),
-                self._spectrum_spread(),
+                self._stats().spectrum_spread(),
             )
         centre, spreads, spectrum_centre, band = self._normals[mode.name]
         dof = max(len(self._recent(mode)) - 1, 1)
@@ -539,17 +502,28 @@ class ModeLibrary:
         return name
 
     def _drifted(self, mode: _Mode) -> bool:
-        """Whether the median of the mode's latest ``n_fit`` captures left its first fit: a
-        two-sided z of the two medians' difference, Bonferroni over the readings."""
+        """Whether a guard reading's latest ``n_fit`` values rose above its first ``n_fit``:
+        a one-sided z of the two medians' difference, Bonferroni over the guard readings.
+
+        Only the readings that grow with a fault in any mode (:data:`GUARD_READINGS`, the
+        kinematic lines), and only a rise: a load, or a reading that falls, also moves as a
+        machine warms up (real hydraulic actuators: 46-74 of their ~100 healthy captures
+        drifted with every reading, both ways). Each reading counts its own values: one read
+        in one direction of motion has a value in every other capture."""
         assert mode.reference is not None
-        if len(mode.members) < 2 * self.n_fit:
-            return False
-        latest = self._centre(mode.members[-self.n_fit :])
         spreads = self.spreads(mode.name)
-        error = _MEDIAN_EFFICIENCY * math.sqrt(2.0 / self.n_fit)
-        names = [n for n in spreads if math.isfinite(latest.get(n, math.nan))]
-        names = [n for n in names if math.isfinite(mode.reference.get(n, math.nan))]
-        if not names:
+        rows = [_row(d) for d in mode.members]
+        shifts = []
+        for n, spread in spreads.items():
+            if not _guarded(n):
+                continue
+            values = [r[n] for r in rows if math.isfinite(r.get(n, math.nan))]
+            if len(values) >= 2 * self.n_fit:
+                first = float(np.median(values[: self.n_fit]))
+                latest = float(np.median(values[-self.n_fit :]))
+                shifts.append((latest - first) / spread)
+        if not shifts:
             return False
-        limit = float(norm.isf((1.0 - self.percentile / 100.0) / (2 * len(names))))
-        return any(abs(latest[n] - mode.reference[n]) / (spreads[n] * error) > limit for n in names)
+        error = _MEDIAN_EFFICIENCY * math.sqrt(2.0 / self.n_fit)
+        limit = float(norm.isf((1.0 - self.percentile / 100.0) / len(shifts)))
+        return max(shifts) / error > limit

@@ -1,0 +1,156 @@
+"""The mode library's normals as arrays, against the capture-by-capture computation; its drift test."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from scipy.stats import norm
+from scipy.stats import t as student_t
+
+from axiswatch.indicators._mode_library import ModeLibrary
+from axiswatch.indicators._mode_normals import ModeBlock, NormalStats, normal_shift
+from axiswatch.indicators._modes import SPECTRUM_BANDS, CaptureDescription
+from axiswatch.indicators._readings import Readings
+
+N_FIT = 5
+
+
+def _blocks(rng: np.random.Generator) -> list[ModeBlock]:
+    """Three modes of 9, 6 and 12 captures; readings missing in every other capture, in a whole
+    mode, and a reading with 2 values only."""
+    blocks = []
+    for m, scale in ((9, 1.0), (6, 3.0), (12, 0.5)):
+        x = scale * rng.standard_normal((m, 4)) + rng.standard_normal(4)
+        x[::2, 1] = np.nan
+        if m == 6:
+            x[:, 2] = np.nan
+        x[2:, 3] = np.nan
+        spectra = rng.standard_normal((m, 8)) * scale
+        blocks.append(ModeBlock(x, spectra))
+    return blocks
+
+
+def _reference(
+    blocks: list[ModeBlock], both: np.ndarray, k: int, rows: list[int]
+) -> tuple[np.ndarray, float]:
+    """Mode ``k``'s spreads from its captures ``rows`` (the other modes whole), one reading
+    and one mode at a time, as the library computed them before they were arrays."""
+    spreads = np.full(both.size, np.nan)
+    for n in range(both.size):
+        parts = []
+        for j, block in enumerate(blocks):
+            values = block.readings[rows if j == k else slice(None), n]
+            values = values[np.isfinite(values)]
+            if values.size >= 3:
+                parts.append((values.size - 1, float(np.var(values, ddof=1))))
+        if not parts:
+            continue
+        prior = sum(d * v for d, v in parts) / sum(d for d, _ in parts)
+        own = blocks[k].readings[rows, n]
+        own = own[np.isfinite(own)]
+        variance = prior
+        if own.size >= 3:
+            dof, var = own.size - 1, float(np.var(own, ddof=1))
+            variance = max(var, (dof * var + (N_FIT - 1) * prior) / (dof + N_FIT - 1))
+        if variance > 0:
+            spreads[n] = math.sqrt(variance)
+    parts = []
+    for j, block in enumerate(blocks):
+        spectra = block.spectra[rows] if j == k else block.spectra
+        parts.append((len(spectra) - 1, np.var(spectra, 0, ddof=1)))
+    dof = sum(d for d, _ in parts)
+    band = np.sqrt(sum(d * v for d, v in parts) / dof)
+    return spreads, (band, dof)
+
+
+def test_spreads_and_leave_one_out_distances_equal_the_capture_by_capture_computation() -> None:
+    rng = np.random.default_rng(0)
+    blocks = _blocks(rng)
+    both = np.array([False, True, False, True])
+    stats = NormalStats(blocks, both, N_FIT)
+    readings, spectra = stats.leave_one_out()
+    expected_readings, expected_spectra = [], []
+    for k, block in enumerate(blocks):
+        m = len(block.readings)
+        whole, _ = _reference(blocks, both, k, list(range(m)))
+        np.testing.assert_allclose(stats.spreads(k), whole, rtol=1e-12)
+        for i in range(m):
+            others = [r for r in range(m) if r != i]
+            spreads, (band, dof) = _reference(blocks, both, k, others)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a reading never read
+                centre = np.nanmedian(block.readings[others], 0)
+            best = math.nan
+            for n in range(both.size):
+                x, c, s = block.readings[i, n], centre[n], spreads[n]
+                if not (math.isfinite(x) and math.isfinite(c) and s > 0):
+                    continue
+                z = abs(x - c) / s if both[n] else max((x - c) / s, 0.0)
+                z = float(norm.isf(student_t.sf(z, m - 2))) if z > 0 else 0.0
+                best = z if not z <= best else best
+            if math.isfinite(best):
+                expected_readings.append(best)
+            rise = max(
+                float(np.max((block.spectra[i] - np.median(block.spectra[others], 0)) / band)), 0
+            )
+            expected_spectra.append(float(norm.isf(student_t.sf(rise, dof))) if rise > 0 else 0.0)
+    assert len(readings) == len(expected_readings) > 0
+    np.testing.assert_allclose(readings, expected_readings, rtol=1e-12)
+    np.testing.assert_allclose(spectra, expected_spectra, rtol=1e-12)
+
+
+def test_normal_shift_is_the_normal_quantile_of_the_t_tail() -> None:
+    z = np.array([-1.0, 0.0, 0.5, 3.0, np.nan])
+    got = normal_shift(z, 4)
+    assert got[:2].tolist() == [0.0, 0.0]
+    assert got[2:4] == pytest.approx(norm.isf(student_t.sf(z[2:4], 4)), rel=1e-12)
+    assert math.isnan(got[4])
+
+
+# -- the drift test ----------------------------------------------------------------------------
+def _capture(rng: np.random.Generator, k: int, **readings: float) -> CaptureDescription:
+    values = {
+        "coulomb_friction": 1.0 + 0.05 * rng.standard_normal(),
+        "impulsiveness": 2.0 * math.exp(0.05 * rng.standard_normal()),
+    }
+    values.update(readings)
+    spectrum = np.linspace(0.0, -3.0, SPECTRUM_BANDS) + 0.05 * rng.standard_normal(SPECTRUM_BANDS)
+    signature = np.array([2.0, 1.0, 1.8, -1.0, 1.0, 0.5, 3.0])
+    signature = signature * (1 + 0.005 * rng.standard_normal(signature.size))
+    return CaptureDescription(f"c{k}.csv", signature, 10.0, Readings(values), spectrum)
+
+
+def _states(captures: list[CaptureDescription]) -> list[str]:
+    library = ModeLibrary(n_fit=N_FIT)
+    return [library.update(c).state for c in captures]
+
+
+def test_a_reading_of_every_other_capture_is_drift_tested_on_its_own_values() -> None:
+    # gap_ringing read in one direction of motion only, low in its first two values (a warm-up).
+    rng = np.random.default_rng(1)
+    captures = []
+    for k in range(40):
+        ringing = (0.7 if k < 4 else 1.0) + 0.03 * rng.standard_normal() if k % 2 == 0 else math.nan
+        captures.append(_capture(rng, k, gap_ringing=ringing))
+    assert "drift" not in _states(captures)
+
+
+def test_a_slowly_rising_load_or_a_falling_friction_is_not_a_drift() -> None:
+    rng = np.random.default_rng(2)
+    rising_load = [
+        _capture(rng, k, load_forward=100.0 + 1.5 * k + rng.standard_normal()) for k in range(40)
+    ]
+    assert "drift" not in _states(rising_load)
+    falling = [
+        _capture(rng, k, coulomb_friction=1.0 - 0.01 * k + 0.05 * rng.standard_normal())
+        for k in range(40)
+    ]
+    assert "drift" not in _states(falling)
+    rising = [
+        _capture(rng, k, coulomb_friction=1.0 + 0.01 * k + 0.05 * rng.standard_normal())
+        for k in range(40)
+    ]
+    assert "drift" in _states(rising)
