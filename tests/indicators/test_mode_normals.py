@@ -154,3 +154,13 @@ def test_a_slowly_rising_load_or_a_falling_friction_is_not_a_drift() -> None:
         for k in range(40)
     ]
     assert "drift" in _states(rising)
+
+
+def test_a_library_keeps_the_first_and_latest_window_of_a_mode() -> None:
+    rng = np.random.default_rng(3)
+    library = ModeLibrary(n_fit=N_FIT, window=10)
+    captures = [_capture(rng, k) for k in range(50)]
+    verdicts = [library.update(c) for c in captures]
+    mode = library.modes_["mode0"]
+    assert mode.members == [*captures[:10], *captures[-10:]]
+    assert verdicts[-1].n_seen == 49, "captures learned before the last, all counted"

@@ -144,6 +144,20 @@ class _Mode:
     members: list[CaptureDescription] = field(default_factory=list)
     reference: dict[str, float] | None = None
     drifted: bool = False
+    joined: int = 0
+
+    @property
+    def seen(self) -> int:
+        """Captures the mode learned (a library stored before they were counted: kept ones)."""
+        return max(self.joined, len(self.members))
+
+    def join(self, description: CaptureDescription, window: int) -> None:
+        """Add a capture; keep the first ``window`` (the first fit, the drift test's start)
+        and the latest ``window`` (the normal), so a stored library stays the same size."""
+        self.joined = self.seen + 1
+        self.members.append(description)
+        if len(self.members) > 2 * window:
+            del self.members[window:-window]
 
 
 def tail_threshold(healthy_distances: Sequence[float], percentile: float) -> float:
@@ -457,7 +471,7 @@ class ModeLibrary:
         state: State = "drift" if mode.drifted else "known"
         alarm = bool(score > 1.0 or mode.drifted)
         return ModeAssessment(
-            source, mode.name, state, score, alarm, where, len(mode.members), self.n_fit, rate
+            source, mode.name, state, score, alarm, where, mode.seen, self.n_fit, rate
         )
 
     def update(self, description: CaptureDescription) -> ModeAssessment:
@@ -474,7 +488,7 @@ class ModeLibrary:
         if verdict.state == "known" and verdict.score > self.learn_below:
             return False
         mode = self.modes_.setdefault(verdict.mode, _Mode(verdict.mode))
-        mode.members.append(description)
+        mode.join(description, self.window)
         self._cache.clear()
         self._normals.clear()
         if mode.reference is None and len(mode.members) >= self.n_fit:
@@ -494,7 +508,7 @@ class ModeLibrary:
         name = mode or self.match(description, taught=True) or description.declared
         name = name or f"mode{len(self.modes_)}"
         target = self.modes_.setdefault(name, _Mode(name))
-        target.members.append(description)
+        target.join(description, self.window)
         if target.reference is None and len(target.members) >= self.n_fit:
             target.reference = self._centre(target.members)
         self._cache.clear()
