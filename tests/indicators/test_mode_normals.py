@@ -88,11 +88,13 @@ def test_spreads_and_leave_one_out_distances_equal_the_capture_by_capture_comput
                 x, c, s = block.readings[i, n], centre[n], spreads[n]
                 if not (math.isfinite(x) and math.isfinite(c) and s > 0):
                     continue
+                s *= math.sqrt(1 + math.pi / (2 * (m - 1)))  # the centre's own error
                 z = abs(x - c) / s if both[n] else max((x - c) / s, 0.0)
                 z = float(norm.isf(student_t.sf(z, m - 2))) if z > 0 else 0.0
                 best = z if not z <= best else best
             if math.isfinite(best):
                 expected_readings.append(best)
+            band = band * math.sqrt(1 + math.pi / (2 * (m - 1)))
             rise = max(
                 float(np.max((block.spectra[i] - np.median(block.spectra[others], 0)) / band)), 0
             )

@@ -268,3 +268,14 @@ def test_a_known_motion_at_another_load_is_scored_in_its_mode_when_asked() -> No
     assert verdict.alarm
     assert library.teach(loaded) == "mode1"
     assert library.match(_description(rng, signature=heavier)) == "mode1"
+
+
+def test_teach_makes_an_alarm_of_a_known_mode_a_new_mode() -> None:
+    rng = np.random.default_rng(12)
+    library = _learned(rng, 8)
+    members = list(library.modes_["mode0"].members)
+    heavier = [_description(rng, friction=2.0, source=f"h{k}.csv") for k in range(2)]
+    assert library.score(heavier[0]).alarm
+    assert [library.teach(d) for d in heavier] == ["mode1", "mode1"]
+    assert library.modes_["mode0"].members == members
+    assert library.score(_description(rng, friction=2.0)).mode == "mode1"

@@ -20,6 +20,7 @@ from axiswatch._calibration import fit_half_laplace
 from axiswatch.indicators._mode_normals import (
     ModeBlock,
     NormalStats,
+    centre_error,
     nan_median,
     normal_shift,
     other_rows,
@@ -461,10 +462,13 @@ class ModeLibrary:
                 self._spectrum_centre(mode),
                 self._stats().spectrum_spread(),
             )
-        centre, spreads, spectrum_centre, band = self._normals[mode.name]
+        centre, spreads, spectrum_centre, (band, band_dof) = self._normals[mode.name]
+        error = float(centre_error(self.n_fit if self.frozen else len(self._recent(mode))))
+        spreads = {n: v * error for n, v in spreads.items()}
+        band = band * error
         dof = max(len(self._recent(mode)) - 1, 1)
         d_readings, where = _indicator_distance(_row(description), centre, spreads, dof)
-        d_spectrum = _spectrum_distance(description.spectrum, spectrum_centre, *band)
+        d_spectrum = _spectrum_distance(description.spectrum, spectrum_centre, band, band_dof)
         score = d_readings / t_readings if math.isfinite(d_readings) else 0.0
         if d_spectrum / t_spectrum > score:
             score, where = d_spectrum / t_spectrum, "spectrum"
@@ -500,13 +504,17 @@ class ModeLibrary:
     def teach(self, description: CaptureDescription, mode: str | None = None) -> str:
         """Learn a capture the engineer says is healthy (an alarm that was a mode change).
 
-        It joins ``mode`` (a new one of that name when unknown), else the mode it matches,
-        else a new mode; a drifted mode stays drifted. Returns the mode's name.
+        It joins ``mode`` (a new one of that name when unknown), else its declared mode, else
+        the new mode it is being learned in, else a new mode. A capture that alarmed in a
+        known mode is not of that mode: joined to it, a payload change taught on development
+        robots made the mode drift. A drifted mode stays drifted. Returns the mode's name.
         """
         if not description.moving:
             raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
-        name = mode or self.match(description, taught=True) or description.declared
-        name = name or f"mode{len(self.modes_)}"
+        found = self.match(description, taught=True)
+        if found is not None and description.declared is None:
+            found = found if self.modes_[found].reference is None else None
+        name = mode or found or f"mode{len(self.modes_)}"
         target = self.modes_.setdefault(name, _Mode(name))
         target.join(description, self.window)
         if target.reference is None and len(target.members) >= self.n_fit:

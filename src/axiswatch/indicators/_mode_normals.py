@@ -37,6 +37,12 @@ def normal_shift(z: Array | float, dof: int | Array) -> Array:
     return np.asarray(np.where(np.isnan(z), np.nan, out), np.float64)
 
 
+def centre_error(n: int | Array) -> Array | float:
+    """A capture's spread about a median of ``n`` captures, in the captures' spread:
+    ``sqrt(1 + pi / (2 n))`` (the median's large-sample variance, normal captures)."""
+    return np.sqrt(1.0 + np.pi / (2.0 * np.asarray(n, np.float64)))
+
+
 def other_rows(x: Array) -> Array:
     """Shape ``(m, m - 1, ...)``: for each row, the other rows, in order."""
     m = x.shape[0]
@@ -161,7 +167,7 @@ class NormalStats:
             prior = self._pooled((k, dof, weighted))
             spread = self._spread(prior, count, var)
             centre = nan_median(others, 1)
-            z = (block.readings - centre) / spread
+            z = (block.readings - centre) / (spread * centre_error(m - 1))
             z = np.where(self.both, np.abs(z), np.maximum(z, 0.0))
             z = np.where(np.isfinite(z), z, -np.inf)
             best = z.max(1)
@@ -170,6 +176,6 @@ class NormalStats:
             readings.extend(float(s) for s in shifts)
             other_spectra = other_rows(block.spectra)  # (m, m - 1, bands)
             band, band_dof = self.spectrum_spread(k, other_spectra)
-            rise = (block.spectra - np.median(other_spectra, 1)) / band
+            rise = (block.spectra - np.median(other_spectra, 1)) / (band * centre_error(m - 1))
             spectra.extend(float(s) for s in normal_shift(np.maximum(rise.max(1), 0.0), band_dof))
         return readings, spectra
