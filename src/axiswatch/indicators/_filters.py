@@ -1,0 +1,72 @@
+"""Zero-phase Butterworth filters of the indicators, designed once per rate and process."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.signal import butter, sosfilt_zi
+from scipy.signal._arraytools import odd_ext
+from scipy.signal._sosfilt import _sosfilt
+
+__all__ = ["butter_sos", "zero_phase"]
+
+
+@lru_cache(maxsize=1024)
+def butter_sos(
+    order: int, cutoff_hz: float | tuple[float, float], rate_hz: float
+) -> NDArray[np.float64]:
+    """Butterworth low-pass (one cutoff) or band-pass (two) sections, designed once per
+    parameters and process (a design costs about as much as filtering a 3 s capture; every
+    capture of a fleet uses the same few). Shared by the callers, which must not modify it
+    (SciPy's filters need a writeable array, so it cannot be marked read-only).
+
+    Examples
+    --------
+    >>> butter_sos(2, 10.0, 1000.0).shape
+    (1, 6)
+    >>> butter_sos(2, 10.0, 1000.0) is butter_sos(2, 10.0, 1000.0)
+    True
+    """
+    btype = "bandpass" if isinstance(cutoff_hz, tuple) else "lowpass"
+    return np.asarray(butter(order, cutoff_hz, btype=btype, fs=rate_hz, output="sos"))
+
+
+@lru_cache(maxsize=1024)
+def _initial_state(sections: bytes, count: int) -> NDArray[np.float64]:
+    """``sosfilt_zi`` of the sections whose bytes are ``sections`` (``count`` rows), once."""
+    return np.asarray(sosfilt_zi(np.frombuffer(sections).reshape(count, 6)))
+
+
+def zero_phase(
+    sos: NDArray[np.float64], x: NDArray[np.float64], padlen: int | None = None
+) -> NDArray[np.float64]:
+    """``scipy.signal.sosfiltfilt(sos, x, padlen=padlen)`` of a 1-D ``x``, the filter's initial
+    state computed once per filter (:func:`butter_sos`'s designs are few; solving for the state
+    cost as much as the filtering of a 3 s capture). Bit-identical to SciPy's (tested).
+
+    Examples
+    --------
+    >>> from scipy.signal import sosfiltfilt
+    >>> x = np.sin(np.arange(200) / 5.0)
+    >>> sos = butter_sos(2, 10.0, 1000.0)
+    >>> bool(np.array_equal(zero_phase(sos, x), sosfiltfilt(sos, x)))
+    True
+    """
+    count = sos.shape[0]
+    zi = _initial_state(np.ascontiguousarray(sos, dtype=np.float64).tobytes(), count)
+    if padlen is None:
+        taps = 2 * count + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
+        padlen = 3 * taps
+    if x.size <= padlen:
+        raise ValueError(f"The length of the input vector x must be greater than padlen, {padlen}.")
+    ext = odd_ext(x, padlen) if padlen > 0 else x
+    # SciPy's sosfilt of a 1-D signal, without its checks and axis moves (ten calls a capture).
+    sections = np.asarray(sos, dtype=np.float64)
+    y = np.array(ext, dtype=np.float64, order="C")[None, :]
+    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
+    y = np.array(y[:, ::-1], order="C")
+    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
+    y = y[0, ::-1]
+    return np.asarray(y[padlen:-padlen] if padlen > 0 else y, dtype=np.float64)
