@@ -193,22 +193,35 @@ def angle_locked_f(
 #: against the QR path); below it the statistic is computed by QR instead.
 GRAM_MIN_RCOND = 1e-8
 
+#: Least reciprocal condition number of the nuisance waves' Gram matrix for which
+#: :class:`NuisanceProjection` projects by its Cholesky factor instead of a QR of the waves. The
+#: projection's relative error is then about ``eps / rcond <= 2e-10``; whole orders over a few
+#: revolutions have a condition of 1-100, and a stretch too short for that takes the QR.
+PROJECTION_MIN_RCOND = 1e-6
+
 #: Samples of angle whose waves the line statistics hold at a time. A longer stretch is summed
 #: block by block (normal equations, every wave built per block), so memory does not grow with
 #: a capture's length; a stretch of one block is computed by QR as before.
 LINE_BLOCK_SAMPLES = 1 << 16
 
 
-def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> float | None:
-    """``right' gram^-1 right`` by Cholesky; None when ``gram`` is not positive definite or its
-    reciprocal condition is below :data:`GRAM_MIN_RCOND`. LAPACK is called directly: SciPy's
-    wrappers of these small solves cost more than the solves (five a capture)."""
+def _cholesky(gram: NDArray[np.float64], min_rcond: float) -> NDArray[np.float64] | None:
+    """The upper Cholesky factor of ``gram``; None when ``gram`` is not positive definite or its
+    reciprocal condition is below ``min_rcond``. LAPACK is called directly: SciPy's wrappers of
+    these small solves cost more than the solves (several a capture)."""
     factor, info = scipy.linalg.lapack.dpotrf(gram, lower=0, clean=1)
     if info != 0:
         return None
     # LAPACK's estimate of the reciprocal 1-norm condition number from the factor.
     rcond, _ = scipy.linalg.lapack.dpocon(factor, np.abs(gram).sum(axis=0).max())
-    if rcond < GRAM_MIN_RCOND:
+    return None if rcond < min_rcond else np.asarray(factor, dtype=np.float64)
+
+
+def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> float | None:
+    """``right' gram^-1 right`` by Cholesky; None when ``gram`` is not positive definite or its
+    reciprocal condition is below :data:`GRAM_MIN_RCOND`."""
+    factor = _cholesky(gram, GRAM_MIN_RCOND)
+    if factor is None:
         return None
     half, _ = scipy.linalg.lapack.dtrtrs(factor, right[:, None], lower=0, trans=1)
     return float(half[:, 0] @ half[:, 0])
@@ -219,7 +232,9 @@ class NuisanceProjection:
 
     Computed once per stretch and shared by every line read on it (a capture's tooth and
     bearing lines filter the torque in their own bands, on the same motor angle). Up to
-    :data:`LINE_BLOCK_SAMPLES` samples it is a QR of the waves; beyond, the Cholesky factor of
+    :data:`LINE_BLOCK_SAMPLES` samples it is the Cholesky factor of the waves' Gram matrix, or
+    a QR of the waves where that matrix is ill-conditioned (:data:`PROJECTION_MIN_RCOND`); a
+    QR of 3,000 x 16 waves cost ten times their Gram matrix. Beyond, the Cholesky factor of
     their Gram matrix summed block by block (whole orders over many revolutions are nearly
     orthogonal: condition 1-10), and every product with the waves is made a block at a time.
     """
@@ -236,8 +251,10 @@ class NuisanceProjection:
         self.orders = tuple(nuisance_orders)
         size = LINE_BLOCK_SAMPLES
         self.blocks = [slice(i, i + size) for i in range(0, max(angle.size, 1), size)]
-        self.basis: NDArray[np.float64] | None = None
-        self.triangle: NDArray[np.float64] | None = None  # of the QR: waves = basis @ triangle
+        self.basis: NDArray[np.float64] | None = None  # of the QR, when taken
+        #: One block: waves = basis @ triangle, so ``triangle' triangle`` is their Gram matrix.
+        self.triangle: NDArray[np.float64] | None = None
+        self.rows: NDArray[np.float64] | None = None  # the waves, a row each (Cholesky)
         self.factor: NDArray[np.float64] | None = None
         #: The angle's exponentials, shared by the lines read on it (one block only: a longer
         #: stretch builds its waves a block at a time, and keeps none).
@@ -251,11 +268,37 @@ class NuisanceProjection:
         if self.factor is None:
             if angle.size <= LINE_BLOCK_SAMPLES:
                 self.phasors = Phasors(angle)
-            nuisance = _harmonics(angle, nuisance_orders, direction, self.phasors)
-            self.basis, self.triangle = scipy.linalg.qr(
-                nuisance, mode="economic", check_finite=False
-            )
+            rows = _signed_rows(_wave_rows(angle, nuisance_orders, phasors=self.phasors), direction)
+            self.triangle = _cholesky(rows @ rows.T, PROJECTION_MIN_RCOND)
+            if self.triangle is None:
+                self.basis, self.triangle = scipy.linalg.qr(
+                    rows.T, mode="economic", check_finite=False
+                )
+            else:
+                self.rows = rows
         self.k = 2 * len(self.orders) * (1 if direction is None else 2)
+
+    @property
+    def blocked(self) -> bool:
+        """Whether the stretch is summed block by block (no waves kept)."""
+        return self.factor is not None
+
+    def coordinates(self, tests: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``Q' T``: the waves ``tests`` (``p x n``, a row each) on an orthonormal basis ``Q`` of
+        the nuisance waves (one block), shape ``(k, p)``. By Cholesky, ``R^-T N' T``."""
+        if self.rows is None:
+            assert self.basis is not None
+            return (tests @ self.basis).T
+        half, _ = scipy.linalg.lapack.dtrtrs(self.triangle, self.rows @ tests.T, lower=0, trans=1)
+        return np.asarray(half, dtype=np.float64)
+
+    def orthonormal(self) -> NDArray[np.float64]:
+        """``Q``, an orthonormal basis of the nuisance waves (one block): the QR's, taken here
+        when the projection was made by Cholesky (only the exact path needs it)."""
+        if self.basis is None:
+            assert self.rows is not None
+            self.basis = scipy.linalg.qr(self.rows.T, mode="economic", check_finite=False)[0]
+        return self.basis
 
     def waves(self, block: slice) -> NDArray[np.float64]:
         """The nuisance waves of the samples ``block``."""
@@ -264,6 +307,9 @@ class NuisanceProjection:
 
     def residual(self, signal: NDArray[np.float64]) -> NDArray[np.float64]:
         """``signal`` less its projection on the nuisance waves."""
+        if self.rows is not None:
+            solved, _ = scipy.linalg.lapack.dpotrs(self.triangle, self.rows @ signal, lower=0)
+            return np.asarray(signal - solved @ self.rows, dtype=np.float64)
         if self.basis is not None:
             return signal - self.basis @ (self.basis.T @ signal)
         assert self.factor is not None
@@ -316,7 +362,6 @@ class _NuisanceFree:
             nuisance = NuisanceProjection(angle, nuisance_orders, direction)
         self.nuisance = nuisance
         self.angle, self.direction = nuisance.angle, nuisance.direction
-        self.basis = nuisance.basis
         self.k = nuisance.k
         y = np.asarray(signal, dtype=np.float64)
         self.residual = nuisance.residual(y)
@@ -325,20 +370,20 @@ class _NuisanceFree:
     def explained(self, rows: NDArray[np.float64], *, exact: bool = False) -> float:
         """Sum of squares of the residual explained by the waves ``rows`` (``p x n``, a row a
         wave, not yet projected); ``exact`` forces the QR path."""
-        assert self.basis is not None
         if not exact:
-            cross = rows @ self.basis
-            gram = rows @ rows.T - cross @ cross.T
+            cross = self.nuisance.coordinates(rows)
+            gram = rows @ rows.T - cross.T @ cross
             explained = _gram_explained(gram, rows @ self.residual)
             if explained is not None:
                 return explained
         tests = rows.T
-        projected = tests - self.basis @ (self.basis.T @ tests)
+        basis = self.nuisance.orthonormal()
+        projected = tests - basis @ (basis.T @ tests)
         q = scipy.linalg.qr(projected, mode="economic", check_finite=False)[0]
         return float(np.sum((q.T @ self.residual) ** 2))
 
     def f_statistic(self, orders: Sequence[float], *, exact: bool = False) -> float:
-        if self.basis is None:
+        if self.nuisance.blocked:
             return self._blocked(orders, [None])[0]
         return self._f(_wave_rows(self.angle, orders), exact=exact)
 
@@ -400,7 +445,7 @@ class _NuisanceFree:
         the orders: for a tooth set (32 orders) a few small complex products instead of
         ``n x 64 x 64`` multiplications. Equal to the waves' path to about 1e-12 (tested).
         """
-        if self.basis is None or self.direction is not None or self.nuisance.triangle is None:
+        if self.nuisance.blocked or self.direction is not None:
             return None
         values = np.asarray(orders, dtype=np.float64)
         grids = _grids(values)
@@ -458,7 +503,7 @@ class _NuisanceFree:
         for a capture's few megabytes of waves cost as much as their products. A tooth set is
         read from sums of phasors instead (:meth:`_sums_f`).
         """
-        if self.basis is None:
+        if self.nuisance.blocked:
             main, *shifted = self._blocked(orders, [None, *offsets])
             return main / float(np.mean(shifted))
         by_sums = self._sums_f(orders, offsets)
