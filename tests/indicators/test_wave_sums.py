@@ -60,6 +60,24 @@ def test_tooth_lines_by_sums_equal_the_waves_path(rng: np.random.Generator, stag
     np.testing.assert_allclose(by_sums, exact, rtol=1e-9)
 
 
+@pytest.mark.parametrize("stage", [5.0, 4.0])
+def test_tooth_sums_on_half_steps_equal_the_two_classes_of_whole_steps(
+    rng: np.random.Generator, stage: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # One grid of half steps holds the orders and the orders shifted by half a step: one
+    # exponential and one product instead of two of each, with the same sums to rounding.
+    theta, y = _stretch(rng, 3000)
+    orders = [k / stage for k in range(1, int(8 * stage) + 1) if k % stage]
+    free = signals._NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
+    assert signals._summing_step(1 / stage, [0.5 / stage]) == pytest.approx(0.5 / stage)
+    on_half_steps = free._sums_f(orders, [0.5 / stage])
+    monkeypatch.setattr(signals, "_summing_step", lambda step, offsets: step)
+    in_two_classes = free._sums_f(orders, [0.5 / stage])
+    assert on_half_steps is not None
+    assert in_two_classes is not None
+    np.testing.assert_allclose(on_half_steps, in_two_classes, rtol=1e-12)
+
+
 def test_orders_off_one_grid_take_the_waves_path(rng: np.random.Generator) -> None:
     theta, y = _stretch(rng, 2000)
     free = signals._NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
@@ -114,6 +132,6 @@ def test_a_captures_lines_share_their_exponentials(
     tooth = [k / 5.0 for k in range(1, 41) if k % 5]
     signals.line_ratio(torque, angle, tooth, [0.1], nuisance=shared)
     signals.bearing_lines(torque, angle, 5.43, nuisance=shared)
-    # Whole orders 1; the tooth's sums 2 (their step and the half step); the bearing's two grid
-    # starts and one shift.
-    assert len(calls) == 6
+    # Whole orders 1; the tooth's sums 1 (on the grid of half steps, which holds the orders
+    # and their shifts); the bearing's two grid starts and one shift. Was 8, then 6.
+    assert len(calls) == 5

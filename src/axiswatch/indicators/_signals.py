@@ -227,6 +227,25 @@ def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> fl
     return float(half[:, 0] @ half[:, 0])
 
 
+def _summing_step(step: float, offsets: Sequence[float]) -> float:
+    """The step whose grid holds the orders (a grid of ``step``) shifted by every offset:
+    ``step`` when the offsets are whole steps, half of it when they are half steps (a tooth
+    set's), else ``step`` (the phasor sums then sum a few classes of frequencies).
+
+    One grid of half steps costs one exponential and one product; two classes cost two each.
+
+    Examples
+    --------
+    >>> _summing_step(0.2, [0.1]), _summing_step(0.2, [0.4]), _summing_step(0.2, [0.03])
+    (0.1, 0.2, 0.2)
+    """
+    for divisor in (1, 2):
+        multiples = [divisor * shift / step for shift in offsets]
+        if all(abs(m - round(m)) <= 1e-9 for m in multiples):
+            return step / divisor
+    return step
+
+
 class NuisanceProjection:
     """The nuisance waves of one stretch of angle, projected out of every signal on it.
 
@@ -467,7 +486,7 @@ class _NuisanceFree:
             parts += [whole - first - grid[: top + 1], first + grid[: top + 1]]
         frequencies = np.concatenate([part.ravel() for part in parts])
         weights = np.stack([np.ones(self.angle.size), self.residual])
-        sums = phasor_sums(self.angle, weights, frequencies, step)
+        sums = phasor_sums(self.angle, weights, frequencies, _summing_step(step, offsets))
         if sums is None:
             return None
         ranges = np.cumsum([0, *(part.size for part in parts)])
