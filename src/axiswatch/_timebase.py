@@ -59,6 +59,8 @@ def date_stamps(stamps: pd.Series, path: Path) -> NDArray[np.float64] | None:
     >>> date_stamps(pd.Series([0.0, 0.25]), Path("c.csv")) is None
     True
     """
+    if isinstance(stamps.dtype, np.dtype) and stamps.dtype.kind in "biuf":
+        return None  # numbers: neither date-times nor text (pandas' checks cost more)
     if pd.api.types.is_datetime64_any_dtype(stamps):
         times = stamps
     else:
