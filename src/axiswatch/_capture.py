@@ -284,9 +284,15 @@ def _numeric_column(frame: pd.DataFrame, name: str, path: Path) -> NDArray[np.fl
 
 
 def _signal_from_column(
-    time_s: NDArray[np.float64], column: NDArray[np.float64], name: str, path: Path
-) -> tuple[NDArray[np.float64], float, float]:
-    """Values, rate and start of one signal column; NaN marks instants it does not sample."""
+    time_s: NDArray[np.float64],
+    column: NDArray[np.float64],
+    name: str,
+    path: Path,
+    rows_periods: tuple[float, float] | None = None,
+) -> tuple[NDArray[np.float64], float, float, tuple[float, float]]:
+    """Values, rate and start of one signal column (NaN marks instants it does not sample),
+    and its median and own sampling periods. ``rows_periods``: those of a column with a value
+    in every row, already checked; another such column has the same (its stamps are the rows')."""
     if np.isinf(column).any():
         raise CaptureError(
             f"{path}: column '{name}' has an infinite value; expected finite numbers."
@@ -302,6 +308,8 @@ def _signal_from_column(
             f"{path}: column '{name}' has {count} value(s); a signal needs at least 2 to have a rate."
         )
     whole = count == column.size  # in every row: no boolean indexing needed
+    if whole and rows_periods is not None:
+        return column.copy(), 1.0 / rows_periods[1], float(time_s[0]), rows_periods
     first, last = (0, column.size - 1) if whole else np.flatnonzero(present)[[0, -1]]
     stamps = time_s if whole else time_s[present]
     steps = np.diff(stamps)
@@ -355,7 +363,7 @@ def _signal_from_column(
     # readable capture was rejected.
     own_period = sampling_period(stamps, median_step=period)
     values = column.copy() if whole else column[present]
-    return values, 1.0 / own_period, float(stamps[0])
+    return values, 1.0 / own_period, float(stamps[0]), (period, own_period)
 
 
 def _repeated_rows(frame: pd.DataFrame) -> NDArray[np.bool_]:
@@ -480,9 +488,14 @@ def read_capture(
     values: dict[str, NDArray[np.float64]] = {}
     rates: dict[str, float] = {}
     starts: list[float] = []
+    rows_periods: tuple[float, float] | None = None  # of the signals in every row
     for name in names:
         column = _numeric_column(frame, name, path)
-        values[name], rates[name], start = _signal_from_column(time_s, column, name, path)
+        values[name], rates[name], start, periods = _signal_from_column(
+            time_s, column, name, path, rows_periods
+        )
+        if values[name].size == time_s.size:
+            rows_periods = periods
         starts.append(start)
         if expected_rates_hz is not None and name in expected_rates_hz:
             expected = float(expected_rates_hz[name])

@@ -180,7 +180,12 @@ def _float_frame(table: Any) -> pd.DataFrame | None:
         or any(c.get("name") != c.get("field_name") for c in pandas.get("columns", []))
     ):
         return None  # an index to restore, or names pandas wrote otherwise
-    return pd.DataFrame({name: table.column(name).to_numpy() for name in names})
+    # One block of columns: pandas frames a 2-D array in a third of the time it takes to join
+    # separate columns into one.
+    block = np.empty((len(names), table.num_rows))
+    for row, name in zip(block, names, strict=True):
+        row[:] = table.column(name).to_numpy()
+    return pd.DataFrame(block.T, columns=names, copy=False)
 
 
 def _write_parquet(frame: pd.DataFrame, metadata: Mapping[str, str], path: Path) -> None:
