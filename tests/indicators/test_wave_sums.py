@@ -135,3 +135,22 @@ def test_a_captures_lines_share_their_exponentials(
     # Whole orders 1; the tooth's sums 1 (on the grid of half steps, which holds the orders
     # and their shifts); the bearing's two grid starts and one shift. Was 8, then 6.
     assert len(calls) == 5
+
+
+def test_the_grids_of_a_set_of_orders_are_found_once_and_kept_read_only() -> None:
+    # A capture's lines ask for the grids of the same few sets of orders four times.
+    tooth = np.array([k / 5 for k in range(1, 41) if k % 5])
+    bearing = np.array(signals.bearing_orders(5.43))
+    grids = signals._grids(bearing)
+    assert signals._grids(bearing.copy()) is grids
+    assert [(start, step) for _, start, step in grids] == [
+        pytest.approx((3.43, 1.0)),
+        pytest.approx((9.86, 1.0)),
+    ]
+    assert [members.tolist() for members, _, _ in grids] == [[0, 1, 2, 3, 4], [5, 6, 7]]
+    ((members, start, step),) = signals._grids(tooth)
+    assert (start, step) == (pytest.approx(0.2), pytest.approx(0.2))
+    assert members.tolist() == list(range(32))
+    for members, _, _ in (*grids, *signals._grids(tooth)):
+        with pytest.raises(ValueError, match="read-only"):
+            members[0] = 1

@@ -8,6 +8,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
 import scipy.linalg
@@ -48,22 +49,35 @@ LONE_SPIKE_NEIGHBOURS = 3
 LONE_SPIKE_FACTOR = 8.0
 
 
-def _grids(values: NDArray[np.float64]) -> list[tuple[NDArray[np.int64], float, float]]:
+def _grids(values: NDArray[np.float64]) -> tuple[tuple[NDArray[np.int64], float, float], ...]:
     """The orders ``values`` as grids: ``(members, start, step)``, each member at a whole number
     of steps from ``start``. One grid when they are multiples of their smallest spacing (the
     tooth sets); else one per class of equal fractional part, of step 1 (a bearing order and its
-    double, each with whole-order sidebands)."""
+    double, each with whole-order sidebands). Found once per set of orders and process (a
+    capture's lines ask four times; each costs as much as a wave's product): the arrays are
+    read-only."""
+    return _grids_of(tuple(values.tolist()))
+
+
+@lru_cache(maxsize=256)
+def _grids_of(orders: tuple[float, ...]) -> tuple[tuple[NDArray[np.int64], float, float], ...]:
+    values = np.asarray(orders, dtype=np.float64)
     step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
     every = np.arange(values.size)
+    grids = [(every, float(values.min()), step)]
+    on_one_grid = False
     if step > 0:
         steps = np.rint((values - values.min()) / step)
-        if float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9:
-            return [(every, float(values.min()), step)]
-    fraction = np.round(values - np.floor(values), 9) % 1.0
-    return [
-        (every[fraction == value], float(values[fraction == value].min()), 1.0)
-        for value in np.unique(fraction)
-    ]
+        on_one_grid = float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9
+    if not on_one_grid:
+        fraction = np.round(values - np.floor(values), 9) % 1.0
+        grids = [
+            (every[fraction == value], float(values[fraction == value].min()), 1.0)
+            for value in np.unique(fraction)
+        ]
+    for members, _, _ in grids:
+        members.flags.writeable = False  # kept for the next capture
+    return tuple(grids)
 
 
 def _wave_rows(
