@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from axiswatch._quantiles import quantiles
+from axiswatch._quantiles import median, quantiles
 
 QS = [(0.98,), (0.5, 0.9), (0.02, 0.98), (0.1, 0.9), (0.01, 0.99), (0.0, 1.0), (0.3333, 0.75)]
 
@@ -42,3 +42,18 @@ def test_nan_or_inf_reads_as_numpy_reads_it(rng: np.random.Generator) -> None:
 def test_no_values_is_numpys_error() -> None:
     with pytest.raises(IndexError):
         quantiles(np.array([]), (0.5,))
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 4, 7, 750, 751, 6000])
+def test_median_equals_numpys_bit_for_bit(rng: np.random.Generator, size: int) -> None:
+    for trial in range(30):
+        values = rng.normal(size=size) * 10.0 ** rng.uniform(-6, 6)
+        if trial % 3 == 1:
+            values[: size // 2] = values[-1]  # ties
+        if trial % 3 == 2:
+            values = np.round(values, 1)  # the steps of time stamps: few distinct values
+        assert median(values) == np.median(values) or size == 0
+        assert np.float64(median(values)).tobytes() == np.median(values).tobytes()
+    with_nan = rng.normal(size=size)
+    with_nan[0] = np.nan
+    assert np.isnan(median(with_nan))

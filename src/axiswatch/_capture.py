@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from axiswatch._formats import UNITS_ROW_KEY, capture_format
 from axiswatch._profiles import AxisProfile
+from axiswatch._quantiles import median
 from axiswatch._timebase import (
     RATE_TOLERANCE,
     check_increasing,
@@ -313,7 +314,7 @@ def _signal_from_column(
     first, last = (0, column.size - 1) if whole else np.flatnonzero(present)[[0, -1]]
     stamps = time_s if whole else time_s[present]
     steps = np.diff(stamps)
-    period = float(np.median(steps))
+    period = median(steps)
     off = np.flatnonzero(np.abs(steps - period) > _SPACING_RTOL * period)
     if off.size:
         k = off[0]

@@ -1,8 +1,9 @@
-"""A few quantiles of a 1-D array, as ``np.quantile`` gives them, at a third of its cost.
+"""A few quantiles or the median of a 1-D array, as NumPy gives them, at a third of its cost.
 
-``np.quantile`` spends some 30 us in its setup for each call; a capture's readings and checks
-take seven. The same order statistics (one ``np.partition``) and the same interpolation
-(NumPy's ``_lerp`` of the ``linear`` method) give the same numbers, bit for bit (tested).
+``np.quantile`` and ``np.median`` spend some 30 and 15 us in their setup for each call; a
+capture's reading and checks take ten. The same order statistics (one ``np.partition``) and
+the same arithmetic (NumPy's ``_lerp`` of the ``linear`` method, the mean of the middle two)
+give the same numbers, bit for bit (tested).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["quantiles"]
+__all__ = ["median", "quantiles"]
 
 
 def quantiles(values: NDArray[np.float64], q: Sequence[float]) -> list[float]:
@@ -57,3 +58,25 @@ def quantiles(values: NDArray[np.float64], q: Sequence[float]) -> list[float]:
         # NumPy's _lerp: from the nearer end, so that gamma = 1 gives b exactly.
         out.append(b - difference * (1 - gamma) if gamma >= 0.5 else a + difference * gamma)
     return out
+
+
+def median(values: NDArray[np.float64]) -> float:
+    """``np.median(values)`` of a 1-D float array, bit for bit.
+
+    Examples
+    --------
+    >>> median(np.array([3.0, 1.0, 2.0, 10.0])), median(np.array([3.0, 1.0, 2.0]))
+    (2.5, 2.0)
+    """
+    n = values.size
+    if n == 0:
+        return float(np.median(values))  # NumPy's warning and NaN
+    half = n // 2
+    middle = [half - 1, half] if n % 2 == 0 else [half]
+    ordered = np.partition(values, sorted({*middle, n - 1}))
+    if math.isnan(ordered[-1]):  # NaN sorts last
+        return math.nan
+    # NumPy's mean of the middle one or two: a sum from 0.0 (so -0.0 reads 0.0), over the count.
+    if n % 2:
+        return (0.0 + float(ordered[half])) / 1.0
+    return (0.0 + float(ordered[half - 1]) + float(ordered[half])) / 2.0

@@ -15,6 +15,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter1d
 
+from axiswatch._quantiles import median
 from axiswatch.indicators._filters import butter_sos, zero_phase
 from axiswatch.indicators._wave_sums import Phasors, cis, phasor_sums, wave_products
 from axiswatch.indicators._workspace import scratch
@@ -716,7 +717,7 @@ def repair_lone_spikes(values: NDArray[np.float64]) -> NDArray[np.float64]:
     moving = step[step > 0]
     if not moving.size:
         return x
-    noise = max(1.4826 * float(np.median(step)) / math.sqrt(2.0), float(np.min(moving)))
+    noise = max(1.4826 * median(step) / math.sqrt(2.0), float(np.min(moving)))
     # Candidates first, with temporaries of the capture's length only: a lone spike departs
     # from both next samples, in one direction, by more than (factor - 1) x noise.
     limit = (LONE_SPIKE_FACTOR - 1.0) * noise
