@@ -349,10 +349,8 @@ def _signal_from_column(
     # sample that lies on its own grid must hold a value. A signal in every row has no hole.
     if not whole:
         window = slice(first, last + 1)
-        on_grid = np.abs(
-            ((time_s[window] - stamps[0]) / period)
-            - np.round((time_s[window] - stamps[0]) / period)
-        )
+        steps_in = (time_s[window] - stamps[0]) / period
+        on_grid = np.abs(steps_in - np.round(steps_in))
         holes = np.flatnonzero((on_grid < 1e-3) & np.isnan(column[window]))
         if holes.size:
             raise CaptureError(

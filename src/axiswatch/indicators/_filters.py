@@ -7,7 +7,6 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import butter, sosfilt_zi
-from scipy.signal._arraytools import odd_ext
 from scipy.signal._sosfilt import _sosfilt
 
 __all__ = ["butter_sos", "zero_phase"]
@@ -34,9 +33,12 @@ def butter_sos(
 
 
 @lru_cache(maxsize=1024)
-def _initial_state(sections: bytes, count: int) -> NDArray[np.float64]:
-    """``sosfilt_zi`` of the sections whose bytes are ``sections`` (``count`` rows), once."""
-    return np.asarray(sosfilt_zi(np.frombuffer(sections).reshape(count, 6)))
+def _initial_state(sections: bytes, count: int) -> tuple[NDArray[np.float64], int]:
+    """``sosfilt_zi`` of the sections whose bytes are ``sections`` (``count`` rows), and
+    ``sosfiltfilt``'s default pad length for them, once."""
+    sos = np.frombuffer(sections).reshape(count, 6)
+    taps = 2 * count + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
+    return np.asarray(sosfilt_zi(sos)), 3 * taps
 
 
 def zero_phase(
@@ -54,17 +56,20 @@ def zero_phase(
     >>> bool(np.array_equal(zero_phase(sos, x), sosfiltfilt(sos, x)))
     True
     """
-    count = sos.shape[0]
-    zi = _initial_state(np.ascontiguousarray(sos, dtype=np.float64).tobytes(), count)
-    if padlen is None:
-        taps = 2 * count + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
-        padlen = 3 * taps
+    zi, default = _initial_state(
+        np.ascontiguousarray(sos, dtype=np.float64).tobytes(), sos.shape[0]
+    )
+    padlen = default if padlen is None else padlen
     if x.size <= padlen:
         raise ValueError(f"The length of the input vector x must be greater than padlen, {padlen}.")
-    ext = odd_ext(x, padlen) if padlen > 0 else x
+    # SciPy's odd extension (odd_ext), written in the array that is filtered in place.
+    y = np.empty((1, x.size + 2 * padlen))
+    y[0, padlen : padlen + x.size] = x
+    if padlen > 0:
+        np.subtract(2 * x[0], x[padlen:0:-1], out=y[0, :padlen])
+        np.subtract(2 * x[-1], x[-2 : -(padlen + 2) : -1], out=y[0, padlen + x.size :])
     # SciPy's sosfilt of a 1-D signal, without its checks and axis moves (ten calls a capture).
     sections = np.asarray(sos, dtype=np.float64)
-    y = np.array(ext, dtype=np.float64, order="C")[None, :]
     _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
     y = np.array(y[:, ::-1], order="C")
     _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
