@@ -5,10 +5,8 @@ The zero-phase filters live in :mod:`._filters` and are imported from here too.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
-from functools import lru_cache
 
 import numpy as np
 import scipy.linalg
@@ -17,7 +15,14 @@ from scipy.ndimage import uniform_filter1d
 
 from axiswatch._quantiles import median
 from axiswatch.indicators._filters import butter_sos, zero_phase
-from axiswatch.indicators._wave_sums import Phasors, cis, phasor_sums, wave_products
+from axiswatch.indicators._wave_sums import (
+    Phasors,
+    cis,
+    order_grids,
+    phasor_sums,
+    sums_plan,
+    wave_products,
+)
 from axiswatch.indicators._workspace import scratch
 
 __all__ = [
@@ -50,37 +55,6 @@ LONE_SPIKE_NEIGHBOURS = 3
 LONE_SPIKE_FACTOR = 8.0
 
 
-def _grids(values: NDArray[np.float64]) -> tuple[tuple[NDArray[np.int64], float, float], ...]:
-    """The orders ``values`` as grids: ``(members, start, step)``, each member at a whole number
-    of steps from ``start``. One grid when they are multiples of their smallest spacing (the
-    tooth sets); else one per class of equal fractional part, of step 1 (a bearing order and its
-    double, each with whole-order sidebands). Found once per set of orders and process (a
-    capture's lines ask four times; each costs as much as a wave's product): the arrays are
-    read-only."""
-    return _grids_of(tuple(values.tolist()))
-
-
-@lru_cache(maxsize=256)
-def _grids_of(orders: tuple[float, ...]) -> tuple[tuple[NDArray[np.int64], float, float], ...]:
-    values = np.asarray(orders, dtype=np.float64)
-    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
-    every = np.arange(values.size)
-    grids = [(every, float(values.min()), step)]
-    on_one_grid = False
-    if step > 0:
-        steps = np.rint((values - values.min()) / step)
-        on_one_grid = float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9
-    if not on_one_grid:
-        fraction = np.round(values - np.floor(values), 9) % 1.0
-        grids = [
-            (every[fraction == value], float(values[fraction == value].min()), 1.0)
-            for value in np.unique(fraction)
-        ]
-    for members, _, _ in grids:
-        members.flags.writeable = False  # kept for the next capture
-    return tuple(grids)
-
-
 def _wave_rows(
     angle: NDArray[np.float64],
     orders: Sequence[float],
@@ -91,9 +65,10 @@ def _wave_rows(
     wave (the products with the waves read whole rows); written in ``out`` when given; the
     exponentials from ``phasors`` when given (the angle's, kept for its other lines).
 
-    Orders on a grid (:func:`_grids`) are powers of one complex exponential, built by repeated
-    multiplication of one row: one ``exp`` per grid instead of two trigonometric functions per
-    order (the stage's hot spot), and no wave of the grid kept that is not an order. The
+    Orders on a grid (:func:`._wave_sums.order_grids`) are powers of one complex exponential,
+    built by repeated multiplication of one row: one ``exp`` per grid instead of two
+    trigonometric functions per order (the stage's hot spot), and no wave of the grid kept
+    that is not an order. The
     recurrence's rounding error grows by about one ulp per step, far below the signals' noise;
     tested against ``np.sin``/``np.cos`` to 1e-10.
     """
@@ -102,7 +77,7 @@ def _wave_rows(
     count = values.size
     rows = np.empty((2 * count, angle.size)) if out is None else out
     rotations: dict[float, NDArray[np.complex128]] = {}
-    for members, start, step in _grids(values):
+    for members, start, step in order_grids(values):
         steps = np.rint((values[members] - start) / step).astype(np.int64)
         if step not in rotations and steps.max() > 0:
             rotations[step] = phasor(step)
@@ -240,25 +215,6 @@ def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> fl
         return None
     half, _ = scipy.linalg.lapack.dtrtrs(factor, right[:, None], lower=0, trans=1)
     return float(half[:, 0] @ half[:, 0])
-
-
-def _summing_step(step: float, offsets: Sequence[float]) -> float:
-    """The step whose grid holds the orders (a grid of ``step``) shifted by every offset:
-    ``step`` when the offsets are whole steps, half of it when they are half steps (a tooth
-    set's), else ``step`` (the phasor sums then sum a few classes of frequencies).
-
-    One grid of half steps costs one exponential and one product; two classes cost two each.
-
-    Examples
-    --------
-    >>> _summing_step(0.2, [0.1]), _summing_step(0.2, [0.4]), _summing_step(0.2, [0.03])
-    (0.1, 0.2, 0.2)
-    """
-    for divisor in (1, 2):
-        multiples = [divisor * shift / step for shift in offsets]
-        if all(abs(m - round(m)) <= 1e-9 for m in multiples):
-            return step / divisor
-    return step
 
 
 class NuisanceProjection:
@@ -481,46 +437,26 @@ class _NuisanceFree:
         """
         if self.nuisance.blocked or self.direction is not None:
             return None
-        values = np.asarray(orders, dtype=np.float64)
-        grids = _grids(values)
-        p = 2 * values.size
-        if len(grids) != 1 or self.residual.size <= self.k + p + 1:
+        plan = sums_plan(
+            tuple(map(float, orders)), tuple(map(float, offsets)), self.nuisance.orders
+        )
+        p = 2 * len(orders)
+        if plan is None or self.residual.size <= self.k + p + 1:
             return None
-        _, start, step = grids[0]
-        steps = np.rint((values - start) / step).astype(np.int64)
-        top = int(steps.max())
-        grid = np.arange(2 * top + 1) * step
-        whole = np.asarray(self.nuisance.orders, dtype=np.float64)[:, None]
-        # Per set of orders (shifted by d): the sums at the differences of two orders (the same
-        # for every d), at their totals, at a whole order plus or minus an order, and the
-        # residual's sums at the orders; each on the grid of the orders' steps.
-        parts = [grid[: top + 1]]
-        for shift in (0.0, *offsets):
-            first = start + shift
-            parts += [2 * first + grid, whole + first + grid[: top + 1]]
-            parts += [whole - first - grid[: top + 1], first + grid[: top + 1]]
-        frequencies = np.concatenate([part.ravel() for part in parts])
         weights = np.stack([np.ones(self.angle.size), self.residual])
-        sums = phasor_sums(self.angle, weights, frequencies, _summing_step(step, offsets))
-        if sums is None:
-            return None
-        ranges = np.cumsum([0, *(part.size for part in parts)])
-        at = [sums[:, i:j] for i, j in itertools.pairwise(ranges)]
-        apart = steps[:, None] - steps[None, :]
-        difference = at[0][0, np.abs(apart)]
-        difference[apart < 0] = np.conj(difference[apart < 0])
+        sums = phasor_sums(self.angle, weights, plan.frequencies, plan.phasors.step, plan.phasors)
+        assert sums is not None  # the plan is the frequencies'
+        ones, residual = sums
+        difference = ones[plan.difference]
+        difference[plan.conjugated] = np.conj(difference[plan.conjugated])
         out = []
-        for k in range(1, len(at), 4):
-            total, plus, minus, orders_sums = at[k : k + 4]
-            gram = wave_products(difference, total[0, steps[:, None] + steps[None, :]])
-            shape = (whole.size, top + 1)
-            cross = wave_products(
-                minus[0].reshape(shape)[:, steps], plus[0].reshape(shape)[:, steps]
-            )
+        for total, minus, plus, at_orders in plan.shifts:
+            gram = wave_products(difference, ones[total])
+            cross = wave_products(ones[minus], ones[plus])
             # The projected waves' Gram matrix: T'T - (Q'T)'(Q'T), Q'T = R^-T N'T.
             projected, _ = scipy.linalg.lapack.dtrtrs(self.nuisance.triangle, cross, trans=1)
             gram -= projected.T @ projected
-            residual_sums = orders_sums[1, steps]
+            residual_sums = residual[at_orders]
             right = np.concatenate([residual_sums.imag, residual_sums.real])
             explained = _gram_explained(gram, right)
             if explained is None:
