@@ -304,3 +304,30 @@ def test_repeated_rows_by_numpy_equal_pandas_comparison(rng: np.random.Generator
     previous = mixed.shift()
     expected = (mixed.eq(previous) | (mixed.isna() & previous.isna())).all(axis=1).to_numpy()
     np.testing.assert_array_equal(_repeated_rows(mixed), expected)
+
+
+def test_signals_in_every_row_share_the_rows_period(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Speed and torque in every row have the rows' stamps: their period is found once, and each
+    # reads as it did alone (the position, at a quarter of the rate, finds its own).
+    t = np.arange(400) / 2000.0
+    position = np.where(np.arange(400) % 4 == 0, np.sin(t), np.nan)
+    frame = pd.DataFrame({"time": t, "position": position, "speed": np.cos(t), "torque": t})
+    path = tmp_path / "c.parquet"
+    frame.to_parquet(path, index=False)
+    alone = {name: aw.read_capture(path, [name]) for name in ("position", "speed", "torque")}
+    calls: list[int] = []
+    counted = axiswatch._capture.sampling_period
+
+    def counting(stamps: np.ndarray, **kwargs: float) -> float:
+        calls.append(stamps.size)
+        return counted(stamps, **kwargs)
+
+    monkeypatch.setattr(axiswatch._capture, "sampling_period", counting)
+    read = aw.read_capture(path)
+    assert sorted(calls) == [100, 400]
+    for name, capture in alone.items():
+        assert read.rates_hz[name] == capture.rates_hz[name]
+        np.testing.assert_array_equal(read.signals[name], capture.signals[name], strict=True)
+    assert read.start_s == 0.0

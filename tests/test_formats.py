@@ -327,3 +327,29 @@ def test_parquet_float_columns_are_read_as_pandas_reads_them(
         expected = expected.reset_index()
     read, _ = axiswatch._formats._read_parquet(path)
     pd.testing.assert_frame_equal(read, expected, check_exact=True)
+
+
+def test_a_parquet_capture_is_read_on_one_thread_as_the_default_read_reads_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Decoding a capture's few columns on pyarrow's threads cost twice the CPU time of one
+    # thread; the monitor scores captures in parallel processes instead. Same table.
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = np.arange(5000) / 2000.0
+    speed = pa.array(np.where(np.arange(5000) % 9 == 0, np.nan, np.sin(t)), from_pandas=True)
+    table = pa.table({"time": t, "speed": speed, "torque": np.cos(t)})
+    path = tmp_path / "c.parquet"
+    pq.write_table(table, path, row_group_size=1024)  # five row groups, nulls in one column
+    threads: list[object] = []
+    read = pq.ParquetFile.read
+
+    def spied(self: pq.ParquetFile, *args: object, **kwargs: object) -> pa.Table:
+        threads.append(kwargs.get("use_threads", True))
+        return read(self, *args, **kwargs)
+
+    monkeypatch.setattr(pq.ParquetFile, "read", spied)
+    frame, _ = axiswatch._formats._read_parquet(path)
+    assert threads == [False]
+    pd.testing.assert_frame_equal(frame, pq.read_table(path).to_pandas(), check_exact=True)

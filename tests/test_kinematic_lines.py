@@ -110,7 +110,7 @@ def test_a_long_stretch_in_blocks_reads_as_one_block(
     )
     monkeypatch.setattr(mechanics, "LINE_BLOCK_SAMPLES", 300)
     projection = mechanics.whole_orders(theta)
-    assert projection.basis is None  # summed in blocks
+    assert projection.blocked  # summed in blocks
     assert len(projection.blocks) == 9
     blocked = (
         mechanics.bearing_lines(y, theta, 5.43, nuisance=projection),
@@ -129,7 +129,7 @@ def test_ill_conditioned_waves_in_blocks_take_the_least_squares_solve(
     exact = mechanics._NuisanceFree(y, theta, [1, 2, 3], None).f_statistic(orders, exact=True)
     monkeypatch.setattr(mechanics, "LINE_BLOCK_SAMPLES", 128)
     blocked = mechanics._NuisanceFree(y, theta, [1, 2, 3], None)
-    assert blocked.basis is None
+    assert blocked.nuisance.blocked
     assert blocked.f_statistic(orders) == pytest.approx(exact, rel=1e-6)
 
 
@@ -153,3 +153,32 @@ def test_the_waves_of_a_capture_lines_reuse_the_last_capture_memory(
         tracemalloc.stop()
     assert again == first
     assert peak < one_set / 2, (peak, one_set)
+
+
+def test_the_projection_by_cholesky_reads_as_the_qr(
+    captures: list[Capture], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The whole orders' Gram matrix is well conditioned on a capture's motor angle: its
+    # Cholesky factor projects as the QR of the waves did, to rounding.
+    for capture in captures:
+        by_cholesky = readings.read_indicators(capture, **KINEMATICS)
+        with monkeypatch.context() as patch:
+            patch.setattr(mechanics, "PROJECTION_MIN_RCOND", math.inf)  # every Gram refused
+            by_qr = readings.read_indicators(capture, **KINEMATICS)
+        for name in LINES:
+            assert by_cholesky.values[name] == pytest.approx(by_qr.values[name], rel=1e-12)
+        assert by_cholesky.values == pytest.approx(by_qr.values, rel=1e-12, nan_ok=True)
+
+
+def test_the_projection_takes_the_qr_where_the_waves_are_nearly_collinear(
+    rng: np.random.Generator,
+) -> None:
+    long = np.sort(rng.uniform(0, 400, 3000))
+    assert mechanics.whole_orders(long).basis is None  # Cholesky: no QR taken
+    short = np.linspace(0.0, 0.5, 400)  # half a radian: the whole orders hardly differ
+    projection = mechanics.whole_orders(short)
+    assert projection.basis is not None
+    assert projection.rows is None
+    y = rng.normal(size=short.size)
+    residual = projection.residual(y)
+    np.testing.assert_allclose(projection.basis.T @ residual, 0.0, atol=1e-9)

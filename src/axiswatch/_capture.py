@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from axiswatch._formats import UNITS_ROW_KEY, capture_format
 from axiswatch._profiles import AxisProfile
+from axiswatch._quantiles import median
 from axiswatch._timebase import (
     RATE_TOLERANCE,
     check_increasing,
@@ -269,6 +270,9 @@ def _tidy_headers(frame: pd.DataFrame, profile: AxisProfile | None, path: Path) 
 
 def _numeric_column(frame: pd.DataFrame, name: str, path: Path) -> NDArray[np.float64]:
     column = frame[name]
+    if isinstance(column.dtype, np.dtype) and column.dtype.kind in "iufc":
+        # A NumPy number (pandas' checks below cost more than the conversion).
+        return np.asarray(column, dtype=np.float64)
     if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
         converted = pd.to_numeric(column, errors="coerce")
         bad = converted.isna() & column.notna()
@@ -281,9 +285,15 @@ def _numeric_column(frame: pd.DataFrame, name: str, path: Path) -> NDArray[np.fl
 
 
 def _signal_from_column(
-    time_s: NDArray[np.float64], column: NDArray[np.float64], name: str, path: Path
-) -> tuple[NDArray[np.float64], float, float]:
-    """Values, rate and start of one signal column; NaN marks instants it does not sample."""
+    time_s: NDArray[np.float64],
+    column: NDArray[np.float64],
+    name: str,
+    path: Path,
+    rows_periods: tuple[float, float] | None = None,
+) -> tuple[NDArray[np.float64], float, float, tuple[float, float]]:
+    """Values, rate and start of one signal column (NaN marks instants it does not sample),
+    and its median and own sampling periods. ``rows_periods``: those of a column with a value
+    in every row, already checked; another such column has the same (its stamps are the rows')."""
     if np.isinf(column).any():
         raise CaptureError(
             f"{path}: column '{name}' has an infinite value; expected finite numbers."
@@ -299,10 +309,12 @@ def _signal_from_column(
             f"{path}: column '{name}' has {count} value(s); a signal needs at least 2 to have a rate."
         )
     whole = count == column.size  # in every row: no boolean indexing needed
+    if whole and rows_periods is not None:
+        return column.copy(), 1.0 / rows_periods[1], float(time_s[0]), rows_periods
     first, last = (0, column.size - 1) if whole else np.flatnonzero(present)[[0, -1]]
     stamps = time_s if whole else time_s[present]
     steps = np.diff(stamps)
-    period = float(np.median(steps))
+    period = median(steps)
     off = np.flatnonzero(np.abs(steps - period) > _SPACING_RTOL * period)
     if off.size:
         k = off[0]
@@ -337,10 +349,8 @@ def _signal_from_column(
     # sample that lies on its own grid must hold a value. A signal in every row has no hole.
     if not whole:
         window = slice(first, last + 1)
-        on_grid = np.abs(
-            ((time_s[window] - stamps[0]) / period)
-            - np.round((time_s[window] - stamps[0]) / period)
-        )
+        steps_in = (time_s[window] - stamps[0]) / period
+        on_grid = np.abs(steps_in - np.round(steps_in))
         holes = np.flatnonzero((on_grid < 1e-3) & np.isnan(column[window]))
         if holes.size:
             raise CaptureError(
@@ -352,7 +362,7 @@ def _signal_from_column(
     # readable capture was rejected.
     own_period = sampling_period(stamps, median_step=period)
     values = column.copy() if whole else column[present]
-    return values, 1.0 / own_period, float(stamps[0])
+    return values, 1.0 / own_period, float(stamps[0]), (period, own_period)
 
 
 def _repeated_rows(frame: pd.DataFrame) -> NDArray[np.bool_]:
@@ -477,9 +487,14 @@ def read_capture(
     values: dict[str, NDArray[np.float64]] = {}
     rates: dict[str, float] = {}
     starts: list[float] = []
+    rows_periods: tuple[float, float] | None = None  # of the signals in every row
     for name in names:
         column = _numeric_column(frame, name, path)
-        values[name], rates[name], start = _signal_from_column(time_s, column, name, path)
+        values[name], rates[name], start, periods = _signal_from_column(
+            time_s, column, name, path, rows_periods
+        )
+        if values[name].size == time_s.size:
+            rows_periods = periods
         starts.append(start)
         if expected_rates_hz is not None and name in expected_rates_hz:
             expected = float(expected_rates_hz[name])

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from axiswatch._quantiles import median
 from axiswatch.exceptions import CaptureError
 
 __all__ = [
@@ -59,6 +60,8 @@ def date_stamps(stamps: pd.Series, path: Path) -> NDArray[np.float64] | None:
     >>> date_stamps(pd.Series([0.0, 0.25]), Path("c.csv")) is None
     True
     """
+    if isinstance(stamps.dtype, np.dtype) and stamps.dtype.kind in "biuf":
+        return None  # numbers: neither date-times nor text (pandas' checks cost more)
     if pd.api.types.is_datetime64_any_dtype(stamps):
         times = stamps
     else:
@@ -148,9 +151,9 @@ def sampling_period(stamps: NDArray[np.float64], *, median_step: float | None = 
     0.1
     """
     steps = np.diff(stamps)
-    median = float(np.median(steps)) if median_step is None else median_step
-    if np.abs(steps - median).max() <= 1e-9 * median:
-        return median
+    middle = median(steps) if median_step is None else median_step
+    if np.abs(steps - middle).max() <= 1e-9 * middle:
+        return middle
     index = np.arange(stamps.size, dtype=np.float64)
     centred = index - index.mean()
     return float(np.dot(centred, stamps - stamps.mean()) / np.dot(centred, centred))

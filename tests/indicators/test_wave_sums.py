@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import axiswatch.indicators._signals as signals
+import axiswatch.indicators._wave_sums as wave_sums
 from axiswatch.indicators._wave_sums import MAX_GRIDS, phasor_sums, wave_products
 
 
@@ -58,6 +59,31 @@ def test_tooth_lines_by_sums_equal_the_waves_path(rng: np.random.Generator, stag
     np.testing.assert_allclose(by_sums, by_waves, rtol=1e-11)
     exact = [free._f(rows, exact=True), free._f(shifted, exact=True)]  # the QR path
     np.testing.assert_allclose(by_sums, exact, rtol=1e-9)
+
+
+@pytest.mark.parametrize("stage", [5.0, 4.0])
+def test_tooth_sums_on_half_steps_equal_the_two_classes_of_whole_steps(
+    rng: np.random.Generator, stage: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # One grid of half steps holds the orders and the orders shifted by half a step: one
+    # exponential and one product instead of two of each, with the same sums to rounding.
+    theta, y = _stretch(rng, 3000)
+    orders = [k / stage for k in range(1, int(8 * stage) + 1) if k % stage]
+    free = signals._NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
+    assert wave_sums.summing_step(1 / stage, [0.5 / stage]) == pytest.approx(0.5 / stage)
+    on_half_steps = free._sums_f(orders, [0.5 / stage])
+    monkeypatch.setattr(wave_sums, "summing_step", lambda step, offsets: step)
+    wave_sums.sums_plan.cache_clear()  # the plan on half steps is kept
+    try:
+        in_two_classes = free._sums_f(orders, [0.5 / stage])
+        two = wave_sums.sums_plan(tuple(orders), (0.5 / stage,), signals.WHOLE_ORDERS)
+        assert two is not None
+        assert len(two.phasors.classes) == 2
+    finally:
+        wave_sums.sums_plan.cache_clear()
+    assert on_half_steps is not None
+    assert in_two_classes is not None
+    np.testing.assert_allclose(on_half_steps, in_two_classes, rtol=1e-12)
 
 
 def test_orders_off_one_grid_take_the_waves_path(rng: np.random.Generator) -> None:
@@ -114,6 +140,50 @@ def test_a_captures_lines_share_their_exponentials(
     tooth = [k / 5.0 for k in range(1, 41) if k % 5]
     signals.line_ratio(torque, angle, tooth, [0.1], nuisance=shared)
     signals.bearing_lines(torque, angle, 5.43, nuisance=shared)
-    # Whole orders 1; the tooth's sums 2 (their step and the half step); the bearing's two grid
-    # starts and one shift.
-    assert len(calls) == 6
+    # Whole orders 1; the tooth's sums 1 (on the grid of half steps, which holds the orders
+    # and their shifts); the bearing's two grid starts and one shift. Was 8, then 6.
+    assert len(calls) == 5
+
+
+def test_the_grids_of_a_set_of_orders_are_found_once_and_kept_read_only() -> None:
+    # A capture's lines ask for the grids of the same few sets of orders four times.
+    tooth = np.array([k / 5 for k in range(1, 41) if k % 5])
+    bearing = np.array(signals.bearing_orders(5.43))
+    grids = wave_sums.order_grids(bearing)
+    assert wave_sums.order_grids(bearing.copy()) is grids
+    assert [(start, step) for _, start, step in grids] == [
+        pytest.approx((3.43, 1.0)),
+        pytest.approx((9.86, 1.0)),
+    ]
+    assert [members.tolist() for members, _, _ in grids] == [[0, 1, 2, 3, 4], [5, 6, 7]]
+    ((members, start, step),) = wave_sums.order_grids(tooth)
+    assert (start, step) == (pytest.approx(0.2), pytest.approx(0.2))
+    assert members.tolist() == list(range(32))
+    for members, _, _ in (*grids, *wave_sums.order_grids(tooth)):
+        with pytest.raises(ValueError, match="read-only"):
+            members[0] = 1
+
+
+def test_a_tooth_sets_plan_finds_each_sum_at_its_frequency() -> None:
+    # The plan is made once per set of orders and offsets; each of its columns is the sum the
+    # line statistics read there: differences and totals of two orders, a whole order less or
+    # plus an order, and the orders themselves, for the orders and their shift.
+    orders = tuple(k / 5 for k in range(1, 41) if k % 5)
+    plan = wave_sums.sums_plan(orders, (0.1,), signals.WHOLE_ORDERS)
+    assert plan is not None
+    assert wave_sums.sums_plan(orders, (0.1,), signals.WHOLE_ORDERS) is plan
+    assert len(plan.phasors.classes) == 1  # one grid of half steps
+    o = np.array(orders)
+    whole = np.array(signals.WHOLE_ORDERS, dtype=float)[:, None]
+    f = np.where(plan.phasors.negative, -1.0, 1.0) * np.abs(plan.frequencies)
+    difference = np.where(plan.conjugated, -1.0, 1.0) * f[plan.difference]
+    np.testing.assert_allclose(difference, np.subtract.outer(o, o), atol=1e-12)
+    assert len(plan.shifts) == 2
+    for shift, (total, minus, plus, at_orders) in zip((0.0, 0.1), plan.shifts, strict=True):
+        np.testing.assert_allclose(f[total], np.add.outer(o, o) + 2 * shift, atol=1e-12)
+        np.testing.assert_allclose(f[minus], whole - (o + shift), atol=1e-12)
+        np.testing.assert_allclose(f[plus], whole + o + shift, atol=1e-12)
+        np.testing.assert_allclose(f[at_orders], o + shift, atol=1e-12)
+    with pytest.raises(ValueError, match="read-only"):
+        plan.shifts[0][0][0, 0] = 0
+    assert wave_sums.sums_plan(tuple(signals.bearing_orders(5.43)), (0.25,), (1.0,)) is None

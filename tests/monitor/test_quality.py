@@ -24,6 +24,11 @@ def test_longest_run_matches_naive() -> None:
         for _ in range(20):
             values = rng.integers(0, 3, size=size).astype(np.float64)
             assert longest_run(values) == longest_run_naive(values.tolist())
+            distinct = rng.normal(size=size)  # no value repeated: every run is one sample
+            assert longest_run(distinct) == longest_run_naive(distinct.tolist()) == (1, 0)
+    with_nan = np.array([np.nan, np.nan, 1.0, 2.0])  # NaN never equals NaN
+    assert longest_run(with_nan) == longest_run_naive(with_nan.tolist())
+    assert longest_run(np.empty(0)) == longest_run_naive([]) == (0, 0)
 
 
 @pytest.fixture

@@ -16,6 +16,7 @@ from scipy.interpolate import PchipInterpolator
 from scipy.signal import savgol_coeffs
 
 from axiswatch._capture import Capture, speed_from_position
+from axiswatch._quantiles import quantiles
 from axiswatch.exceptions import CaptureError
 from axiswatch.indicators._signals import whole_samples
 
@@ -197,12 +198,12 @@ def task_signature(m: Motion) -> NDArray[np.float64]:
     """
     speed = np.abs(m.speed)
     n = 1 + len(SIGNATURE_MOVING_QUANTILES) + len(SIGNATURE_POSITION_QUANTILES) + 1
-    top = float(np.quantile(speed, SIGNATURE_TOP_QUANTILE)) if speed.size >= 2 else 0.0
+    top = quantiles(speed, (SIGNATURE_TOP_QUANTILE,))[0] if speed.size >= 2 else 0.0
     if not top > 0:
         return np.full(n, np.nan)
     moving = speed > MOVING_FRACTION * top
-    speeds = np.quantile(speed[moving], SIGNATURE_MOVING_QUANTILES)
-    positions = np.quantile(m.position, SIGNATURE_POSITION_QUANTILES)
+    speeds = quantiles(speed[moving], SIGNATURE_MOVING_QUANTILES)
+    positions = quantiles(m.position, SIGNATURE_POSITION_QUANTILES)
     share = float(np.mean(moving))
     return np.asarray([top, *speeds, *positions, share], dtype=np.float64)
 

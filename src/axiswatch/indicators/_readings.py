@@ -18,6 +18,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture, rate_at_least
+from axiswatch._quantiles import quantiles
 from axiswatch.indicators._motion import (
     MOVING_FRACTION,
     SIGNATURE_MOVING_QUANTILES,
@@ -578,7 +579,7 @@ def _kinematic_lines(
     theta = motor_angle[fast]
     shared: NuisanceProjection | None = None  # one projection for every line
     revs = gear_ratio * np.abs(m.speed[fast]) / (2 * math.pi)
-    slow_revs, fast_revs = map(float, np.quantile(revs, [0.1, 0.9]))
+    slow_revs, fast_revs = quantiles(revs, (0.1, 0.9))
     travel = np.abs(np.diff(motor_angle, prepend=motor_angle[0]))
     revolutions = float(np.sum(travel[fast])) / (2 * math.pi)
     nyquist_margin = 0.45 * m.rate_hz

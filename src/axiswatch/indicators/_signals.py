@@ -1,21 +1,28 @@
-"""Signal primitives of the indicators: angle-locked line statistics, filters, running RMS."""
+"""Signal primitives of the indicators: angle-locked line statistics, running RMS, spikes.
+
+The zero-phase filters live in :mod:`._filters` and are imported from here too.
+"""
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
-from functools import lru_cache
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter1d
-from scipy.signal import butter, sosfilt_zi
-from scipy.signal._arraytools import odd_ext
-from scipy.signal._sosfilt import _sosfilt
 
-from axiswatch.indicators._wave_sums import Phasors, cis, phasor_sums, wave_products
+from axiswatch._quantiles import median
+from axiswatch.indicators._filters import butter_sos, zero_phase
+from axiswatch.indicators._wave_sums import (
+    Phasors,
+    cis,
+    order_grids,
+    phasor_sums,
+    sums_plan,
+    wave_products,
+)
 from axiswatch.indicators._workspace import scratch
 
 __all__ = [
@@ -48,24 +55,6 @@ LONE_SPIKE_NEIGHBOURS = 3
 LONE_SPIKE_FACTOR = 8.0
 
 
-def _grids(values: NDArray[np.float64]) -> list[tuple[NDArray[np.int64], float, float]]:
-    """The orders ``values`` as grids: ``(members, start, step)``, each member at a whole number
-    of steps from ``start``. One grid when they are multiples of their smallest spacing (the
-    tooth sets); else one per class of equal fractional part, of step 1 (a bearing order and its
-    double, each with whole-order sidebands)."""
-    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
-    every = np.arange(values.size)
-    if step > 0:
-        steps = np.rint((values - values.min()) / step)
-        if float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9:
-            return [(every, float(values.min()), step)]
-    fraction = np.round(values - np.floor(values), 9) % 1.0
-    return [
-        (every[fraction == value], float(values[fraction == value].min()), 1.0)
-        for value in np.unique(fraction)
-    ]
-
-
 def _wave_rows(
     angle: NDArray[np.float64],
     orders: Sequence[float],
@@ -76,9 +65,10 @@ def _wave_rows(
     wave (the products with the waves read whole rows); written in ``out`` when given; the
     exponentials from ``phasors`` when given (the angle's, kept for its other lines).
 
-    Orders on a grid (:func:`_grids`) are powers of one complex exponential, built by repeated
-    multiplication of one row: one ``exp`` per grid instead of two trigonometric functions per
-    order (the stage's hot spot), and no wave of the grid kept that is not an order. The
+    Orders on a grid (:func:`._wave_sums.order_grids`) are powers of one complex exponential,
+    built by repeated multiplication of one row: one ``exp`` per grid instead of two
+    trigonometric functions per order (the stage's hot spot), and no wave of the grid kept
+    that is not an order. The
     recurrence's rounding error grows by about one ulp per step, far below the signals' noise;
     tested against ``np.sin``/``np.cos`` to 1e-10.
     """
@@ -87,7 +77,7 @@ def _wave_rows(
     count = values.size
     rows = np.empty((2 * count, angle.size)) if out is None else out
     rotations: dict[float, NDArray[np.complex128]] = {}
-    for members, start, step in _grids(values):
+    for members, start, step in order_grids(values):
         steps = np.rint((values[members] - start) / step).astype(np.int64)
         if step not in rotations and steps.max() > 0:
             rotations[step] = phasor(step)
@@ -193,22 +183,35 @@ def angle_locked_f(
 #: against the QR path); below it the statistic is computed by QR instead.
 GRAM_MIN_RCOND = 1e-8
 
+#: Least reciprocal condition number of the nuisance waves' Gram matrix for which
+#: :class:`NuisanceProjection` projects by its Cholesky factor instead of a QR of the waves. The
+#: projection's relative error is then about ``eps / rcond <= 2e-10``; whole orders over a few
+#: revolutions have a condition of 1-100, and a stretch too short for that takes the QR.
+PROJECTION_MIN_RCOND = 1e-6
+
 #: Samples of angle whose waves the line statistics hold at a time. A longer stretch is summed
 #: block by block (normal equations, every wave built per block), so memory does not grow with
 #: a capture's length; a stretch of one block is computed by QR as before.
 LINE_BLOCK_SAMPLES = 1 << 16
 
 
-def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> float | None:
-    """``right' gram^-1 right`` by Cholesky; None when ``gram`` is not positive definite or its
-    reciprocal condition is below :data:`GRAM_MIN_RCOND`. LAPACK is called directly: SciPy's
-    wrappers of these small solves cost more than the solves (five a capture)."""
+def _cholesky(gram: NDArray[np.float64], min_rcond: float) -> NDArray[np.float64] | None:
+    """The upper Cholesky factor of ``gram``; None when ``gram`` is not positive definite or its
+    reciprocal condition is below ``min_rcond``. LAPACK is called directly: SciPy's wrappers of
+    these small solves cost more than the solves (several a capture)."""
     factor, info = scipy.linalg.lapack.dpotrf(gram, lower=0, clean=1)
     if info != 0:
         return None
     # LAPACK's estimate of the reciprocal 1-norm condition number from the factor.
     rcond, _ = scipy.linalg.lapack.dpocon(factor, np.abs(gram).sum(axis=0).max())
-    if rcond < GRAM_MIN_RCOND:
+    return None if rcond < min_rcond else np.asarray(factor, dtype=np.float64)
+
+
+def _gram_explained(gram: NDArray[np.float64], right: NDArray[np.float64]) -> float | None:
+    """``right' gram^-1 right`` by Cholesky; None when ``gram`` is not positive definite or its
+    reciprocal condition is below :data:`GRAM_MIN_RCOND`."""
+    factor = _cholesky(gram, GRAM_MIN_RCOND)
+    if factor is None:
         return None
     half, _ = scipy.linalg.lapack.dtrtrs(factor, right[:, None], lower=0, trans=1)
     return float(half[:, 0] @ half[:, 0])
@@ -219,7 +222,9 @@ class NuisanceProjection:
 
     Computed once per stretch and shared by every line read on it (a capture's tooth and
     bearing lines filter the torque in their own bands, on the same motor angle). Up to
-    :data:`LINE_BLOCK_SAMPLES` samples it is a QR of the waves; beyond, the Cholesky factor of
+    :data:`LINE_BLOCK_SAMPLES` samples it is the Cholesky factor of the waves' Gram matrix, or
+    a QR of the waves where that matrix is ill-conditioned (:data:`PROJECTION_MIN_RCOND`); a
+    QR of 3,000 x 16 waves cost ten times their Gram matrix. Beyond, the Cholesky factor of
     their Gram matrix summed block by block (whole orders over many revolutions are nearly
     orthogonal: condition 1-10), and every product with the waves is made a block at a time.
     """
@@ -236,8 +241,10 @@ class NuisanceProjection:
         self.orders = tuple(nuisance_orders)
         size = LINE_BLOCK_SAMPLES
         self.blocks = [slice(i, i + size) for i in range(0, max(angle.size, 1), size)]
-        self.basis: NDArray[np.float64] | None = None
-        self.triangle: NDArray[np.float64] | None = None  # of the QR: waves = basis @ triangle
+        self.basis: NDArray[np.float64] | None = None  # of the QR, when taken
+        #: One block: waves = basis @ triangle, so ``triangle' triangle`` is their Gram matrix.
+        self.triangle: NDArray[np.float64] | None = None
+        self.rows: NDArray[np.float64] | None = None  # the waves, a row each (Cholesky)
         self.factor: NDArray[np.float64] | None = None
         #: The angle's exponentials, shared by the lines read on it (one block only: a longer
         #: stretch builds its waves a block at a time, and keeps none).
@@ -251,11 +258,37 @@ class NuisanceProjection:
         if self.factor is None:
             if angle.size <= LINE_BLOCK_SAMPLES:
                 self.phasors = Phasors(angle)
-            nuisance = _harmonics(angle, nuisance_orders, direction, self.phasors)
-            self.basis, self.triangle = scipy.linalg.qr(
-                nuisance, mode="economic", check_finite=False
-            )
+            rows = _signed_rows(_wave_rows(angle, nuisance_orders, phasors=self.phasors), direction)
+            self.triangle = _cholesky(rows @ rows.T, PROJECTION_MIN_RCOND)
+            if self.triangle is None:
+                self.basis, self.triangle = scipy.linalg.qr(
+                    rows.T, mode="economic", check_finite=False
+                )
+            else:
+                self.rows = rows
         self.k = 2 * len(self.orders) * (1 if direction is None else 2)
+
+    @property
+    def blocked(self) -> bool:
+        """Whether the stretch is summed block by block (no waves kept)."""
+        return self.factor is not None
+
+    def coordinates(self, tests: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``Q' T``: the waves ``tests`` (``p x n``, a row each) on an orthonormal basis ``Q`` of
+        the nuisance waves (one block), shape ``(k, p)``. By Cholesky, ``R^-T N' T``."""
+        if self.rows is None:
+            assert self.basis is not None
+            return (tests @ self.basis).T
+        half, _ = scipy.linalg.lapack.dtrtrs(self.triangle, self.rows @ tests.T, lower=0, trans=1)
+        return np.asarray(half, dtype=np.float64)
+
+    def orthonormal(self) -> NDArray[np.float64]:
+        """``Q``, an orthonormal basis of the nuisance waves (one block): the QR's, taken here
+        when the projection was made by Cholesky (only the exact path needs it)."""
+        if self.basis is None:
+            assert self.rows is not None
+            self.basis = scipy.linalg.qr(self.rows.T, mode="economic", check_finite=False)[0]
+        return self.basis
 
     def waves(self, block: slice) -> NDArray[np.float64]:
         """The nuisance waves of the samples ``block``."""
@@ -264,6 +297,9 @@ class NuisanceProjection:
 
     def residual(self, signal: NDArray[np.float64]) -> NDArray[np.float64]:
         """``signal`` less its projection on the nuisance waves."""
+        if self.rows is not None:
+            solved, _ = scipy.linalg.lapack.dpotrs(self.triangle, self.rows @ signal, lower=0)
+            return np.asarray(signal - solved @ self.rows, dtype=np.float64)
         if self.basis is not None:
             return signal - self.basis @ (self.basis.T @ signal)
         assert self.factor is not None
@@ -316,7 +352,6 @@ class _NuisanceFree:
             nuisance = NuisanceProjection(angle, nuisance_orders, direction)
         self.nuisance = nuisance
         self.angle, self.direction = nuisance.angle, nuisance.direction
-        self.basis = nuisance.basis
         self.k = nuisance.k
         y = np.asarray(signal, dtype=np.float64)
         self.residual = nuisance.residual(y)
@@ -325,20 +360,20 @@ class _NuisanceFree:
     def explained(self, rows: NDArray[np.float64], *, exact: bool = False) -> float:
         """Sum of squares of the residual explained by the waves ``rows`` (``p x n``, a row a
         wave, not yet projected); ``exact`` forces the QR path."""
-        assert self.basis is not None
         if not exact:
-            cross = rows @ self.basis
-            gram = rows @ rows.T - cross @ cross.T
+            cross = self.nuisance.coordinates(rows)
+            gram = rows @ rows.T - cross.T @ cross
             explained = _gram_explained(gram, rows @ self.residual)
             if explained is not None:
                 return explained
         tests = rows.T
-        projected = tests - self.basis @ (self.basis.T @ tests)
+        basis = self.nuisance.orthonormal()
+        projected = tests - basis @ (basis.T @ tests)
         q = scipy.linalg.qr(projected, mode="economic", check_finite=False)[0]
         return float(np.sum((q.T @ self.residual) ** 2))
 
     def f_statistic(self, orders: Sequence[float], *, exact: bool = False) -> float:
-        if self.basis is None:
+        if self.nuisance.blocked:
             return self._blocked(orders, [None])[0]
         return self._f(_wave_rows(self.angle, orders), exact=exact)
 
@@ -400,48 +435,28 @@ class _NuisanceFree:
         the orders: for a tooth set (32 orders) a few small complex products instead of
         ``n x 64 x 64`` multiplications. Equal to the waves' path to about 1e-12 (tested).
         """
-        if self.basis is None or self.direction is not None or self.nuisance.triangle is None:
+        if self.nuisance.blocked or self.direction is not None:
             return None
-        values = np.asarray(orders, dtype=np.float64)
-        grids = _grids(values)
-        p = 2 * values.size
-        if len(grids) != 1 or self.residual.size <= self.k + p + 1:
+        plan = sums_plan(
+            tuple(map(float, orders)), tuple(map(float, offsets)), self.nuisance.orders
+        )
+        p = 2 * len(orders)
+        if plan is None or self.residual.size <= self.k + p + 1:
             return None
-        _, start, step = grids[0]
-        steps = np.rint((values - start) / step).astype(np.int64)
-        top = int(steps.max())
-        grid = np.arange(2 * top + 1) * step
-        whole = np.asarray(self.nuisance.orders, dtype=np.float64)[:, None]
-        # Per set of orders (shifted by d): the sums at the differences of two orders (the same
-        # for every d), at their totals, at a whole order plus or minus an order, and the
-        # residual's sums at the orders; each on the grid of the orders' steps.
-        parts = [grid[: top + 1]]
-        for shift in (0.0, *offsets):
-            first = start + shift
-            parts += [2 * first + grid, whole + first + grid[: top + 1]]
-            parts += [whole - first - grid[: top + 1], first + grid[: top + 1]]
-        frequencies = np.concatenate([part.ravel() for part in parts])
         weights = np.stack([np.ones(self.angle.size), self.residual])
-        sums = phasor_sums(self.angle, weights, frequencies, step)
-        if sums is None:
-            return None
-        ranges = np.cumsum([0, *(part.size for part in parts)])
-        at = [sums[:, i:j] for i, j in itertools.pairwise(ranges)]
-        apart = steps[:, None] - steps[None, :]
-        difference = at[0][0, np.abs(apart)]
-        difference[apart < 0] = np.conj(difference[apart < 0])
+        sums = phasor_sums(self.angle, weights, plan.frequencies, plan.phasors.step, plan.phasors)
+        assert sums is not None  # the plan is the frequencies'
+        ones, residual = sums
+        difference = ones[plan.difference]
+        difference[plan.conjugated] = np.conj(difference[plan.conjugated])
         out = []
-        for k in range(1, len(at), 4):
-            total, plus, minus, orders_sums = at[k : k + 4]
-            gram = wave_products(difference, total[0, steps[:, None] + steps[None, :]])
-            shape = (whole.size, top + 1)
-            cross = wave_products(
-                minus[0].reshape(shape)[:, steps], plus[0].reshape(shape)[:, steps]
-            )
+        for total, minus, plus, at_orders in plan.shifts:
+            gram = wave_products(difference, ones[total])
+            cross = wave_products(ones[minus], ones[plus])
             # The projected waves' Gram matrix: T'T - (Q'T)'(Q'T), Q'T = R^-T N'T.
             projected, _ = scipy.linalg.lapack.dtrtrs(self.nuisance.triangle, cross, trans=1)
             gram -= projected.T @ projected
-            residual_sums = orders_sums[1, steps]
+            residual_sums = residual[at_orders]
             right = np.concatenate([residual_sums.imag, residual_sums.real])
             explained = _gram_explained(gram, right)
             if explained is None:
@@ -458,7 +473,7 @@ class _NuisanceFree:
         for a capture's few megabytes of waves cost as much as their products. A tooth set is
         read from sums of phasors instead (:meth:`_sums_f`).
         """
-        if self.basis is None:
+        if self.nuisance.blocked:
             main, *shifted = self._blocked(orders, [None, *offsets])
             return main / float(np.mean(shifted))
         by_sums = self._sums_f(orders, offsets)
@@ -544,65 +559,6 @@ def bearing_lines(
     return line_ratio(
         signal, angle, bearing_orders(bearing_order), BEARING_OFFSETS, nuisance=nuisance
     )
-
-
-@lru_cache(maxsize=1024)
-def butter_sos(
-    order: int, cutoff_hz: float | tuple[float, float], rate_hz: float
-) -> NDArray[np.float64]:
-    """Butterworth low-pass (one cutoff) or band-pass (two) sections, designed once per
-    parameters and process (a design costs about as much as filtering a 3 s capture; every
-    capture of a fleet uses the same few). Shared by the callers, which must not modify it
-    (SciPy's filters need a writeable array, so it cannot be marked read-only).
-
-    Examples
-    --------
-    >>> butter_sos(2, 10.0, 1000.0).shape
-    (1, 6)
-    >>> butter_sos(2, 10.0, 1000.0) is butter_sos(2, 10.0, 1000.0)
-    True
-    """
-    btype = "bandpass" if isinstance(cutoff_hz, tuple) else "lowpass"
-    return np.asarray(butter(order, cutoff_hz, btype=btype, fs=rate_hz, output="sos"))
-
-
-@lru_cache(maxsize=1024)
-def _initial_state(sections: bytes, count: int) -> NDArray[np.float64]:
-    """``sosfilt_zi`` of the sections whose bytes are ``sections`` (``count`` rows), once."""
-    return np.asarray(sosfilt_zi(np.frombuffer(sections).reshape(count, 6)))
-
-
-def zero_phase(
-    sos: NDArray[np.float64], x: NDArray[np.float64], padlen: int | None = None
-) -> NDArray[np.float64]:
-    """``scipy.signal.sosfiltfilt(sos, x, padlen=padlen)`` of a 1-D ``x``, the filter's initial
-    state computed once per filter (:func:`butter_sos`'s designs are few; solving for the state
-    cost as much as the filtering of a 3 s capture). Bit-identical to SciPy's (tested).
-
-    Examples
-    --------
-    >>> from scipy.signal import sosfiltfilt
-    >>> x = np.sin(np.arange(200) / 5.0)
-    >>> sos = butter_sos(2, 10.0, 1000.0)
-    >>> bool(np.array_equal(zero_phase(sos, x), sosfiltfilt(sos, x)))
-    True
-    """
-    count = sos.shape[0]
-    zi = _initial_state(np.ascontiguousarray(sos, dtype=np.float64).tobytes(), count)
-    if padlen is None:
-        taps = 2 * count + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
-        padlen = 3 * taps
-    if x.size <= padlen:
-        raise ValueError(f"The length of the input vector x must be greater than padlen, {padlen}.")
-    ext = odd_ext(x, padlen) if padlen > 0 else x
-    # SciPy's sosfilt of a 1-D signal, without its checks and axis moves (ten calls a capture).
-    sections = np.asarray(sos, dtype=np.float64)
-    y = np.array(ext, dtype=np.float64, order="C")[None, :]
-    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
-    y = np.array(y[:, ::-1], order="C")
-    _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
-    y = y[0, ::-1]
-    return np.asarray(y[padlen:-padlen] if padlen > 0 else y, dtype=np.float64)
 
 
 def whole_samples(seconds: float, rate_hz: float) -> int:
@@ -697,7 +653,7 @@ def repair_lone_spikes(values: NDArray[np.float64]) -> NDArray[np.float64]:
     moving = step[step > 0]
     if not moving.size:
         return x
-    noise = max(1.4826 * float(np.median(step)) / math.sqrt(2.0), float(np.min(moving)))
+    noise = max(1.4826 * median(step) / math.sqrt(2.0), float(np.min(moving)))
     # Candidates first, with temporaries of the capture's length only: a lone spike departs
     # from both next samples, in one direction, by more than (factor - 1) x noise.
     limit = (LONE_SPIKE_FACTOR - 1.0) * noise

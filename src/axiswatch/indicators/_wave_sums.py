@@ -3,18 +3,30 @@
 ``sum_n sin(a t_n) cos(b t_n)`` and its kin are half the real or imaginary part of
 ``S(a - b)`` and ``S(a + b)``, with ``S(f) = sum_n exp(1j f t_n)``. Frequencies on a few grids of
 one step are summed by baby-step giant-step: one small complex matrix product per grid.
+Which sums a set of orders needs, and where they fall, is planned once per set and process.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from axiswatch.indicators._workspace import scratch
 
-__all__ = ["MAX_GRIDS", "Phasors", "cis", "phasor_sums", "wave_products"]
+__all__ = [
+    "MAX_GRIDS",
+    "PhasorPlan",
+    "Phasors",
+    "cis",
+    "phasor_plan",
+    "phasor_sums",
+    "wave_products",
+]
 
 #: Most grids (classes of frequencies equal modulo the step) summed; beyond, the waves' own
 #: products cost less.
@@ -58,15 +70,67 @@ class Phasors:
         return kept
 
 
+@dataclass(frozen=True)
+class PhasorPlan:
+    """Where :func:`phasor_sums` finds each frequency: per class of frequencies equal modulo
+    the step, its members (positions among the frequencies), its offset and each member's
+    index on the class's grid; and which frequencies are negative (conjugated). A pure
+    function of the frequencies and the step (:func:`phasor_plan`): a caller that sums the
+    same frequencies for every capture keeps it (read-only arrays)."""
+
+    step: float
+    classes: tuple[tuple[NDArray[np.intp], float, NDArray[np.int64]], ...]
+    negative: NDArray[np.bool_]
+
+
+def phasor_plan(frequencies: NDArray[np.float64], step: float) -> PhasorPlan | None:
+    """The :class:`PhasorPlan` of ``frequencies`` on grids of ``step``; None when they fall in
+    more than :data:`MAX_GRIDS` classes, or a class is not a grid after all.
+
+    Examples
+    --------
+    >>> plan = phasor_plan(np.array([0.4, 1.2, -2.0, 3.1]), 0.4)
+    >>> [(members.tolist(), round(offset, 6)) for members, offset, _ in plan.classes]
+    [([0, 1, 2], 0.0), ([3], 0.3)]
+    """
+    flat = np.abs(frequencies)
+    whole = np.floor(flat / step + 1e-7)
+    fraction = flat / step - whole
+    wrap = fraction > 1 - 1e-7
+    whole[wrap] += 1
+    fraction[wrap] -= 1
+    keys = np.rint(fraction * 1e6).astype(np.int64)
+    found = np.unique(keys)
+    if found.size > MAX_GRIDS:
+        return None
+    classes = []
+    for key in found:
+        members = np.flatnonzero(keys == key)
+        offset = float(flat[members[0]] - whole[members[0]] * step)
+        if abs(offset) <= 1e-12 * step:
+            offset = 0.0
+        index = np.rint((flat[members] - offset) / step).astype(np.int64)
+        off_grid = np.abs(flat[members] - (offset + index * step))
+        if np.any(off_grid > 1e-12 * np.maximum(1.0, flat[members])):
+            return None  # not a grid after all: summed at the wrong frequencies
+        members.flags.writeable = index.flags.writeable = False
+        classes.append((members, offset, index))
+    negative = frequencies < 0
+    negative.flags.writeable = False
+    return PhasorPlan(step, tuple(classes), negative)
+
+
 def phasor_sums(
     angle: NDArray[np.float64],
     weights: NDArray[np.float64],
     frequencies: NDArray[np.float64],
     step: float,
+    plan: PhasorPlan | None = None,
 ) -> NDArray[np.complex128] | None:
     """``sum_n weights[w, n] * exp(1j * f * angle[n])`` for every weight row ``w`` and frequency
     ``f`` (1-D): shape ``(len(weights), len(frequencies))``; None when the frequencies fall in
-    more than :data:`MAX_GRIDS` classes modulo ``step``.
+    more than :data:`MAX_GRIDS` classes modulo ``step``. ``plan``: their :func:`phasor_plan`,
+    when kept.
 
     A class ``c + m step`` (``m = 0..M``) is summed as ``G @ B.T``: baby rows ``B_j = z^j`` and
     giant rows ``G_l = w exp(1j c angle) z^(J l)``, ``z = exp(1j step angle)``, ``J ~ sqrt(M)``,
@@ -81,28 +145,13 @@ def phasor_sums(
     >>> bool(np.allclose(sums[0], np.exp(1j * np.multiply.outer(f, angle)).sum(axis=1)))
     True
     """
-    flat = np.abs(frequencies)
-    whole = np.floor(flat / step + 1e-7)
-    fraction = flat / step - whole
-    wrap = fraction > 1 - 1e-7
-    whole[wrap] += 1
-    fraction[wrap] -= 1
-    keys = np.rint(fraction * 1e6).astype(np.int64)
-    classes = np.unique(keys)
-    if classes.size > MAX_GRIDS:
+    plan = phasor_plan(frequencies, step) if plan is None else plan
+    if plan is None:
         return None
     n, count_weights = angle.size, weights.shape[0]
-    out = np.empty((count_weights, flat.size), dtype=np.complex128)
+    out = np.empty((count_weights, frequencies.size), dtype=np.complex128)
     rotation = cis(step * angle)
-    for key in classes:
-        members = np.flatnonzero(keys == key)
-        offset = flat[members[0]] - whole[members[0]] * step
-        if abs(offset) <= 1e-12 * step:
-            offset = 0.0
-        index = np.rint((flat[members] - offset) / step).astype(np.int64)
-        off_grid = np.abs(flat[members] - (offset + index * step))
-        if np.any(off_grid > 1e-12 * np.maximum(1.0, flat[members])):
-            return None  # not a grid after all: summed at the wrong frequencies
+    for members, offset, index in plan.classes:
         count = int(index.max()) + 1
         baby_count = math.isqrt(count - 1) + 1
         giant_count = -(-count // baby_count)
@@ -122,7 +171,7 @@ def phasor_sums(
             np.multiply(giant[:, g - 1], leap, out=giant[:, g])
         table = (giant.reshape(-1, n) @ baby.T).reshape(count_weights, -1)
         out[:, members] = table[:, index]
-    negative = frequencies < 0
+    negative = plan.negative
     out[:, negative] = np.conj(out[:, negative])
     return out
 
@@ -155,3 +204,117 @@ def wave_products(
     np.multiply(minus.imag, -0.5, out=out[rows:, :columns])
     np.multiply(plus.real, 0.5, out=out[rows:, columns:])
     return out
+
+
+def order_grids(values: NDArray[np.float64]) -> tuple[tuple[NDArray[np.int64], float, float], ...]:
+    """The orders ``values`` as grids: ``(members, start, step)``, each member at a whole number
+    of steps from ``start``. One grid when they are multiples of their smallest spacing (the
+    tooth sets); else one per class of equal fractional part, of step 1 (a bearing order and its
+    double, each with whole-order sidebands). Found once per set of orders and process (a
+    capture's lines ask four times; each costs as much as a wave's product): the arrays are
+    read-only."""
+    return _order_grids_of(tuple(values.tolist()))
+
+
+@lru_cache(maxsize=256)
+def _order_grids_of(
+    orders: tuple[float, ...],
+) -> tuple[tuple[NDArray[np.int64], float, float], ...]:
+    values = np.asarray(orders, dtype=np.float64)
+    step = float(np.min(np.diff(np.sort(values)))) if values.size > 1 else 0.0
+    every = np.arange(values.size)
+    grids = [(every, float(values.min()), step)]
+    on_one_grid = False
+    if step > 0:
+        steps = np.rint((values - values.min()) / step)
+        on_one_grid = float(np.max(np.abs(values - (values.min() + steps * step)))) <= 1e-9
+    if not on_one_grid:
+        fraction = np.round(values - np.floor(values), 9) % 1.0
+        grids = [
+            (every[fraction == value], float(values[fraction == value].min()), 1.0)
+            for value in np.unique(fraction)
+        ]
+    for members, _, _ in grids:
+        members.flags.writeable = False  # kept for the next capture
+    return tuple(grids)
+
+
+def summing_step(step: float, offsets: Sequence[float]) -> float:
+    """The step whose grid holds the orders (a grid of ``step``) shifted by every offset:
+    ``step`` when the offsets are whole steps, half of it when they are half steps (a tooth
+    set's), else ``step`` (the phasor sums then sum a few classes of frequencies).
+
+    One grid of half steps costs one exponential and one product; two classes cost two each.
+
+    Examples
+    --------
+    >>> summing_step(0.2, [0.1]), summing_step(0.2, [0.4]), summing_step(0.2, [0.03])
+    (0.1, 0.2, 0.2)
+    """
+    for divisor in (1, 2):
+        multiples = [divisor * shift / step for shift in offsets]
+        if all(abs(m - round(m)) <= 1e-9 for m in multiples):
+            return step / divisor
+    return step
+
+
+@dataclass(frozen=True)
+class SumsPlan:
+    """The phasor sums the line statistics read for a set of orders and offsets (a tooth set):
+    the frequencies summed and their :class:`PhasorPlan`; where among them lie the sums at the
+    differences of two orders (and which are conjugated); and per set of orders (shifted by
+    each offset) the sums at the totals of two orders, at a whole order less and plus an
+    order, and at the orders. Every index is a column of the sums."""
+
+    frequencies: NDArray[np.float64]
+    phasors: PhasorPlan
+    difference: NDArray[np.intp]
+    conjugated: NDArray[np.bool_]
+    shifts: tuple[tuple[NDArray[np.intp], ...], ...]
+
+
+@lru_cache(maxsize=64)
+def sums_plan(
+    orders: tuple[float, ...], offsets: tuple[float, ...], whole_orders: tuple[float, ...]
+) -> SumsPlan | None:
+    """The :class:`SumsPlan` of a set of orders on one grid, kept per process (a capture's
+    tooth lines read the same sets); None for orders on no single grid or frequencies in too
+    many classes."""
+    values = np.asarray(orders, dtype=np.float64)
+    grids = order_grids(values)
+    if len(grids) != 1:
+        return None
+    _, start, step = grids[0]
+    steps = np.rint((values - start) / step).astype(np.intp)
+    top = int(steps.max())
+    grid = np.arange(2 * top + 1) * step
+    whole = np.asarray(whole_orders, dtype=np.float64)[:, None]
+    # Per set of orders (shifted by d): the sums at the differences of two orders (the same
+    # for every d), at their totals, at a whole order plus or minus an order, and the
+    # residual's sums at the orders; each on the grid of the orders' steps.
+    parts = [grid[: top + 1]]
+    for shift in (0.0, *offsets):
+        first = start + shift
+        parts += [2 * first + grid, whole + first + grid[: top + 1]]
+        parts += [whole - first - grid[: top + 1], first + grid[: top + 1]]
+    frequencies = np.concatenate([part.ravel() for part in parts])
+    phasors = phasor_plan(frequencies, summing_step(step, offsets))
+    if phasors is None:
+        return None
+    begins = np.cumsum([0, *(part.size for part in parts)])
+    apart = steps[:, None] - steps[None, :]
+    # A whole order k and an order: column begins + k * (top + 1) + the order's step.
+    rows = np.arange(whole.size)[:, None] * (top + 1) + steps[None, :]
+    shifts = tuple(
+        (
+            begins[k] + steps[:, None] + steps[None, :],
+            begins[k + 2] + rows,
+            begins[k + 1] + rows,
+            begins[k + 3] + steps,
+        )
+        for k in range(1, len(parts), 4)
+    )
+    difference, conjugated = np.abs(apart), apart < 0
+    for array in (frequencies, difference, conjugated, *(a for shift in shifts for a in shift)):
+        array.flags.writeable = False
+    return SumsPlan(frequencies, phasors, difference, conjugated, shifts)

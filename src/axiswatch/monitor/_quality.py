@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from axiswatch._capture import Capture
+from axiswatch._quantiles import quantiles
 
 __all__ = [
     "GLITCH_SPANS",
@@ -73,7 +74,10 @@ def longest_run(values: NDArray[np.float64]) -> tuple[int, int]:
     >>> longest_run(np.array([1.0, 2.0, 2.0, 2.0, 3.0, 3.0]))
     (3, 1)
     """
-    changes = np.flatnonzero(values[1:] != values[:-1]) + 1
+    differs = values[1:] != values[:-1]
+    if differs.all():
+        return min(values.size, 1), 0  # no value repeated: every run is one sample
+    changes = np.flatnonzero(differs) + 1
     starts = np.concatenate([[0], changes])
     lengths = np.diff(np.concatenate([starts, [values.size]]))
     best = int(np.argmax(lengths))
@@ -82,8 +86,8 @@ def longest_run(values: NDArray[np.float64]) -> tuple[int, int]:
 
 def signal_range(values: NDArray[np.float64]) -> float:
     """The range of the middle 98 % of the samples (a few glitches leave it as it is)."""
-    low, high = np.percentile(values, [1.0, 99.0])
-    return float(high - low)
+    low, high = quantiles(values, (0.01, 0.99))  # np.percentile's, bit for bit
+    return high - low
 
 
 def isolated_glitches(values: NDArray[np.float64], spans: float = GLITCH_SPANS) -> NDArray[np.intp]:
@@ -240,8 +244,9 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
                 f"out of range: signal '{name}' reads {values[peak]:.4g} at sample {peak} (no "
                 f"axis signal exceeds {OUT_OF_RANGE:g} in magnitude; a logger glitch?)"
             )
+    runs = {name: longest_run(values) for name, values in capture.signals.items()}
     for name, values in capture.signals.items():
-        run, start = longest_run(values)
+        run, start = runs[name]
         if run == values.size:
             return f"flat/stuck signal: '{name}' is {values[0]:.6g} throughout ({run} samples)"
     for name in GLITCH_SIGNALS:
@@ -270,7 +275,7 @@ def data_quality_problem(capture: Capture, reference: QualityReference | None = 
         if changed is not None:
             return changed
     for name, values in capture.signals.items():
-        run, start = longest_run(values)
+        run, start = runs[name]
         if run >= STUCK_SHARE * values.size and not _standstill(capture, name, start, run):
             return (
                 f"flat/stuck signal: '{name}' repeats {values[start]:.6g} for {run} of "
