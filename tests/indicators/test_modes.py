@@ -279,3 +279,19 @@ def test_teach_makes_an_alarm_of_a_known_mode_a_new_mode() -> None:
     assert [library.teach(d) for d in heavier] == ["mode1", "mode1"]
     assert library.modes_["mode0"].members == members
     assert library.score(_description(rng, friction=2.0)).mode == "mode1"
+
+
+def test_a_false_alarm_joins_its_mode_and_restarts_a_drifted_one() -> None:
+    rng = np.random.default_rng(13)
+    library = _learned(rng, 6)
+    verdicts = [library.update(_description(rng, friction=1.0 + 0.01 * k)) for k in range(30)]
+    assert verdicts[-1].state == "drift"
+    level = _description(rng, friction=1.3, source="level.csv")
+    assert library.score(level).alarm
+    assert library.accept(level) == "mode0"
+    mode = library.modes_["mode0"]
+    assert not mode.drifted
+    assert mode.members[-1] is level
+    assert len(mode.members) == library.n_fit + 1
+    # The engineer's new level is the mode's normal: its like is healthy.
+    assert not library.score(_description(rng, friction=1.3)).alarm

@@ -146,6 +146,28 @@ def test_a_fault_in_a_known_mode_alarms_and_ack_task_changed_teaches_it(tmp_path
     assert teach_mode(SQLiteStore(store), alarm.baseline_id, alarm.raised_capture) == {}
 
 
+def test_ack_false_alarm_teaches_the_alarm_to_its_own_mode(tmp_path: Path) -> None:
+    root = _fleet(tmp_path / "fleet", CHANGE + 3, fault_from=CHANGE, change=CHANGE + 3)
+    store = tmp_path / "s.db"
+    _run(root, store)
+    with SQLiteStore(store, read_only=True) as opened:
+        (alarm,) = opened.alarms()
+        before: AxisModes = pickle.loads(opened.mode_library(alarm.baseline_id) or b"")
+    members = len(before.library.modes_["mode0"].members)
+    said = runner.invoke(
+        app,
+        ["ack", "--store", str(store), "--robot", "r1", "--axis", "a0", "--by", "ana",
+         "--note", "sensor cable", "--false-alarm"],
+    )  # fmt: skip
+    assert said.exit_code == 0, said.output
+    assert f"{alarm.raised_capture}: learned as healthy, mode mode0." in said.output
+    with SQLiteStore(store, read_only=True) as opened:
+        after: AxisModes = pickle.loads(opened.mode_library(alarm.baseline_id) or b"")
+    assert len(after.library.modes_["mode0"].members) == members + len(before.alarmed)
+    assert sorted(after.library.modes_) == sorted(before.library.modes_)
+    assert after.alarmed == {}
+
+
 def test_a_declared_mode_names_the_mode(tmp_path: Path) -> None:
     root = _fleet(tmp_path / "fleet", CHANGE + 2, suffix="prog")
     (root / "axiswatch.toml").write_text(

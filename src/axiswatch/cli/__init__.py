@@ -528,9 +528,15 @@ def ack(
     fault_confirmed: bool = typer.Option(
         False, "--fault-confirmed", help="Verdict: the fault is real."
     ),
-    false_alarm: bool = typer.Option(False, "--false-alarm", help="Verdict: the axis is fine."),
+    false_alarm: bool = typer.Option(
+        False,
+        "--false-alarm",
+        help="Verdict: the axis is fine (with --modes, its mode learns the alarm's captures).",
+    ),
     task_changed: bool = typer.Option(
-        False, "--task-changed", help="Verdict: the axis's task or payload changed."
+        False,
+        "--task-changed",
+        help="Verdict: the axis's task or payload changed (with --modes, a new mode).",
     ),
     list_: bool = typer.Option(
         False, "--list", help="List the acknowledgements (of --robot/--axis if given) instead."
@@ -585,9 +591,12 @@ def ack(
                 verdict=verdict,
             )  # fmt: skip
             taught: dict[str, str] = {}
-            if verdict == "task-changed" and not rebaseline:
+            if verdict in ("task-changed", "false-alarm") and not rebaseline:
                 for alarm in alarms:
-                    taught |= teach_mode(opened, alarm.baseline_id, alarm.raised_capture)
+                    taught |= teach_mode(
+                        opened, alarm.baseline_id, alarm.raised_capture,
+                        new_mode=verdict == "task-changed",
+                    )  # fmt: skip
         said = f": {verdict}" if verdict else ""
         echo(f"{robot}/{axis}: acknowledged ({', '.join(methods)}) by {by}{said}.")
         for capture, mode in taught.items():

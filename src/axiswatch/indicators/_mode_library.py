@@ -523,6 +523,26 @@ class ModeLibrary:
         self._normals.clear()
         return name
 
+    def accept(self, description: CaptureDescription) -> str:
+        """Learn a capture the engineer calls a false alarm: it joins the mode it matches (the
+        mode being learned, for a guard's alarm). A drifted mode starts again from its latest
+        ``n_fit`` captures and this one: its first fit and its drift test restart there.
+        Returns the mode's name."""
+        if not description.moving:
+            raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
+        name = self.match(description, taught=True) or f"mode{len(self.modes_)}"
+        mode = self.modes_.setdefault(name, _Mode(name))
+        if mode.drifted:
+            mode.members = mode.members[-self.n_fit :]
+            mode.drifted = False
+            mode.reference = None
+        mode.join(description, self.window)
+        if mode.reference is None and len(mode.members) >= self.n_fit:
+            mode.reference = self._centre(mode.members)
+        self._cache.clear()
+        self._normals.clear()
+        return name
+
     def _drifted(self, mode: _Mode) -> bool:
         """Whether a guard reading's latest ``n_fit`` values rose above its first ``n_fit``:
         a one-sided z of the two medians' difference, Bonferroni over the guard readings.

@@ -150,19 +150,25 @@ class ModeBook:
         return score, lambda history: decision, stored
 
 
-def teach_mode(store: _ModeLibraries, baseline_id: int, since: str) -> dict[str, str]:
-    """Teach the baseline's library the alarmed captures from ``since`` on as healthy: the
-    alarm was a mode change, not a fault. Returns capture -> the mode it joined (empty when
-    the baseline keeps no mode library or none of those captures)."""
+def teach_mode(
+    store: _ModeLibraries, baseline_id: int, since: str, *, new_mode: bool = True
+) -> dict[str, str]:
+    """Teach the baseline's library the alarmed captures from ``since`` on as healthy.
+
+    ``new_mode``: the alarm was a mode change (``ack --task-changed``), and the captures start
+    or join a new mode; else a false alarm (``ack --false-alarm``), and they join the mode
+    they were scored in, which starts again if it had drifted. Returns capture -> the mode it
+    joined (empty when the baseline keeps no mode library or none of those captures)."""
     blob = store.mode_library(baseline_id)
     if blob is None:
         return {}
     modes: AxisModes = pickle.loads(blob)
     captures = list(modes.alarmed)
     taught = {}
+    learn = modes.library.teach if new_mode else modes.library.accept
     for capture in captures[captures.index(since) :] if since in captures else []:
-        taught[capture] = modes.library.teach(modes.alarmed.pop(capture))
+        taught[capture] = learn(modes.alarmed.pop(capture))
     if taught:
-        modes.recent = [(False, False)]  # the alarm was a mode change: cleared
+        modes.recent = [(False, False)]  # the alarm was not a fault: cleared
         store.save_mode_library(baseline_id, pickle.dumps(modes))
     return taught
