@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
-from axiswatch._calibration import fit_half_laplace
+from axiswatch._calibration import HalfLaplaceFit
 from axiswatch.indicators._mode_normals import (
     ModeBlock,
     NormalStats,
@@ -183,7 +183,9 @@ def tail_threshold(healthy_distances: Sequence[float], percentile: float) -> flo
     excess = values[values > median] - median
     if excess.size < 4 or not excess.mean() > 0:
         return math.inf
-    fit = fit_half_laplace(excess)
+    # The exponential's maximum-likelihood scale is the mean excess (as fit_half_laplace's,
+    # without its goodness-of-fit test, which the threshold does not use).
+    fit = HalfLaplaceFit(float(excess.mean()), int(excess.size), math.nan, math.nan)
     return median + fit.prediction_threshold(100.0 - 2.0 * (100.0 - percentile))
 
 
