@@ -197,12 +197,19 @@ def _reader_floor(path: Path) -> None:
 
 
 def case_job(
-    method: str, quick: bool, *, order_lines: bool = False, profile: bool = False
+    method: str,
+    quick: bool,
+    *,
+    order_lines: bool = False,
+    profile: bool = False,
+    modes: bool = False,
 ) -> dict[str, Any]:
     """The monitor's scoring job on one 3 s robot-simulator capture (warm worker: model kept,
     BLAS limited once), against the physical floor of the same file, in the same process;
     ``order_lines``: the ``indicators`` method with its order-lines option; ``profile``: with
-    the axis profile ``axiswatch simulate fleet`` writes (kinematics: tooth and bearing lines)."""
+    the axis profile ``axiswatch simulate fleet`` writes (kinematics: tooth and bearing lines);
+    ``modes``: with ``--modes``, the job's description and the mode library's decision (score,
+    learn, the library pickled for the store) on a library of 4 tasks at their full window."""
     from axiswatch._profiles import AxisProfile
     from axiswatch.datasets._robot_fleet import fleet_profile_toml
     from axiswatch.monitor._config import MonitorConfig
@@ -243,13 +250,16 @@ def case_job(
         file = FleetFile("r", "a", path.name, path, datetime(2026, 3, 2))
         job = ScoreJob(
             file, "r/a/" + path.name, 1, ref, dict(baseline.rates_hz),
-            profile=axis_profile,
+            profile=axis_profile, modes=modes,
         )  # fmt: skip
         assert score_capture(job).error is None
+        work: Callable[[], Any] = lambda: score_capture(job)  # noqa: E731
+        if modes:
+            work = _mode_decision(job, model, axis_profile, quick)
         # Interleaved, so that a load change on this shared machine hits both alike.
         jobs, floors, readers, files = [], [], [], []
         for _ in range(repeats):
-            jobs.append(_cpu_time(lambda: score_capture(job)))
+            jobs.append(_cpu_time(work))
             floors.append(_cpu_time(lambda: _floor(path)))
             readers.append(_cpu_time(lambda: _reader_floor(path)))
             files.append(_cpu_time(lambda: _floor(path, one_file=True)))
@@ -257,7 +267,8 @@ def case_job(
     reader_s, file_s = statistics.median(readers), statistics.median(files)
     return {
         "case": f"3 s robot capture: scoring job ({method}"
-        f"{' --order-lines' if order_lines else ''}{', profile' if profile else ''}) vs floor",
+        f"{' --order-lines' if order_lines else ''}{' --modes' if modes else ''}"
+        f"{', profile' if profile else ''}) vs floor",
         "fast_s": job_s,
         "dense_s": floor_s,
         "ratio": job_s / floor_s,
@@ -267,6 +278,32 @@ def case_job(
         f"{file_s * 1e3:.2f} ms ({job_s / file_s:.1f}x)",
         "floor_one_file_s": file_s,
     }
+
+
+def _mode_decision(job: Any, model: Any, profile: Any, quick: bool) -> Callable[[], Any]:
+    """The job with ``--modes`` as the monitor runs it: score the capture, then the library's
+    verdict, its learning and its pickle (saved with the score). The library holds 4 tasks of
+    the simulator at their full window (``2 x window`` captures each; 8 with ``quick``)."""
+    import pickle
+
+    from axiswatch.indicators._mode_library import ModeLibrary
+    from axiswatch.indicators._modes import describe_capture
+    from axiswatch.monitor._scoring import score_capture
+
+    library = ModeLibrary()
+    per_task = 8 if quick else 2 * library.window
+    for task in list(awd.TASKS)[:4]:
+        for seed in range(per_task):
+            capture = awd.simulate_capture(task, seed=100 + seed)
+            library.update(describe_capture(capture, readings=model.read(capture, profile)[0]))
+
+    def decide() -> None:
+        description = score_capture(job).description
+        assert description is not None
+        library.learn(description, library.score(description))
+        pickle.dumps(library)
+
+    return decide
 
 
 def case_lra_60s(quick: bool) -> dict[str, Any]:
@@ -390,6 +427,9 @@ CASES: dict[str, Callable[[bool], dict[str, Any]]] = {
     "job-3s-indicators": lambda q: case_job("indicators", q),
     "job-3s-indicators-profile": lambda q: case_job("indicators", q, profile=True),
     "job-3s-indicators-order-lines": lambda q: case_job("indicators", q, order_lines=True),
+    "job-3s-indicators-modes-profile": lambda q: case_job(
+        "indicators", q, profile=True, modes=True
+    ),
     "job-3s-mechanics": lambda q: case_job("mechanics", q),
     "job-3s-lra": lambda q: case_job("lra", q),
     "job-3s-pca": lambda q: case_job("pca", q),

@@ -31,3 +31,13 @@ def test_quick_memory_benchmark_runs() -> None:
     rows = done.stdout.splitlines()[2:]
     assert [row.split()[:2] for row in rows] == [["3", "s"], ["60", "s"]]
     assert all(row.endswith("scored; the other axes' new captures scored") for row in rows)
+
+
+def test_quick_modes_case_runs() -> None:
+    done = subprocess.run(
+        [sys.executable, str(RUN), "--quick", "--case", "job-3s-indicators-modes-profile"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert "scoring job (indicators --modes, profile) vs floor" in done.stdout
