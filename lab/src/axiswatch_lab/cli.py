@@ -260,7 +260,7 @@ def experiment_transfer(
     ] = 0.0,
 ) -> None:
     """Transfer study: held-out simulated robots and the real data sets."""
-    from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS, default_data_dir
+    from axiswatch.datasets import default_data_dir
     from axiswatch_lab._transfer import (
         FAST_DESIGN,
         TransferDesign,
@@ -268,20 +268,7 @@ def experiment_transfer(
         transfer_study,
     )
 
-    if robots == "held-out":
-        seeds: tuple[int, ...] = HELD_OUT_ROBOTS
-    elif robots == "development":
-        seeds = DEVELOPMENT_ROBOTS
-    else:
-        try:
-            seeds = tuple(int(s) for s in robots.split(","))
-        except ValueError:
-            typer.echo(
-                "error: --robots must be 'held-out', 'development' or seeds such as 1,2; "
-                f"got {robots!r}.",
-                err=True,
-            )
-            raise typer.Exit(2) from None
+    seeds = _robot_seeds(robots)
     design = dataclasses.replace(
         FAST_DESIGN if fast else TransferDesign(),
         kinematics=kinematics,
@@ -304,20 +291,28 @@ def experiment_transfer(
     typer.echo(f"\nwrote {out / 'robots.csv'}, {out / 'real.csv'}")
 
 
-def _development_or_seeds(robots: str) -> tuple[int, ...]:
-    """``--robots``: 'development' (robots 0-7) or comma-separated seeds; else exit 2, one line."""
-    from axiswatch.datasets import DEVELOPMENT_ROBOTS
+def _robot_seeds(robots: str, *, held_out: bool = True) -> tuple[int, ...]:
+    """``--robots``: 'held-out' (when ``held_out``), 'development' (robots 0-7) or
+    comma-separated seeds; else exit 2, one line."""
+    from axiswatch.datasets import DEVELOPMENT_ROBOTS, HELD_OUT_ROBOTS
 
+    if robots == "held-out" and held_out:
+        return HELD_OUT_ROBOTS
     if robots == "development":
         return DEVELOPMENT_ROBOTS
     try:
         return tuple(int(s) for s in robots.split(","))
     except ValueError:
+        words = "'held-out', 'development'" if held_out else "'development'"
         typer.echo(
-            f"error: --robots must be 'development' or seeds such as 1,2; got {robots!r}.",
-            err=True,
+            f"error: --robots must be {words} or seeds such as 1,2; got {robots!r}.", err=True
         )
         raise typer.Exit(2) from None
+
+
+def _development_or_seeds(robots: str) -> tuple[int, ...]:
+    """``--robots`` of a study for choices: 'development' or seeds, never the held-out set."""
+    return _robot_seeds(robots, held_out=False)
 
 
 @experiment_app.command("nearest-task")
@@ -399,6 +394,78 @@ def experiment_ceiling(
     summary.to_csv(out / "summary.csv", index=False)
     typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     typer.echo(f"\nwrote {out / 'aurocs.csv'}, {out / 'top_features.csv'}, {out / 'summary.csv'}")
+
+
+def _words(option: str, given: str, allowed: tuple[str, ...]) -> tuple[str, ...]:
+    """Comma-separated words of ``allowed``; else exit 2 with one line naming the option."""
+    words = tuple(w for w in given.split(",") if w)
+    unknown = [w for w in words if w not in allowed]
+    if unknown:
+        typer.echo(
+            f"error: {option} takes some of {', '.join(allowed)}; got {unknown[0]!r}.", err=True
+        )
+        raise typer.Exit(2)
+    return words
+
+
+@experiment_app.command("modes")
+def experiment_modes(
+    out: Annotated[Path, typer.Option("--out", help="Folder for modes.csv and robots.csv.")],
+    robots: Annotated[
+        str, typer.Option(help="'development' (robots 0-7), 'held-out' (reported) or seeds 1,2.")
+    ] = "development",
+    cases: Annotated[
+        str | None,
+        typer.Option(
+            help="Some of robot-a, growing, fault-at-change, monitor, real-data (default: all; "
+            "real-data only with --robots held-out)."
+        ),
+    ] = None,
+    faults: Annotated[
+        str, typer.Option(help="Faults grown in the library's runs.")
+    ] = "backlash,friction,tooth,bearing",
+    monitor_faults: Annotated[
+        str, typer.Option(help="Fault runs through the monitor (none: the healthy run only).")
+    ] = "friction,backlash",
+    robot_a_days: Annotated[int, typer.Option(min=20, help="Robot A's daily captures.")] = 190,
+    growing_days: Annotated[
+        int,
+        typer.Option(min=21, help="Days of a growing fault's run (task change at 2/7, onset 3/7)."),
+    ] = 70,
+    teach: Annotated[
+        bool, typer.Option(help="Also replay with an engineer teaching alarms after a change.")
+    ] = False,
+    data: Annotated[
+        Path | None, typer.Option("--data", help="Folder of the real data sets (../shared/data).")
+    ] = None,
+) -> None:
+    """Operating modes: the mode library and --modes against the default, in time order."""
+    from axiswatch.datasets import default_data_dir
+    from axiswatch_lab._modes_experiment import CASES, ModesDesign, modes_experiment, summarize
+    from axiswatch_lab.studies.mode_library_vs_default import FAULTS
+
+    seeds = _robot_seeds(robots)
+    if cases is None:
+        chosen = CASES if robots == "held-out" else tuple(c for c in CASES if c != "real-data")
+    else:
+        chosen = _words("--cases", cases, CASES)
+    design = ModesDesign(
+        robot_a_days=robot_a_days,
+        growing_days=growing_days,
+        faults=_words("--faults", faults, FAULTS),  # type: ignore[arg-type]
+        monitor_faults=_words("--monitor-faults", monitor_faults, FAULTS),
+        teach=teach,
+    )
+    folder = data if data is not None else default_data_dir("hydraulic_actuator").parent
+    table = modes_experiment(seeds, design, chosen, folder)
+    summary = summarize(table)
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "robots.csv", index=False)
+    summary.to_csv(out / "modes.csv", index=False)
+    typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    if "real-data" in chosen and not summary["scenario"].str.startswith("real").any():
+        typer.echo(f"\nno real data under {folder}: skipped")
+    typer.echo(f"\nwrote {out / 'modes.csv'}, {out / 'robots.csv'}")
 
 
 @experiment_app.command("gearbox")

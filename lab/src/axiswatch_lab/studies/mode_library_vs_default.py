@@ -1,9 +1,11 @@
 """The mode library against the default on the robot family: within a mode, Robot A, faults
-growing after a mode change.
+growing after a mode change, a fault that starts just after one.
 
 ``python -m axiswatch_lab.studies.mode_library_vs_default [development|held-out|SEEDS] [CASES]``
 prints one row per robot and case, then the means. ``CASES``: some of ``within``, ``robot_a``,
-``growing`` (default) and ``variants`` (the library's options, :data:`VARIANTS`). The product's internals come through :mod:`axiswatch_lab._product`.
+``growing`` (default), ``at_change`` and ``variants`` (the library's options,
+:data:`VARIANTS`). ``axiswatch experiment modes`` runs these scenarios as one table. The
+product's internals come through :mod:`axiswatch_lab._product`.
 """
 
 from __future__ import annotations
@@ -173,6 +175,7 @@ def robot_a(
         "library_modes": float(len(library.modes_)),
         "default_alarm_days": float(sum(a for _, a, _ in scored)),
         "default_not_scored": float(sum(not s for _, _, s in scored)),
+        "default_scored_days": float(sum(s for _, _, s in scored)),
     }
 
 
@@ -182,29 +185,53 @@ def growing(
     onset: int,
     days: int = 70,
     *,
+    change: int = 20,
     teach: bool = False,
     options: Mapping[str, Any] | None = None,
 ) -> dict[str, float]:
-    """Task 0 for 20 days, task 1 from day 20; the fault grows linearly from day ``onset`` to
-    severity 1 on the last day. Detection past severity 0.3, false alarms before onset."""
+    """Task 0 until day ``change``, task 1 from then; the fault grows linearly from day
+    ``onset`` to severity 1 on the last day. Detection past severity 0.3, false alarms before
+    onset, and how many captures each counts."""
     library = ModeLibrary(n_fit=N_FIT, **(options or {}))
     severities, described = [], []
     for day in range(days):
         severity = max(0.0, (day - onset) / (days - 1 - onset)) if day > onset else 0.0
-        task = 0 if day < 20 else 1
+        task = 0 if day < change else 1
         fault_now = Fault(fault, severity) if severity > 0 else None
         severities.append(severity)
         described.append(_describe(robot, task, f"grow{day}", fault_now))
-    rows = list(zip(severities, _replay(library, described, [20], teach), strict=True))
+    rows = list(zip(severities, _replay(library, described, [change], teach), strict=True))
     past = [v.alarm for s, v in rows if s > 0.3]
     before = [v.alarm for s, v in rows if s == 0.0]
     first = next((s for s, v in rows if v.alarm and s > 0), math.nan)
     return {
-        "detection": float(np.mean(past)),
+        "detection": float(np.mean(past)) if past else math.nan,
         "false_alarms": float(sum(before)),
         "first_alarm_severity": first,
         "learning_faulty": float(sum(v.state == "learning" for s, v in rows if s > 0)),
+        "detected": float(sum(past)),
+        "captures_past": float(len(past)),
+        "captures_before": float(len(before)),
     }
+
+
+#: Days from the mode change to the fault's onset in :func:`fault_at_change`.
+FAULT_LAG = 3
+
+
+def fault_at_change(
+    robot: SimulatedRobot,
+    fault: FaultKind,
+    days: int = 70,
+    *,
+    change: int = 20,
+    lag: int = FAULT_LAG,
+    teach: bool = False,
+    options: Mapping[str, Any] | None = None,
+) -> dict[str, float]:
+    """:func:`growing` with the fault starting ``lag`` days after the mode change: while the
+    new mode is still learned, and within the days an engineer teaches."""
+    return growing(robot, fault, change + lag, days, change=change, teach=teach, options=options)
 
 
 def main(argv: Sequence[str]) -> None:
@@ -226,6 +253,10 @@ def main(argv: Sequence[str]) -> None:
             for fault in FAULTS:
                 rows.setdefault(f"growing {fault}", []).append(growing(robot, fault, 30))
                 print(robot.name, "growing", fault, rows[f"growing {fault}"][-1], flush=True)
+        if "at_change" in cases:
+            for fault in FAULTS:
+                rows.setdefault(f"at change {fault}", []).append(fault_at_change(robot, fault))
+                print(robot.name, "at change", fault, rows[f"at change {fault}"][-1], flush=True)
         if "variants" in cases:  # each library option, an engineer teaching after a change
             for name, options in VARIANTS.items():
                 rows.setdefault(f"{name}: robot_a", []).append(
