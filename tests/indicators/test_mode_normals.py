@@ -11,7 +11,7 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from axiswatch.indicators._mode_library import ModeLibrary
-from axiswatch.indicators._mode_normals import ModeBlock, NormalStats, normal_shift
+from axiswatch.indicators._mode_normals import ModeBlock, NormalStats, nan_median, normal_shift
 from axiswatch.indicators._modes import SPECTRUM_BANDS, CaptureDescription
 from axiswatch.indicators._readings import Readings
 
@@ -166,3 +166,22 @@ def test_a_library_keeps_the_first_and_latest_window_of_a_mode() -> None:
     mode = library.modes_["mode0"]
     assert mode.members == [*captures[:10], *captures[-10:]]
     assert verdicts[-1].n_seen == 49, "captures learned before the last, all counted"
+
+
+def test_nan_median_is_numpys_bit_for_bit() -> None:
+    rng = np.random.default_rng(4)
+    for _ in range(500):
+        shape = tuple(int(n) for n in rng.integers(1, 7, size=rng.integers(1, 4)))
+        x = rng.standard_normal(shape).round(int(rng.integers(0, 3)))  # ties too
+        kind = rng.random(shape)
+        x[kind < 0.2] = np.nan
+        x[(kind > 0.2) & (kind < 0.25)] = np.inf
+        x[(kind > 0.25) & (kind < 0.28)] = -np.inf
+        x[(kind > 0.28) & (kind < 0.3)] = -0.0
+        axis = int(rng.integers(0, len(shape)))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            expected = np.nanmedian(x, axis)
+        got = nan_median(x, axis)
+        np.testing.assert_array_equal(got, expected)
+        np.testing.assert_array_equal(np.signbit(got), np.signbit(expected))

@@ -10,7 +10,6 @@ to rounding (tested).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -63,10 +62,16 @@ def _count_var(x: Array, axis: int) -> tuple[Array, Array]:
 
 
 def nan_median(x: Array, axis: int) -> Array:
-    """The median of the finite values along ``axis`` (NaN where there is none)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a reading never read: NaN
-        return np.asarray(np.nanmedian(x, axis), np.float64)
+    """The median of the values along ``axis`` that are not NaN (NaN where there is none):
+    :func:`numpy.nanmedian`'s, from one sort (``nanmedian`` on small stacks is many times
+    slower). Equal to it bit for bit (tested)."""
+    ordered = np.sort(np.moveaxis(np.asarray(x, np.float64), axis, -1), axis=-1)  # NaN last
+    count = (~np.isnan(ordered)).sum(-1, keepdims=True)
+    low = np.take_along_axis(ordered, np.maximum(count - 1, 0) // 2, -1)
+    high = np.take_along_axis(ordered, count // 2 - (count == 0), -1)
+    with np.errstate(invalid="ignore"):  # -inf and inf in the middle: NaN, as NumPy's
+        middle = np.mean(np.concatenate([low, high], -1), -1)
+    return np.where(count[..., 0] > 0, middle, np.nan)
 
 
 class ModeBlock:
