@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 import warnings
 
 import numpy as np
@@ -35,7 +36,7 @@ def _blocks(rng: np.random.Generator) -> list[ModeBlock]:
 
 def _reference(
     blocks: list[ModeBlock], both: np.ndarray, k: int, rows: list[int]
-) -> tuple[np.ndarray, float]:
+) -> tuple[np.ndarray, tuple[np.ndarray, int]]:
     """Mode ``k``'s spreads from its captures ``rows`` (the other modes whole), one reading
     and one mode at a time, as the library computed them before they were arrays."""
     spreads = np.full(both.size, np.nan)
@@ -185,3 +186,41 @@ def test_nan_median_is_numpys_bit_for_bit() -> None:
         got = nan_median(x, axis)
         np.testing.assert_array_equal(got, expected)
         np.testing.assert_array_equal(np.signbit(got), np.signbit(expected))
+
+
+def test_a_stored_library_keeps_its_captures_as_columns() -> None:
+    rng = np.random.default_rng(5)
+    library = ModeLibrary(n_fit=N_FIT)
+    for k in range(12):
+        extra = {"gap_ringing": 0.5 + 0.01 * k} if k % 2 else {"load_forward": math.nan}
+        library.update(_capture(rng, k, **extra))
+    columns = library.modes_["mode0"].__getstate__()["members"]
+    assert columns["readings"].shape == (12, 4)  # type: ignore[index]
+    blob = pickle.dumps(library)
+    again: ModeLibrary = pickle.loads(blob)
+    for before, after in zip(
+        library.modes_["mode0"].members, again.modes_["mode0"].members, strict=True
+    ):
+        assert (after.source, after.torque_scale, after.declared) == (
+            before.source, before.torque_scale, before.declared,
+        )  # fmt: skip
+        np.testing.assert_array_equal(after.signature, before.signature)
+        np.testing.assert_array_equal(after.spectrum, before.spectrum)
+        names = sorted(before.readings.values)
+        assert sorted(after.readings.values) == names
+        np.testing.assert_array_equal(
+            [after.readings.values[n] for n in names], [before.readings.values[n] for n in names]
+        )
+    probe = _capture(rng, 99, coulomb_friction=1.4)
+    assert again.score(probe) == library.score(probe)
+
+
+def test_a_library_stored_with_its_captures_as_objects_still_loads() -> None:
+    rng = np.random.default_rng(6)
+    library = ModeLibrary(n_fit=N_FIT)
+    for k in range(8):
+        library.update(_capture(rng, k))
+    mode = library.modes_["mode0"]
+    older = object.__new__(type(mode))
+    older.__setstate__(dict(mode.__dict__))  # the state as pickled before: a list
+    assert older.members == mode.members

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +33,7 @@ from axiswatch.indicators._modes import (
     mode_distance,
     mode_tolerance,
 )
-from axiswatch.indicators._readings import INDICATORS
+from axiswatch.indicators._readings import INDICATORS, Readings
 
 __all__ = ["ModeAssessment", "ModeLibrary", "tail_threshold"]
 
@@ -139,6 +139,47 @@ class ModeAssessment:
     false_alarm_rate: float = math.nan
 
 
+def _columns(members: Sequence[CaptureDescription]) -> dict[str, object]:
+    """A mode's captures as columns: what the library reads of them, and nothing else."""
+    names = sorted({n for d in members for n in d.readings.values})
+    return {
+        "sources": [d.source for d in members],
+        "declared": [d.declared for d in members],
+        "signatures": np.array([d.signature for d in members], np.float64),
+        "scales": np.array([d.torque_scale for d in members], np.float64),
+        "spectra": np.array([d.spectrum for d in members], np.float64),
+        "names": names,
+        "readings": np.array(
+            [[d.readings.values.get(n, math.nan) for n in names] for d in members], np.float64
+        ),
+        "present": np.array([[n in d.readings.values for n in names] for d in members], bool),
+    }
+
+
+def _descriptions(columns: Mapping[str, Any]) -> list[CaptureDescription]:
+    names = columns["names"]
+    return [
+        CaptureDescription(
+            source,
+            signature,
+            float(scale),
+            Readings({n: float(v) for n, v, p in zip(names, row, kept, strict=True) if p}),
+            spectrum,
+            declared,
+        )
+        for source, declared, signature, scale, spectrum, row, kept in zip(
+            columns["sources"],
+            columns["declared"],
+            columns["signatures"],
+            columns["scales"],
+            columns["spectra"],
+            columns["readings"],
+            columns["present"],
+            strict=True,
+        )
+    ]
+
+
 @dataclass
 class _Mode:
     name: str
@@ -151,6 +192,19 @@ class _Mode:
     def seen(self) -> int:
         """Captures the mode learned (a library stored before they were counted: kept ones)."""
         return max(self.joined, len(self.members))
+
+    def __getstate__(self) -> dict[str, object]:
+        # Stored as columns: a library is saved with every score it learns from, and its
+        # captures as objects pickled to 2.7x the bytes (the readings' reasons it never reads).
+        state = dict(self.__dict__)
+        state["members"] = _columns(self.members)
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        members = state.get("members", [])
+        if isinstance(members, dict):  # columns (a library stored earlier kept a list)
+            state = {**state, "members": _descriptions(members)}
+        self.__dict__.update(state)
 
     def join(self, description: CaptureDescription, window: int) -> None:
         """Add a capture; keep the first ``window`` (the first fit, the drift test's start)
