@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import pickle
 import shutil
+import sqlite3
 from pathlib import Path
 
 import numpy as np
@@ -232,3 +233,29 @@ def test_two_workers_reach_the_results_of_one(task_change: Path, tmp_path: Path)
     with SQLiteStore(pooled) as opened:
         monitor_fleet(task_change, opened, MODES, workers=2)
     assert _verdicts(pooled) == _verdicts(serial)
+
+
+def test_an_unreadable_stored_library_is_learned_again_not_a_traceback(tmp_path: Path) -> None:
+    fleet = _fleet(tmp_path / "fleet", CHANGE + 3, fault_from=CHANGE, change=CHANGE + 3)
+    store = tmp_path / "s.db"
+    _run(fleet, store)
+    with sqlite3.connect(store) as con:
+        con.execute("UPDATE mode_libraries SET library = X'00112233'")
+    ack = runner.invoke(
+        app,
+        ["ack", "--store", str(store), "--robot", "r1", "--axis", "a0", "--by", "ana",
+         "--note", "n", "--task-changed"],
+    )  # fmt: skip
+    assert ack.exit_code == 0, ack.output
+    assert "acknowledged" in ack.output
+    assert "learned as healthy" not in ack.output
+    capture = draw_robot(ROBOT_SEED).capture(0, seed=99)
+    aw.write_capture(capture, fleet / "r1" / "a0" / "2026-03-30.parquet")
+    settle(fleet)
+    shown = runner.invoke(app, ["monitor", str(fleet), "--store", str(store), "--modes"])
+    assert shown.exit_code in (0, 4), shown.output
+    last = _results(store)[-1]
+    assert str(last["reason"]).startswith(
+        "the stored mode library could not be read (UnpicklingError: invalid load key"
+    )
+    assert str(last["mode"]) == "mode0 (learning 1 of 5)"

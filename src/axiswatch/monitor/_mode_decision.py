@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from axiswatch.indicators._modes import CaptureDescription
     from axiswatch.monitor.store.protocols import _ModeLibraries
 
-__all__ = ["AxisModes", "ModeBook", "mode_decision", "teach_mode"]
+__all__ = ["AxisModes", "ModeBook", "load_axis_modes", "mode_decision", "teach_mode"]
 
 #: Healthy captures under the threshold, per capture: a false alarm in 1,000 captures, split
 #: between the readings and the torque spectrum (the library's default, chosen on development
@@ -40,6 +40,22 @@ class AxisModes:
     library: ModeLibrary
     recent: list[tuple[bool, bool]] = field(default_factory=list)
     alarmed: dict[str, CaptureDescription] = field(default_factory=dict)
+
+
+#: What an unreadable stored library raises when loaded: a damaged row, or a class since renamed.
+_UNREADABLE = (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError,
+               TypeError, ValueError)  # fmt: skip
+
+
+def load_axis_modes(blob: bytes) -> AxisModes | str:
+    """A stored library, or why it cannot be read (one line)."""
+    try:
+        modes = pickle.loads(blob)
+    except _UNREADABLE as exc:
+        return f"{type(exc).__name__}: {exc}".splitlines()[0]
+    if not isinstance(modes, AxisModes):
+        return f"a {type(modes).__name__}, not a mode library"
+    return modes
 
 
 def new_axis_modes(n_fit: int) -> AxisModes:
@@ -111,14 +127,18 @@ class ModeBook:
     def __init__(self, store: _ModeLibraries, rule: DecisionRule, n_fit: int) -> None:
         self.store, self.rule, self.n_fit = store, rule, n_fit
         self._axes: dict[int, AxisModes] = {}
+        #: Baselines whose stored library could not be read: why, said once in a reason.
+        self._unreadable: dict[int, str] = {}
 
     def axis(self, baseline_id: int) -> AxisModes:
-        """The baseline's library, from the store or new."""
+        """The baseline's library, from the store, or new (none stored, or none readable)."""
         if baseline_id not in self._axes:
             blob = self.store.mode_library(baseline_id)
-            self._axes[baseline_id] = (
-                new_axis_modes(self.n_fit) if blob is None else pickle.loads(blob)
-            )
+            loaded = new_axis_modes(self.n_fit) if blob is None else load_axis_modes(blob)
+            if isinstance(loaded, str):
+                self._unreadable[baseline_id] = loaded
+                loaded = new_axis_modes(self.n_fit)
+            self._axes[baseline_id] = loaded
         return self._axes[baseline_id]
 
     def decide(
@@ -137,6 +157,13 @@ class ModeBook:
         modes = self.axis(baseline_id)
         verdict = guarded(modes.library.score(description), *baseline)
         decision = mode_decision(verdict, modes.recent, self.rule)
+        if baseline_id in self._unreadable:
+            why = self._unreadable.pop(baseline_id)
+            decision = dataclasses.replace(
+                decision,
+                reason=f"the stored mode library could not be read ({why}): the axis learns "
+                f"its modes again; {decision.reason}",
+            )
 
         def stored() -> None:
             modes.recent = [*modes.recent, (decision.over, decision.alarm)][-self.rule.window :]
@@ -160,9 +187,9 @@ def teach_mode(
     they were scored in, which starts again if it had drifted. Returns capture -> the mode it
     joined (empty when the baseline keeps no mode library or none of those captures)."""
     blob = store.mode_library(baseline_id)
-    if blob is None:
-        return {}
-    modes: AxisModes = pickle.loads(blob)
+    modes = None if blob is None else load_axis_modes(blob)
+    if not isinstance(modes, AxisModes):
+        return {}  # none kept, or none readable: the next run learns the modes again
     captures = list(modes.alarmed)
     taught = {}
     learn = modes.library.teach if new_mode else modes.library.accept
