@@ -65,6 +65,10 @@ def test_alarm_step_matches_naive_state_machine(k: int, n: int, m: int) -> None:
         ({"calibration_size": 1}, r"'calibration_size' parameter must be an int >= 2 .* Got 1"),
         ({"alarm_k": 3, "alarm_n": 2}, r"needs 1 <= k <= n .* Got k=3, n=2"),
         ({"clear_m": 0}, r"'clear_m' parameter must be >= 1. Got 0"),
+        (
+            {"modes": True, "calibration_size": 2},
+            r"'modes' parameter needs a 'calibration_size' >= 3: .* --calibration N\)\. Got 2",
+        ),
     ],
 )
 def test_config_rejects_bad_parameters(kwargs: dict[str, object], match: str) -> None:

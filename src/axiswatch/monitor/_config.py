@@ -163,6 +163,12 @@ class MonitorConfig:
                 "The 'calibration_size' parameter must be an int >= 2 (the half-Laplace fit "
                 f"needs two distances). Got {self.calibration_size!r} instead."
             )
+        if self.modes and self.calibration_size < 3:
+            raise ValueError(
+                "The 'modes' parameter needs a 'calibration_size' >= 3: a mode is known after "
+                "that many captures (monitor --modes --calibration N). "
+                f"Got {self.calibration_size!r} instead."
+            )
         if not (1 <= self.alarm_k <= self.alarm_n):
             raise ValueError(
                 "The alarm rule needs 1 <= k <= n ('k of the last n captures over'). "
