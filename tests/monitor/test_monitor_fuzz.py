@@ -36,6 +36,8 @@ from tests.conftest import settle
 AXIS = "robot01/axis1"
 OTHER = "robot01/axis2"
 OPTIONS = ("--method", "pca", "--calibration", "2", "--settle", "0")
+#: The default with its mode libraries: every capture a verdict, learned from as it comes.
+MODES = ("--modes", "--calibration", "3", "--settle", "0")
 EXAMPLES = int(os.environ.get("AXISWATCH_FUZZ_EXAMPLES", "30"))
 #: Healthy data in another form: scored (on a baseline's axis) whatever else happens.
 READABLE = ("healthy copy", "windows text", "utf-16 text")
@@ -60,9 +62,12 @@ SIGNALS = ("position", "speed", "torque")
 STORED = "SELECT path, role, distance, threshold, over, alarm, baseline_id FROM scores"
 
 
-@pytest.fixture(scope="module")
-def clean(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict[str, float]]:
-    """The fleet, the store of a clean run and the distance of each capture in it."""
+@pytest.fixture(scope="module", params=[OPTIONS, MODES], ids=["pca", "modes"])
+def clean(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> tuple[Path, Path, dict[str, float], tuple[str, ...]]:
+    """The fleet, the store of a clean run, the distance of each capture in it, the options."""
+    options: tuple[str, ...] = request.param
     folder = tmp_path_factory.mktemp("fuzz")
     root = folder / "fleet"
     awd.simulate_fleet(
@@ -71,10 +76,10 @@ def clean(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict[st
     (root / "labels.csv").unlink()
     settle(root)
     result = CliRunner().invoke(
-        app, ["monitor", str(root), "--store", str(folder / "s.db"), *OPTIONS]
+        app, ["monitor", str(root), "--store", str(folder / "s.db"), *options]
     )
     assert result.exit_code == 0, result.output
-    return root, folder / "s.db", _distances(folder / "s.db")
+    return root, folder / "s.db", _distances(folder / "s.db"), options
 
 
 def _rows(store: Path, sql: str) -> list[tuple[object, ...]]:
@@ -176,11 +181,11 @@ def _write(axis: Path, name: str, kind: str, draw: st.DataObject) -> None:
 )
 @given(data=st.data())
 def test_hostile_captures_never_break_the_monitor(
-    clean: tuple[Path, Path, dict[str, float]],
+    clean: tuple[Path, Path, dict[str, float], tuple[str, ...]],
     tmp_path_factory: pytest.TempPathFactory,
     data: st.DataObject,
 ) -> None:
-    source, clean_store, reference = clean
+    source, clean_store, reference, options = clean
     folder = tmp_path_factory.mktemp("example")
     root = Path(shutil.copytree(source, folder / "fleet"))
     store = folder / "s.db"
@@ -202,7 +207,7 @@ def test_hostile_captures_never_break_the_monitor(
         name = f"2026-03-0{day}T12-00-0{index}_fuzz{suffix}"
         _write(root / AXIS, name, kind, data)
         files[f"{AXIS}/{name}"] = kind
-    result = CliRunner().invoke(app, ["monitor", str(root), "--store", str(store), *OPTIONS])
+    result = CliRunner().invoke(app, ["monitor", str(root), "--store", str(store), *options])
     assert result.exception is None or isinstance(result.exception, SystemExit), result.output
     assert result.exit_code in (0, 4, 8, 12), result.output
     assert "Traceback" not in result.output
@@ -220,6 +225,8 @@ def test_hostile_captures_never_break_the_monitor(
     if later:
         assert set(_rows(clean_store, STORED)) <= set(_rows(store, STORED))
         assert f"{OTHER}/2026-03-06.parquet" in scored, result.output
+    if options == MODES:
+        return  # a mode library learns from each capture: a file among the first moves the rest
     distances = _distances(store)
     for path, distance in reference.items():
         assert distances.get(path) == pytest.approx(distance, rel=1e-12), path
