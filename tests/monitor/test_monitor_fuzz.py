@@ -9,6 +9,8 @@ the clean run's store (the files after it). Every file must end up scored, rejec
 reason naming it, or waiting; no exception may escape; the store must pass SQLite's integrity
 check; nothing the clean run stored may be lost or changed; every healthy capture, of either
 axis, must get the distance it gets in a clean run; and bad data is never over the threshold.
+All of it with ``--method pca`` and with ``--modes`` (there, a mode library learns from every
+capture, so the other files' distances are not compared).
 
 ``make fuzz`` runs many more examples (``AXISWATCH_FUZZ_EXAMPLES``); the seed is fixed.
 """
