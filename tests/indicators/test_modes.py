@@ -295,3 +295,12 @@ def test_a_false_alarm_joins_its_mode_and_restarts_a_drifted_one() -> None:
     assert len(mode.members) == library.n_fit + 1
     # The engineer's new level is the mode's normal: its like is healthy.
     assert not library.score(_description(rng, friction=1.3)).alarm
+
+
+def test_teaching_a_declared_mode_not_yet_seen_keeps_its_name() -> None:
+    rng = np.random.default_rng(14)
+    library = _learned(rng, 6)
+    d = _description(rng, friction=2.0)
+    paint = CaptureDescription(d.source, d.signature, 10.0, d.readings, d.spectrum, "paint")
+    assert library.teach(paint) == "paint"
+    assert library.accept(paint) == "paint"

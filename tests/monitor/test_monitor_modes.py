@@ -7,6 +7,7 @@ import pickle
 import shutil
 import sqlite3
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -120,26 +121,40 @@ def test_split_runs_reach_the_results_of_one_run(task_change: Path, tmp_path: Pa
     assert _verdicts(store) == _verdicts(whole)
 
 
-def test_a_fault_in_a_known_mode_alarms_and_ack_task_changed_teaches_it(tmp_path: Path) -> None:
+def _alarmed(tmp_path: Path) -> tuple[Path, Any, AxisModes]:
+    """A store whose one axis is in alarm (a fault in its known mode), the alarm, the library."""
     root = _fleet(tmp_path / "fleet", CHANGE + 3, fault_from=CHANGE, change=CHANGE + 3)
     store = tmp_path / "s.db"
     _run(root, store)
     with SQLiteStore(store, read_only=True) as opened:
         (alarm,) = opened.alarms()
-        before: AxisModes = pickle.loads(opened.mode_library(alarm.baseline_id) or b"")
+    return store, alarm, _library(store, alarm.baseline_id)
+
+
+def _library(store: Path, baseline_id: int) -> AxisModes:
+    with SQLiteStore(store, read_only=True) as opened:
+        modes: AxisModes = pickle.loads(opened.mode_library(baseline_id) or b"")
+    return modes
+
+
+def _ack(store: Path, verdict: str) -> Any:
+    return runner.invoke(
+        app,
+        ["ack", "--store", str(store), "--robot", "r1", "--axis", "a0", "--by", "ana",
+         "--note", "seen", f"--{verdict}"],
+    )  # fmt: skip
+
+
+def test_a_fault_in_a_known_mode_alarms_and_ack_task_changed_teaches_it(tmp_path: Path) -> None:
+    store, alarm, before = _alarmed(tmp_path)
     assert alarm.raised_capture == f"2026-03-{CHANGE + 1:02d}.parquet"
     assert alarm.raised_capture in before.alarmed
     members = len(before.library.modes_["mode0"].members)
-    said = runner.invoke(
-        app,
-        ["ack", "--store", str(store), "--robot", "r1", "--axis", "a0", "--by", "ana",
-         "--note", "new gripper", "--task-changed"],
-    )  # fmt: skip
+    said = _ack(store, "task-changed")
     assert said.exit_code == 0, said.output
     # The alarm was in a known mode, so what the engineer calls a change is another mode.
     assert f"{alarm.raised_capture}: learned as healthy, mode mode1." in said.output
-    with SQLiteStore(store, read_only=True) as opened:
-        after: AxisModes = pickle.loads(opened.mode_library(alarm.baseline_id) or b"")
+    after = _library(store, alarm.baseline_id)
     assert len(after.library.modes_["mode0"].members) == members
     assert len(after.library.modes_["mode1"].members) == len(before.alarmed) >= 1
     assert after.alarmed == {}
@@ -148,22 +163,12 @@ def test_a_fault_in_a_known_mode_alarms_and_ack_task_changed_teaches_it(tmp_path
 
 
 def test_ack_false_alarm_teaches_the_alarm_to_its_own_mode(tmp_path: Path) -> None:
-    root = _fleet(tmp_path / "fleet", CHANGE + 3, fault_from=CHANGE, change=CHANGE + 3)
-    store = tmp_path / "s.db"
-    _run(root, store)
-    with SQLiteStore(store, read_only=True) as opened:
-        (alarm,) = opened.alarms()
-        before: AxisModes = pickle.loads(opened.mode_library(alarm.baseline_id) or b"")
+    store, alarm, before = _alarmed(tmp_path)
     members = len(before.library.modes_["mode0"].members)
-    said = runner.invoke(
-        app,
-        ["ack", "--store", str(store), "--robot", "r1", "--axis", "a0", "--by", "ana",
-         "--note", "sensor cable", "--false-alarm"],
-    )  # fmt: skip
+    said = _ack(store, "false-alarm")
     assert said.exit_code == 0, said.output
     assert f"{alarm.raised_capture}: learned as healthy, mode mode0." in said.output
-    with SQLiteStore(store, read_only=True) as opened:
-        after: AxisModes = pickle.loads(opened.mode_library(alarm.baseline_id) or b"")
+    after = _library(store, alarm.baseline_id)
     assert len(after.library.modes_["mode0"].members) == members + len(before.alarmed)
     assert sorted(after.library.modes_) == sorted(before.library.modes_)
     assert after.alarmed == {}
@@ -236,16 +241,11 @@ def test_two_workers_reach_the_results_of_one(task_change: Path, tmp_path: Path)
 
 
 def test_an_unreadable_stored_library_is_learned_again_not_a_traceback(tmp_path: Path) -> None:
-    fleet = _fleet(tmp_path / "fleet", CHANGE + 3, fault_from=CHANGE, change=CHANGE + 3)
-    store = tmp_path / "s.db"
-    _run(fleet, store)
+    store, _, _ = _alarmed(tmp_path)
+    fleet = tmp_path / "fleet"
     with sqlite3.connect(store) as con:
         con.execute("UPDATE mode_libraries SET library = X'00112233'")
-    ack = runner.invoke(
-        app,
-        ["ack", "--store", str(store), "--robot", "r1", "--axis", "a0", "--by", "ana",
-         "--note", "n", "--task-changed"],
-    )  # fmt: skip
+    ack = _ack(store, "task-changed")
     assert ack.exit_code == 0, ack.output
     assert "acknowledged" in ack.output
     assert "learned as healthy" not in ack.output

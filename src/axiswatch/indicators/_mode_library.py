@@ -565,33 +565,34 @@ class ModeLibrary:
         known mode is not of that mode: joined to it, a payload change taught on development
         robots made the mode drift. A drifted mode stays drifted. Returns the mode's name.
         """
-        if not description.moving:
-            raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
-        found = self.match(description, taught=True)
+        found = self._taught_mode(description)
         if found is not None and description.declared is None:
             found = found if self.modes_[found].reference is None else None
-        name = mode or found or f"mode{len(self.modes_)}"
-        target = self.modes_.setdefault(name, _Mode(name))
-        target.join(description, self.window)
-        if target.reference is None and len(target.members) >= self.n_fit:
-            target.reference = self._centre(target.members)
-        self._cache.clear()
-        self._normals.clear()
-        return name
+        return self._told(description, mode or found)
 
     def accept(self, description: CaptureDescription) -> str:
         """Learn a capture the engineer calls a false alarm: it joins the mode it matches (the
         mode being learned, for a guard's alarm). A drifted mode starts again from its latest
         ``n_fit`` captures and this one: its first fit and its drift test restart there.
         Returns the mode's name."""
-        if not description.moving:
-            raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
-        name = self.match(description, taught=True) or f"mode{len(self.modes_)}"
-        mode = self.modes_.setdefault(name, _Mode(name))
-        if mode.drifted:
+        name = self._taught_mode(description)
+        mode = self.modes_.get(name) if name is not None else None
+        if mode is not None and mode.drifted:
             mode.members = mode.members[-self.n_fit :]
             mode.drifted = False
             mode.reference = None
+        return self._told(description, name)
+
+    def _taught_mode(self, description: CaptureDescription) -> str | None:
+        if not description.moving:
+            raise ValueError(f"{description.source}: the axis did not move; nothing to learn.")
+        return self.match(description, taught=True)
+
+    def _told(self, description: CaptureDescription, name: str | None) -> str:
+        """Join what the engineer said is healthy to mode ``name``; when None, to a new mode
+        (named as declared, if it is)."""
+        name = name or description.declared or f"mode{len(self.modes_)}"
+        mode = self.modes_.setdefault(name, _Mode(name))
         mode.join(description, self.window)
         if mode.reference is None and len(mode.members) >= self.n_fit:
             mode.reference = self._centre(mode.members)
