@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from scipy.stats import norm
 from scipy.stats import t as student_t
 
-__all__ = ["ModeBlock", "NormalStats", "nan_median", "normal_shift", "other_rows"]
+__all__ = ["ModeBlock", "NormalStats", "centre_error", "nan_median", "normal_shift", "other_rows"]
 
 Array = NDArray[np.float64]
 
