@@ -79,31 +79,35 @@ def test_the_console_scripts_go_through_the_launcher(script: str, target: str) -
     assert "Usage:" in done.stdout
 
 
+def _run_under_python_m(folder: Path, cli: str, timeout: float) -> subprocess.CompletedProcess[str]:
+    """Launch ``interrupted_cli:main`` (source ``cli``) through the launcher, by ``python -m``."""
+    (folder / "interrupted_cli.py").write_text(cli, encoding="utf-8")
+    (folder / "run_it.py").write_text(
+        "from axiswatch_launcher import launch\nlaunch('interrupted_cli:main')\n", encoding="utf-8"
+    )
+    return subprocess.run(
+        [sys.executable, "-m", "run_it"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+
+
 def test_python_m_exits_130_after_an_interrupt_that_crossed_an_exec(tmp_path: Path) -> None:
     # CPython records a KeyboardInterrupt that leaves an exec() of a string (a dataclass or a
     # namedtuple made while a module imports mid-run), and `python -m` then ended by SIGINT:
     # status -2, not 130, although the launcher had caught it and printed its line.
-    (tmp_path / "interrupted_cli.py").write_text(
-        "def main():\n    exec('raise KeyboardInterrupt')\n", encoding="utf-8"
-    )
-    (tmp_path / "run_it.py").write_text(
-        "from axiswatch_launcher import launch\nlaunch('interrupted_cli:main')\n", encoding="utf-8"
-    )
-    done = subprocess.run(
-        [sys.executable, "-m", "run_it"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    cli = "def main():\n    exec('raise KeyboardInterrupt')\n"
+    done = _run_under_python_m(tmp_path, cli, timeout=60)
     assert done.returncode == 130, done.stderr
     assert done.stderr == INTERRUPTED + "\n"
 
 
 def test_a_command_interrupted_across_an_exec_exits_130_under_python_m(tmp_path: Path) -> None:
     # The same, caught by a command's own handler (the monitor's), not by the launcher.
-    (tmp_path / "interrupted_cli.py").write_text(
+    cli = (
         "import typer\n"
         "from axiswatch.cli._terminal import failures\n"
         "def interrupted():\n"
@@ -112,19 +116,8 @@ def test_a_command_interrupted_across_an_exec_exits_130_under_python_m(tmp_path:
         "def main():\n"
         "    app = typer.Typer()\n"
         "    app.command()(interrupted)\n"
-        "    app()\n",
-        encoding="utf-8",
+        "    app()\n"
     )
-    (tmp_path / "run_it.py").write_text(
-        "from axiswatch_launcher import launch\nlaunch('interrupted_cli:main')\n", encoding="utf-8"
-    )
-    done = subprocess.run(
-        [sys.executable, "-m", "run_it"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    done = _run_under_python_m(tmp_path, cli, timeout=120)
     assert done.returncode == 130, done.stderr
     assert done.stderr == INTERRUPTED + "\n"
