@@ -360,7 +360,7 @@ def _signal_from_column(
             )
     # With the median step, 1 % jitter gave 99.94 Hz against the baseline's 100.06 Hz, and a
     # readable capture was rejected.
-    own_period = sampling_period(stamps, median_step=period)
+    own_period = sampling_period(stamps, steps=steps, median_step=period)
     values = column.copy() if whole else column[present]
     return values, 1.0 / own_period, float(stamps[0]), (period, own_period)
 

@@ -530,7 +530,7 @@ class AxisProfile:
         ignored = [role for role in self.ignore if role in seen]
         if ignored:
             renamed = renamed.drop(columns=ignored)
-        if "time" not in seen or "time" in ignored:
+        if "time" not in seen:
             found = list(map(str, frame.columns))
             if not self.columns:  # the file's own names: the same words as without a profile
                 raise CaptureError(
@@ -578,8 +578,9 @@ class AxisProfile:
                 relative = (stamps - first).to_numpy().astype(np.float64) * factor
         if relative is not None:
             renamed["time"] = relative
+        position_scale = self.position_scale()
         for role in ("position", "speed"):
-            scale = self.position_scale()
+            scale = position_scale
             if self.sides.get(role) == "motor":
                 assert self.gear_ratio is not None  # checked on construction
                 scale /= self.gear_ratio

@@ -123,7 +123,12 @@ def check_increasing(time_s: NDArray[np.float64], path: Path) -> None:
         )
 
 
-def sampling_period(stamps: NDArray[np.float64], *, median_step: float | None = None) -> float:
+def sampling_period(
+    stamps: NDArray[np.float64],
+    *,
+    steps: NDArray[np.float64] | None = None,
+    median_step: float | None = None,
+) -> float:
     """Sampling period of uniformly meant time stamps, in their unit.
 
     Exact stamps (every step within 1e-9 of their median) give their median step; jittered ones
@@ -136,8 +141,10 @@ def sampling_period(stamps: NDArray[np.float64], *, median_step: float | None = 
     ----------
     stamps : ndarray of shape (n_samples,)
         Increasing time stamps, at least 2.
+    steps : ndarray of shape (n_samples - 1,), optional
+        The stamps' steps, when the caller has them (``np.diff(stamps)``).
     median_step : float, optional
-        The median of the stamps' steps, when the caller has it (``np.median(np.diff(stamps))``).
+        Their median, when the caller has it.
 
     Returns
     -------
@@ -150,7 +157,7 @@ def sampling_period(stamps: NDArray[np.float64], *, median_step: float | None = 
     >>> round(sampling_period(np.array([0.0, 0.11, 0.19, 0.31, 0.4])), 12)  # jittered 0.1 s
     0.1
     """
-    steps = np.diff(stamps)
+    steps = np.diff(stamps) if steps is None else steps
     middle = median(steps) if median_step is None else median_step
     if np.abs(steps - middle).max() <= 1e-9 * middle:
         return middle
