@@ -56,9 +56,8 @@ def zero_phase(
     >>> bool(np.array_equal(zero_phase(sos, x), sosfiltfilt(sos, x)))
     True
     """
-    zi, default = _initial_state(
-        np.ascontiguousarray(sos, dtype=np.float64).tobytes(), sos.shape[0]
-    )
+    sections = np.ascontiguousarray(sos, dtype=np.float64)
+    zi, default = _initial_state(sections.tobytes(), sos.shape[0])
     padlen = default if padlen is None else padlen
     if x.size <= padlen:
         raise ValueError(f"The length of the input vector x must be greater than padlen, {padlen}.")
@@ -69,7 +68,6 @@ def zero_phase(
         np.subtract(2 * x[0], x[padlen:0:-1], out=y[0, :padlen])
         np.subtract(2 * x[-1], x[-2 : -(padlen + 2) : -1], out=y[0, padlen + x.size :])
     # SciPy's sosfilt of a 1-D signal, without its checks and axis moves (ten calls a capture).
-    sections = np.asarray(sos, dtype=np.float64)
     _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])
     y = np.array(y[:, ::-1], order="C")
     _sosfilt(sections, y, np.ascontiguousarray(zi * y[0, 0])[None])

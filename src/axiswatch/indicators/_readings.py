@@ -30,7 +30,7 @@ from axiswatch.indicators._motion import (
     task_signature,
 )
 from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
-from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing
+from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing, torque_design
 from axiswatch.indicators._signals import (
     NuisanceProjection,
     bearing_lines,
@@ -197,21 +197,7 @@ def friction_design(m: Motion, moving: NDArray[np.bool_]) -> tuple[NDArray[np.fl
     position = m.position[moving]
     span = float(np.ptp(position)) or 1.0
     q = (position - float(np.mean(position))) / span
-    # The cube as a product: NumPy's q**3 calls pow(), which cost as much as the solve. The
-    # columns are written in Fortran order, the layout LAPACK solves in.
-    square = q**2
-    design = np.empty((v.size, 7), order="F")
-    columns: tuple[NDArray[np.float64] | float, ...] = (
-        np.sign(v),
-        v,
-        m.acceleration[moving],
-        1.0,
-        q,
-        square,
-        square * q,
-    )
-    for k, column in enumerate(columns):
-        design[:, k] = column
+    design = torque_design(np.sign(v), v, m.acceleration[moving], q)
     speeds = np.abs(v)
     return design, float(np.std(speeds)) > 0.1 * float(np.mean(speeds))
 

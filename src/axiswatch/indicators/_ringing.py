@@ -54,6 +54,35 @@ MAD_TO_SD = 1.4826
 MIN_SAMPLES = 3
 
 
+def torque_design(
+    friction: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    q: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The torque's design: friction (``sign(speed)`` or a saturated one), viscous friction,
+    inertia, and gravity as a cubic in the scaled position ``q``.
+
+    The cube as a product (NumPy's ``q**3`` calls ``pow()``, which cost as much as the solve);
+    the columns in Fortran order, the layout LAPACK solves in. The friction reading and the
+    gap-ringing fit share it: on the moving samples their designs are one.
+    """
+    square = q**2
+    design = np.empty((q.size, 7), order="F")
+    columns: tuple[NDArray[np.float64] | float, ...] = (
+        friction,
+        speed,
+        acceleration,
+        1.0,
+        q,
+        square,
+        square * q,
+    )
+    for k, column in enumerate(columns):
+        design[:, k] = column
+    return design
+
+
 def _fit(
     position: NDArray[np.float64],
     speed: NDArray[np.float64],
@@ -73,21 +102,7 @@ def _fit(
     span = float(np.ptp(position[moving])) or 1.0
     q = (position - float(np.mean(position[moving]))) / span
     saturated = np.clip(speed / moving_speed, -1.0, 1.0)
-    # As the friction's design: the cube as a product (q**3 calls pow(), a quarter of the
-    # reading's time), the columns in Fortran order.
-    square = q**2
-    design = np.empty((q.size, 7), order="F")
-    columns: tuple[NDArray[np.float64] | float, ...] = (
-        saturated,
-        speed,
-        acceleration,
-        1.0,
-        q,
-        square,
-        square * q,
-    )
-    for k, column in enumerate(columns):
-        design[:, k] = column
+    design = torque_design(saturated, speed, acceleration, q)
     if coefficients is None:
         coefficients, *_ = scipy.linalg.lstsq(design[moving], torque[moving])
     return design @ coefficients, design[:, 2:] @ coefficients[2:]

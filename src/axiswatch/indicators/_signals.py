@@ -76,16 +76,13 @@ def _wave_rows(
     values = np.asarray(orders, dtype=np.float64)
     count = values.size
     rows = np.empty((2 * count, angle.size)) if out is None else out
-    rotations: dict[float, NDArray[np.complex128]] = {}
     for members, start, step in order_grids(values):
         steps = np.rint((values[members] - start) / step).astype(np.int64)
-        if step not in rotations and steps.max() > 0:
-            rotations[step] = phasor(step)
         wave = phasor(start).copy()  # multiplied in place below
         done = 0
         for index in np.argsort(steps, kind="stable"):
             while done < steps[index]:
-                np.multiply(wave, rotations[step], out=wave)
+                np.multiply(wave, phasor(step), out=wave)  # kept by Phasors: one cis a step
                 done += 1
             rows[members[index]] = wave.imag
             rows[count + members[index]] = wave.real
