@@ -266,6 +266,8 @@ class ModeLibrary:
     frozen : bool, default=False
         Score a known mode's captures against its first fit (the median of its first
         ``n_fit`` captures) instead of the median of its latest ``window``.
+    first_window : bool, default=False
+        Take a known mode's normal from its first ``window`` captures, not its latest.
     motion_match : bool, default=False
         A capture of a known mode's motion at another load is scored in that mode, not
         learned as a new one (:meth:`match`).
@@ -334,6 +336,13 @@ class ModeLibrary:
             centre[n] = float(np.median(finite)) if finite else math.nan
         return centre
 
+    def _recent_centre(self, mode: _Mode) -> dict[str, float]:
+        """The median of the mode's recent captures, kept until a capture is learned."""
+        key = f"centre:{mode.name}"
+        if key not in self._cache:
+            self._cache[key] = self._centre(self._recent(mode))
+        return self._cache[key]  # type: ignore[return-value]
+
     def _stats(self) -> NormalStats:
         """The known modes' recent readings and spectra as arrays (:mod:`._mode_normals`)."""
         if "stats" not in self._cache:
@@ -348,19 +357,15 @@ class ModeLibrary:
                 for m, block in zip(known, rows, strict=True)
             ]
             both = np.array([n in _BOTH for n in names], bool)
-            self._cache["stats"] = (names, NormalStats(blocks, both, self.n_fit))
-        return self._cache["stats"][1]  # type: ignore[index, no-any-return]
-
-    def _names(self) -> list[str]:
-        self._stats()
-        return self._cache["stats"][0]  # type: ignore[index, no-any-return]
+            self._cache["stats"] = NormalStats(blocks, both, self.n_fit, names)
+        return self._cache["stats"]  # type: ignore[return-value]
 
     def spreads(self, mode: str) -> dict[str, float]:
         """A known mode's within-mode spread of each reading: its own variance, raised towards
         the variance pooled over the axis's modes (``n_fit - 1`` degrees of weight) when lower."""
         k = [m.name for m in self._known()].index(mode)
         spreads = self._stats().spreads(k)
-        return {n: float(v) for n, v in zip(self._names(), spreads, strict=True) if v > 0}
+        return {n: float(v) for n, v in zip(self._stats().names, spreads, strict=True) if v > 0}
 
     def _spectrum_centre(self, mode: _Mode) -> NDArray[np.float64]:
         return np.asarray(np.median([d.spectrum for d in self._recent(mode)], 0), np.float64)
@@ -442,8 +447,7 @@ class ModeLibrary:
             return description.declared if description.declared in self.modes_ else None
         found = self._nearest(description, None)
         if found is None and self.motion_match and not taught:
-            known = [m for m in self.modes_.values() if m.reference is not None]
-            found = self._nearest(description, slice(0, MOTION_READINGS), known)
+            found = self._nearest(description, slice(0, MOTION_READINGS), self._known())
         return found
 
     def _nearest(
@@ -477,11 +481,11 @@ class ModeLibrary:
         variances = self._stats().pooled_variance()
         pooled = {
             n: float(v)
-            for n, v in zip(self._names(), variances, strict=True)
+            for n, v in zip(self._stats().names, variances, strict=True)
             if _guarded(n) and math.isfinite(v)
         }
         row = _row(description)
-        centres = [self._centre(self._recent(m)) for m in known]
+        centres = [self._recent_centre(m) for m in known]
         best, where = math.nan, ""
         for n, within in pooled.items():
             values = [c[n] for c in centres if math.isfinite(c.get(n, math.nan))]
@@ -513,7 +517,7 @@ class ModeLibrary:
             )
         if mode.name not in self._normals:
             self._normals[mode.name] = (
-                mode.reference if self.frozen else self._centre(self._recent(mode)),
+                mode.reference if self.frozen else self._recent_centre(mode),
                 self.spreads(mode.name),
                 self._spectrum_centre(mode),
                 self._stats().spectrum_spread(),

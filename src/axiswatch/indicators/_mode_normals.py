@@ -98,9 +98,18 @@ class NormalStats:
         Readings where a change either way is abnormal (else only a rise).
     n_fit : int
         The pooled variance's weight in a mode's spread, in degrees of freedom plus one.
+    names : sequence of str, default=()
+        The readings' names, in the columns' order.
     """
 
-    def __init__(self, blocks: Sequence[ModeBlock], both: NDArray[np.bool_], n_fit: int) -> None:
+    def __init__(
+        self,
+        blocks: Sequence[ModeBlock],
+        both: NDArray[np.bool_],
+        n_fit: int,
+        names: Sequence[str] = (),
+    ) -> None:
+        self.names = list(names)
         self.blocks = list(blocks)
         self.both = both
         self.n_fit = n_fit

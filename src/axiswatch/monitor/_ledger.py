@@ -129,7 +129,7 @@ def commit_score(
         return store.reject_capture(rejection, baseline_id=job.baseline_id)
     rule = config.decision_rule()
     if modes is not None and outcome.description is not None:
-        return _commit_in_mode(store, outcome, config, modes)
+        return _commit_in_mode(store, outcome, config, modes, rule.window)
     top = outcome.details.get("top_indicator") or describe_top_indicator(
         outcome.details.get("indicators", {})
     )
@@ -162,7 +162,7 @@ def _new_score(
 
 
 def _commit_in_mode(
-    store: StoreWriter, outcome: ScoreOutcome, config: MonitorConfig, modes: ModeBook
+    store: StoreWriter, outcome: ScoreOutcome, config: MonitorConfig, modes: ModeBook, window: int
 ) -> bool:
     """Write a capture decided by its axis's mode library, then let the library learn."""
     assert outcome.description is not None
@@ -174,7 +174,7 @@ def _commit_in_mode(
     if math.isfinite(outcome.distance):
         details["baseline_distance"] = outcome.distance
     score = _new_score(outcome, config, distance, details)
-    written = store.record_score(score, decision, window=config.decision_rule().window)
+    written = store.record_score(score, decision, window=window)
     if written:
         stored()
     return written

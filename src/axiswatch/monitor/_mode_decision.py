@@ -149,7 +149,8 @@ class ModeBook:
         baseline: tuple[float, str | None] = (math.nan, None),
     ) -> tuple[float, Callable[[AxisHistory], Decision], Callable[[], None]]:
         """The capture's score, its decision, and what to do once it is stored: learn from it
-        (or keep it while in alarm) and save the library in the same transaction.
+        (or keep it while in alarm) and save the library, right after the score is written
+        (a run killed between the two leaves the library without that capture).
 
         ``baseline``: the axis's baseline model's score of the capture, in thresholds, and its
         top indicator. It guards a new mode too: where the fleet's task-change allowance

@@ -169,8 +169,6 @@ class FitJob:
     refit: bool = False
     #: Files of more rows are rejected before they are loaded.
     max_rows: int = MAX_CAPTURE_ROWS
-    #: Also describe the capture for its axis's mode library (``MonitorConfig.modes``).
-    modes: bool = False
 
 
 @dataclass(frozen=True)
@@ -189,8 +187,6 @@ class FitOutcome:
     error: str | None
     kind: str = "invalid"
     transient: bool = False
-    #: What the axis's mode library reads of the capture (``ScoreJob.modes``).
-    description: CaptureDescription | None = None
     reference: QualityReference | None = None
     waiting: str | None = None
     summary: dict[str, Any] | None = None

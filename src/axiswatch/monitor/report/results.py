@@ -37,12 +37,13 @@ def fleet_results(
     frame = store.score_table(robot=robot, axis=axis)
     # Named only where it explains an alarm: "likely a damaged gear tooth" on a capture under
     # the threshold would read as a finding.
+    parsed = [json.loads(details) for details in frame["details"]]
     frame["top_indicator"] = [
-        _top_indicator(json.loads(details)) if flagged else None
-        for details, flagged in zip(frame["details"], frame["over"] | frame["alarm"], strict=True)
+        _top_indicator(details) if flagged else None
+        for details, flagged in zip(parsed, frame["over"] | frame["alarm"], strict=True)
     ]
     frame["feedback"] = alarm_feedback(frame, store.acknowledgements(robot, axis))
-    frame["mode"] = [_mode(json.loads(details)) for details in frame["details"]]
+    frame["mode"] = [_mode(details) for details in parsed]
     return frame
 
 
