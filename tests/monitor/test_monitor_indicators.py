@@ -759,6 +759,7 @@ def test_an_axis_without_a_fleet_does_not_compare_another_task(tmp_path: Path) -
     assert sorted(errors) == [f"2026-03-{d:02d}.parquet" for d in (7, 8, 9)]
     assert all(": not scored: motion unlike the baseline's task" in e for e in errors.values())
     assert all("rebaseline the axis on its new task" in e for e in errors.values())
+    assert all("--modes, which learns each task" in e for e in errors.values())
     scores = store.score_table()
     monitored = scores[(scores["role"] == "monitor") & scores["distance"].notna()]
     assert list(monitored["capture"]) == ["2026-03-10.parquet"]

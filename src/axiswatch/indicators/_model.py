@@ -487,7 +487,8 @@ class IndicatorModel:
             f"envelope {self.task_envelope_:.2f}, as shares of the baseline's top speed, "
             "stroke or time moving): with fewer than 3 axes of this profile "
             "nothing says what a task change does to the indicators, so it is not compared "
-            "(rebaseline the axis on its new task, or monitor 3 axes of its profile)"
+            "(rebaseline the axis on its new task, monitor 3 axes of its profile, or run "
+            "the monitor with --modes, which learns each task as a mode)"
         )
         return IndicatorAssessment(
             distance=math.nan,
