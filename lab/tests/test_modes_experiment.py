@@ -63,6 +63,28 @@ def test_modes_rejects_an_unknown_case_in_one_line(tmp_path: Path) -> None:
     result = run("experiment", "modes", "--out", tmp_path, "--cases", "robot-a,robot-b")
     assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [
-        "error: --cases takes some of robot-a, growing, fault-at-change, monitor, real-data; "
-        "got 'robot-b'."
+        "error: --cases takes some of robot-a, growing, fault-at-change, within, cross-task, "
+        "monitor, real-data; got 'robot-b'."
     ]
+
+
+def test_modes_measures_separation_within_a_mode_and_across_tasks(tmp_path: Path) -> None:
+    result = run(
+        *("experiment", "modes", "--out", tmp_path, "--robots", "0"),
+        *("--faults", "friction", "--cases", "within,cross-task", "--test-captures", 3),
+    )
+    assert result.returncode == 0, result.stderr
+    table = pd.read_csv(tmp_path / "modes.csv").set_index("scenario")
+    assert list(table.index) == [
+        "within mode friction",
+        "within mode healthy",
+        "cross-task friction",
+        "cross-task healthy",
+    ]
+    # Within a mode: 4 tasks x 3 captures; across tasks: 3 other tasks x 3, one replay a fault.
+    assert list(table["faulty"]) == [12, 0, 9, 0]
+    assert list(table["healthy"]) == [0, 12, 0, 9]
+    assert table["auroc"].iloc[[0, 2]].between(0, 1).all()
+    assert table["auroc"].iloc[[1, 3]].isna().all()
+    assert (table["detected"] <= table["faulty"]).all()
+    assert (table["false_alarms"] <= table["healthy"]).all()

@@ -18,16 +18,28 @@ from axiswatch.datasets import FaultKind, SimulatedRobot, draw_robot
 from axiswatch_lab.studies.mode_library_vs_default import (
     FAULT_LAG,
     FAULTS,
+    cross_task,
     fault_at_change,
     growing,
     robot_a,
+    within_mode,
 )
 from axiswatch_lab.studies.through_the_monitor import monitor_real_data, monitor_robot
 
 __all__ = ["CASES", "ModesDesign", "modes_experiment", "robot_rows", "summarize"]
 
 #: The scenarios, in the order they are run and listed.
-CASES: tuple[str, ...] = ("robot-a", "growing", "fault-at-change", "monitor", "real-data")
+CASES: tuple[str, ...] = (
+    "robot-a",
+    "growing",
+    "fault-at-change",
+    "within",
+    "cross-task",
+    "monitor",
+    "real-data",
+)
+#: Tasks of the ``within`` and ``cross-task`` cases.
+_TASKS = 4
 #: The monitor's variants compared, and their names in the table.
 _METHODS = {"indicators": "default", "indicators-modes": "modes"}
 _COUNTS = ("detected", "faulty", "false_alarms", "healthy", "no_verdict")
@@ -53,6 +65,8 @@ class ModesDesign:
     teach : bool, default False
         Also replay the library's runs with an engineer who teaches (``ack --task-changed``)
         an alarm within 5 days of a change they made.
+    test_captures : int, default 6
+        Healthy and faulty captures per task and fault in ``within`` and ``cross-task``.
     """
 
     robot_a_days: int = 190
@@ -61,6 +75,7 @@ class ModesDesign:
     monitor_faults: tuple[str, ...] = ("friction", "backlash")
     fault_lag: int = FAULT_LAG
     teach: bool = False
+    test_captures: int = 6
 
     def change_and_onset(self) -> tuple[int, int]:
         """The growing runs' task-change day and fault onset."""
@@ -68,12 +83,63 @@ class ModesDesign:
 
 
 def _row(
-    scenario: str, method: str, robot: str, *, first: float = float("nan"), **counts: float
+    scenario: str,
+    method: str,
+    robot: str,
+    *,
+    first: float = float("nan"),
+    auroc: float = float("nan"),
+    **counts: float,
 ) -> dict[str, object]:
     row: dict[str, object] = {"scenario": scenario, "method": method, "robot": robot}
-    row.update({name: int(counts.get(name, 0)) for name in _COUNTS})
+    row.update({name: round(counts.get(name, 0)) for name in _COUNTS})
     row["first_alarm_severity"] = first
+    row["auroc"] = auroc
     return row
+
+
+def _separation_rows(
+    robot: SimulatedRobot, design: ModesDesign, cases: Sequence[str]
+) -> list[dict[str, object]]:
+    """Within a known mode (every task learned, nothing learned while scored), and the paper's
+    cross-task case (a single-task baseline, other tasks shuffled and learned as they come):
+    each fault's AUROC against healthy captures, its detection, and the healthy alarms."""
+    rows: list[dict[str, object]] = []
+    faults = design.faults
+    for case, scenario, n_tasks, replays in (
+        ("within", "within mode", _TASKS, 1),
+        ("cross-task", "cross-task", _TASKS - 1, len(faults)),
+    ):
+        if case not in cases:
+            continue
+        if case == "within":
+            found = within_mode(robot, design.test_captures, _TASKS, faults)
+            far = found["far_library"]
+        else:
+            found = cross_task(robot, design.test_captures, _TASKS, faults)
+            far = found["far"]
+        n = design.test_captures * n_tasks
+        for fault in faults:
+            rows.append(
+                _row(
+                    f"{scenario} {fault}",
+                    "modes",
+                    robot.name,
+                    auroc=found[f"auroc_{fault}"],
+                    detected=found[f"dr_{fault}"] * n,
+                    faulty=n,
+                )
+            )
+        rows.append(
+            _row(
+                f"{scenario} healthy",
+                "modes",
+                robot.name,
+                false_alarms=far * n * replays,
+                healthy=n * replays,
+            )
+        )
+    return rows
 
 
 def _growing_row(
@@ -156,6 +222,7 @@ def robot_rows(
     """Every robot scenario of ``cases`` on robot ``seed``: one row per scenario and method."""
     robot = draw_robot(seed)
     rows = _library_rows(robot, design, cases, teach=False)
+    rows += _separation_rows(robot, design, cases)
     if design.teach:
         rows += _library_rows(robot, design, cases, teach=True)
     if "monitor" in cases:
@@ -168,7 +235,7 @@ def robot_rows(
 
 def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per scenario and method: the counts summed over robots, their rates, the robots
-    with no false alarm and the mean severity at the first alarm."""
+    with no false alarm, the mean severity at the first alarm and the mean AUROC."""
     groups = rows.groupby(["scenario", "method"], sort=False)
     table = groups[list(_COUNTS)].sum()
     table.insert(0, "robots", groups.size())
@@ -178,6 +245,7 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     table.insert(4, "false_alarm_rate", table["false_alarms"] / healthy)
     table.insert(7, "robots_quiet", groups["false_alarms"].apply(lambda s: int((s == 0).sum())))
     table["first_alarm_severity"] = groups["first_alarm_severity"].mean()
+    table["auroc"] = groups["auroc"].mean()
     return table.reset_index()
 
 
@@ -199,5 +267,5 @@ def modes_experiment(
                 name = str(found["dataset"])
                 scenario = "real linear axis" if name.startswith("genesis") else "real hydraulic"
                 rows.append(_monitor_row(found, scenario, name))
-    columns = ["scenario", "method", "robot", *_COUNTS, "first_alarm_severity"]
+    columns = ["scenario", "method", "robot", *_COUNTS, "first_alarm_severity", "auroc"]
     return pd.DataFrame(rows, columns=columns)

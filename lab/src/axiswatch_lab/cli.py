@@ -417,8 +417,8 @@ def experiment_modes(
     cases: Annotated[
         str | None,
         typer.Option(
-            help="Some of robot-a, growing, fault-at-change, monitor, real-data (default: all; "
-            "real-data only with --robots held-out)."
+            help="Some of robot-a, growing, fault-at-change, within, cross-task, monitor, "
+            "real-data (default: all; real-data only with --robots held-out)."
         ),
     ] = None,
     faults: Annotated[
@@ -435,6 +435,10 @@ def experiment_modes(
     teach: Annotated[
         bool, typer.Option(help="Also replay with an engineer teaching alarms after a change.")
     ] = False,
+    test_captures: Annotated[
+        int,
+        typer.Option(min=3, help="Captures per task and fault of the within and cross-task cases."),
+    ] = 6,
     data: Annotated[
         Path | None, typer.Option("--data", help="Folder of the real data sets (../shared/data).")
     ] = None,
@@ -455,6 +459,7 @@ def experiment_modes(
         faults=_words("--faults", faults, FAULTS),  # type: ignore[arg-type]
         monitor_faults=_words("--monitor-faults", monitor_faults, FAULTS),
         teach=teach,
+        test_captures=test_captures,
     )
     folder = data if data is not None else default_data_dir("hydraulic_actuator").parent
     table = modes_experiment(seeds, design, chosen, folder)

@@ -3,7 +3,7 @@ growing after a mode change, a fault that starts just after one.
 
 ``python -m axiswatch_lab.studies.mode_library_vs_default [development|held-out|SEEDS] [CASES]``
 prints one row per robot and case, then the means. ``CASES``: some of ``within``, ``robot_a``,
-``growing`` (default), ``at_change`` and ``variants`` (the library's options,
+``growing`` (default), ``at_change``, ``cross_task`` and ``variants`` (the library's options,
 :data:`VARIANTS`). ``axiswatch experiment modes`` runs these scenarios as one table. The
 product's internals come through :mod:`axiswatch_lab._product`.
 """
@@ -76,7 +76,12 @@ def _default_score(model: IndicatorModel, d: CaptureDescription) -> tuple[float,
     return score, bool(verdict.alarm), bool(verdict.scored)
 
 
-def within_mode(robot: SimulatedRobot, n_test: int = 6, tasks: int = 4) -> dict[str, float]:
+def within_mode(
+    robot: SimulatedRobot,
+    n_test: int = 6,
+    tasks: int = 4,
+    faults: Sequence[FaultKind] = FAULTS,
+) -> dict[str, float]:
     """Learn ``tasks`` modes (``N_FIT`` captures each), then score healthy and faulty captures
     of each without learning; the default is fitted on task 0's same captures."""
     library = ModeLibrary(n_fit=N_FIT)
@@ -91,7 +96,7 @@ def within_mode(robot: SimulatedRobot, n_test: int = 6, tasks: int = 4) -> dict[
     h_def = [_default_score(default, d)[0] for d in healthy[0]]
     out["far_library"] = float(np.mean([s > 1 for t in range(tasks) for s in h_lib[t]]))
     out["far_default"] = float(np.mean([s > 1 for s in h_def]))
-    for fault in FAULTS:
+    for fault in faults:
         f_lib, f0_lib, f_def, auc = [], [], [], []
         for t in range(tasks):
             faulty = [
@@ -234,6 +239,41 @@ def fault_at_change(
     return growing(robot, fault, change + lag, days, change=change, teach=teach, options=options)
 
 
+def cross_task(
+    robot: SimulatedRobot,
+    n_test: int = 6,
+    tasks: int = 4,
+    faults: Sequence[FaultKind] = FAULTS,
+) -> dict[str, float]:
+    """The paper's cross-task case: a library fitted on task 0 (``N_FIT + 1`` captures), then,
+    per fault, ``n_test`` healthy and ``n_test`` faulty captures of each other task, shuffled
+    (fixed seed) and scored as they come, learning as the monitor does. AUROC of faulty
+    against healthy scores (a capture without a score counts 0) and the healthy alarm rate."""
+    fitting = [_describe(robot, 0, f"fit{k}") for k in range(N_FIT + 1)]
+    healthy = [_describe(robot, t, f"test{k}") for t in range(1, tasks) for k in range(n_test)]
+    out: dict[str, float] = {}
+    alarms = []
+    for number, fault in enumerate(faults):
+        faulty = [
+            _describe(robot, t, f"{fault}{k}", Fault(fault, SEVERITY))
+            for t in range(1, tasks)
+            for k in range(n_test)
+        ]
+        library = ModeLibrary(n_fit=N_FIT)
+        for d in fitting:
+            library.update(d)
+        stream = [(d, False) for d in healthy] + [(d, True) for d in faulty]
+        order = np.random.default_rng(number).permutation(len(stream))
+        verdicts = [(library.update(stream[i][0]), stream[i][1]) for i in order]
+        h = [v.score for v, bad in verdicts if not bad]
+        f = [v.score for v, bad in verdicts if bad]
+        out[f"auroc_{fault}"] = _auroc(h, f)
+        out[f"dr_{fault}"] = float(np.mean([v.alarm for v, bad in verdicts if bad]))
+        alarms += [v.alarm for v, bad in verdicts if not bad]
+    out["far"] = float(np.mean(alarms))
+    return out
+
+
 def main(argv: Sequence[str]) -> None:
     which = argv[0] if argv else "development"
     seeds = {"development": DEVELOPMENT_ROBOTS, "held-out": HELD_OUT_ROBOTS}.get(which)
@@ -246,6 +286,9 @@ def main(argv: Sequence[str]) -> None:
         if "within" in cases:
             rows.setdefault("within", []).append(within_mode(robot))
             print(robot.name, "within", rows["within"][-1], flush=True)
+        if "cross_task" in cases:
+            rows.setdefault("cross_task", []).append(cross_task(robot))
+            print(robot.name, "cross_task", rows["cross_task"][-1], flush=True)
         if "robot_a" in cases:
             rows.setdefault("robot_a", []).append(robot_a(robot))
             print(robot.name, "robot_a", rows["robot_a"][-1], flush=True)
