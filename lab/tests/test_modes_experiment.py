@@ -57,6 +57,10 @@ def test_modes_prints_and_writes_one_row_per_scenario_and_method(tmp_path: Path)
     assert (robots["robot"] == "robot0").all()
     sums = robots.groupby(["scenario", "method"], sort=False)[["detected", "false_alarms"]].sum()
     assert sums.reset_index().equals(table[["scenario", "method", "detected", "false_alarms"]])
+    before = (robots["first_alarm_severity"] < 1.0).groupby(
+        [robots["scenario"], robots["method"]], sort=False
+    )
+    assert before.sum().tolist() == table["alarmed_before_breakdown"].tolist()
 
 
 def test_modes_rejects_an_unknown_case_in_one_line(tmp_path: Path) -> None:

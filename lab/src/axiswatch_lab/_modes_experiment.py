@@ -235,7 +235,8 @@ def robot_rows(
 
 def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per scenario and method: the counts summed over robots, their rates, the robots
-    with no false alarm, the mean severity at the first alarm and the mean AUROC."""
+    with no false alarm, the mean severity at the first alarm, the fault runs that alarmed
+    before their breakdown and the mean AUROC."""
     groups = rows.groupby(["scenario", "method"], sort=False)
     table = groups[list(_COUNTS)].sum()
     table.insert(0, "robots", groups.size())
@@ -245,6 +246,10 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     table.insert(4, "false_alarm_rate", table["false_alarms"] / healthy)
     table.insert(7, "robots_quiet", groups["false_alarms"].apply(lambda s: int((s == 0).sum())))
     table["first_alarm_severity"] = groups["first_alarm_severity"].mean()
+    # A fault run alarms before its breakdown (severity 1 on its last day).
+    table["alarmed_before_breakdown"] = groups["first_alarm_severity"].apply(
+        lambda s: int((s < 1.0).sum())
+    )
     table["auroc"] = groups["auroc"].mean()
     return table.reset_index()
 
