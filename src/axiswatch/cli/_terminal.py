@@ -117,8 +117,11 @@ def show_guesses(guesses: list[Any]) -> None:
                 f"{by_role[role]} ({axis.how[role]})" if role in by_role else "-"
                 for role in ("position", "speed", "torque")
             ]
+            assumed = "?" if axis.unit_assumed else ""
             if "position" in by_role:
-                cells[0] += f" in {axis.position_unit}{'?' if axis.unit_assumed else ''}"
+                cells[0] += f" in {axis.position_unit}{assumed}"
+            elif "speed" in by_role:
+                cells[1] += f" in {axis.position_unit}/s{assumed}"
             rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
             time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
             key = (written, axis.axis or "-", time, *cells, rates)
