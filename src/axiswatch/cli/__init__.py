@@ -188,6 +188,7 @@ def monitor(
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._requests import check_request
     from axiswatch.monitor.report.summary import (
+        cleared_alarm_lines,
         fleet_table,
         run_header,
         run_problems,
@@ -238,6 +239,7 @@ def monitor(
         client = None if dask is None else connect_dask(dask, dask_timeout)
         try:
             with Store(store) as opened, _progress(progress) as update:
+                alarmed = opened.alarmed_captures(config.method)
                 result = monitor_fleet(
                     root, opened, config, workers=workers, dask=client, progress=update,
                     settle_s=settle, stale_after=silence,
@@ -246,10 +248,11 @@ def monitor(
                 for line in fleet_table(opened, silence, result.method):
                     echo(line)
                 verdicts = verdict_lines(opened, result.method, silence)
+                cleared = cleared_alarm_lines(opened, result.method, alarmed, store)
         finally:
             if client is not None:
                 client.close()
-        for line in run_problems(result, store=store, settle_s=settle):
+        for line in [*cleared, *run_problems(result, store=store, settle_s=settle)]:
             echo(line)
         echo("")
         for line in verdicts:
