@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import axiswatch as aw
 from axiswatch import write_capture
 from axiswatch.datasets import Fault, simulate_capture
+from axiswatch.monitor.report.verdict import fleet_verdicts
 from tests._cli import run
 
 
@@ -27,3 +29,19 @@ def test_an_alarm_raised_and_cleared_in_one_run_is_named(tmp_path: Path) -> None
                           " --robot cell1 --axis J2")  # fmt: skip
     again = run("monitor", tmp_path / "fleet", "--store", tmp_path / "s.db", "--settle", "0")
     assert "Alarms raised and cleared" not in again.stdout  # said once, by the run that saw it
+
+
+def test_captures_of_other_motion_are_not_called_a_file_to_fix(tmp_path: Path) -> None:
+    # A lone axis refuses captures of another motion: a new task, or a drive fault that
+    # changed the motion. "Fix the export" sent the engineer to the wrong place.
+    axis = tmp_path / "fleet" / "cell1" / "J2"
+    axis.mkdir(parents=True)
+    for day, task in enumerate(["short_fast"] * 6 + ["heavy"] * 2):
+        write_capture(simulate_capture(task, seed=day), axis / f"2026-03-{day + 1:02d}.parquet")
+    with aw.Store(tmp_path / "s.db") as store:
+        aw.monitor_fleet(tmp_path / "fleet", store, aw.MonitorConfig(), settle_s=0)
+        (verdict,) = fleet_verdicts(store, "indicators")
+    assert verdict.state == "bad data"
+    assert verdict.fault == "captures not scored: the axis moved unlike its baseline"
+    assert "If its task did not change, the motion did: check the drive" in verdict.action
+    assert "Fix the export" not in verdict.action
