@@ -56,6 +56,18 @@ def test_without_the_profile_the_file_is_not_understood(tmp_path: Path) -> None:
         aw.read_capture(path)
 
 
+def test_a_renamed_column_names_the_one_the_file_has(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path).rename(columns={"J2_Current": "J2_ActCurrent"})
+    frame.to_csv(path, index=False)
+    with pytest.raises(
+        ProfileError,
+        match=r"c\.csv: the axis profile <memory> maps \[columns\] 'J2_Current' = 'torque', "
+        r"but the file has no column 'J2_Current' \(did you mean 'J2_ActCurrent'\?\); found",
+    ):
+        aw.read_capture(path, profile=PROFILE)
+
+
 def test_irregular_stamps_need_the_option(tmp_path: Path) -> None:
     path = _controller_csv(tmp_path / "c.csv", irregular=True)
     with pytest.raises(aw.CaptureError, match="not uniformly sampled"):

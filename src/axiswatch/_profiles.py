@@ -547,10 +547,14 @@ class AxisProfile:
             # absent: it is derived from the position.
             required = role in REQUIRED_ROLES and role not in self.ignore
             if required and column not in frame.columns and role not in renamed:
+                found = list(map(str, frame.columns))
+                # A controller update that renames a column (ActCurrent -> ActualCurrent).
+                close = difflib.get_close_matches(column, found, n=1, cutoff=0.6)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise ProfileError(
                     f"{path}: the axis profile {self.source} maps [columns] {column!r} = "
-                    f"{role!r}, but the file has no column {column!r}; found columns "
-                    f"{list(map(str, frame.columns))}."
+                    f"{role!r}, but the file has no column {column!r}{hint}; found columns "
+                    f"{found}."
                 )
         stamps = renamed["time"]
         dates = date_stamps(stamps, path)
