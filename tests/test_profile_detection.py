@@ -247,3 +247,15 @@ def test_an_axis_profile_already_there_reads_new_files_and_is_kept(tmp_path: Pat
     assert toml.read_text(encoding="utf-8") == mine
     forced = plan_layout([guess], fleet, "cell1", force=True)
     assert list(forced.profiles) == [toml]
+
+
+def test_a_time_column_of_whole_steps_without_a_unit_is_said_to_be_read_as_ms(
+    tmp_path: Path,
+) -> None:
+    # A rig's logger writes a sample counter; read as ms it gives 1000 Hz, whatever the rate.
+    values = _rows()
+    path = tmp_path / "2026-03-01_log.csv"
+    frame = {"Time": np.arange(200), "Angle": values["position"], "Torque": values["current"]}
+    pd.DataFrame(frame).to_csv(path, index=False)
+    (axis,) = detect_file(path).axes
+    assert any("if it counts samples, the rate is not in the file" in n for n in axis.notes)

@@ -8,6 +8,7 @@ units and content. Each guess becomes an :class:`~axiswatch.AxisProfile`.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -570,6 +571,13 @@ def detect_file(path: str | Path) -> FileGuess:
     axes = tuple(
         _axis_guess(axis, slot, frame, units, stamps_s) for axis, slot in sorted(slots.items())
     )
+    if kind == "relative" and unit == "ms" and _unit_word(time_column, units) is None:
+        # Steps of 1 with no unit: milliseconds, or a sample counter whose rate no file says.
+        said = (
+            f"time column {time_column!r} steps by whole numbers with no unit: read as ms; if "
+            "it counts samples, the rate is not in the file: export seconds instead"
+        )
+        axes = tuple(dataclasses.replace(a, notes=(*a.notes, said)) for a in axes)
     placed = tuple(
         a for a in axes
         if "torque" in a.columns.values() and {"position", "speed"} & set(a.columns.values())
