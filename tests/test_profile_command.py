@@ -109,6 +109,30 @@ def test_a_folder_of_tab_separated_text_exports_is_profiled_and_monitored(
     assert "7 capture files, 1 new baseline(s), 6 capture(s) scored" in monitored.stdout
 
 
+def test_a_file_of_numbered_axes_is_split_and_its_notes_said_once(tmp_path: Path) -> None:
+    # A cobot's export: joint_position_1 .. _3 beside set points and the robot's own current.
+    exports = tmp_path / "exports" / "cobot1"
+    exports.mkdir(parents=True)
+    spec = AxisSpec(fast_rate_hz=1000.0, position_rate_hz=1000.0)
+    capture = simulate_capture("short_fast", seed=0, spec=spec)
+    n = capture.signals["torque"].size
+    columns = {"time": np.arange(n) / 1000.0, "robot_current": capture.signals["torque"]}
+    for k in (1, 2, 3):
+        columns[f"target_position_{k}"] = capture.signals["position"][:n]
+        columns[f"joint_position_{k}"] = capture.signals["position"][:n]
+        columns[f"motor_torque_{k}"] = capture.signals["torque"]
+    pd.DataFrame(columns).to_csv(exports / "2026-03-01_sample.csv", index=False)
+    shown = run("profile", exports, "--fleet", tmp_path / "fleet")
+    assert shown.returncode == 0, shown.stdout + shown.stderr
+    toml = tmp_path / "fleet" / "cobot1" / "axis2" / "axis.toml"
+    assert '"joint_position_2" = "position"' in toml.read_text(encoding="utf-8")
+    notes = [line for line in shown.stdout.splitlines() if line.startswith("note: ")]
+    assert notes == [
+        "note: position unit of 'joint_position_1' not in the file: rad assumed; if it is "
+        'deg, write position = "deg" under [units] in the axis.toml (and 2 more like it)'
+    ]
+
+
 def test_profile_names_each_file_it_cannot_place(tmp_path: Path) -> None:
     (good,) = _controller_export(tmp_path / "cell1", days=1)
     notes = tmp_path / "cell1" / "notes.csv"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -134,8 +135,13 @@ def show_guesses(guesses: list[Any]) -> None:
         table.add_row(names[0] + more, *key)
     Console(width=max(_terminal_width(), 100)).print(table)
     notes = {note for guess in guesses for axis in guess.axes for note in axis.notes}
+    # One note per cause: six axes of one file differ only in their columns' numbers.
+    causes: dict[str, list[str]] = {}
     for note in sorted(notes):
-        echo(f"note: {note}")
+        causes.setdefault(re.sub(r"\d+", "#", note), []).append(note)
+    for same in causes.values():
+        more = f" (and {len(same) - 1} more like it)" if len(same) > 1 else ""
+        echo(f"note: {same[0]}{more}")
 
 
 def _terminal_width() -> int:
