@@ -259,3 +259,24 @@ def test_a_time_column_of_whole_steps_without_a_unit_is_said_to_be_read_as_ms(
     pd.DataFrame(frame).to_csv(path, index=False)
     (axis,) = detect_file(path).axes
     assert any("if it counts samples, the rate is not in the file" in n for n in axis.notes)
+
+
+def test_an_axis_gets_the_guess_most_of_its_files_give(tmp_path: Path) -> None:
+    # Unnamed columns placed by content: the roughest is the torque, and which one that is
+    # can change from file to file. Every file is read with the majority's guess.
+    rng = np.random.default_rng(1)
+    values = _rows()
+    guesses = []
+    for k, rough in enumerate(("s1", "s2", "s1")):
+        slow = np.cos(np.linspace(0.0, 3.0, 200))
+        noise = {name: rng.normal(size=200) if name == rough else slow for name in ("s1", "s2")}
+        path = tmp_path / "unit1" / f"2026-03-0{k + 1}.csv"
+        path.parent.mkdir(exist_ok=True)
+        pd.DataFrame({"t": np.arange(200) / 1000.0, "angle": values["position"], **noise}).to_csv(
+            path, index=False
+        )
+        guesses.append(detect_file(path))
+    plan = plan_layout(guesses, tmp_path / "fleet")
+    assert plan.unplaced == []
+    (profile,) = plan.profiles.values()
+    assert profile.role_of("s1") == "torque"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -109,8 +110,8 @@ def plan_layout(
     axis's profile first, by the monitor's own reader, and left out with the reason if it fails.
 
     An axis folder that a profile already covers (yours, edited: :func:`find_profile`) is read
-    with it, and it is kept. Otherwise the guess is written; irregular time steps in one of
-    the axis's files make it resample all of them.
+    with it, and it is kept. Otherwise the guess most of its files give is written; irregular
+    time steps in one of the axis's files make it resample all of them.
 
     Parameters
     ----------
@@ -134,6 +135,17 @@ def plan_layout(
     irregular = {
         folder for guess, _, folders in placements if guess.irregular for folder, _ in folders
     }
+    # One guess per axis folder, the one most of its files give: a column placed by content
+    # can differ from file to file, and each file is read back with the folder's anyway.
+    votes: dict[tuple[str, str], Counter[str]] = {}
+    guessed: dict[str, AxisProfile] = {}
+    for guess, _, folders in placements:
+        for folder, axis in folders:
+            profile = guess.profile(axis, resample_irregular=folder in irregular)
+            key = profile_toml(profile)
+            guessed.setdefault(key, profile)
+            votes.setdefault(folder, Counter())[key] += 1
+    chosen = {folder: guessed[count.most_common(1)[0][0]] for folder, count in votes.items()}
     found: dict[tuple[str, str], AxisProfile | ProfileError | None] = {}
     for guess, name, folders in placements:
         here = _in_place(guess.path, root) if len(guess.axes) == 1 else None
@@ -151,12 +163,8 @@ def plan_layout(
                 profile = existing
                 plan.kept[folder] = existing.source
             else:
-                profile = guess.profile(axis, resample_irregular=folder in irregular)
-                toml = root.joinpath(*folder) / PROFILE_FILES[0]
-                if plan.profiles.setdefault(toml, profile) != profile:
-                    plan.unplaced.append((guess.path, f"axis {axis.axis or '-'}: its columns or "
-                                          f"units differ from the other files' of {'/'.join(folder)}"))  # fmt: skip
-                    continue
+                profile = chosen[folder]
+                plan.profiles[root.joinpath(*folder) / PROFILE_FILES[0]] = profile
             try:
                 _read_back(guess.path, profile)
             except (AxiswatchError, ValueError, OSError) as exc:
