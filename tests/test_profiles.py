@@ -234,6 +234,19 @@ def test_two_columns_for_one_role_are_refused(tmp_path: Path) -> None:
         aw.read_capture(path, profile=profile)
 
 
+def test_a_mapped_column_beside_one_named_for_its_role_names_both(tmp_path: Path) -> None:
+    # An export with its own 'time' (a sample number) and the stamps in 'time_s'.
+    path = tmp_path / "c.csv"
+    frame = {"time": [0, 1, 2], "time_s": [0.0, 0.1, 0.2], "torque": [1.0, 2.0, 3.0]}
+    pd.DataFrame(frame).to_csv(path, index=False)
+    with pytest.raises(
+        aw.CaptureError,
+        match=r"maps two columns to \['time'\]: 'time' \(the file's own name\) and 'time_s' "
+        r"\(mapped\); keep one of them in \[columns\]",
+    ):
+        aw.read_capture(path, profile=AxisProfile(columns={"time_s": "time"}))
+
+
 def test_fleet_lookup_takes_the_most_specific_file(tmp_path: Path) -> None:
     (tmp_path / "r1" / "a1").mkdir(parents=True)
     (tmp_path / "r2" / "a1").mkdir(parents=True)

@@ -524,8 +524,18 @@ class AxisProfile:
                 duplicated.append(role)
             seen.add(role)
         if duplicated:
+            # A mapped column beside one already named for its role ('time_s' -> time beside
+            # the file's own 'time'): name both, or the profile seems to map one.
+            clash = [
+                f"{str(column)!r}"
+                + (" (mapped)" if str(column) in self.columns else " (the file's own name)")
+                for column, role in zip(frame.columns, roles, strict=True)
+                if role in duplicated
+            ]
             raise CaptureError(
-                f"{path}: the axis profile {self.source} maps two columns to {duplicated}."
+                f"{path}: the axis profile {self.source} maps two columns to {duplicated}: "
+                f"{' and '.join(clash)}; keep one of them in [columns] (a column named after "
+                "its role is read as that role)."
             )
         ignored = [role for role in self.ignore if role in seen]
         if ignored:
