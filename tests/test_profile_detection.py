@@ -280,3 +280,15 @@ def test_an_axis_gets_the_guess_most_of_its_files_give(tmp_path: Path) -> None:
     assert plan.unplaced == []
     (profile,) = plan.profiles.values()
     assert profile.role_of("s1") == "torque"
+
+
+def test_a_decimal_comma_after_a_first_line_of_whole_numbers_is_detected(tmp_path: Path) -> None:
+    path = _export(tmp_path / "trace.csv")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    lines[2] = f"{START_MS};0;0"  # the axis at rest: no comma on the first data line
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    guess = detect_file(path)
+    assert guess.problem is None
+    assert guess.layout is not None
+    assert guess.layout.decimal == ","
+    assert dict(guess.axes[0].columns) == {"A2_Pos_deg": "position", "A2_Cur_A": "torque"}

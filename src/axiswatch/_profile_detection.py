@@ -420,6 +420,8 @@ def _read(path: Path) -> tuple[pd.DataFrame, CsvLayout | None]:
     if path.suffix.lower() not in TEXT_SUFFIXES:
         frame, _ = capture_format(path).read(path)
         return frame, None
+    from axiswatch._formats import decimal_commas
+
     layout, text = sniff_csv(path.read_bytes())
     frame = pd.read_csv(
         io.StringIO(text),
@@ -427,6 +429,13 @@ def _read(path: Path) -> tuple[pd.DataFrame, CsvLayout | None]:
         decimal=layout.decimal,
         skiprows=[1] if layout.units else None,
     )
+    if layout.decimal == "." and layout.separator != "," and decimal_commas(frame):
+        # Whole numbers on the first data line (an axis at rest) hid the decimal comma.
+        layout = dataclasses.replace(layout, decimal=",")
+        frame = pd.read_csv(
+            io.StringIO(text), sep=layout.separator, decimal=",",
+            skiprows=[1] if layout.units else None,
+        )  # fmt: skip
     return frame.rename(columns=lambda c: str(c).strip()), layout
 
 
