@@ -187,8 +187,8 @@ def test_axis_numbers_ending_names_are_axes_and_sensor_numbers_are_not() -> None
     frame = pd.DataFrame({
         "time": np.arange(200) / 100.0, "robot_current": values["current"],
         **{f"{name}_{k}": values[key] for k in (1, 2)
-           for name, key in (("target_position", "position"), ("joint_position", "position"),
-                             ("motor_torque", "current"))},
+           for name, key in (("target_position", "position"), ("motor_position", "position"),
+                             ("joint_position", "position"), ("motor_torque", "current"))},
     })  # fmt: skip
     roles = guess_roles(frame, {}, "time")
     assert {axis: {r: c for r, (c, _) in roles[axis].items()} for axis in ("axis1", "axis2")} == {

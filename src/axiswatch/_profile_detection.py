@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from axiswatch._profiles import POSITION_WORDS, TIME_WORDS, AxisProfile
+from axiswatch._profiles import POSITION_WORDS, SIDED_ROLES, TIME_WORDS, AxisProfile
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -80,6 +80,8 @@ UNIX_RANGES: tuple[tuple[str, float, float], ...] = (
     ("us", 1e15, 1e16),
     ("ns", 1e18, 1e19),
 )
+#: Words of a position or speed column's name that say it is the gear's output's.
+OUTPUT_WORDS: tuple[str, ...] = ("joint", "output", "abtrieb", "gelenk", "link", "load")
 #: An axis number ending a name: ``joint_position_1``, ``motor_torque_6``.
 AXIS_SUFFIX = re.compile(r"^(?P<rest>.*[a-zA-Z].*?)[_ .-](?P<number>\d{1,2})$")
 #: Relative deviation of a time step from the median step beyond which the stamps are
@@ -330,6 +332,15 @@ def _smoothness(values: np.ndarray) -> float:
     return float(np.median(np.abs(np.diff(values)))) / spread if spread > 0 else math.inf
 
 
+def _output_side(column: str) -> int:
+    """How surely a position or speed column is the gear's output's: 2 by a word such as
+    joint, 0 by motor, else 1 (:data:`OUTPUT_WORDS`)."""
+    words = _words(column)
+    if any(word in OUTPUT_WORDS for word in words):
+        return 2
+    return 0 if any(word.startswith("motor") for word in words) else 1
+
+
 def _suffix_axes(columns: Sequence[str]) -> set[str]:
     """Axis numbers that end names (``joint_position_1`` .. ``_6``): two or more numbers, each
     with a column whose name says position. ``PG_1``, ``Accel_1`` number sensors, not axes."""
@@ -376,6 +387,15 @@ def guess_roles(
         unit = _unit_word(column, units)
         role, how = _role_and_how(column, unit)
         slot = axes.setdefault(axis, {})
+        if (
+            role in SIDED_ROLES
+            and role in slot
+            and _output_side(column) > _output_side(slot[role][0])
+        ):
+            # joint_position beside motor_position: the profile reads the output's by default.
+            unplaced.setdefault(axis, []).append(slot[role][0])
+            slot[role] = (column, how)
+            continue
         if role is None or role == "time" or role in slot:
             unplaced.setdefault(axis, []).append(column)
             continue
