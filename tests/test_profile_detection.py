@@ -258,7 +258,7 @@ def test_a_time_column_of_whole_steps_without_a_unit_is_said_to_be_read_as_ms(
     frame = {"Time": np.arange(200), "Angle": values["position"], "Torque": values["current"]}
     pd.DataFrame(frame).to_csv(path, index=False)
     (axis,) = detect_file(path).axes
-    assert any("if it counts samples, the rate is not in the file" in n for n in axis.notes)
+    assert any('if it counts samples, write time = "samples"' in n for n in axis.notes)
 
 
 def test_an_axis_gets_the_guess_most_of_its_files_give(tmp_path: Path) -> None:

@@ -604,7 +604,8 @@ def detect_file(path: str | Path) -> FileGuess:
         # Steps of 1 with no unit: milliseconds, or a sample counter whose rate no file says.
         said = (
             f"time column {time_column!r} steps by whole numbers with no unit: read as ms; if "
-            "it counts samples, the rate is not in the file: export seconds instead"
+            'it counts samples, write time = "samples" and sample_rate_hz = (the logger\'s '
+            "rate) under [units] in the axis.toml"
         )
         axes = tuple(dataclasses.replace(a, notes=(*a.notes, said)) for a in axes)
     placed = tuple(
@@ -655,5 +656,7 @@ def profile_toml(profile: AxisProfile, comment: str = "") -> str:
     lines.append("[columns]")
     lines += [f"{quoted(column)} = {quoted(role)}" for column, role in profile.columns.items()]
     lines += ["[units]", f"time = {quoted(profile.time_unit)}"]
+    if profile.sample_rate_hz is not None:
+        lines.append(f"sample_rate_hz = {profile.sample_rate_hz!r}")
     lines.append(f"position = {quoted(profile.position_unit)}")
     return "\n".join(lines) + "\n"
