@@ -141,6 +141,20 @@ def test_csv_separator_and_decimal_comma_are_taken_from_the_file(
     assert capture.signals["torque"][1] == pytest.approx(np.cos(0.01), rel=1e-12)
 
 
+@pytest.mark.parametrize("units", [None, "s;rad;Nm"])
+def test_a_decimal_comma_after_a_first_line_of_whole_numbers_is_read(
+    tmp_path: Path, units: str | None
+) -> None:
+    # An axis at rest writes 0;0;1 first: "column 'torque' must be numeric; found '0,99995'".
+    lines = _spreadsheet_text(";", ",", units).splitlines()
+    first = 2 if units else 1
+    lines[first] = "0;0;1"
+    path = tmp_path / "c.csv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    capture = aw.read_capture(path)
+    assert capture.signals["torque"][1] == pytest.approx(np.cos(0.01), rel=1e-12)
+
+
 def test_a_units_row_is_not_read_as_values_and_is_checked(tmp_path: Path) -> None:
     # Before: "column 'time' must be numeric; found non-numeric value 's'".
     path = tmp_path / "c.csv"

@@ -66,6 +66,73 @@ def test_a_controller_export_reaches_a_verdict_in_one_profile_and_one_monitor_ru
     assert "kept" in again.stdout
 
 
+def test_a_rerun_for_new_exports_links_them_with_the_edited_profile(tmp_path: Path) -> None:
+    # The README: edit the axis.toml, then rerun `profile` for new exports. An edited profile
+    # refused them all ("exists with other content"), and --force would undo the edit.
+    first, *later = _controller_export(tmp_path / "exports" / "cell1", days=7)
+    fleet = tmp_path / "fleet"
+    assert run("profile", first, "--fleet", fleet).returncode == 0
+    toml = fleet / "cell1" / "A1" / "axis.toml"
+    edited = 'name = "cell-model"\n' + toml.read_text(encoding="utf-8")
+    toml.write_text(edited, encoding="utf-8")
+    again = run("profile", *later, "--fleet", fleet)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert f"kept {toml}: cell1/A1's captures were read with it" in again.stdout
+    assert "linked 12 capture file(s)" in again.stdout
+    assert toml.read_text(encoding="utf-8") == edited
+
+
+def test_a_folder_of_tab_separated_text_exports_is_profiled_and_monitored(
+    tmp_path: Path,
+) -> None:
+    exports = tmp_path / "exports" / "unit1"
+    exports.mkdir(parents=True)
+    spec = AxisSpec(fast_rate_hz=250.0, position_rate_hz=250.0)
+    for day in range(7):
+        capture = simulate_capture("short_fast", seed=day, spec=spec)
+        n = capture.signals["torque"].size
+        frame = pd.DataFrame({
+            "Time": np.arange(n) / 250.0, "Angle": capture.signals["position"][:n],
+            "Torque": capture.signals["torque"],
+        })  # fmt: skip
+        frame.to_csv(exports / f"2026-03-{day + 1:02d}_log.txt", sep="\t", index=False)
+    (exports / "readme.md").write_text("not a capture", encoding="utf-8")
+    empty = tmp_path / "exports" / "unit2"
+    empty.mkdir()
+    fleet = tmp_path / "fleet"
+    profiled = run("profile", exports, empty, "--fleet", fleet)
+    assert profiled.returncode == 0, profiled.stdout + profiled.stderr
+    assert f"{empty}: a folder without capture files" in profiled.stdout
+    assert "linked 7 capture file(s)" in profiled.stdout
+    assert (fleet / "unit1" / "axis1" / "2026-03-01_log.csv").is_file()
+    monitored = run("monitor", fleet, "--store", tmp_path / "s.db", "--settle", "0")
+    assert "7 capture files, 1 new baseline(s), 6 capture(s) scored" in monitored.stdout
+
+
+def test_a_file_of_numbered_axes_is_split_and_its_notes_said_once(tmp_path: Path) -> None:
+    # A cobot's export: joint_position_1 .. _3 beside set points and the robot's own current.
+    exports = tmp_path / "exports" / "cobot1"
+    exports.mkdir(parents=True)
+    spec = AxisSpec(fast_rate_hz=1000.0, position_rate_hz=1000.0)
+    capture = simulate_capture("short_fast", seed=0, spec=spec)
+    n = capture.signals["torque"].size
+    columns = {"time": np.arange(n) / 1000.0, "robot_current": capture.signals["torque"]}
+    for k in (1, 2, 3):
+        columns[f"target_position_{k}"] = capture.signals["position"][:n]
+        columns[f"joint_position_{k}"] = capture.signals["position"][:n]
+        columns[f"motor_torque_{k}"] = capture.signals["torque"]
+    pd.DataFrame(columns).to_csv(exports / "2026-03-01_sample.csv", index=False)
+    shown = run("profile", exports, "--fleet", tmp_path / "fleet")
+    assert shown.returncode == 0, shown.stdout + shown.stderr
+    toml = tmp_path / "fleet" / "cobot1" / "axis2" / "axis.toml"
+    assert '"joint_position_2" = "position"' in toml.read_text(encoding="utf-8")
+    notes = [line for line in shown.stdout.splitlines() if line.startswith("note: ")]
+    assert notes == [
+        "note: position unit of 'joint_position_1' not in the file: rad assumed; if it is "
+        'deg, write position = "deg" under [units] in the axis.toml (and 2 more like it)'
+    ]
+
+
 def test_profile_names_each_file_it_cannot_place(tmp_path: Path) -> None:
     (good,) = _controller_export(tmp_path / "cell1", days=1)
     notes = tmp_path / "cell1" / "notes.csv"

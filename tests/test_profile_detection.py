@@ -99,7 +99,7 @@ def test_a_controller_export_is_detected(tmp_path: Path) -> None:
     [
         ("a;b\n1;2\n", "fewer than 2 rows"),
         ("Note;Value\nx;1\ny;2\nz;3\n", "no time column"),
-        ("time;A1_Pos_deg\n0;1\n1;2\n2;3\n", "no axis with both a position and a torque"),
+        ("time;A1_Pos_deg\n0;1\n1;2\n2;3\n", "no axis with both a position (or speed) and a"),
     ],
 )
 def test_files_it_cannot_place_say_why(tmp_path: Path, text: str, reason: str) -> None:
@@ -162,3 +162,133 @@ def test_a_speed_is_kept_only_in_the_positions_unit_per_second(tmp_path: Path) -
     assert dict(first.columns) == {"A1_Pos": "position", "A1_Vel": "speed", "A1_Cur": "torque"}
     assert dict(second.columns) == {"A2_Pos": "position", "A2_Strom": "torque"}
     assert any("'A2_Drehzahl' left out" in note for note in second.notes)
+
+
+def test_flags_set_points_and_constants_get_no_role() -> None:
+    values = _rows()
+    n = values["position"].size
+    frame = pd.DataFrame({
+        "Timestamp": START_MS + np.arange(n),
+        "Motor_Pos1reached": (np.arange(n) % 50 > 25).astype(float),  # a PLC bit named "Pos"
+        "SetSpeed": values["current"], "target_position": values["position"],
+        "ActCurrent": values["current"], "Lim_1": np.zeros(n), "Angle": values["position"],
+    })  # fmt: skip
+    roles = guess_roles(frame, {}, "Timestamp")
+    assert {r: c for r, (c, _) in roles[""].items()} == {
+        "torque": "ActCurrent",
+        "position": "Angle",
+    }
+    unnamed = pd.DataFrame({"t": np.arange(n), "ch1": values["position"], "ch2": np.zeros(n)})
+    assert "torque" not in guess_roles(unnamed, {}, "t")[""]  # a constant is no torque
+
+
+def test_axis_numbers_ending_names_are_axes_and_sensor_numbers_are_not() -> None:
+    values = _rows()
+    frame = pd.DataFrame({
+        "time": np.arange(200) / 100.0, "robot_current": values["current"],
+        **{f"{name}_{k}": values[key] for k in (1, 2)
+           for name, key in (("target_position", "position"), ("motor_position", "position"),
+                             ("joint_position", "position"), ("motor_torque", "current"))},
+    })  # fmt: skip
+    roles = guess_roles(frame, {}, "time")
+    assert {axis: {r: c for r, (c, _) in roles[axis].items()} for axis in ("axis1", "axis2")} == {
+        "axis1": {"position": "joint_position_1", "torque": "motor_torque_1"},
+        "axis2": {"position": "joint_position_2", "torque": "motor_torque_2"},
+    }
+    assert "position" not in roles.get("", {})  # the robot's current: no axis of its own
+    sensors = pd.DataFrame({
+        "Time": np.arange(200), "Angle": values["position"],
+        **{f"{name}_{k}": values["current"] for k in (1, 2, 3) for name in ("PG", "Accel")},
+    })  # fmt: skip
+    assert set(guess_roles(sensors, {}, "Time")) == {""}
+
+
+def _plc_log(path: Path, *, gap_at: int | None = None) -> Path:
+    """A PLC's log: Unix seconds, a speed and a current, no position; one step 5x longer."""
+    values = _rows()
+    steps = np.full(199, 0.047)
+    if gap_at is not None:
+        steps[gap_at] = 0.25
+    pd.DataFrame({
+        "Timestamp": 1_500_000_000.0 + np.concatenate([[0.0], np.cumsum(steps)]),
+        "MotorData.ActSpeed": values["current"] * 1000.0, "MotorData.ActCurrent": values["position"],
+    }).to_csv(path, index=False)  # fmt: skip
+    return path
+
+
+def test_a_log_with_a_speed_and_no_position_is_placed_and_irregular_steps_resampled(
+    tmp_path: Path,
+) -> None:
+    regular = detect_file(_plc_log(tmp_path / "log1.csv"))
+    gapped = detect_file(_plc_log(tmp_path / "log2.csv", gap_at=50))
+    (axis,) = regular.axes
+    assert dict(axis.columns) == {"MotorData.ActSpeed": "speed", "MotorData.ActCurrent": "torque"}
+    assert any("no position column" in note for note in axis.notes)
+    assert (regular.irregular, gapped.irregular) == (False, True)
+    plan = plan_layout([regular, gapped], tmp_path / "fleet", "cell1")
+    assert plan.unplaced == []
+    (profile,) = plan.profiles.values()
+    assert profile.resample_irregular  # one file's gap: every file of the axis is resampled
+
+
+def test_an_axis_profile_already_there_reads_new_files_and_is_kept(tmp_path: Path) -> None:
+    fleet = tmp_path / "fleet"
+    toml = fleet / "cell1" / "axis1" / "axis.toml"
+    toml.parent.mkdir(parents=True)
+    mine = ('name = "mine"\nresample_irregular = true\n[columns]\n"Timestamp" = "time"\n'
+            '"MotorData.ActCurrent" = "torque"\n"MotorData.ActSpeed" = "speed"\n'
+            '[units]\nposition = "mm"\n')  # fmt: skip
+    toml.write_text(mine, encoding="utf-8")
+    guess = detect_file(_plc_log(tmp_path / "log.csv", gap_at=50))
+    plan = plan_layout([guess], fleet, "cell1")
+    assert (plan.unplaced, plan.profiles) == ([], {})
+    assert plan.kept == {("cell1", "axis1"): str(toml)}
+    assert apply_plan(plan)[0].startswith(f"kept {toml}")
+    assert toml.read_text(encoding="utf-8") == mine
+    forced = plan_layout([guess], fleet, "cell1", force=True)
+    assert list(forced.profiles) == [toml]
+
+
+def test_a_time_column_of_whole_steps_without_a_unit_is_said_to_be_read_as_ms(
+    tmp_path: Path,
+) -> None:
+    # A rig's logger writes a sample counter; read as ms it gives 1000 Hz, whatever the rate.
+    values = _rows()
+    path = tmp_path / "2026-03-01_log.csv"
+    frame = {"Time": np.arange(200), "Angle": values["position"], "Torque": values["current"]}
+    pd.DataFrame(frame).to_csv(path, index=False)
+    (axis,) = detect_file(path).axes
+    assert any('if it counts samples, write time = "samples"' in n for n in axis.notes)
+
+
+def test_an_axis_gets_the_guess_most_of_its_files_give(tmp_path: Path) -> None:
+    # Unnamed columns placed by content: the roughest is the torque, and which one that is
+    # can change from file to file. Every file is read with the majority's guess.
+    rng = np.random.default_rng(1)
+    values = _rows()
+    guesses = []
+    for k, rough in enumerate(("s1", "s2", "s1")):
+        slow = np.cos(np.linspace(0.0, 3.0, 200))
+        noise = {name: rng.normal(size=200) if name == rough else slow for name in ("s1", "s2")}
+        path = tmp_path / "unit1" / f"2026-03-0{k + 1}.csv"
+        path.parent.mkdir(exist_ok=True)
+        pd.DataFrame({"t": np.arange(200) / 1000.0, "angle": values["position"], **noise}).to_csv(
+            path, index=False
+        )
+        guesses.append(detect_file(path))
+    plan = plan_layout(guesses, tmp_path / "fleet")
+    assert plan.unplaced == []
+    (profile,) = plan.profiles.values()
+    assert profile.role_of("s1") == "torque"
+
+
+def test_a_decimal_comma_after_a_first_line_of_whole_numbers_is_detected(tmp_path: Path) -> None:
+    path = _export(tmp_path / "trace.csv")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    lines[2] = f"{START_MS};0;0"  # the axis at rest: no comma on the first data line
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    guess = detect_file(path)
+    assert guess.problem is None
+    assert guess.layout is not None
+    assert guess.layout.decimal == ","
+    assert dict(guess.axes[0].columns) == {"A2_Pos_deg": "position", "A2_Cur_A": "torque"}

@@ -56,6 +56,34 @@ def test_without_the_profile_the_file_is_not_understood(tmp_path: Path) -> None:
         aw.read_capture(path)
 
 
+def test_a_renamed_column_names_the_one_the_file_has(tmp_path: Path) -> None:
+    path = _controller_csv(tmp_path / "c.csv")
+    frame = pd.read_csv(path).rename(columns={"J2_Current": "J2_ActCurrent"})
+    frame.to_csv(path, index=False)
+    with pytest.raises(
+        ProfileError,
+        match=r"c\.csv: the axis profile <memory> maps \[columns\] 'J2_Current' = 'torque', "
+        r"but the file has no column 'J2_Current' \(did you mean 'J2_ActCurrent'\?\); found",
+    ):
+        aw.read_capture(path, profile=PROFILE)
+
+
+def test_a_sample_counter_is_read_at_the_declared_rate(tmp_path: Path) -> None:
+    # A rig's logger: 'Time' counts samples at 250 Hz; read as ms it was 1000 Hz.
+    path = tmp_path / "2026-03-01_log.csv"
+    n = np.arange(500)
+    frame = {"Time": n, "Angle": np.sin(n / 40.0), "dP": np.cos(n / 40.0)}
+    pd.DataFrame(frame).to_csv(path, index=False)
+    text = (
+        '[columns]\n"Time" = "time"\n"Angle" = "position"\n"dP" = "torque"\n'
+        '[units]\ntime = "samples"\nsample_rate_hz = 250\n'
+    )
+    (tmp_path / "axis.toml").write_text(text, encoding="utf-8")
+    profile = AxisProfile.from_toml(tmp_path / "axis.toml")
+    capture = aw.read_capture(path, profile=profile)
+    assert capture.rates_hz["torque"] == pytest.approx(250.0, rel=1e-12)
+
+
 def test_irregular_stamps_need_the_option(tmp_path: Path) -> None:
     path = _controller_csv(tmp_path / "c.csv", irregular=True)
     with pytest.raises(aw.CaptureError, match="not uniformly sampled"):
@@ -157,6 +185,15 @@ def test_toml_round_trip_and_kinematics(tmp_path: Path) -> None:
         ({"units": {"time": "min"}}, "time unit must be one of"),
         ({"units": {"position": "grad"}}, "position unit must be one of"),
         ({"kinematics": {"gear_ratio": -1}}, "gear_ratio must be > 0"),
+        (
+            {"units": {"time": "samples"}},
+            r'time = "samples" \(a sample counter\) and sample_rate_hz',
+        ),
+        ({"units": {"sample_rate_hz": 250}}, r"got time = 's' and sample_rate_hz = 250.0"),
+        (
+            {"units": {"time": "samples", "sample_rate_hz": 0}},
+            "sample_rate_hz must be a number > 0. Got 0.0",
+        ),
         ({"kinematics": {"bearing_orders": {"b": "x"}}}, r"bearing_orders\.b must be a number"),
     ],
 )
@@ -220,6 +257,19 @@ def test_two_columns_for_one_role_are_refused(tmp_path: Path) -> None:
     profile = AxisProfile(columns={"a": "torque", "b": "torque"})
     with pytest.raises(aw.CaptureError, match=r"maps two columns to \['torque'\]"):
         aw.read_capture(path, profile=profile)
+
+
+def test_a_mapped_column_beside_one_named_for_its_role_names_both(tmp_path: Path) -> None:
+    # An export with its own 'time' (a sample number) and the stamps in 'time_s'.
+    path = tmp_path / "c.csv"
+    frame = {"time": [0, 1, 2], "time_s": [0.0, 0.1, 0.2], "torque": [1.0, 2.0, 3.0]}
+    pd.DataFrame(frame).to_csv(path, index=False)
+    with pytest.raises(
+        aw.CaptureError,
+        match=r"maps two columns to \['time'\]: 'time' \(the file's own name\) and 'time_s' "
+        r"\(mapped\); keep one of them in \[columns\]",
+    ):
+        aw.read_capture(path, profile=AxisProfile(columns={"time_s": "time"}))
 
 
 def test_fleet_lookup_takes_the_most_specific_file(tmp_path: Path) -> None:

@@ -411,7 +411,7 @@ SECTION_COMMANDS = {
     "Watch a fleet folder": {"monitor"},
     "Monitoring a fleet": {leaf.name for leaf in _leaves()},  # `--help`: every command
     "Delivering capture files": {"monitor"},
-    "Monitor your own robot": {"monitor"},
+    "Monitor your own robot": {"monitor", "profile"},
     "What `monitor` does (defaults)": {"monitor"},
     "Rejected captures and exit status": {"monitor"},
     "The store (SQLite)": {"monitor", "results"},

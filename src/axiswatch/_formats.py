@@ -213,6 +213,24 @@ def _is_number(cell: str, decimal: str) -> bool:
     return True
 
 
+def decimal_commas(frame: pd.DataFrame) -> bool:
+    """Whether a text column of a table read with a decimal point holds decimal commas.
+
+    Examples
+    --------
+    >>> decimal_commas(pd.DataFrame({"a": [0, 1], "b": ["0", "1,5"]}))
+    True
+    """
+    for column in frame.columns:
+        values = frame[column]
+        if pd.api.types.is_numeric_dtype(values):
+            continue
+        with_comma = values[values.astype(str).str.contains(",", regex=False)]
+        if not with_comma.empty and _is_number(str(with_comma.iloc[0]), ","):
+            return True
+    return False
+
+
 #: Bytes read from a CSV file's end to find its last row (rows are far shorter).
 _TAIL_BYTES = 65536
 
@@ -317,6 +335,15 @@ def _read_csv_as(path: Path, encoding: str) -> tuple[pd.DataFrame, dict[str, str
         encoding="utf-8-sig" if encoding == "utf-8" else encoding,
         skiprows=[1] if units_row else None,
     )
+    if decimal == "." and separator != "," and decimal_commas(frame):
+        # The first data line held whole numbers only (an axis at rest: 0;0): read again.
+        frame = pd.read_csv(
+            path,
+            sep=separator,
+            decimal=",",
+            encoding="utf-8-sig" if encoding == "utf-8" else encoding,
+            skiprows=[1] if units_row else None,
+        )
     frame.columns = [str(c).removeprefix("\ufeff") for c in frame.columns]
     if not units_row:
         return frame, {}

@@ -8,6 +8,7 @@ units and content. Each guess becomes an :class:`~axiswatch.AxisProfile`.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -19,16 +20,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from axiswatch._profiles import POSITION_WORDS, TIME_WORDS, AxisProfile
+from axiswatch._profiles import POSITION_WORDS, SIDED_ROLES, TIME_WORDS, AxisProfile
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = [
+    "TEXT_SUFFIXES",
     "AxisGuess",
     "CsvLayout",
     "FileGuess",
     "detect_file",
+    "export_files",
     "guess_roles",
     "profile_toml",
     "sniff_csv",
@@ -45,6 +48,21 @@ ROLE_WORDS: dict[str, tuple[str, ...]] = {
         "actcur", "effort", "load", "amp",
     ),
 }  # fmt: skip
+#: Words of a column name that say it is not a measurement of the axis: a set point, a
+#: controller's model value, a flag. Such a column gets no role.
+NOT_MEASURED: tuple[str, ...] = (
+    "target", "set", "setpoint", "soll", "cmd", "command", "demand", "desired", "ref",
+    "computed", "reached", "ok", "done", "enable", "enabled",
+)  # fmt: skip
+#: Starts and ends of words that say the same: ``SetSpeed``, ``SollPos``, ``Pos1reached``.
+NOT_MEASURED_STARTS: tuple[str, ...] = ("set", "soll", "target", "cmd", "demand", "desired")
+NOT_MEASURED_ENDS: tuple[str, ...] = ("reached",)
+#: Suffixes of delimited text exports, read as CSV; ``profile`` links them in as ``.csv``.
+TEXT_SUFFIXES: tuple[str, ...] = (".csv", ".txt", ".tsv")
+#: Span of whole-number positions beyond which they read as encoder counts, not angles.
+COUNTS_SPAN = 1000.0
+#: A column with fewer distinct values is a flag or a constant, never a signal.
+MIN_DISTINCT_VALUES = 3
 #: Unit words that may end a column name (``A2_Pos_deg``): unit -> role it implies.
 NAME_UNITS: dict[str, str] = {
     "deg": "position", "rad": "position", "grad": "position", "mm": "position",
@@ -62,6 +80,13 @@ UNIX_RANGES: tuple[tuple[str, float, float], ...] = (
     ("us", 1e15, 1e16),
     ("ns", 1e18, 1e19),
 )
+#: Words of a position or speed column's name that say it is the gear's output's.
+OUTPUT_WORDS: tuple[str, ...] = ("joint", "output", "abtrieb", "gelenk", "link", "load")
+#: An axis number ending a name: ``joint_position_1``, ``motor_torque_6``.
+AXIS_SUFFIX = re.compile(r"^(?P<rest>.*[a-zA-Z].*?)[_ .-](?P<number>\d{1,2})$")
+#: Relative deviation of a time step from the median step beyond which the stamps are
+#: irregular: the reader's jitter tolerance is a quarter of the period.
+IRREGULAR_STEP = 0.25
 _ISO = re.compile(r"\s*\d{4}-\d{2}-\d{2}[T ]\d")
 
 
@@ -147,12 +172,24 @@ def _role_by_name(name: str, unit: str | None) -> str | None:
     return _role_and_how(name, unit)[0]
 
 
+def _not_measured(words: Sequence[str]) -> bool:
+    """A name that says set point, model value or flag (:data:`NOT_MEASURED`)."""
+    return any(
+        word in NOT_MEASURED
+        or word.startswith(NOT_MEASURED_STARTS)
+        or word.endswith(NOT_MEASURED_ENDS)
+        for word in words
+    )
+
+
 def _role_and_how(name: str, unit: str | None) -> tuple[str | None, str]:
     """The role a column's name or unit says, and which of them said it."""
     words = _words(name)
     match = AXIS_PREFIX.match(name.strip())
     if match:
         words = _words(match["rest"])
+    if _not_measured(words):
+        return None, ""
     for role, known in ROLE_WORDS.items():
         if any(word in known for word in words):
             return role, "name"
@@ -233,7 +270,8 @@ class AxisGuess:
 
 @dataclass(frozen=True)
 class FileGuess:
-    """What one file holds: its layout, time column and axes, or why it cannot be placed."""
+    """What one file holds: its layout, time column and axes, or why it cannot be placed;
+    ``irregular``: its time steps are irregular (a PLC's logger)."""
 
     path: Path
     layout: CsvLayout | None = None
@@ -243,14 +281,50 @@ class FileGuess:
     first_stamp_s: float | None = None
     axes: tuple[AxisGuess, ...] = ()
     problem: str | None = None
+    irregular: bool = False
 
-    def profile(self, axis: AxisGuess) -> AxisProfile:
-        """The axis profile of one of this file's axes."""
+    def profile(self, axis: AxisGuess, *, resample_irregular: bool = False) -> AxisProfile:
+        """The axis profile of one of this file's axes; ``resample_irregular`` for a logger whose
+        steps are irregular in this file or another of the axis's."""
         assert self.time_column is not None
         columns = {self.time_column: "time", **axis.columns}
         return AxisProfile(
-            columns=columns, time_unit=self.time_unit, position_unit=axis.position_unit
-        )
+            columns=columns, time_unit=self.time_unit, position_unit=axis.position_unit,
+            resample_irregular=resample_irregular or self.irregular,
+        )  # fmt: skip
+
+
+def export_files(paths: Sequence[Path]) -> tuple[list[Path], list[Path]]:
+    """The files to profile: each file as given, and the capture files under each folder
+    (hidden ones left out), in name order; and the folders that hold none.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> for name in ("b.txt", "a.csv", "notes.md", ".a.csv.tmp"):
+    ...     _ = (folder / name).write_text("")
+    >>> [p.name for p in export_files([folder])[0]]
+    ['a.csv', 'b.txt']
+    """
+    from axiswatch._formats import capture_suffixes
+
+    suffixes = {*capture_suffixes(), *TEXT_SUFFIXES}
+    files: list[Path] = []
+    empty: list[Path] = []
+    for path in map(Path, paths):
+        if not path.is_dir():
+            files.append(path)
+            continue
+        found = sorted(
+            p for p in path.rglob("*")
+            if p.is_file() and p.suffix.lower() in suffixes
+            and not any(part.startswith(".") for part in p.relative_to(path).parts)
+        )  # fmt: skip
+        files += found
+        if not found:
+            empty.append(path)
+    return files, empty
 
 
 def _smoothness(values: np.ndarray) -> float:
@@ -258,36 +332,85 @@ def _smoothness(values: np.ndarray) -> float:
     return float(np.median(np.abs(np.diff(values)))) / spread if spread > 0 else math.inf
 
 
+def _output_side(column: str) -> int:
+    """How surely a position or speed column is the gear's output's: 2 by a word such as
+    joint, 0 by motor, else 1 (:data:`OUTPUT_WORDS`)."""
+    words = _words(column)
+    if any(word in OUTPUT_WORDS for word in words):
+        return 2
+    return 0 if any(word.startswith("motor") for word in words) else 1
+
+
+def _suffix_axes(columns: Sequence[str]) -> set[str]:
+    """Axis numbers that end names (``joint_position_1`` .. ``_6``): two or more numbers, each
+    with a column whose name says position. ``PG_1``, ``Accel_1`` number sensors, not axes."""
+    numbers = set()
+    for column in columns:
+        match = AXIS_SUFFIX.match(column.strip())
+        if match and _role_by_name(match["rest"], None) == "position":
+            numbers.add(match["number"])
+    return numbers if len(numbers) >= 2 else set()
+
+
+def _axis_of(column: str, suffix_axes: set[str]) -> str:
+    """The axis a column belongs to: its prefix (``A2``), its number (``axis2``), or none."""
+    match = AXIS_PREFIX.match(column.strip())
+    if match:
+        return match["axis"].replace(" ", "").upper()
+    suffix = AXIS_SUFFIX.match(column.strip())
+    if suffix and suffix["number"] in suffix_axes:
+        return f"axis{suffix['number']}"
+    return ""
+
+
 def guess_roles(
     frame: pd.DataFrame, units: Mapping[str, str], time_column: str
 ) -> dict[str, dict[str, tuple[str, str]]]:
-    """Columns by axis prefix and role: ``{axis: {role: (column, how)}}`` (axis ``""``: none).
+    """Columns by axis and role: ``{axis: {role: (column, how)}}`` (axis ``""``: none).
 
-    A name or unit says the role; columns left over in an axis without a position or a torque
-    are placed by content: the smoothest is the position, one that follows the position's
-    derivative the speed, the rest the torque.
+    A name or unit says the role; a set point, a model value or a flag by its name
+    (:data:`NOT_MEASURED`) gets none. Columns left over in an axis without a motion or a torque
+    are placed by content, a flag or a constant (fewer than :data:`MIN_DISTINCT_VALUES` values)
+    never: the smoothest is the position, the rest the torque. Beside named axes, the others
+    are the robot's and get no role.
     """
     axes: dict[str, dict[str, tuple[str, str]]] = {}
     unplaced: dict[str, list[str]] = {}
+    suffix_axes = _suffix_axes([str(c) for c in frame.columns if str(c) != time_column])
     for column in map(str, frame.columns):
         if column == time_column:
             continue
         values = frame[column]
-        if not _numeric(values):
+        if not _numeric(values) or _not_measured(_words(column)):
             continue
-        match = AXIS_PREFIX.match(column.strip())
-        axis = match["axis"].replace(" ", "").upper() if match else ""
+        axis = _axis_of(column, suffix_axes)
         unit = _unit_word(column, units)
         role, how = _role_and_how(column, unit)
         slot = axes.setdefault(axis, {})
+        if (
+            role in SIDED_ROLES
+            and role in slot
+            and _output_side(column) > _output_side(slot[role][0])
+        ):
+            # joint_position beside motor_position: the profile reads the output's by default.
+            unplaced.setdefault(axis, []).append(slot[role][0])
+            slot[role] = (column, how)
+            continue
         if role is None or role == "time" or role in slot:
             unplaced.setdefault(axis, []).append(column)
             continue
         slot[role] = (column, how)
+    named_axes = any(axes)
     for axis, columns in unplaced.items():
+        if named_axes and not axis:
+            continue  # beside named axes, the other columns are the robot's (a supply voltage)
         slot = axes.setdefault(axis, {})
-        left = [c for c in columns if c not in {col for col, _ in slot.values()}]
-        if "position" not in slot and left:
+        taken = {col for col, _ in slot.values()}
+        left = [
+            c for c in columns
+            if c not in taken and np.unique(_values(frame[c])).size >= MIN_DISTINCT_VALUES
+        ]  # fmt: skip
+        if not {"position", "speed"} & set(slot) and left:  # a named speed is the motion
             smooth = min(left, key=lambda c: _smoothness(_values(frame[c])))
             slot["position"] = (smooth, "content")
             left.remove(smooth)
@@ -314,9 +437,11 @@ def _read(path: Path) -> tuple[pd.DataFrame, CsvLayout | None]:
 
     from axiswatch._formats import capture_format
 
-    if path.suffix.lower() != ".csv":
+    if path.suffix.lower() not in TEXT_SUFFIXES:
         frame, _ = capture_format(path).read(path)
         return frame, None
+    from axiswatch._formats import decimal_commas
+
     layout, text = sniff_csv(path.read_bytes())
     frame = pd.read_csv(
         io.StringIO(text),
@@ -324,6 +449,13 @@ def _read(path: Path) -> tuple[pd.DataFrame, CsvLayout | None]:
         decimal=layout.decimal,
         skiprows=[1] if layout.units else None,
     )
+    if layout.decimal == "." and layout.separator != "," and decimal_commas(frame):
+        # Whole numbers on the first data line (an axis at rest) hid the decimal comma.
+        layout = dataclasses.replace(layout, decimal=",")
+        frame = pd.read_csv(
+            io.StringIO(text), sep=layout.separator, decimal=",",
+            skiprows=[1] if layout.units else None,
+        )  # fmt: skip
     return frame.rename(columns=lambda c: str(c).strip()), layout
 
 
@@ -370,6 +502,22 @@ def _stamps_s(stamps: pd.Series, kind: str, unit: str) -> tuple[np.ndarray, floa
     return relative, float(values[0]) * scale
 
 
+def _unit_note(column: str, values: np.ndarray) -> str:
+    """What to write when the position's unit is not in the file; whole numbers over more
+    than :data:`COUNTS_SPAN` read as encoder counts."""
+    note = (
+        f"position unit of {column!r} not in the file: rad assumed; if it is deg, write "
+        'position = "deg" under [units] in the axis.toml'
+    )
+    span = float(np.ptp(values)) if values.size else 0.0
+    if span > COUNTS_SPAN and bool(np.all(values == np.round(values))):
+        note += (
+            f"; whole numbers spanning more than {COUNTS_SPAN:.0f}: encoder counts? write "
+            'position = "counts" and counts_per_revolution = (from the datasheet) under [units]'
+        )
+    return note
+
+
 def _axis_guess(
     axis: str, slot: Mapping[str, tuple[str, str]], frame: pd.DataFrame,
     units: Mapping[str, str], stamps_s: np.ndarray,
@@ -382,12 +530,22 @@ def _axis_guess(
             position_unit = POSITION_WORDS[word]
         else:
             assumed = True
-            notes.append(
-                "position unit not in the file: rad assumed; if it is deg, write "
-                'position = "deg" under [units] in the axis.toml'
-            )
+            notes.append(_unit_note(slot["position"][0], _values(frame[slot["position"][0]])))
     columns = {column: role for role, (column, _) in slot.items()}
-    if "speed" in slot:
+    if "speed" in slot and "position" not in slot:
+        # The only motion signal: read in the position's unit per second; the position is
+        # derived from it.
+        word = (_unit_word(slot["speed"][0], units) or "").removesuffix("/s").removesuffix("/sec")
+        if word in POSITION_WORDS:
+            position_unit = POSITION_WORDS[word]
+        else:
+            assumed = True
+            notes.append(
+                f"no position column: the speed {slot['speed'][0]!r} is read in rad/s and the "
+                'position derived from it; if it is in mm/s, write position = "mm" under '
+                "[units] in the axis.toml"
+            )
+    elif "speed" in slot:
         # Read only in a stated unit: a Drehzahl column is often in rpm, 6x off if read as deg/s.
         column = slot["speed"][0]
         word = (_unit_word(column, units) or "").removesuffix("/s").removesuffix("/sec")
@@ -442,14 +600,37 @@ def detect_file(path: str | Path) -> FileGuess:
     axes = tuple(
         _axis_guess(axis, slot, frame, units, stamps_s) for axis, slot in sorted(slots.items())
     )
-    placed = tuple(a for a in axes if {"position", "torque"} <= set(a.columns.values()))
+    if kind == "relative" and unit == "ms" and _unit_word(time_column, units) is None:
+        # Steps of 1 with no unit: milliseconds, or a sample counter whose rate no file says.
+        said = (
+            f"time column {time_column!r} steps by whole numbers with no unit: read as ms; if "
+            'it counts samples, write time = "samples" and sample_rate_hz = (the logger\'s '
+            "rate) under [units] in the axis.toml"
+        )
+        axes = tuple(dataclasses.replace(a, notes=(*a.notes, said)) for a in axes)
+    placed = tuple(
+        a for a in axes
+        if "torque" in a.columns.values() and {"position", "speed"} & set(a.columns.values())
+    )  # fmt: skip
     if not placed:
         found = {a.axis or "-": sorted(a.columns.values()) for a in axes}
         return FileGuess(
             path, layout, time_column, kind, unit, first,
-            problem=f"no axis with both a position and a torque (or current) column; found {found}",
+            problem=f"no axis with both a position (or speed) and a torque (or current) column; "
+            f"found {found}",
         )  # fmt: skip
-    return FileGuess(path, layout, time_column, kind, unit, first, placed)
+    return FileGuess(
+        path, layout, time_column, kind, unit, first, placed, irregular=_irregular(stamps_s)
+    )
+
+
+def _irregular(stamps_s: np.ndarray) -> bool:
+    """Whether time steps stray from their median by more than :data:`IRREGULAR_STEP` of it."""
+    steps = np.diff(stamps_s[np.isfinite(stamps_s)])
+    if steps.size < 2:
+        return False
+    step = float(np.median(steps))
+    return step > 0 and bool(np.max(np.abs(steps - step)) > IRREGULAR_STEP * step)
 
 
 def profile_toml(profile: AxisProfile, comment: str = "") -> str:
@@ -475,5 +656,7 @@ def profile_toml(profile: AxisProfile, comment: str = "") -> str:
     lines.append("[columns]")
     lines += [f"{quoted(column)} = {quoted(role)}" for column, role in profile.columns.items()]
     lines += ["[units]", f"time = {quoted(profile.time_unit)}"]
+    if profile.sample_rate_hz is not None:
+        lines.append(f"sample_rate_hz = {profile.sample_rate_hz!r}")
     lines.append(f"position = {quoted(profile.position_unit)}")
     return "\n".join(lines) + "\n"

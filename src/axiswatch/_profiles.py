@@ -39,6 +39,8 @@ SIDES: tuple[str, ...] = ("motor", "output")
 #: Roles a profile may ``ignore``: the motion signals, one of which the indicators need.
 IGNORABLE_ROLES: tuple[str, ...] = ("position", "speed")
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: Time unit of a logger's sample counter (0, 1, 2, ...); needs ``sample_rate_hz``.
+SAMPLES = "samples"
 POSITION_UNITS: dict[str, float] = {
     "rad": 1.0,
     "deg": math.pi / 180.0,
@@ -165,8 +167,11 @@ class AxisProfile:
         Axes with the same profile name are pooled as one fleet (:func:`~axiswatch.pool_fleet`).
     columns : mapping of str to str, default={}
         File column -> role (``time``, ``position``, ``speed``, ``torque``).
-    time_unit : {"s", "ms", "us", "ns"}, default="s"
+    time_unit : {"s", "ms", "us", "ns", "samples"}, default="s"
         Absolute stamps (Unix time) are allowed: the capture starts at its first stamp.
+        ``samples``: a sample counter, read at ``sample_rate_hz``.
+    sample_rate_hz : float, optional
+        The logger's rate; required with ``time_unit="samples"`` and only then.
     position_unit : {"rad", "deg", "rev", "m", "mm", "counts"}, default="rad"
         Speed is read in the same unit per second. ``counts`` (raw encoder counts) needs
         ``counts_per_revolution`` and is read in rad.
@@ -209,6 +214,7 @@ class AxisProfile:
     name: str | None = None
     columns: Mapping[str, str] = field(default_factory=dict)
     time_unit: str = "s"
+    sample_rate_hz: float | None = None
     position_unit: str = "rad"
     counts_per_revolution: float | None = None
     resample_irregular: bool = False
@@ -229,9 +235,21 @@ class AxisProfile:
                     f"{where}: column {column!r} maps to role {role!r}; expected one of "
                     f"{list(ROLES)}{_above_tables([column], 'columns')}."
                 )
-        if self.time_unit not in TIME_UNITS:
+        if self.time_unit not in (*TIME_UNITS, SAMPLES):
             raise ProfileError(
-                f"{where}: time unit must be one of {list(TIME_UNITS)}. Got {self.time_unit!r} instead."
+                f"{where}: time unit must be one of {[*TIME_UNITS, SAMPLES]}. "
+                f"Got {self.time_unit!r} instead."
+            )
+        if (self.time_unit == SAMPLES) != (self.sample_rate_hz is not None):
+            raise ProfileError(
+                f'{where}: time = "samples" (a sample counter) and sample_rate_hz (the '
+                f"logger's rate) go together in [units]; got time = {self.time_unit!r} and "
+                f"sample_rate_hz = {self.sample_rate_hz!r}."
+            )
+        rate = self.sample_rate_hz
+        if rate is not None and not (math.isfinite(rate) and rate > 0):
+            raise ProfileError(
+                f"{where}: sample_rate_hz must be a number > 0. Got {rate!r} instead."
             )
         if self.position_unit not in (*POSITION_UNITS, COUNTS):
             raise ProfileError(
@@ -325,14 +343,15 @@ class AxisProfile:
         units = _table(data, "units", source)
         _check(
             units,
-            {"time", "position", "torque", "counts_per_revolution"},
+            {"time", "position", "torque", "counts_per_revolution", "sample_rate_hz"},
             f"{source} [units]",
             "units",
         )
         for key in units:
-            if key != "counts_per_revolution":
+            if key not in ("counts_per_revolution", "sample_rate_hz"):
                 _text(units, key, f"{source} [units]", None)
         counts = units.get("counts_per_revolution")
+        rate = units.get("sample_rate_hz")
         resample = data.get("resample_irregular", False)
         if not isinstance(resample, bool):
             raise ProfileError(
@@ -366,6 +385,9 @@ class AxisProfile:
             name=_text(data, "name", source, None),
             columns=columns,
             time_unit=units.get("time", "s"),
+            sample_rate_hz=(
+                None if rate is None else _number(rate, "sample_rate_hz", f"{source} [units]")
+            ),
             position_unit=units.get("position", "rad"),
             counts_per_revolution=(
                 None
@@ -495,6 +517,19 @@ class AxisProfile:
             return 2.0 * math.pi / self.counts_per_revolution
         return POSITION_UNITS[self.position_unit]
 
+    def time_scale(self) -> float:
+        """Seconds per unit of the time column.
+
+        Examples
+        --------
+        >>> AxisProfile(time_unit="samples", sample_rate_hz=250.0).time_scale()
+        0.004
+        """
+        if self.time_unit == SAMPLES:
+            assert self.sample_rate_hz is not None  # checked on construction
+            return 1.0 / self.sample_rate_hz
+        return TIME_UNITS[self.time_unit]
+
     def kinematics(self) -> dict[str, Any]:
         """Keyword arguments of :func:`~axiswatch.read_indicators`."""
         return {
@@ -524,8 +559,18 @@ class AxisProfile:
                 duplicated.append(role)
             seen.add(role)
         if duplicated:
+            # A mapped column beside one already named for its role ('time_s' -> time beside
+            # the file's own 'time'): name both, or the profile seems to map one.
+            clash = [
+                f"{str(column)!r}"
+                + (" (mapped)" if str(column) in self.columns else " (the file's own name)")
+                for column, role in zip(frame.columns, roles, strict=True)
+                if role in duplicated
+            ]
             raise CaptureError(
-                f"{path}: the axis profile {self.source} maps two columns to {duplicated}."
+                f"{path}: the axis profile {self.source} maps two columns to {duplicated}: "
+                f"{' and '.join(clash)}; keep one of them in [columns] (a column named after "
+                "its role is read as that role)."
             )
         ignored = [role for role in self.ignore if role in seen]
         if ignored:
@@ -547,10 +592,14 @@ class AxisProfile:
             # absent: it is derived from the position.
             required = role in REQUIRED_ROLES and role not in self.ignore
             if required and column not in frame.columns and role not in renamed:
+                found = list(map(str, frame.columns))
+                # A controller update that renames a column (ActCurrent -> ActualCurrent).
+                close = difflib.get_close_matches(column, found, n=1, cutoff=0.6)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise ProfileError(
                     f"{path}: the axis profile {self.source} maps [columns] {column!r} = "
-                    f"{role!r}, but the file has no column {column!r}; found columns "
-                    f"{list(map(str, frame.columns))}."
+                    f"{role!r}, but the file has no column {column!r}{hint}; found columns "
+                    f"{found}."
                 )
         stamps = renamed["time"]
         dates = date_stamps(stamps, path)
@@ -565,7 +614,7 @@ class AxisProfile:
             # Subtract the first stamp in the file's own integers or floats before scaling: Unix
             # nanoseconds as float64 would lose the sub-microsecond steps.
             first = stamps.iloc[0]
-            factor = TIME_UNITS[self.time_unit]
+            factor = self.time_scale()
             check_stamp_unit(float(first) * factor, self.time_unit, path)
             if stamps.dtype == np.float64 and first == 0 and factor == 1.0:
                 # Seconds from zero already: the subtraction and the scaling would give the same

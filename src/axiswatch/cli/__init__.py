@@ -188,6 +188,7 @@ def monitor(
     from axiswatch.monitor._parallel import connect_dask
     from axiswatch.monitor._requests import check_request
     from axiswatch.monitor.report.summary import (
+        cleared_alarm_lines,
         fleet_table,
         run_header,
         run_problems,
@@ -238,6 +239,7 @@ def monitor(
         client = None if dask is None else connect_dask(dask, dask_timeout)
         try:
             with Store(store) as opened, _progress(progress) as update:
+                alarmed = opened.alarmed_captures(config.method)
                 result = monitor_fleet(
                     root, opened, config, workers=workers, dask=client, progress=update,
                     settle_s=settle, stale_after=silence,
@@ -246,10 +248,11 @@ def monitor(
                 for line in fleet_table(opened, silence, result.method):
                     echo(line)
                 verdicts = verdict_lines(opened, result.method, silence)
+                cleared = cleared_alarm_lines(opened, result.method, alarmed, store)
         finally:
             if client is not None:
                 client.close()
-        for line in run_problems(result, store=store, settle_s=settle):
+        for line in [*cleared, *run_problems(result, store=store, settle_s=settle)]:
             echo(line)
         echo("")
         for line in verdicts:
@@ -267,35 +270,45 @@ def profile(
     robot: str | None = typer.Option(
         None, help="Robot folder of files outside --fleet (default: the folder they lie in)."
     ),
-    force: bool = typer.Option(False, "--force", help="Replace an axis.toml with other content."),
+    force: bool = typer.Option(
+        False, "--force", help="Replace the axis profiles there with the detected ones."
+    ),
     debug: bool = DEBUG,
 ) -> None:
     """Detect how capture files are written; show it; with --fleet, write what monitor reads.
 
-    A file holding several axes (A1_*, A2_*) is linked into one folder per axis, each with an
-    axis.toml; run it again on new files to link them.
+    FILES may be folders: their capture files (.csv, .txt, .tsv, .parquet, .npz) are read. A
+    file holding several axes (A1_*, A2_*) is linked into one folder per axis, each with an
+    axis.toml. Run it again on new files to link them: an axis profile already there, edited
+    or not, is kept and reads them.
     """
-    from axiswatch._profile_detection import detect_file
+    from axiswatch._profile_detection import detect_file, export_files
     from axiswatch.monitor._layout_plan import plan_layout
     from axiswatch.monitor.report.summary import fold_same_reason
 
     with _failures(debug):
-        guesses = [detect_file(path) for path in files]
-        plan = plan_layout(guesses, fleet or Path("fleet"), robot)
-        _show_guesses(guesses)
-        if plan.unplaced:
-            echo(f"\nFiles not placed ({len(plan.unplaced)}):")
-            for line in fold_same_reason([f"{path}: {why}" for path, why in plan.unplaced]):
+        paths, empty = export_files(files)
+        guesses = [detect_file(path) for path in paths]
+        plan = plan_layout(guesses, fleet or Path("fleet"), robot, force=force)
+        if guesses:
+            _show_guesses(guesses)
+        unplaced = [*((path, "a folder without capture files") for path in empty),
+                    *plan.unplaced]  # fmt: skip
+        if unplaced:
+            echo(f"\nFiles not placed ({len(unplaced)}):")
+            # The reason names no path: fold_same_reason then folds files of one reason.
+            lines = [f"{path}: {why.replace(f'{path}: ', '')}" for path, why in unplaced]
+            for line in fold_same_reason(lines):
                 echo(f"  {line}")
         if fleet is None:
             echo("\nNothing written: --fleet FOLDER writes the profiles and links.")
-            return
-        from axiswatch.monitor._layout_plan import apply_plan
+        else:
+            from axiswatch.monitor._layout_plan import apply_plan
 
-        for line in apply_plan(plan, force=force):
-            echo(line)
-        if plan.placed:
-            echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
+            for line in apply_plan(plan, force=force):
+                echo(line)
+            if plan.placed:
+                echo(f"Next: axiswatch monitor {fleet} --store STORE.db")
     if not plan.placed:
         raise typer.Exit(1)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -117,8 +118,11 @@ def show_guesses(guesses: list[Any]) -> None:
                 f"{by_role[role]} ({axis.how[role]})" if role in by_role else "-"
                 for role in ("position", "speed", "torque")
             ]
+            assumed = "?" if axis.unit_assumed else ""
             if "position" in by_role:
-                cells[0] += f" in {axis.position_unit}{'?' if axis.unit_assumed else ''}"
+                cells[0] += f" in {axis.position_unit}{assumed}"
+            elif "speed" in by_role:
+                cells[1] += f" in {axis.position_unit}/s{assumed}"
             rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
             time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
             key = (written, axis.axis or "-", time, *cells, rates)
@@ -131,8 +135,13 @@ def show_guesses(guesses: list[Any]) -> None:
         table.add_row(names[0] + more, *key)
     Console(width=max(_terminal_width(), 100)).print(table)
     notes = {note for guess in guesses for axis in guess.axes for note in axis.notes}
+    # One note per cause: six axes of one file differ only in their columns' numbers.
+    causes: dict[str, list[str]] = {}
     for note in sorted(notes):
-        echo(f"note: {note}")
+        causes.setdefault(re.sub(r"\d+", "#", note), []).append(note)
+    for same in causes.values():
+        more = f" (and {len(same) - 1} more like it)" if len(same) > 1 else ""
+        echo(f"note: {same[0]}{more}")
 
 
 def _terminal_width() -> int:

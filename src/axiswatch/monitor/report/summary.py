@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from axiswatch.monitor.store import StoreBackend
 
 __all__ = [
+    "cleared_alarm_lines",
     "fleet_table",
     "fold_same_reason",
     "run_header",
@@ -121,6 +122,43 @@ def run_problems(result: MonitorSummary, *, store: str | Path, settle_s: float) 
             f"  {seen.robot}/{seen.axis} since {seen.raised_capture}: seen by "
             f"{seen.acknowledged_by} at {seen.acknowledged_at}: {seen.note}"
             for seen in result.acknowledged_alarms
+        )
+    return lines
+
+
+def cleared_alarm_lines(
+    store: StoreBackend,
+    method: str,
+    alarmed_before: set[tuple[str, str, str]],
+    store_path: str | Path,
+) -> list[str]:
+    """Axes with captures in alarm scored in this run, no longer in alarm at its end.
+
+    A run that scores a backlog (a first run, a share mounted again) can raise an alarm and
+    clear it: the state after the run is "ok", and the exit status says nothing.
+    ``alarmed_before``: ``store.alarmed_captures(method)`` before the run.
+    """
+    from axiswatch.monitor.report.results import fleet_results
+
+    new = store.alarmed_captures(method) - alarmed_before
+    in_alarm = set(store.axes_in_alarm(method))
+    axes = sorted({(robot, axis) for robot, axis, _ in new} - in_alarm)
+    if not axes:
+        return []
+    count = "1 axis" if len(axes) == 1 else f"{len(axes)} axes"
+    lines = [f"\nAlarms raised and cleared again in this run ({count}); the state shows none:"]
+    for robot, axis in axes:
+        rows = fleet_results(store, robot=robot, axis=axis)
+        rows = rows[
+            (rows.method == method)
+            & rows.capture.isin({c for r, a, c in new if (r, a) == (robot, axis)})
+        ]
+        first = rows.iloc[0]
+        why = f" ({first.top_indicator})" if isinstance(first.top_indicator, str) else ""
+        lines.append(
+            f"  {robot}/{axis}: {len(rows)} capture(s) in alarm, the first {first.capture}{why}; "
+            f"axiswatch results --store {shlex.quote(str(store_path))} --robot {robot} "
+            f"--axis {axis}"
         )
     return lines
 

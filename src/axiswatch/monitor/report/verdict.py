@@ -136,6 +136,9 @@ class Verdict:
         ]
 
 
+#: How a rejection says the model did not compare a capture of other motion (the indicators'
+#: task envelope on an axis without a fleet).
+OTHER_MOTION = "motion unlike the baseline's task"
 #: How the line of an axis learning a new operating mode starts (``MonitorConfig.modes``).
 NEW_MODE = "Learning new mode"
 #: Axes learning a new mode listed by name in the terminal's summary; the others counted.
@@ -337,7 +340,15 @@ def _other_verdict(item: AxisAttention) -> Verdict:
     """The verdict of an axis without an excursion: bad data, a baseline check, learning, OK."""
     problems = set(item.problems)
     if item.kind in ("bad data", "stale"):
-        if "bad data" in problems:
+        if "bad data" in problems and OTHER_MOTION in item.line:
+            # Not a file to fix: the axis moved otherwise, by a new task or by a fault.
+            fault = "captures not scored: the axis moved unlike its baseline"
+            action = (
+                "If its task changed for good, re-baseline it ('axiswatch rebaseline') or "
+                "monitor 3 axes of its profile. If its task did not change, the motion did: "
+                "check the drive and its load before re-baselining."
+            )
+        elif "bad data" in problems:
             fault = "capture files rejected or changed"
             action = (
                 "Fix the export or the axis profile; 'axiswatch rejections' lists the files "
