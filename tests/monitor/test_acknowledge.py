@@ -16,6 +16,7 @@ from axiswatch.monitor._monitor import monitor_fleet
 from axiswatch.monitor.report.html import write_report
 from axiswatch.monitor.report.results import fleet_summary
 from axiswatch.monitor.store import SCHEMA_VERSION, Store
+from tests.conftest import settle
 from tests.monitor.test_monitor import faulty_copy
 
 runner = CliRunner()
@@ -227,3 +228,31 @@ def test_a_store_made_before_verdicts_gains_the_column_and_loses_nothing(
     assert table.acknowledged_by.tolist() == ["ana", "bo"]
     assert table.verdict.isna().tolist() == [True, False]
     assert table.verdict.iloc[1] == "fault-confirmed"
+
+
+def test_a_confirmed_fault_stays_act_now_after_clean_captures(
+    alarmed: tuple[Path, Path],
+) -> None:
+    """A confirmed fault is not cleared by the captures after it: the axis stays "act now"
+    until it is re-baselined (before: a clean capture read "1 axis OK", exit 0)."""
+    fleet, store = alarmed
+    args = ["ack", "--store", str(store), "--robot", "robot01", "--axis", "axis1"]
+    done = runner.invoke(app, [*args, "--by", "bo", "--note", "worn", "--fault-confirmed"])
+    assert done.exit_code == 0, done.output
+    axis = fleet / "robot01/axis1"
+    shutil.copy(axis / "2026-03-02.parquet", axis / "2026-03-11.parquet")
+    settle(axis)
+    clean = _monitor(fleet, store)
+    assert clean.exit_code == 0, clean.output  # seen by a person: not news to exit on
+    with Store(store) as opened:
+        assert not opened.score_table(robot="robot01", axis="axis1").alarm.iloc[-1]
+        (alarm,) = opened.alarms("pca")
+    assert (alarm.raised_capture, alarm.verdict) == ("2026-03-10.parquet", "fault-confirmed")
+    assert "  ACT NOW  robot01/axis1 " in clean.output
+    assert "After the repair: axiswatch ack --rebaseline." in " ".join(clean.output.split())
+    rebaselined = runner.invoke(
+        app, [*args, "--by", "bo", "--note", "gear replaced", "--rebaseline"]
+    )
+    assert rebaselined.exit_code == 0, rebaselined.output
+    with Store(store) as opened:
+        assert opened.alarms("pca") == []

@@ -503,6 +503,31 @@ def test_an_acknowledgement_keeps_the_engineers_verdict(store: StoreBackend) -> 
 
 
 @WHOLE
+def test_a_confirmed_fault_stays_in_alarm_until_rebaselined(store: StoreBackend) -> None:
+    """A fault the engineer confirmed is not cleared by clean captures after it (before: the
+    axis read OK again); a false alarm is, and a re-baseline ends the confirmed one."""
+    threshold = alarm_threshold([1.0, 2.0])
+    calibrated = Decision("calibration", threshold.value, False, False, "", calibrated=threshold)
+    alarmed = Decision("monitor", threshold.value, True, True, "")
+    clean = Decision("monitor", threshold.value, False, False, "")
+    for axis, verdict in (("a1", "fault-confirmed"), ("a2", "false-alarm")):
+        baseline_id = add(store, new_baseline(axis=axis))
+        store.record_score(new_score(baseline_id, 2, axis=axis), fixed(calibrated), window=1)
+        store.record_score(new_score(baseline_id, 3, 50.0, axis=axis), fixed(alarmed), window=1)
+        store.acknowledge("r1", axis, by="bo", note="looked", verdict=verdict)
+        for n in (4, 5):
+            store.record_score(new_score(baseline_id, n, 0.5, axis=axis), fixed(clean), window=1)
+    [alarm] = store.alarms()
+    assert (alarm.axis, alarm.raised_capture, alarm.verdict) == (
+        "a1",
+        "2026-03-03.csv",
+        "fault-confirmed",
+    )
+    store.retire_baselines("r1", "a1")
+    assert store.alarms() == []
+
+
+@WHOLE
 def test_baseline_checks_last_until_acknowledged_or_retired(store: StoreBackend) -> None:
     """A baseline's checks are stored with it (one transaction) and stay until someone
     acknowledges them by the baseline's path or the axis is re-baselined (before: the monitor

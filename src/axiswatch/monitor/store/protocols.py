@@ -49,7 +49,8 @@ class _Standing(_Opened, Protocol):
 
     def alarms(self, method: str | None = None) -> list[AlarmState]:
         """Axes in alarm after their last monitored capture (active baselines), acknowledged or
-        not; one per axis and method, ordered by robot, axis, method."""
+        not, and axes whose fault was confirmed (``ack --fault-confirmed``) until they are
+        re-baselined; one per axis and method, ordered by robot, axis, method."""
         ...
 
     def baseline_checks(self, method: str | None = None) -> list[BaselineCheck]:

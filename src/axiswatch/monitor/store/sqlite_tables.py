@@ -33,18 +33,22 @@ WITH last AS (
         (SELECT s.alarm FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
          ORDER BY s.id DESC LIMIT 1) AS alarm,
         (SELECT max(s.id) FROM scores s WHERE s.baseline_id=b.id AND s.role='monitor'
-         AND s.alarm=0) AS last_clean
+         AND s.alarm=0) AS last_clean,
+        (SELECT max(k.score_id) FROM acknowledgements k WHERE k.baseline_id=b.id
+         AND k.verdict='fault-confirmed' AND k.id=(SELECT max(o.id) FROM acknowledgements o
+         WHERE o.score_id=k.score_id)) AS confirmed
     FROM baselines b {where}
 )
 SELECT l.robot, l.axis, l.method, l.baseline_id, r.id AS raised_score_id,
     r.capture AS raised_capture, r.captured_at AS raised_at, a.acknowledged_by, a.note,
     a.acknowledged_at, a.verdict
 FROM last l
-JOIN scores r ON r.id = (SELECT min(s.id) FROM scores s WHERE s.baseline_id=l.baseline_id
-    AND s.role='monitor' AND s.alarm=1 AND s.id > coalesce(l.last_clean, 0))
+JOIN scores r ON r.id = CASE WHEN l.alarm=1 THEN (SELECT min(s.id) FROM scores s
+    WHERE s.baseline_id=l.baseline_id AND s.role='monitor' AND s.alarm=1
+    AND s.id > coalesce(l.last_clean, 0)) ELSE l.confirmed END
 LEFT JOIN acknowledgements a ON a.id = (SELECT max(k.id) FROM acknowledgements k
     WHERE k.score_id=r.id)
-WHERE l.alarm=1
+WHERE l.alarm=1 OR l.confirmed IS NOT NULL
 ORDER BY l.robot, l.axis, l.method
 """
 
@@ -231,7 +235,8 @@ class SQLiteTables:
 
     def alarms(self, method: str | None = None) -> list[AlarmState]:
         """Axes in alarm after their last monitored capture (active baselines), acknowledged or
-        not; one per axis and method."""
+        not, and axes whose fault was confirmed until they are re-baselined; one per axis and
+        method."""
         where = "WHERE b.retired_at IS NULL AND (? IS NULL OR b.method=?)"
         rows = self._rows(_ALARMS.format(where=where), (method, method))
         return [AlarmState(**dict(row)) for row in rows]
