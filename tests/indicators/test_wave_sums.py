@@ -187,3 +187,39 @@ def test_a_tooth_sets_plan_finds_each_sum_at_its_frequency() -> None:
     with pytest.raises(ValueError, match="read-only"):
         plan.shifts[0][0][0, 0] = 0
     assert wave_sums.sums_plan(tuple(signals.bearing_orders(5.43)), (0.25,), (1.0,)) is None
+
+
+def test_a_weight_row_summed_over_part_of_its_grid_gives_those_sums(
+    rng: np.random.Generator,
+) -> None:
+    # The residual is read at the orders only: its giant rows stop where they end.
+    angle = np.sort(rng.uniform(40.0, 400.0, 2000))
+    weights = np.stack([np.ones(angle.size), rng.normal(size=angle.size)])
+    frequencies = np.concatenate([np.arange(0, 160) * 0.1, np.arange(0, 30) * 0.1 + 0.05])
+    plan = wave_sums.phasor_plan(frequencies, 0.1)
+    assert plan is not None
+    extents = np.array([[160, 75], [30, 0]])
+    sums = phasor_sums(angle, weights, frequencies, 0.1, plan, extents)
+    full = phasor_sums(angle, weights, frequencies, 0.1, plan)
+    assert sums is not None
+    assert full is not None
+    exact = _exact_sums(angle, weights, frequencies)
+    np.testing.assert_allclose(sums[0], exact[0], rtol=0, atol=1e-10 * angle.size)
+    # The same rows; BLAS may sum a product of fewer rows in another order.
+    np.testing.assert_allclose(sums[0], full[0], rtol=0, atol=1e-13 * angle.size)
+    # The residual's grid of 160 steps in giant rows of 13: 78 steps summed for 75 asked.
+    kept = np.zeros(frequencies.size, dtype=bool)
+    kept[:78] = True
+    np.testing.assert_allclose(sums[1][kept], exact[1][kept], rtol=0, atol=1e-10 * angle.size)
+    assert np.isnan(sums[1][~kept]).all()
+
+
+def test_a_tooth_sets_plan_sums_the_residual_up_to_its_orders() -> None:
+    orders = tuple(k / 5 for k in range(1, 41) if k % 5)
+    plan = wave_sums.sums_plan(orders, (0.1,), signals.WHOLE_ORDERS)
+    assert plan is not None
+    ((members, _, index),) = plan.phasors.classes
+    at_orders = np.concatenate([shift[3] for shift in plan.shifts])
+    on_grid = dict(zip(members.tolist(), index.tolist(), strict=True))
+    assert plan.extents.tolist() == [[index.max() + 1, max(on_grid[i] for i in at_orders) + 1]]
+    assert plan.extents[0, 1] < plan.extents[0, 0] / 2 + 2  # the orders: half the grid

@@ -441,7 +441,9 @@ class _NuisanceFree:
         if plan is None or self.residual.size <= self.k + p + 1:
             return None
         weights = np.stack([np.ones(self.angle.size), self.residual])
-        sums = phasor_sums(self.angle, weights, plan.frequencies, plan.phasors.step, plan.phasors)
+        sums = phasor_sums(
+            self.angle, weights, plan.frequencies, plan.phasors.step, plan.phasors, plan.extents
+        )
         assert sums is not None  # the plan is the frequencies'
         ones, residual = sums
         difference = ones[plan.difference]

@@ -8,6 +8,7 @@ Which sums a set of orders needs, and where they fall, is planned once per set a
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -126,11 +127,14 @@ def phasor_sums(
     frequencies: NDArray[np.float64],
     step: float,
     plan: PhasorPlan | None = None,
+    extents: NDArray[np.int64] | None = None,
 ) -> NDArray[np.complex128] | None:
     """``sum_n weights[w, n] * exp(1j * f * angle[n])`` for every weight row ``w`` and frequency
     ``f`` (1-D): shape ``(len(weights), len(frequencies))``; None when the frequencies fall in
     more than :data:`MAX_GRIDS` classes modulo ``step``. ``plan``: their :func:`phasor_plan`,
-    when kept.
+    when kept. ``extents``, shape ``(classes, len(weights))``: the steps of each class's grid a
+    weight row is summed over, when fewer than the class's (a residual read at the orders
+    only); its sums beyond are NaN.
 
     A class ``c + m step`` (``m = 0..M``) is summed as ``G @ B.T``: baby rows ``B_j = z^j`` and
     giant rows ``G_l = w exp(1j c angle) z^(J l)``, ``z = exp(1j step angle)``, ``J ~ sqrt(M)``,
@@ -151,26 +155,39 @@ def phasor_sums(
     n, count_weights = angle.size, weights.shape[0]
     out = np.empty((count_weights, frequencies.size), dtype=np.complex128)
     rotation = cis(step * angle)
-    for members, offset, index in plan.classes:
+    for c, (members, offset, index) in enumerate(plan.classes):
         count = int(index.max()) + 1
         baby_count = math.isqrt(count - 1) + 1
-        giant_count = -(-count // baby_count)
         baby = scratch("baby", (baby_count, n), np.complex128)
         baby[0] = 1.0
         for j in range(1, baby_count):
             np.multiply(baby[j - 1], rotation, out=baby[j])
         leap = baby[-1] * rotation
-        giant = scratch("giant", (count_weights, giant_count, n), np.complex128)
-        if offset == 0.0:  # exp(0j): the weights themselves
-            giant.real[:, 0], giant.imag[:, 0] = weights, 0.0
-        else:
-            start = cis(offset * angle)
-            np.multiply(start.real, weights, out=giant.real[:, 0])
-            np.multiply(start.imag, weights, out=giant.imag[:, 0])
-        for g in range(1, giant_count):
-            np.multiply(giant[:, g - 1], leap, out=giant[:, g])
-        table = (giant.reshape(-1, n) @ baby.T).reshape(count_weights, -1)
-        out[:, members] = table[:, index]
+        # Giant rows of each weight row: as many as its extent needs, one block after another.
+        wanted = [count] * count_weights if extents is None else extents[c].tolist()
+        giants = [-(-min(extent, count) // baby_count) for extent in wanted]
+        firsts = np.cumsum([0, *giants]).tolist()
+        giant = scratch("giant", (firsts[-1], n), np.complex128)
+        start = None if offset == 0.0 else cis(offset * angle)
+        for w, first in enumerate(firsts[:-1]):
+            if not giants[w]:
+                continue
+            if start is None:  # exp(0j): the weights themselves
+                giant.real[first], giant.imag[first] = weights[w], 0.0
+            else:
+                np.multiply(start.real, weights[w], out=giant.real[first])
+                np.multiply(start.imag, weights[w], out=giant.imag[first])
+            for g in range(first + 1, first + giants[w]):
+                np.multiply(giant[g - 1], leap, out=giant[g])
+        table = giant @ baby.T
+        for w, (first, last) in enumerate(itertools.pairwise(firsts)):
+            sums = table[first:last].ravel()
+            if sums.size >= count:
+                out[w, members] = sums[index]
+            else:
+                inside = index < sums.size
+                out[w, members] = np.nan
+                out[w, members[inside]] = sums[index[inside]]
     negative = plan.negative
     out[:, negative] = np.conj(out[:, negative])
     return out
@@ -271,6 +288,9 @@ class SumsPlan:
     difference: NDArray[np.intp]
     conjugated: NDArray[np.bool_]
     shifts: tuple[tuple[NDArray[np.intp], ...], ...]
+    #: :func:`phasor_sums`'s extents of the weights ones and the residual: the residual is
+    #: read at the orders only, the lower part of each grid.
+    extents: NDArray[np.int64]
 
 
 @lru_cache(maxsize=64)
@@ -315,6 +335,15 @@ def sums_plan(
         for k in range(1, len(parts), 4)
     )
     difference, conjugated = np.abs(apart), apart < 0
-    for array in (frequencies, difference, conjugated, *(a for shift in shifts for a in shift)):
+    at_orders = np.concatenate([shift[3] for shift in shifts])
+    extents = np.array(
+        [
+            (int(index.max()) + 1, int(index[np.isin(members, at_orders)].max(initial=-1)) + 1)
+            for members, _, index in phasors.classes
+        ],
+        dtype=np.int64,
+    )
+    kept = (frequencies, difference, conjugated, extents, *(a for s in shifts for a in s))
+    for array in kept:
         array.flags.writeable = False
-    return SumsPlan(frequencies, phasors, difference, conjugated, shifts)
+    return SumsPlan(frequencies, phasors, difference, conjugated, shifts, extents)
