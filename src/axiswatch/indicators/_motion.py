@@ -69,7 +69,10 @@ def _on_times(
 
 
 def _end_slope(
-    h0: NDArray[np.float64], h1: NDArray[np.float64], m0: NDArray[np.float64], m1: NDArray[np.float64]
+    h0: NDArray[np.float64],
+    h1: NDArray[np.float64],
+    m0: NDArray[np.float64],
+    m1: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """SciPy's PCHIP slope at an end: a one-sided three-point estimate, kept monotone."""
     d = ((2 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
@@ -218,7 +221,8 @@ def motion(capture: Capture) -> Motion:
         - (1.0 / capture.rates_hz[n] if n != "torque" else 0)
         for n in names & {"position", "speed", "torque"}
     )
-    keep = times <= end + 1e-12
+    # The instants are increasing: those kept are the first ones, taken as views.
+    keep = slice(int(np.searchsorted(times, end + 1e-12, side="right")))
     window = max(5, whole_samples(0.05, rate) | 1)
     speed_kept = speed[keep]
     if speed_kept.size > window:
