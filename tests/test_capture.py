@@ -304,6 +304,14 @@ def test_repeated_rows_by_numpy_equal_pandas_comparison(rng: np.random.Generator
     previous = mixed.shift()
     expected = (mixed.eq(previous) | (mixed.isna() & previous.isna())).all(axis=1).to_numpy()
     np.testing.assert_array_equal(_repeated_rows(mixed), expected)
+    # Compared on the rows whose first column repeats: a capture's stamps rarely do.
+    stamps = frame.assign(time=np.arange(400.0))
+    stamps.loc[[7, 8, 100, 101], "time"] = [7.0, 7.0, np.nan, np.nan]
+    previous = stamps.shift()
+    expected = (stamps.eq(previous) | (stamps.isna() & previous.isna())).all(axis=1).to_numpy()
+    np.testing.assert_array_equal(_repeated_rows(stamps), expected)
+    for rows in (0, 1):
+        assert _repeated_rows(frame.iloc[:rows]).tolist() == [False] * rows
 
 
 def test_signals_in_every_row_share_the_rows_period(

@@ -377,9 +377,16 @@ def _repeated_rows(frame: pd.DataFrame) -> NDArray[np.bool_]:
     if all(isinstance(dtype, np.dtype) and dtype.kind == "f" for dtype in frame.dtypes):
         # A capture's usual table: NumPy compares it in a hundredth of pandas' time.
         values = frame.to_numpy(dtype=np.float64)
-        after, before = values[1:], values[:-1]
         repeated = np.zeros(values.shape[0], dtype=bool)
-        repeated[1:] = ((after == before) | (np.isnan(after) & np.isnan(before))).all(axis=1)
+        if not values.size:
+            return repeated
+        # Rows equal in every column are equal in the first (the time, as written): the
+        # others are compared on those rows only.
+        first = values[:, 0]
+        after, before = first[1:], first[:-1]
+        rows = np.flatnonzero((after == before) | (np.isnan(after) & np.isnan(before))) + 1
+        after, before = values[rows], values[rows - 1]
+        repeated[rows] = ((after == before) | (np.isnan(after) & np.isnan(before))).all(axis=1)
         return repeated
     previous = frame.shift()
     return np.asarray((frame.eq(previous) | (frame.isna() & previous.isna())).all(axis=1))
