@@ -141,8 +141,27 @@ def test_a_captures_lines_share_their_exponentials(
     signals.line_ratio(torque, angle, tooth, [0.1], nuisance=shared)
     signals.bearing_lines(torque, angle, 5.43, nuisance=shared)
     # Whole orders 1; the tooth's sums 1 (on the grid of half steps, which holds the orders
-    # and their shifts); the bearing's two grid starts and one shift. Was 8, then 6.
-    assert len(calls) == 5
+    # and their shifts); the bearing's first grid start and one shift: its second start,
+    # 2 f - 1 = 2 (f - 2) + 3, is the first's square times exp(3j angle). Was 8, 6, then 5.
+    assert len(calls) == 4
+
+
+@pytest.mark.parametrize("bearing", [5.43, 3.17, 12.345])
+def test_a_bearings_double_from_products_equals_its_cis(
+    rng: np.random.Generator, bearing: float
+) -> None:
+    from axiswatch.indicators._wave_sums import Phasors, cis
+
+    angle = np.sort(rng.uniform(40.0, 700.0, 3000))  # a 3 s capture's motor angle
+    phasors = Phasors(angle)
+    phasors(1.0)
+    first, double = bearing - 2, 2 * bearing - 1
+    phasors(first)
+    assert phasors._doubled(double) is not None  # built from the kept two
+    # cis rounds its argument (up to 16,000 rad: a spacing of 4e-12); the products do not.
+    atol = 2 * np.spacing(double * angle.max()) + 1e-14
+    np.testing.assert_allclose(phasors(double), cis(double * angle), rtol=0, atol=atol)
+    assert phasors._doubled(double + 0.25) is None  # not a whole order off
 
 
 def test_the_grids_of_a_set_of_orders_are_found_once_and_kept_read_only() -> None:
