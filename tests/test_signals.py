@@ -171,3 +171,18 @@ def test_stacked_shifts_give_each_block_its_own_statistic(rng: np.random.Generat
     stacked = free._f_stacked(np.concatenate([rows, rows[::-1].copy()]), rows.shape[0])
     alone = [free._f(rows, exact=True), free._f(rows[::-1].copy(), exact=True)]
     np.testing.assert_allclose(stacked, alone, rtol=1e-12)
+
+
+def test_a_shift_and_its_opposite_from_one_set_of_products(rng: np.random.Generator) -> None:
+    from axiswatch.indicators._signals import _shifted_pair, _shifted_rows, _wave_rows
+    from axiswatch.indicators._wave_sums import Phasors
+
+    theta = np.sort(rng.uniform(0, 400, 2500))
+    rows = _wave_rows(theta, signals.bearing_orders(5.43))
+    half = np.empty((rows.shape[0] // 2, theta.size))
+    for phasors in (None, Phasors(theta)):
+        up, down = np.empty_like(rows), np.empty_like(rows)
+        _shifted_pair(rows, theta, 0.25, up, down, half, phasors)
+        for d, moved in ((0.25, up), (-0.25, down)):
+            alone = _shifted_rows(rows, theta, d, np.empty_like(rows), half, phasors)
+            assert np.array_equal(moved, alone)

@@ -120,6 +120,31 @@ def _shifted_rows(
     return out
 
 
+def _shifted_pair(
+    rows: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    shift: float,
+    up: NDArray[np.float64],
+    down: NDArray[np.float64],
+    half: NDArray[np.float64],
+    phasors: Phasors | None = None,
+) -> None:
+    """:func:`_shifted_rows` by ``shift`` into ``up`` and by ``-shift`` into ``down``, from
+    the same four products: the opposite rotation is the conjugate, so each product serves
+    both with the other sign. Bit for bit the two calls' rows (tested)."""
+    count = rows.shape[0] // 2
+    sines, cosines = rows[:count], rows[count:]
+    rotation = cis(shift * angle) if phasors is None else phasors(shift)
+    np.multiply(sines, rotation.real, out=up[:count])
+    np.multiply(cosines, rotation.imag, out=half)
+    np.subtract(up[:count], half, out=down[:count])
+    up[:count] += half
+    np.multiply(cosines, rotation.real, out=up[count:])
+    np.multiply(sines, rotation.imag, out=half)
+    np.add(up[count:], half, out=down[count:])
+    up[count:] -= half
+
+
 def _harmonics(
     angle: NDArray[np.float64],
     orders: Sequence[float],
@@ -486,8 +511,12 @@ class _NuisanceFree:
             _wave_rows(self.angle, orders, waves[:p], phasors),
             scratch("half", (p // 2, n)),
         )
-        for k, d in enumerate(offsets, start=1):
-            _shifted_rows(rows, self.angle, d, waves[k * p : (k + 1) * p], half, phasors)
+        block = {d: waves[k * p : (k + 1) * p] for k, d in enumerate(offsets, start=1)}
+        for d in offsets:
+            if d > 0 and -d in block:  # a shift and its opposite (a bearing's): one set of products
+                _shifted_pair(rows, self.angle, d, block[d], block[-d], half, phasors)
+            elif not (d < 0 and -d in block):
+                _shifted_rows(rows, self.angle, d, block[d], half, phasors)
         main, *shifted = self._f_stacked(waves, p)
         return main / float(np.mean(shifted))
 
