@@ -242,3 +242,75 @@ def test_a_tooth_sets_plan_sums_the_residual_up_to_its_orders() -> None:
     on_grid = dict(zip(members.tolist(), index.tolist(), strict=True))
     assert plan.extents.tolist() == [[index.max() + 1, max(on_grid[i] for i in at_orders) + 1]]
     assert plan.extents[0, 1] < plan.extents[0, 0] / 2 + 2  # the orders: half the grid
+
+
+def test_a_seeded_base_gives_its_multiples_as_powers(rng: np.random.Generator) -> None:
+    from axiswatch.indicators._wave_sums import Phasors, cis, phasor_base
+
+    angle = np.sort(rng.uniform(40.0, 700.0, 3000))
+    assert phasor_base([1.0, 0.1, 0.25]) == pytest.approx(0.05)
+    assert phasor_base([1.0, 1 / 7.2]) == pytest.approx(1 / 36)  # a stage of 3.6 teeth
+    assert phasor_base([1.0, 0.43]) is None
+    assert phasor_base([1.0]) is None
+    phasors = Phasors(angle)
+    phasors(0.05)
+    # The whole orders, a tooth set's grid step as its orders round it, a bearing's shift.
+    # Each is the base's multiple (0.1 for the step: what the rounded orders stand for).
+    for frequency in (1.0, 0.09999999999999964, 0.25):
+        power = phasors._power(frequency)
+        assert power is not None
+        multiple = round(frequency / 0.05) * 0.05
+        atol = 4 * np.spacing(multiple * angle.max()) + 1e-13
+        np.testing.assert_allclose(power, cis(multiple * angle), rtol=0, atol=atol)
+    assert phasors._power(0.1 + 1e-9) is None  # not a multiple: its own cis
+
+
+def test_a_captures_kinematic_lines_take_one_cis_and_the_bearings_own(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The whole orders, the tooth set's half step and the bearing's shift are multiples of
+    # 0.05: one cis of it, their phasors as its powers. The bearing's start (3.43) takes its own.
+    import axiswatch.datasets as awd
+    from axiswatch.indicators._readings import read_indicators
+
+    calls: list[int] = []
+    cis = wave_sums.cis
+
+    def counted(angle: np.ndarray) -> np.ndarray:
+        calls.append(angle.size)
+        return cis(angle)
+
+    monkeypatch.setattr(wave_sums, "cis", counted)
+    monkeypatch.setattr(signals, "cis", counted)
+    kinematics = {"gear_stages": {"i": 5.0}, "bearing_orders": {"b": 5.43}}
+    read = read_indicators(awd.simulate_capture("heavy", seed=2), gear_ratio=100.0, **kinematics)
+    assert np.isfinite([read.values["tooth_lines:i"], read.values["bearing_lines:b"]]).all()
+    assert len(calls) == 2  # was 4, before that 5
+
+
+def test_a_tooth_set_on_a_seeded_base_is_nearer_its_exact_statistic(
+    rng: np.random.Generator,
+) -> None:
+    # The grid's step found from the rounded orders is 0.09999999999999964: the base's double
+    # (0.1) stands for the orders' sums as they are meant, the exact waves' (QR path) within
+    # 1e-13; the step itself strayed to 8e-13 over 400 revolutions.
+    from axiswatch.indicators._wave_sums import Phasors
+
+    n = 3000
+    theta = 60.0 + 45.0 * np.sin(np.linspace(0.0, 9.0, n)) + np.linspace(0.0, 400.0, n)
+    y = np.convolve(rng.normal(size=n), np.ones(4) / 4, mode="same") + 0.1 * np.cos(0.4 * theta)
+    orders = np.array([k / 5 for k in range(1, 41) if k % 5])
+    phasors = Phasors(theta)
+    phasors(0.05)
+    free = signals._NuisanceFree(
+        y, theta, signals.WHOLE_ORDERS, None, nuisance=signals.whole_orders(theta, phasors)
+    )
+    by_sums = free._sums_f(orders.tolist(), [0.1])
+    assert by_sums is not None
+    exact = [
+        free._f(
+            np.concatenate([np.sin(np.outer(o, theta)), np.cos(np.outer(o, theta))]), exact=True
+        )
+        for o in (orders, orders + 0.1)
+    ]
+    np.testing.assert_allclose(by_sums, exact, rtol=1e-13)

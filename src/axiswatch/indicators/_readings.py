@@ -32,6 +32,8 @@ from axiswatch.indicators._motion import (
 from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
 from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing, torque_design
 from axiswatch.indicators._signals import (
+    BEARING_OFFSETS,
+    LINE_BLOCK_SAMPLES,
     NuisanceProjection,
     bearing_lines,
     bearing_orders,
@@ -43,6 +45,7 @@ from axiswatch.indicators._signals import (
     whole_orders,
     zero_phase,
 )
+from axiswatch.indicators._wave_sums import Phasors, phasor_base
 
 __all__ = [
     "FRICTION",
@@ -545,6 +548,20 @@ def _sides_disagree(m: Motion, fast: NDArray[np.bool_], gear_ratio: float) -> st
     )
 
 
+def _seeded(angle: NDArray[np.float64], kinematic: Mapping[str, float]) -> Phasors:
+    """The motor angle's phasors, seeded with the base of its lines' frequencies
+    (:func:`phasor_base`: the whole orders, each tooth set's half step, a bearing's shift):
+    one ``cis`` for all of them where they share one, each else its own."""
+    shifts = [0.5 / p for n, p in kinematic.items() if n.startswith("tooth_lines:")]
+    if any(name.startswith("bearing_lines:") for name in kinematic):
+        shifts += [abs(d) for d in BEARING_OFFSETS]
+    phasors = Phasors(angle)
+    base = phasor_base([1.0, *shifts])
+    if base is not None and angle.size <= LINE_BLOCK_SAMPLES:  # a longer one keeps none
+        phasors(base)
+    return phasors
+
+
 def _kinematic_lines(
     m: Motion,
     gear_ratio: float,
@@ -591,7 +608,7 @@ def _kinematic_lines(
             continue
         sos = butter_sos(4, band_edges(low, high, nyquist_margin), m.rate_hz)
         x = zero_phase(sos, m.torque)[fast]
-        shared = shared or whole_orders(theta)
+        shared = shared or whole_orders(theta, _seeded(theta, kinematic))
         if name.startswith("tooth_lines:"):
             values[name] = line_ratio(x, theta, orders, [0.5 / parameter], nuisance=shared)
         else:

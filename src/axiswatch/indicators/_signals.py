@@ -256,6 +256,7 @@ class NuisanceProjection:
         angle: NDArray[np.float64],
         nuisance_orders: Sequence[float],
         direction: NDArray[np.float64] | None,
+        phasors: Phasors | None = None,
     ) -> None:
         if direction is not None and np.all(direction == direction[0]):
             direction = None  # one direction only: the signed waves would repeat the plain ones
@@ -279,7 +280,7 @@ class NuisanceProjection:
                 self.blocks = [slice(0, angle.size)]  # degenerate waves: the exact QR
         if self.factor is None:
             if angle.size <= LINE_BLOCK_SAMPLES:
-                self.phasors = Phasors(angle)
+                self.phasors = Phasors(angle) if phasors is None else phasors
             rows = _signed_rows(_wave_rows(angle, nuisance_orders, phasors=self.phasors), direction)
             self.triangle = _cholesky(rows @ rows.T, PROJECTION_MIN_RCOND)
             if self.triangle is None:
@@ -333,10 +334,10 @@ class NuisanceProjection:
         return out
 
 
-def whole_orders(angle: NDArray[np.float64]) -> NuisanceProjection:
+def whole_orders(angle: NDArray[np.float64], phasors: Phasors | None = None) -> NuisanceProjection:
     """The projection of the whole orders (:data:`WHOLE_ORDERS`) of ``angle``, shared by every
-    :func:`line_ratio` read on it (``nuisance=``)."""
-    return NuisanceProjection(angle, WHOLE_ORDERS, None)
+    :func:`line_ratio` read on it (``nuisance=``); ``phasors``: the angle's, when seeded."""
+    return NuisanceProjection(angle, WHOLE_ORDERS, None, phasors)
 
 
 class _NuisanceFree:
@@ -467,7 +468,13 @@ class _NuisanceFree:
             return None
         weights = np.stack([np.ones(self.angle.size), self.residual])
         sums = phasor_sums(
-            self.angle, weights, plan.frequencies, plan.phasors.step, plan.phasors, plan.extents
+            self.angle,
+            weights,
+            plan.frequencies,
+            plan.phasors.step,
+            plan.phasors,
+            plan.extents,
+            self.nuisance.phasors,
         )
         assert sums is not None  # the plan is the frequencies'
         ones, residual = sums

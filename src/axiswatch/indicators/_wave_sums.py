@@ -21,9 +21,11 @@ from axiswatch.indicators._workspace import scratch
 
 __all__ = [
     "MAX_GRIDS",
+    "MAX_POWER",
     "PhasorPlan",
     "Phasors",
     "cis",
+    "phasor_base",
     "phasor_plan",
     "phasor_sums",
     "wave_products",
@@ -32,6 +34,10 @@ __all__ = [
 #: Most grids (classes of frequencies equal modulo the step) summed; beyond, the waves' own
 #: products cost less.
 MAX_GRIDS = 4
+
+#: Highest power of a kept phasor that :class:`Phasors` takes for a multiple of its frequency
+#: (a few squarings); the base :func:`phasor_base` seeds is at most its inverse.
+MAX_POWER = 64
 
 
 def cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
@@ -70,12 +76,40 @@ class Phasors:
             if opposite is not None:
                 kept = np.conj(opposite)
             else:
-                kept = self._doubled(frequency)
+                kept = self._power(frequency)
+                if kept is None:
+                    kept = self._doubled(frequency)
                 if kept is None:
                     kept = cis(frequency * self.angle)
             kept.flags.writeable = False
             self._kept[frequency] = kept
         return kept
+
+    def _power(self, frequency: float) -> NDArray[np.complex128] | None:
+        """``exp(1j * g * angle) ** m`` for a kept ``g > 0`` of which ``frequency`` is a whole
+        multiple ``m`` (2 to :data:`MAX_POWER`), by repeated squaring; None if none is. A
+        capture's lines seed their base (:func:`phasor_base`): one ``cis`` for all. The
+        multiple may differ from ``frequency`` by 1e-12 of it, as a tooth set's grid step
+        found from its rounded orders does (0.09999999999999964 for 0.1): a tooth line is then
+        nearer its exact value, not farther (tested)."""
+        if frequency <= 0:
+            return None
+        for base, kept in self._kept.items():
+            if base <= 0:
+                continue
+            m = round(frequency / base)
+            if 2 <= m <= MAX_POWER and abs(m * base - frequency) <= 1e-12 * frequency:
+                out, square = None, kept
+                while True:  # binary powering: m's bits, lowest first
+                    if m & 1:
+                        out = square.copy() if out is None else np.multiply(out, square, out=out)
+                    m >>= 1
+                    if not m:
+                        break
+                    square = np.multiply(square, square)
+                assert out is not None
+                return out
+        return None
 
     def _doubled(self, frequency: float) -> NDArray[np.complex128] | None:
         """``exp(1j * f * angle)`` as ``exp(1j * g * angle) ** 2 * exp(1j * angle) ** m`` for a
@@ -93,6 +127,25 @@ class Phasors:
                     np.multiply(out, one, out=out)
                 return out
         return None
+
+
+def phasor_base(frequencies: Sequence[float]) -> float | None:
+    """The largest ``1 / N`` (``N`` up to :data:`MAX_POWER`) of which every frequency is a whole
+    multiple: a capture's lines (the whole orders, a tooth set's half step, a bearing's shift of
+    a quarter) then take one ``cis`` of it and their phasors as its powers; None if there is
+    none, or it is one of the frequencies (nothing to share).
+
+    Examples
+    --------
+    >>> phasor_base([1.0, 0.1, 0.25]), phasor_base([1.0, 0.25]), phasor_base([1.0, 0.43])
+    (0.05, 0.25, None)
+    """
+    values = [f for f in frequencies if f > 0]
+    for count in range(1, MAX_POWER + 1):
+        if all(abs(f * count - round(f * count)) <= 1e-9 for f in values):
+            base = 1.0 / count
+            return None if count == 1 or all(f == base for f in values) else base
+    return None
 
 
 @dataclass(frozen=True)
@@ -152,13 +205,14 @@ def phasor_sums(
     step: float,
     plan: PhasorPlan | None = None,
     extents: NDArray[np.int64] | None = None,
+    phasors: Phasors | None = None,
 ) -> NDArray[np.complex128] | None:
     """``sum_n weights[w, n] * exp(1j * f * angle[n])`` for every weight row ``w`` and frequency
     ``f`` (1-D): shape ``(len(weights), len(frequencies))``; None when the frequencies fall in
     more than :data:`MAX_GRIDS` classes modulo ``step``. ``plan``: their :func:`phasor_plan`,
     when kept. ``extents``, shape ``(classes, len(weights))``: the steps of each class's grid a
     weight row is summed over, when fewer than the class's (a residual read at the orders
-    only); its sums beyond are NaN.
+    only); its sums beyond are NaN. ``phasors``: the angle's, whose exponentials are shared.
 
     A class ``c + m step`` (``m = 0..M``) is summed as ``G @ B.T``: baby rows ``B_j = z^j`` and
     giant rows ``G_l = w exp(1j c angle) z^(J l)``, ``z = exp(1j step angle)``, ``J ~ sqrt(M)``,
@@ -178,7 +232,7 @@ def phasor_sums(
         return None
     n, count_weights = angle.size, weights.shape[0]
     out = np.empty((count_weights, frequencies.size), dtype=np.complex128)
-    rotation = cis(step * angle)
+    rotation = cis(step * angle) if phasors is None else phasors(step)
     for c, (members, offset, index) in enumerate(plan.classes):
         count = int(index.max()) + 1
         baby_count = math.isqrt(count - 1) + 1
@@ -192,7 +246,10 @@ def phasor_sums(
         giants = [-(-min(extent, count) // baby_count) for extent in wanted]
         firsts = np.cumsum([0, *giants]).tolist()
         giant = scratch("giant", (firsts[-1], n), np.complex128)
-        start = None if offset == 0.0 else cis(offset * angle)
+        if offset == 0.0:
+            start = None
+        else:
+            start = cis(offset * angle) if phasors is None else phasors(offset)
         for w, first in enumerate(firsts[:-1]):
             if not giants[w]:
                 continue
