@@ -248,10 +248,10 @@ def test_a_seeded_base_gives_its_multiples_as_powers(rng: np.random.Generator) -
     from axiswatch.indicators._wave_sums import Phasors, cis, phasor_base
 
     angle = np.sort(rng.uniform(40.0, 700.0, 3000))
-    assert phasor_base([1.0, 0.1, 0.25]) == pytest.approx(0.05)
-    assert phasor_base([1.0, 1 / 7.2]) == pytest.approx(1 / 36)  # a stage of 3.6 teeth
-    assert phasor_base([1.0, 0.43]) is None
-    assert phasor_base([1.0]) is None
+    assert phasor_base((1.0, 0.1, 0.25)) == pytest.approx(0.05)
+    assert phasor_base((1.0, 1 / 7.2)) == pytest.approx(1 / 36)  # a stage of 3.6 teeth
+    assert phasor_base((1.0, 0.43)) is None
+    assert phasor_base((1.0,)) is None
     phasors = Phasors(angle)
     phasors(0.05)
     # The whole orders, a tooth set's grid step as its orders round it, a bearing's shift.

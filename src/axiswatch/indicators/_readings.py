@@ -11,6 +11,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Literal
 
 import numpy as np
@@ -548,6 +549,22 @@ def _sides_disagree(m: Motion, fast: NDArray[np.bool_], gear_ratio: float) -> st
     )
 
 
+@lru_cache(maxsize=64)
+def _tooth_orders(stage: float) -> tuple[float, ...]:
+    """The orders of a gear stage's tooth lines, once per stage and process: the multiples of
+    ``1 / stage`` up to 8 (lines of a once-per-gear-turn impact), but not the whole orders
+    (mesh and ripple, whose presence is healthy).
+
+    Examples
+    --------
+    >>> _tooth_orders(2.0)
+    (0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5)
+    """
+    return tuple(
+        k / stage for k in range(1, int(8 * stage) + 1) if abs(k / stage - round(k / stage)) > 1e-9
+    )
+
+
 def _seeded(angle: NDArray[np.float64], kinematic: Mapping[str, float]) -> Phasors:
     """The motor angle's phasors, seeded with the base of its lines' frequencies
     (:func:`phasor_base`: the whole orders, each tooth set's half step, a bearing's shift):
@@ -556,7 +573,7 @@ def _seeded(angle: NDArray[np.float64], kinematic: Mapping[str, float]) -> Phaso
     if any(name.startswith("bearing_lines:") for name in kinematic):
         shifts += [abs(d) for d in BEARING_OFFSETS]
     phasors = Phasors(angle)
-    base = phasor_base([1.0, *shifts])
+    base = phasor_base((1.0, *shifts))
     if base is not None and angle.size <= LINE_BLOCK_SAMPLES:  # a longer one keeps none
         phasors(base)
     return phasors
@@ -588,13 +605,7 @@ def _kinematic_lines(
     nyquist_margin = 0.45 * m.rate_hz
     for name, parameter in kinematic.items():
         if name.startswith("tooth_lines:"):
-            # Lines of a once-per-gear-turn impact, but not the whole orders (mesh and ripple,
-            # whose presence is healthy).
-            orders = [
-                k / parameter
-                for k in range(1, int(8 * parameter) + 1)
-                if abs(k / parameter - round(k / parameter)) > 1e-9
-            ]
+            orders = list(_tooth_orders(parameter))
         else:
             orders = bearing_orders(parameter)
         low = 0.5 * min(orders) * slow_revs

@@ -129,7 +129,8 @@ class Phasors:
         return None
 
 
-def phasor_base(frequencies: Sequence[float]) -> float | None:
+@lru_cache(maxsize=64)
+def phasor_base(frequencies: tuple[float, ...]) -> float | None:
     """The largest ``1 / N`` (``N`` up to :data:`MAX_POWER`) of which every frequency is a whole
     multiple: a capture's lines (the whole orders, a tooth set's half step, a bearing's shift of
     a quarter) then take one ``cis`` of it and their phasors as its powers; None if there is
@@ -137,8 +138,10 @@ def phasor_base(frequencies: Sequence[float]) -> float | None:
 
     Examples
     --------
-    >>> phasor_base([1.0, 0.1, 0.25]), phasor_base([1.0, 0.25]), phasor_base([1.0, 0.43])
+    >>> phasor_base((1.0, 0.1, 0.25)), phasor_base((1.0, 0.25)), phasor_base((1.0, 0.43))
     (0.05, 0.25, None)
+
+    Found once per set of frequencies and process (a fleet's captures share a few).
     """
     values = [f for f in frequencies if f > 0]
     for count in range(1, MAX_POWER + 1):
