@@ -108,7 +108,7 @@ def pchip(
     --------
     >>> knots = np.array([0.0, 1.0, 2.0, 3.0])
     >>> pchip(knots, np.array([0.0, 1.0, 1.0, 2.0]), np.array([0.5, 1.5, 4.0])).tolist()
-    [0.5625, 1.0, 5.0]
+    [0.6875, 1.0, 3.0]
     """
     h = np.diff(knots)
     if knots.size < 3 or not bool(np.all(h > 0)):
