@@ -282,8 +282,12 @@ def test_a_captures_kinematic_lines_take_one_cis_and_the_bearings_own(
 
     monkeypatch.setattr(wave_sums, "cis", counted)
     monkeypatch.setattr(signals, "cis", counted)
-    kinematics = {"gear_stages": {"i": 5.0}, "bearing_orders": {"b": 5.43}}
-    read = read_indicators(awd.simulate_capture("heavy", seed=2), gear_ratio=100.0, **kinematics)
+    read = read_indicators(
+        awd.simulate_capture("heavy", seed=2),
+        gear_ratio=100.0,
+        gear_stages={"i": 5.0},
+        bearing_orders={"b": 5.43},
+    )
     assert np.isfinite([read.values["tooth_lines:i"], read.values["bearing_lines:b"]]).all()
     assert len(calls) == 2  # was 4, before that 5
 
