@@ -304,6 +304,14 @@ def test_repeated_rows_by_numpy_equal_pandas_comparison(rng: np.random.Generator
     previous = mixed.shift()
     expected = (mixed.eq(previous) | (mixed.isna() & previous.isna())).all(axis=1).to_numpy()
     np.testing.assert_array_equal(_repeated_rows(mixed), expected)
+    # Compared on the rows whose first column repeats: a capture's stamps rarely do.
+    stamps = frame.assign(time=np.arange(400.0))
+    stamps.loc[[7, 8, 100, 101], "time"] = [7.0, 7.0, np.nan, np.nan]
+    previous = stamps.shift()
+    expected = (stamps.eq(previous) | (stamps.isna() & previous.isna())).all(axis=1).to_numpy()
+    np.testing.assert_array_equal(_repeated_rows(stamps), expected)
+    for rows in (0, 1):
+        assert _repeated_rows(frame.iloc[:rows]).tolist() == [False] * rows
 
 
 def test_signals_in_every_row_share_the_rows_period(
@@ -318,16 +326,51 @@ def test_signals_in_every_row_share_the_rows_period(
     frame.to_parquet(path, index=False)
     alone = {name: aw.read_capture(path, [name]) for name in ("position", "speed", "torque")}
     calls: list[int] = []
-    counted = axiswatch._capture.sampling_period
+    from axiswatch._quantiles import median as counted
 
-    def counting(stamps: np.ndarray, **kwargs: float) -> float:
-        calls.append(stamps.size)
-        return counted(stamps, **kwargs)
+    def counting(steps: np.ndarray) -> float:
+        calls.append(steps.size)
+        return counted(steps)
 
-    monkeypatch.setattr(axiswatch._capture, "sampling_period", counting)
+    monkeypatch.setattr(axiswatch._capture, "median", counting)
     read = aw.read_capture(path)
-    assert sorted(calls) == [100, 400]
+    assert sorted(calls) == [99, 399]  # the median step of the position's and the rows' stamps
     for name, capture in alone.items():
         assert read.rates_hz[name] == capture.rates_hz[name]
         np.testing.assert_array_equal(read.signals[name], capture.signals[name], strict=True)
     assert read.start_s == 0.0
+
+
+def test_a_column_finds_its_period_as_sampling_period_does(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Exact stamps give their median step without a second pass over them; jittered ones the
+    # slope, from sampling_period. Either way the rate is sampling_period's, bit for bit.
+    from axiswatch._timebase import sampling_period
+
+    rng = np.random.default_rng(5)
+    for jitter in (0.0, 1e-10, 1e-5):
+        t = np.arange(600) / 1000.0 + rng.normal(0.0, jitter, 600)
+        position = np.where(np.arange(600) % 3 == 0, np.sin(t), np.nan)
+        frame = pd.DataFrame({"time": t, "position": position, "torque": np.cos(t)})
+        read = aw.read_capture(_write(tmp_path, frame))
+        assert read.rates_hz["torque"] == 1.0 / sampling_period(t)
+        assert read.rates_hz["position"] == 1.0 / sampling_period(t[::3])
+
+
+def test_a_table_of_floats_gives_its_columns_at_once() -> None:
+    from axiswatch._capture import _float_columns, _numeric_column
+
+    frame = pd.DataFrame({"time": [0.0, 0.5], "torque": [1.0, np.nan]})
+    columns = _float_columns(frame)
+    assert columns is not None
+    for name in frame.columns:
+        expected = _numeric_column(frame, name, Path("c.csv"))
+        np.testing.assert_array_equal(columns[name], expected, strict=True)
+    # Any other table: each column checked by _numeric_column, with its one-line error.
+    for other in (
+        frame.assign(torque=[1, 2]),
+        frame.assign(mode=["run", "stop"]),
+        frame.rename(columns={"torque": 3}),
+    ):
+        assert _float_columns(other) is None

@@ -147,3 +147,42 @@ def test_gram_path_matches_the_qr_path_on_stage_sized_waves(rng: np.random.Gener
     free = _NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
     tooth = [k / 5 for k in range(15, 41) if k % 5]
     assert free.f_statistic(tooth) == pytest.approx(free.f_statistic(tooth, exact=True), rel=1e-9)
+
+
+def test_stacked_shifts_give_each_block_its_own_statistic(rng: np.random.Generator) -> None:
+    # The bearing's waves and their two shifts, one block of rows each, share one product with
+    # the nuisance waves and one with the residual: each block's F as if computed alone.
+    from axiswatch.indicators._signals import _NuisanceFree, _shifted_rows, _wave_rows
+
+    theta = np.sort(rng.uniform(0, 400, 2500))
+    y = _ar1(rng, theta.size) + 0.2 * np.cos(5.43 * theta) + np.sin(3 * theta)
+    free = _NuisanceFree(y, theta, signals.WHOLE_ORDERS, None)
+    rows = _wave_rows(theta, signals.bearing_orders(5.43))
+    half = np.empty((rows.shape[0] // 2, theta.size))
+    blocks = [rows] + [
+        _shifted_rows(rows, theta, d, np.empty_like(rows), half).copy() for d in (-0.25, 0.25)
+    ]
+    stacked = free._f_stacked(np.concatenate(blocks), rows.shape[0])
+    np.testing.assert_allclose(stacked, [free._f(b) for b in blocks], rtol=1e-12)
+    # Orders 0.01 apart over 3 revolutions: each block takes the QR path, as alone.
+    theta = np.linspace(0, 6 * np.pi, 600)
+    free = _NuisanceFree(rng.normal(size=theta.size), theta, [1, 2, 3], None)
+    rows = _wave_rows(theta, [10.0 + 0.01 * k for k in range(4)])
+    stacked = free._f_stacked(np.concatenate([rows, rows[::-1].copy()]), rows.shape[0])
+    alone = [free._f(rows, exact=True), free._f(rows[::-1].copy(), exact=True)]
+    np.testing.assert_allclose(stacked, alone, rtol=1e-12)
+
+
+def test_a_shift_and_its_opposite_from_one_set_of_products(rng: np.random.Generator) -> None:
+    from axiswatch.indicators._signals import _shifted_pair, _shifted_rows, _wave_rows
+    from axiswatch.indicators._wave_sums import Phasors
+
+    theta = np.sort(rng.uniform(0, 400, 2500))
+    rows = _wave_rows(theta, signals.bearing_orders(5.43))
+    half = np.empty((rows.shape[0] // 2, theta.size))
+    for phasors in (None, Phasors(theta)):
+        up, down = np.empty_like(rows), np.empty_like(rows)
+        _shifted_pair(rows, theta, 0.25, up, down, half, phasors)
+        for d, moved in ((0.25, up), (-0.25, down)):
+            alone = _shifted_rows(rows, theta, d, np.empty_like(rows), half, phasors)
+            assert np.array_equal(moved, alone)

@@ -47,7 +47,8 @@ def quantiles(values: NDArray[np.float64], q: Sequence[float]) -> list[float]:
         else:
             below = max(math.floor(virtual), 0)
             spots.append((below, below + 1, virtual - below))
-    ranks = sorted({0, n - 1, *(rank for spot in spots for rank in spot[:2])})
+    # The last rank finds a NaN (sorted last); no other rank is needed.
+    ranks = sorted({n - 1, *(rank for spot in spots for rank in spot[:2])})
     ordered = np.partition(values, ranks)
     if math.isnan(ordered[-1]):  # NaN sorts last
         return [math.nan] * len(spots)

@@ -103,11 +103,14 @@ def check_stamp_unit(first_s: float, unit: str, path: Path) -> None:
     )
 
 
-def check_increasing(time_s: NDArray[np.float64], path: Path) -> None:
-    """Refuse time stamps that repeat or go back, naming the first such row in plain seconds.
+def check_increasing(time_s: NDArray[np.float64], path: Path) -> NDArray[np.float64]:
+    """Refuse time stamps that repeat or go back, naming the first such row in plain seconds;
+    return their steps (``np.diff(time_s)``) for a caller that needs them too.
 
     Examples
     --------
+    >>> check_increasing(np.array([0.0, 0.01, 0.03]), Path("c.csv")).tolist()
+    [0.01, 0.02]
     >>> check_increasing(np.array([0.0, 0.01, 0.01]), Path("c.csv"))
     Traceback (most recent call last):
     ...
@@ -121,6 +124,7 @@ def check_increasing(time_s: NDArray[np.float64], path: Path) -> None:
             f"{path}: column 'time' must be strictly increasing; row {k + 1} {what} "
             f"t={time_s[k + 1]:.9g} s after t={time_s[k]:.9g} s."
         )
+    return steps
 
 
 def sampling_period(

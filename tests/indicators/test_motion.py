@@ -9,7 +9,7 @@ from scipy.interpolate import PchipInterpolator
 from scipy.signal import savgol_filter
 
 import axiswatch.datasets as awd
-from axiswatch.indicators._motion import _derivative, _derivative_design, motion
+from axiswatch.indicators._motion import _derivative, _derivative_design, motion, pchip
 
 
 def test_a_speed_on_the_torque_instants_is_the_logged_speed() -> None:
@@ -39,3 +39,28 @@ def test_the_acceleration_is_scipys_savitzky_golay_derivative(
         _derivative(speed, window, rate), expected, rtol=0, atol=1e-12 * np.abs(expected).max()
     )
     assert _derivative_design(window, rate) is _derivative_design(window, rate)  # designed once
+
+
+@pytest.mark.parametrize("case", range(6))
+def test_pchip_is_scipys_bit_for_bit(rng: np.random.Generator, case: int) -> None:
+    # Uniform knots of a 250 Hz position (from zero and from Unix seconds), uneven knots, flat
+    # stretches and sign changes (slopes set to zero), a monotone ramp; points on the knots,
+    # between them and beyond both ends.
+    size = [750, 750, 40, 3, 25, 200][case]
+    knots = (1.7e9 if case == 1 else 0.0) + np.arange(size) / 250.0
+    if case in (2, 4):
+        knots = np.cumsum(rng.uniform(0.1, 1.0, size))
+    values = rng.normal(size=size)
+    if case == 4:
+        values = np.round(values, 0)  # repeated values: zero secants
+    if case == 5:
+        values = np.cumsum(np.abs(values))
+    inside = np.linspace(knots[0], knots[-1], 8 * size)
+    points = np.concatenate([[knots[0] - 0.3, knots[-1] + 0.3], knots, inside])
+    expected = PchipInterpolator(knots, values, extrapolate=True)(points)
+    assert np.array_equal(pchip(knots, values, points), expected)
+
+
+def test_pchip_leaves_knots_that_do_not_increase_to_scipy() -> None:
+    with pytest.raises(ValueError, match="strictly increasing"):
+        pchip(np.array([0.0, 1.0, 1.0]), np.zeros(3), np.array([0.5]))

@@ -141,8 +141,27 @@ def test_a_captures_lines_share_their_exponentials(
     signals.line_ratio(torque, angle, tooth, [0.1], nuisance=shared)
     signals.bearing_lines(torque, angle, 5.43, nuisance=shared)
     # Whole orders 1; the tooth's sums 1 (on the grid of half steps, which holds the orders
-    # and their shifts); the bearing's two grid starts and one shift. Was 8, then 6.
-    assert len(calls) == 5
+    # and their shifts); the bearing's first grid start and one shift: its second start,
+    # 2 f - 1 = 2 (f - 2) + 3, is the first's square times exp(3j angle). Was 8, 6, then 5.
+    assert len(calls) == 4
+
+
+@pytest.mark.parametrize("bearing", [5.43, 3.17, 12.345])
+def test_a_bearings_double_from_products_equals_its_cis(
+    rng: np.random.Generator, bearing: float
+) -> None:
+    from axiswatch.indicators._wave_sums import Phasors, cis
+
+    angle = np.sort(rng.uniform(40.0, 700.0, 3000))  # a 3 s capture's motor angle
+    phasors = Phasors(angle)
+    phasors(1.0)
+    first, double = bearing - 2, 2 * bearing - 1
+    phasors(first)
+    assert phasors._doubled(double) is not None  # built from the kept two
+    # cis rounds its argument (up to 16,000 rad: a spacing of 4e-12); the products do not.
+    atol = 2 * np.spacing(double * angle.max()) + 1e-14
+    np.testing.assert_allclose(phasors(double), cis(double * angle), rtol=0, atol=atol)
+    assert phasors._doubled(double + 0.25) is None  # not a whole order off
 
 
 def test_the_grids_of_a_set_of_orders_are_found_once_and_kept_read_only() -> None:
@@ -187,3 +206,115 @@ def test_a_tooth_sets_plan_finds_each_sum_at_its_frequency() -> None:
     with pytest.raises(ValueError, match="read-only"):
         plan.shifts[0][0][0, 0] = 0
     assert wave_sums.sums_plan(tuple(signals.bearing_orders(5.43)), (0.25,), (1.0,)) is None
+
+
+def test_a_weight_row_summed_over_part_of_its_grid_gives_those_sums(
+    rng: np.random.Generator,
+) -> None:
+    # The residual is read at the orders only: its giant rows stop where they end.
+    angle = np.sort(rng.uniform(40.0, 400.0, 2000))
+    weights = np.stack([np.ones(angle.size), rng.normal(size=angle.size)])
+    frequencies = np.concatenate([np.arange(0, 160) * 0.1, np.arange(0, 30) * 0.1 + 0.05])
+    plan = wave_sums.phasor_plan(frequencies, 0.1)
+    assert plan is not None
+    extents = np.array([[160, 75], [30, 0]])
+    sums = phasor_sums(angle, weights, frequencies, 0.1, plan, extents)
+    full = phasor_sums(angle, weights, frequencies, 0.1, plan)
+    assert sums is not None
+    assert full is not None
+    exact = _exact_sums(angle, weights, frequencies)
+    np.testing.assert_allclose(sums[0], exact[0], rtol=0, atol=1e-10 * angle.size)
+    # The same rows; BLAS may sum a product of fewer rows in another order.
+    np.testing.assert_allclose(sums[0], full[0], rtol=0, atol=1e-13 * angle.size)
+    # The residual's grid of 160 steps in giant rows of 13: 78 steps summed for 75 asked.
+    kept = np.zeros(frequencies.size, dtype=bool)
+    kept[:78] = True
+    np.testing.assert_allclose(sums[1][kept], exact[1][kept], rtol=0, atol=1e-10 * angle.size)
+    assert np.isnan(sums[1][~kept]).all()
+
+
+def test_a_tooth_sets_plan_sums_the_residual_up_to_its_orders() -> None:
+    orders = tuple(k / 5 for k in range(1, 41) if k % 5)
+    plan = wave_sums.sums_plan(orders, (0.1,), signals.WHOLE_ORDERS)
+    assert plan is not None
+    ((members, _, index),) = plan.phasors.classes
+    at_orders = np.concatenate([shift[3] for shift in plan.shifts])
+    on_grid = dict(zip(members.tolist(), index.tolist(), strict=True))
+    assert plan.extents.tolist() == [[index.max() + 1, max(on_grid[i] for i in at_orders) + 1]]
+    assert plan.extents[0, 1] < plan.extents[0, 0] / 2 + 2  # the orders: half the grid
+
+
+def test_a_seeded_base_gives_its_multiples_as_powers(rng: np.random.Generator) -> None:
+    from axiswatch.indicators._wave_sums import Phasors, cis, phasor_base
+
+    angle = np.sort(rng.uniform(40.0, 700.0, 3000))
+    assert phasor_base((1.0, 0.1, 0.25)) == pytest.approx(0.05)
+    assert phasor_base((1.0, 1 / 7.2)) == pytest.approx(1 / 36)  # a stage of 3.6 teeth
+    assert phasor_base((1.0, 0.43)) is None
+    assert phasor_base((1.0,)) is None
+    phasors = Phasors(angle)
+    phasors(0.05)
+    # The whole orders, a tooth set's grid step as its orders round it, a bearing's shift.
+    # Each is the base's multiple (0.1 for the step: what the rounded orders stand for).
+    for frequency in (1.0, 0.09999999999999964, 0.25):
+        power = phasors._power(frequency)
+        assert power is not None
+        multiple = round(frequency / 0.05) * 0.05
+        atol = 4 * np.spacing(multiple * angle.max()) + 1e-13
+        np.testing.assert_allclose(power, cis(multiple * angle), rtol=0, atol=atol)
+    assert phasors._power(0.1 + 1e-9) is None  # not a multiple: its own cis
+
+
+def test_a_captures_kinematic_lines_take_one_cis_and_the_bearings_own(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The whole orders, the tooth set's half step and the bearing's shift are multiples of
+    # 0.05: one cis of it, their phasors as its powers. The bearing's start (3.43) takes its own.
+    import axiswatch.datasets as awd
+    from axiswatch.indicators._readings import read_indicators
+
+    calls: list[int] = []
+    cis = wave_sums.cis
+
+    def counted(angle: np.ndarray) -> np.ndarray:
+        calls.append(angle.size)
+        return cis(angle)
+
+    monkeypatch.setattr(wave_sums, "cis", counted)
+    monkeypatch.setattr(signals, "cis", counted)
+    read = read_indicators(
+        awd.simulate_capture("heavy", seed=2),
+        gear_ratio=100.0,
+        gear_stages={"i": 5.0},
+        bearing_orders={"b": 5.43},
+    )
+    assert np.isfinite([read.values["tooth_lines:i"], read.values["bearing_lines:b"]]).all()
+    assert len(calls) == 2  # was 4, before that 5
+
+
+def test_a_tooth_set_on_a_seeded_base_is_nearer_its_exact_statistic(
+    rng: np.random.Generator,
+) -> None:
+    # The grid's step found from the rounded orders is 0.09999999999999964: the base's double
+    # (0.1) stands for the orders' sums as they are meant, the exact waves' (QR path) within
+    # 1e-13; the step itself strayed to 8e-13 over 400 revolutions.
+    from axiswatch.indicators._wave_sums import Phasors
+
+    n = 3000
+    theta = 60.0 + 45.0 * np.sin(np.linspace(0.0, 9.0, n)) + np.linspace(0.0, 400.0, n)
+    y = np.convolve(rng.normal(size=n), np.ones(4) / 4, mode="same") + 0.1 * np.cos(0.4 * theta)
+    orders = np.array([k / 5 for k in range(1, 41) if k % 5])
+    phasors = Phasors(theta)
+    phasors(0.05)
+    free = signals._NuisanceFree(
+        y, theta, signals.WHOLE_ORDERS, None, nuisance=signals.whole_orders(theta, phasors)
+    )
+    by_sums = free._sums_f(orders.tolist(), [0.1])
+    assert by_sums is not None
+    exact = [
+        free._f(
+            np.concatenate([np.sin(np.outer(o, theta)), np.cos(np.outer(o, theta))]), exact=True
+        )
+        for o in (orders, orders + 0.1)
+    ]
+    np.testing.assert_allclose(by_sums, exact, rtol=1e-13)

@@ -65,7 +65,76 @@ def _on_times(
         # Sampled on these instants already (a speed logged with the torque): PCHIP passes
         # through its knots, and cost a quarter of the motion's time.
         return np.asarray(values[: times.size], dtype=np.float64)
-    return np.asarray(PchipInterpolator(own, values, extrapolate=True)(times), dtype=np.float64)
+    return pchip(own, np.asarray(values, dtype=np.float64), times)
+
+
+def _end_slope(
+    h0: NDArray[np.float64],
+    h1: NDArray[np.float64],
+    m0: NDArray[np.float64],
+    m1: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """SciPy's PCHIP slope at an end: a one-sided three-point estimate, kept monotone."""
+    d = ((2 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
+    flipped = np.sign(d) != np.sign(m0)
+    overshot = (np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0))
+    d[flipped] = 0.0
+    d[~flipped & overshot] = 3.0 * m0[~flipped & overshot]
+    return d
+
+
+def pchip(
+    knots: NDArray[np.float64], values: NDArray[np.float64], points: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """SciPy's ``PchipInterpolator(knots, values, extrapolate=True)(points)``, bit for bit
+    (tested), without its input checks and array-namespace dispatch: a third of the motion's
+    time on a 3 s capture. The same arithmetic in the same order: Fritsch-Carlson slopes (a
+    weighted harmonic mean of the secants, zero where they change sign), the Hermite cubic's
+    power-basis coefficients, and each point's polynomial summed lowest power first.
+
+    Parameters
+    ----------
+    knots : ndarray of shape (m,)
+        Strictly increasing; SciPy itself (and its error) where not, or ``m < 3``.
+    values : ndarray of shape (m,)
+        Finite.
+    points : ndarray of shape (r,)
+
+    Returns
+    -------
+    ndarray of shape (r,)
+
+    Examples
+    --------
+    >>> knots = np.array([0.0, 1.0, 2.0, 3.0])
+    >>> pchip(knots, np.array([0.0, 1.0, 1.0, 2.0]), np.array([0.5, 1.5, 4.0])).tolist()
+    [0.6875, 1.0, 3.0]
+    """
+    h = np.diff(knots)
+    if knots.size < 3 or not bool(np.all(h > 0)):
+        interpolator = PchipInterpolator(knots, values, extrapolate=True)
+        return np.asarray(interpolator(points), dtype=np.float64)
+    m = np.diff(values) / h
+    slopes = np.zeros_like(values)
+    inner = (np.sign(m[1:]) == np.sign(m[:-1])) & (m[1:] != 0) & (m[:-1] != 0)
+    w1 = 2 * h[1:] + h[:-1]
+    w2 = h[1:] + 2 * h[:-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = (w1 / m[:-1] + w2 / m[1:]) / (w1 + w2)
+    slopes[1:-1][inner] = 1.0 / mean[inner]
+    slopes[:1] = _end_slope(h[:1], h[1:2], m[:1], m[1:2])
+    slopes[-1:] = _end_slope(h[-1:], h[-2:-1], m[-1:], m[-2:-1])
+    # CubicHermiteSpline's coefficients, highest power first.
+    t = (slopes[:-1] + slopes[1:] - 2 * m) / h
+    c0, c1 = t / h, (m - slopes[:-1]) / h - t
+    # PPoly's interval: knots[i] <= x < knots[i + 1], the first and last extended outwards.
+    i = np.clip(np.searchsorted(knots, points, side="right") - 1, 0, knots.size - 2)
+    s = points - knots[i]
+    square = s * s
+    out = values[:-1][i] + slopes[:-1][i] * s
+    out += c1[i] * square
+    out += c0[i] * (square * s)
+    return out
 
 
 @lru_cache(maxsize=64)
@@ -152,7 +221,8 @@ def motion(capture: Capture) -> Motion:
         - (1.0 / capture.rates_hz[n] if n != "torque" else 0)
         for n in names & {"position", "speed", "torque"}
     )
-    keep = times <= end + 1e-12
+    # The instants are increasing: those kept are the first ones, taken as views.
+    keep = slice(int(np.searchsorted(times, end + 1e-12, side="right")))
     window = max(5, whole_samples(0.05, rate) | 1)
     speed_kept = speed[keep]
     if speed_kept.size > window:

@@ -7,10 +7,10 @@ The motion they read and the task signature live in :mod:`axiswatch.indicators._
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Literal
 
 import numpy as np
@@ -32,6 +32,8 @@ from axiswatch.indicators._motion import (
 from axiswatch.indicators._order_lines import OrderProfile, order_profile, order_spectrum
 from axiswatch.indicators._ringing import MIN_RINGING_RATE_HZ, gap_ringing, torque_design
 from axiswatch.indicators._signals import (
+    BEARING_OFFSETS,
+    LINE_BLOCK_SAMPLES,
     NuisanceProjection,
     bearing_lines,
     bearing_orders,
@@ -43,6 +45,7 @@ from axiswatch.indicators._signals import (
     whole_orders,
     zero_phase,
 )
+from axiswatch.indicators._wave_sums import Phasors, phasor_base
 
 __all__ = [
     "FRICTION",
@@ -362,9 +365,9 @@ def drive_loads(
     return values, reasons
 
 
-def _band(m: Motion) -> NDArray[np.float64]:
-    low, high = (f * m.rate_hz for f in BAND_FRACTION)
-    return zero_phase(butter_sos(4, (low, high), m.rate_hz), m.torque)
+def _band(torque: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
+    low, high = (f * rate_hz for f in BAND_FRACTION)
+    return zero_phase(butter_sos(4, (low, high), rate_hz), torque)
 
 
 def band_edges(low_hz: float, high_hz: float, top_hz: float) -> tuple[float, float]:
@@ -445,8 +448,9 @@ def read_indicators(
         kinematic.update({f"tooth_lines:{n}": r for n, r in (gear_stages or {}).items()})
         kinematic.update({f"bearing_lines:{n}": o for n, o in (bearing_orders or {}).items()})
         values.update(dict.fromkeys(kinematic, math.nan))
-    peak = float(np.max(np.abs(m.speed))) if m.speed.size else 0.0
-    moving = np.abs(m.speed) > MOVING_FRACTION * peak
+    speed = np.abs(m.speed)  # one pass, read four times below
+    peak = float(np.max(speed)) if speed.size else 0.0
+    moving = speed > MOVING_FRACTION * peak
     min_samples = max(5, round(0.2 * m.rate_hz))
     errors = dict.fromkeys(FRICTION, math.nan) if whole_moves else {}
     if peak <= 0 or moving.sum() < min_samples:
@@ -483,7 +487,7 @@ def read_indicators(
     else:
         for name in ("coulomb_friction", "viscous_friction"):
             reasons[name] = "needs motion in both directions (the capture moves one way)"
-    steady = np.abs(m.speed) > 0.5 * peak
+    steady = speed > 0.5 * peak
     if whole_moves:
         steady &= whole_move_mask(m.speed, MOVING_FRACTION)
     loads, why_not = drive_loads(m, steady, min_samples, whole_moves=whole_moves)
@@ -491,7 +495,7 @@ def read_indicators(
     reasons.update(why_not)
     if kinematic:
         assert gear_ratio is not None
-        _kinematic_lines(m, gear_ratio, kinematic, peak, values, reasons)
+        _kinematic_lines(m, speed, gear_ratio, kinematic, peak, values, reasons)
     ringing, why = gap_ringing(
         m.time_s,
         m.position,
@@ -517,22 +521,25 @@ def read_indicators(
     # A lone one-sample spike (a logger's glitch) would dominate the fourth moment on its own.
     torque = repair_lone_spikes(m.torque)
     repaired = 0 if torque is m.torque else int(np.count_nonzero(torque != m.torque))
-    band = _band(dataclasses.replace(m, torque=torque))
+    band = _band(torque, m.rate_hz)
     envelope = running_rms(band, max(8, round(0.1 * m.rate_hz)))
     normalised = band / np.where(envelope > 0, envelope, 1.0)
     values["impulsiveness"] = pearson_kurtosis(normalised[moving])
     return Readings(values, reasons, capture.source, signature, profile, errors, repaired)
 
 
-def _sides_disagree(m: Motion, fast: NDArray[np.bool_], gear_ratio: float) -> str | None:
+def _sides_disagree(
+    m: Motion, fast: NDArray[np.bool_], fast_speed: NDArray[np.float64], gear_ratio: float
+) -> str | None:
     """Why the lines cannot be read when the position and the speed are on two sides of the gear.
 
     The position's travel over the ``fast`` samples is compared with the speed's integral there.
     A ratio nearer the gear ratio (or its inverse) than 1, in decades, means one of them is the
     motor's: the lines would be read at orders off by the gear ratio, or beyond the rate.
+    ``fast_speed``: ``|m.speed[fast]|``.
     """
     position_travel = float(np.sum(np.abs(np.diff(m.position))[fast[1:]]))
-    speed_travel = float(np.sum(np.abs(m.speed[fast]))) / m.rate_hz
+    speed_travel = float(np.sum(fast_speed)) / m.rate_hz
     if not (position_travel > 0 and speed_travel > 0 and gear_ratio > 1):
         return None
     ratio = position_travel / speed_travel
@@ -545,8 +552,39 @@ def _sides_disagree(m: Motion, fast: NDArray[np.bool_], gear_ratio: float) -> st
     )
 
 
+@lru_cache(maxsize=64)
+def _tooth_orders(stage: float) -> tuple[float, ...]:
+    """The orders of a gear stage's tooth lines, once per stage and process: the multiples of
+    ``1 / stage`` up to 8 (lines of a once-per-gear-turn impact), but not the whole orders
+    (mesh and ripple, whose presence is healthy).
+
+    Examples
+    --------
+    >>> _tooth_orders(2.0)
+    (0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5)
+    """
+    return tuple(
+        k / stage for k in range(1, int(8 * stage) + 1) if abs(k / stage - round(k / stage)) > 1e-9
+    )
+
+
+def _seeded(angle: NDArray[np.float64], kinematic: Mapping[str, float]) -> Phasors:
+    """The motor angle's phasors, seeded with the base of its lines' frequencies
+    (:func:`phasor_base`: the whole orders, each tooth set's half step, a bearing's shift):
+    one ``cis`` for all of them where they share one, each else its own."""
+    shifts = [0.5 / p for n, p in kinematic.items() if n.startswith("tooth_lines:")]
+    if any(name.startswith("bearing_lines:") for name in kinematic):
+        shifts += [abs(d) for d in BEARING_OFFSETS]
+    phasors = Phasors(angle)
+    base = phasor_base((1.0, *shifts))
+    if base is not None and angle.size <= LINE_BLOCK_SAMPLES:  # a longer one keeps none
+        phasors(base)
+    return phasors
+
+
 def _kinematic_lines(
     m: Motion,
+    speed: NDArray[np.float64],
     gear_ratio: float,
     kinematic: Mapping[str, float],
     peak: float,
@@ -555,29 +593,25 @@ def _kinematic_lines(
 ) -> None:
     """Line ratios at each component's orders, in a band that holds those orders at the speeds
     of the capture (not the rate's band: a 4 kHz log of a slow axis has its lines far below it).
+    ``speed``: ``|m.speed|``.
     """
-    fast = np.abs(m.speed) > 0.2 * peak
-    why = _sides_disagree(m, fast, gear_ratio)
+    fast = speed > 0.2 * peak
+    fast_speed = speed[fast]
+    why = _sides_disagree(m, fast, fast_speed, gear_ratio)
     if why is not None:
         reasons.update(dict.fromkeys(kinematic, why))
         return
     motor_angle = gear_ratio * m.position
     theta = motor_angle[fast]
     shared: NuisanceProjection | None = None  # one projection for every line
-    revs = gear_ratio * np.abs(m.speed[fast]) / (2 * math.pi)
+    revs = gear_ratio * fast_speed / (2 * math.pi)
     slow_revs, fast_revs = quantiles(revs, (0.1, 0.9))
     travel = np.abs(np.diff(motor_angle, prepend=motor_angle[0]))
     revolutions = float(np.sum(travel[fast])) / (2 * math.pi)
     nyquist_margin = 0.45 * m.rate_hz
     for name, parameter in kinematic.items():
         if name.startswith("tooth_lines:"):
-            # Lines of a once-per-gear-turn impact, but not the whole orders (mesh and ripple,
-            # whose presence is healthy).
-            orders = [
-                k / parameter
-                for k in range(1, int(8 * parameter) + 1)
-                if abs(k / parameter - round(k / parameter)) > 1e-9
-            ]
+            orders = list(_tooth_orders(parameter))
         else:
             orders = bearing_orders(parameter)
         low = 0.5 * min(orders) * slow_revs
@@ -591,7 +625,7 @@ def _kinematic_lines(
             continue
         sos = butter_sos(4, band_edges(low, high, nyquist_margin), m.rate_hz)
         x = zero_phase(sos, m.torque)[fast]
-        shared = shared or whole_orders(theta)
+        shared = shared or whole_orders(theta, _seeded(theta, kinematic))
         if name.startswith("tooth_lines:"):
             values[name] = line_ratio(x, theta, orders, [0.5 / parameter], nuisance=shared)
         else:

@@ -120,6 +120,31 @@ def _shifted_rows(
     return out
 
 
+def _shifted_pair(
+    rows: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    shift: float,
+    up: NDArray[np.float64],
+    down: NDArray[np.float64],
+    half: NDArray[np.float64],
+    phasors: Phasors | None = None,
+) -> None:
+    """:func:`_shifted_rows` by ``shift`` into ``up`` and by ``-shift`` into ``down``, from
+    the same four products: the opposite rotation is the conjugate, so each product serves
+    both with the other sign. Bit for bit the two calls' rows (tested)."""
+    count = rows.shape[0] // 2
+    sines, cosines = rows[:count], rows[count:]
+    rotation = cis(shift * angle) if phasors is None else phasors(shift)
+    np.multiply(sines, rotation.real, out=up[:count])
+    np.multiply(cosines, rotation.imag, out=half)
+    np.subtract(up[:count], half, out=down[:count])
+    up[:count] += half
+    np.multiply(cosines, rotation.real, out=up[count:])
+    np.multiply(sines, rotation.imag, out=half)
+    np.add(up[count:], half, out=down[count:])
+    up[count:] -= half
+
+
 def _harmonics(
     angle: NDArray[np.float64],
     orders: Sequence[float],
@@ -231,6 +256,7 @@ class NuisanceProjection:
         angle: NDArray[np.float64],
         nuisance_orders: Sequence[float],
         direction: NDArray[np.float64] | None,
+        phasors: Phasors | None = None,
     ) -> None:
         if direction is not None and np.all(direction == direction[0]):
             direction = None  # one direction only: the signed waves would repeat the plain ones
@@ -254,7 +280,7 @@ class NuisanceProjection:
                 self.blocks = [slice(0, angle.size)]  # degenerate waves: the exact QR
         if self.factor is None:
             if angle.size <= LINE_BLOCK_SAMPLES:
-                self.phasors = Phasors(angle)
+                self.phasors = Phasors(angle) if phasors is None else phasors
             rows = _signed_rows(_wave_rows(angle, nuisance_orders, phasors=self.phasors), direction)
             self.triangle = _cholesky(rows @ rows.T, PROJECTION_MIN_RCOND)
             if self.triangle is None:
@@ -308,10 +334,10 @@ class NuisanceProjection:
         return out
 
 
-def whole_orders(angle: NDArray[np.float64]) -> NuisanceProjection:
+def whole_orders(angle: NDArray[np.float64], phasors: Phasors | None = None) -> NuisanceProjection:
     """The projection of the whole orders (:data:`WHOLE_ORDERS`) of ``angle``, shared by every
-    :func:`line_ratio` read on it (``nuisance=``)."""
-    return NuisanceProjection(angle, WHOLE_ORDERS, None)
+    :func:`line_ratio` read on it (``nuisance=``); ``phasors``: the angle's, when seeded."""
+    return NuisanceProjection(angle, WHOLE_ORDERS, None, phasors)
 
 
 class _NuisanceFree:
@@ -441,7 +467,15 @@ class _NuisanceFree:
         if plan is None or self.residual.size <= self.k + p + 1:
             return None
         weights = np.stack([np.ones(self.angle.size), self.residual])
-        sums = phasor_sums(self.angle, weights, plan.frequencies, plan.phasors.step, plan.phasors)
+        sums = phasor_sums(
+            self.angle,
+            weights,
+            plan.frequencies,
+            plan.phasors.step,
+            plan.phasors,
+            plan.extents,
+            self.nuisance.phasors,
+        )
         assert sums is not None  # the plan is the frequencies'
         ones, residual = sums
         difference = ones[plan.difference]
@@ -478,12 +512,43 @@ class _NuisanceFree:
             return by_sums[0] / float(np.mean(by_sums[1:]))
         n, p = self.angle.size, 2 * len(orders)
         phasors = self.nuisance.phasors
-        rows = _wave_rows(self.angle, orders, scratch("waves", (p, n)), phasors)
-        moved, half = scratch("shifted", (p, n)), scratch("half", (p // 2, n))
-        reference = np.mean(
-            [self._f(_shifted_rows(rows, self.angle, d, moved, half, phasors)) for d in offsets]
+        # The orders' waves, then those of each shift, one block of rows after another.
+        waves = scratch("waves", ((1 + len(offsets)) * p, n))
+        rows, half = (
+            _wave_rows(self.angle, orders, waves[:p], phasors),
+            scratch("half", (p // 2, n)),
         )
-        return self._f(rows) / float(reference)
+        block = {d: waves[k * p : (k + 1) * p] for k, d in enumerate(offsets, start=1)}
+        for d in offsets:
+            if d > 0 and -d in block:  # a shift and its opposite (a bearing's): one set of products
+                _shifted_pair(rows, self.angle, d, block[d], block[-d], half, phasors)
+            elif not (d < 0 and -d in block):
+                _shifted_rows(rows, self.angle, d, block[d], half, phasors)
+        main, *shifted = self._f_stacked(waves, p)
+        return main / float(np.mean(shifted))
+
+    def _f_stacked(self, waves: NDArray[np.float64], p: int) -> list[float]:
+        """:meth:`_f` of each block of ``p`` rows of ``waves``: the products with the nuisance
+        waves and the residual made for every block at once (one matrix product each instead
+        of one per block; the same sums to rounding)."""
+        blocks = [waves[k : k + p] for k in range(0, waves.shape[0], p)]
+        if self.direction is not None or self.nuisance.rows is None:
+            return [self._f(block) for block in blocks]
+        if self.residual.size <= self.k + p + 1:
+            return [float("nan")] * len(blocks)
+        cross, _ = scipy.linalg.lapack.dtrtrs(
+            self.nuisance.triangle, self.nuisance.rows @ waves.T, lower=0, trans=1
+        )
+        rights = waves @ self.residual
+        out = []
+        for k, block in enumerate(blocks):
+            columns = cross[:, k * p : (k + 1) * p]
+            gram = block @ block.T - columns.T @ columns
+            explained = _gram_explained(gram, rights[k * p : (k + 1) * p])
+            if explained is None:
+                explained = self.explained(block, exact=True)
+            out.append(self._ratio(explained, p))
+        return out
 
 
 #: Nuisance orders of the line statistics: the whole orders (gear mesh, ripple).

@@ -8,6 +8,7 @@ Which sums a set of orders needs, and where they fall, is planned once per set a
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -20,9 +21,11 @@ from axiswatch.indicators._workspace import scratch
 
 __all__ = [
     "MAX_GRIDS",
+    "MAX_POWER",
     "PhasorPlan",
     "Phasors",
     "cis",
+    "phasor_base",
     "phasor_plan",
     "phasor_sums",
     "wave_products",
@@ -31,6 +34,10 @@ __all__ = [
 #: Most grids (classes of frequencies equal modulo the step) summed; beyond, the waves' own
 #: products cost less.
 MAX_GRIDS = 4
+
+#: Highest power of a kept phasor that :class:`Phasors` takes for a multiple of its frequency
+#: (a few squarings); the base :func:`phasor_base` seeds is at most its inverse.
+MAX_POWER = 64
 
 
 def cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
@@ -45,7 +52,9 @@ def cis(angle: NDArray[np.float64]) -> NDArray[np.complex128]:
 class Phasors:
     """``exp(1j * f * angle)`` of one angle, each frequency ``f`` computed once: a capture's
     lines share the whole orders' ``exp(1j * angle)``, and a shift and its opposite share one
-    ``cis`` (the conjugate). Each ``cis`` costs about fifty complex products.
+    ``cis`` (the conjugate). Each ``cis`` costs about fifty complex products. A frequency
+    twice a kept one plus a whole order (a bearing's double, ``2 f - 1 = 2 (f - 2) + 3``) is
+    their product: four products instead of a ``cis``.
 
     The arrays are read-only: a caller that writes copies first.
 
@@ -64,10 +73,82 @@ class Phasors:
         kept = self._kept.get(frequency)
         if kept is None:
             opposite = self._kept.get(-frequency)
-            kept = cis(frequency * self.angle) if opposite is None else np.conj(opposite)
+            if opposite is not None:
+                kept = np.conj(opposite)
+            else:
+                kept = self._power(frequency)
+                if kept is None:
+                    kept = self._doubled(frequency)
+                if kept is None:
+                    kept = cis(frequency * self.angle)
             kept.flags.writeable = False
             self._kept[frequency] = kept
         return kept
+
+    def _power(self, frequency: float) -> NDArray[np.complex128] | None:
+        """``exp(1j * g * angle) ** m`` for a kept ``g > 0`` of which ``frequency`` is a whole
+        multiple ``m`` (2 to :data:`MAX_POWER`), by repeated squaring; None if none is. A
+        capture's lines seed their base (:func:`phasor_base`): one ``cis`` for all. The
+        multiple may differ from ``frequency`` by 1e-12 of it, as a tooth set's grid step
+        found from its rounded orders does (0.09999999999999964 for 0.1): a tooth line is then
+        nearer its exact value, not farther (tested)."""
+        if frequency <= 0:
+            return None
+        for base, kept in self._kept.items():
+            if base <= 0:
+                continue
+            m = round(frequency / base)
+            if 2 <= m <= MAX_POWER and abs(m * base - frequency) <= 1e-12 * frequency:
+                out, square = None, kept
+                while True:  # binary powering: m's bits, lowest first
+                    if m & 1:
+                        out = square.copy() if out is None else np.multiply(out, square, out=out)
+                    m >>= 1
+                    if not m:
+                        break
+                    square = np.multiply(square, square)
+                assert out is not None
+                return out
+        return None
+
+    def _doubled(self, frequency: float) -> NDArray[np.complex128] | None:
+        """``exp(1j * f * angle)`` as ``exp(1j * g * angle) ** 2 * exp(1j * angle) ** m`` for a
+        kept ``g > 0`` with ``f = 2 g + m`` to rounding (``m`` whole, 1 to 8); None if none is.
+        Its error is a few roundings, as ``cis`` of the rounded ``f * angle`` makes."""
+        one = self._kept.get(1.0)
+        if one is None or frequency <= 0:
+            return None
+        for base, kept in self._kept.items():
+            whole = frequency - 2.0 * base
+            m = round(whole)
+            if base > 0 and 1 <= m <= 8 and abs(whole - m) <= 8e-16 * frequency:
+                out = np.multiply(kept, kept)
+                for _ in range(m):
+                    np.multiply(out, one, out=out)
+                return out
+        return None
+
+
+@lru_cache(maxsize=64)
+def phasor_base(frequencies: tuple[float, ...]) -> float | None:
+    """The largest ``1 / N`` (``N`` up to :data:`MAX_POWER`) of which every frequency is a whole
+    multiple: a capture's lines (the whole orders, a tooth set's half step, a bearing's shift of
+    a quarter) then take one ``cis`` of it and their phasors as its powers; None if there is
+    none, or it is one of the frequencies (nothing to share).
+
+    Examples
+    --------
+    >>> phasor_base((1.0, 0.1, 0.25)), phasor_base((1.0, 0.25)), phasor_base((1.0, 0.43))
+    (0.05, 0.25, None)
+
+    Found once per set of frequencies and process (a fleet's captures share a few).
+    """
+    values = [f for f in frequencies if f > 0]
+    for count in range(1, MAX_POWER + 1):
+        if all(abs(f * count - round(f * count)) <= 1e-9 for f in values):
+            base = 1.0 / count
+            return None if count == 1 or all(f == base for f in values) else base
+    return None
 
 
 @dataclass(frozen=True)
@@ -126,11 +207,15 @@ def phasor_sums(
     frequencies: NDArray[np.float64],
     step: float,
     plan: PhasorPlan | None = None,
+    extents: NDArray[np.int64] | None = None,
+    phasors: Phasors | None = None,
 ) -> NDArray[np.complex128] | None:
     """``sum_n weights[w, n] * exp(1j * f * angle[n])`` for every weight row ``w`` and frequency
     ``f`` (1-D): shape ``(len(weights), len(frequencies))``; None when the frequencies fall in
     more than :data:`MAX_GRIDS` classes modulo ``step``. ``plan``: their :func:`phasor_plan`,
-    when kept.
+    when kept. ``extents``, shape ``(classes, len(weights))``: the steps of each class's grid a
+    weight row is summed over, when fewer than the class's (a residual read at the orders
+    only); its sums beyond are NaN. ``phasors``: the angle's, whose exponentials are shared.
 
     A class ``c + m step`` (``m = 0..M``) is summed as ``G @ B.T``: baby rows ``B_j = z^j`` and
     giant rows ``G_l = w exp(1j c angle) z^(J l)``, ``z = exp(1j step angle)``, ``J ~ sqrt(M)``,
@@ -150,27 +235,43 @@ def phasor_sums(
         return None
     n, count_weights = angle.size, weights.shape[0]
     out = np.empty((count_weights, frequencies.size), dtype=np.complex128)
-    rotation = cis(step * angle)
-    for members, offset, index in plan.classes:
+    rotation = cis(step * angle) if phasors is None else phasors(step)
+    for c, (members, offset, index) in enumerate(plan.classes):
         count = int(index.max()) + 1
         baby_count = math.isqrt(count - 1) + 1
-        giant_count = -(-count // baby_count)
         baby = scratch("baby", (baby_count, n), np.complex128)
         baby[0] = 1.0
         for j in range(1, baby_count):
             np.multiply(baby[j - 1], rotation, out=baby[j])
         leap = baby[-1] * rotation
-        giant = scratch("giant", (count_weights, giant_count, n), np.complex128)
-        if offset == 0.0:  # exp(0j): the weights themselves
-            giant.real[:, 0], giant.imag[:, 0] = weights, 0.0
+        # Giant rows of each weight row: as many as its extent needs, one block after another.
+        wanted = [count] * count_weights if extents is None else extents[c].tolist()
+        giants = [-(-min(extent, count) // baby_count) for extent in wanted]
+        firsts = np.cumsum([0, *giants]).tolist()
+        giant = scratch("giant", (firsts[-1], n), np.complex128)
+        if offset == 0.0:
+            start = None
         else:
-            start = cis(offset * angle)
-            np.multiply(start.real, weights, out=giant.real[:, 0])
-            np.multiply(start.imag, weights, out=giant.imag[:, 0])
-        for g in range(1, giant_count):
-            np.multiply(giant[:, g - 1], leap, out=giant[:, g])
-        table = (giant.reshape(-1, n) @ baby.T).reshape(count_weights, -1)
-        out[:, members] = table[:, index]
+            start = cis(offset * angle) if phasors is None else phasors(offset)
+        for w, first in enumerate(firsts[:-1]):
+            if not giants[w]:
+                continue
+            if start is None:  # exp(0j): the weights themselves
+                giant.real[first], giant.imag[first] = weights[w], 0.0
+            else:
+                np.multiply(start.real, weights[w], out=giant.real[first])
+                np.multiply(start.imag, weights[w], out=giant.imag[first])
+            for g in range(first + 1, first + giants[w]):
+                np.multiply(giant[g - 1], leap, out=giant[g])
+        table = giant @ baby.T
+        for w, (first, last) in enumerate(itertools.pairwise(firsts)):
+            sums = table[first:last].ravel()
+            if sums.size >= count:
+                out[w, members] = sums[index]
+            else:
+                inside = index < sums.size
+                out[w, members] = np.nan
+                out[w, members[inside]] = sums[index[inside]]
     negative = plan.negative
     out[:, negative] = np.conj(out[:, negative])
     return out
@@ -271,6 +372,9 @@ class SumsPlan:
     difference: NDArray[np.intp]
     conjugated: NDArray[np.bool_]
     shifts: tuple[tuple[NDArray[np.intp], ...], ...]
+    #: :func:`phasor_sums`'s extents of the weights ones and the residual: the residual is
+    #: read at the orders only, the lower part of each grid.
+    extents: NDArray[np.int64]
 
 
 @lru_cache(maxsize=64)
@@ -315,6 +419,15 @@ def sums_plan(
         for k in range(1, len(parts), 4)
     )
     difference, conjugated = np.abs(apart), apart < 0
-    for array in (frequencies, difference, conjugated, *(a for shift in shifts for a in shift)):
+    at_orders = np.concatenate([shift[3] for shift in shifts])
+    extents = np.array(
+        [
+            (int(index.max()) + 1, int(index[np.isin(members, at_orders)].max(initial=-1)) + 1)
+            for members, _, index in phasors.classes
+        ],
+        dtype=np.int64,
+    )
+    kept = (frequencies, difference, conjugated, extents, *(a for s in shifts for a in s))
+    for array in kept:
         array.flags.writeable = False
-    return SumsPlan(frequencies, phasors, difference, conjugated, shifts)
+    return SumsPlan(frequencies, phasors, difference, conjugated, shifts, extents)
