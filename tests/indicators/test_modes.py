@@ -270,15 +270,33 @@ def test_a_known_motion_at_another_load_is_scored_in_its_mode_when_asked() -> No
     assert library.match(_description(rng, signature=heavier)) == "mode1"
 
 
+def test_a_taught_payload_keeps_its_captures_when_the_motion_is_noisy() -> None:
+    # Two modes of one motion, told apart by the carried load (3.0 and 3.4 of a torque scale
+    # of 10: half a tolerance). A capture at the taught load, with a motion reading off by as
+    # much from both, is the taught mode's: the load decides, not the noisier reading.
+    rng = np.random.default_rng(14)
+    library = _learned(rng, 8)
+    taught = SIGNATURE * [1.0, 1.0, 1.0, 1.0, 1.0, 0.99, 3.4 / 3.0]
+    for k in range(5):
+        library.teach(_description(rng, signature=taught, source=f"t{k}.csv"), mode="heavy")
+    probe = taught * [1.0, 1.0, 1.0, 1.0, 1.0, 0.54 / 0.495, 1.0]
+    description = CaptureDescription("p.csv", probe, 10.0, Readings({}), np.zeros(SPECTRUM_BANDS))
+    assert library.match(description) == "heavy"
+
+
 def test_teach_makes_an_alarm_of_a_known_mode_a_new_mode() -> None:
     rng = np.random.default_rng(12)
     library = _learned(rng, 8)
     members = list(library.modes_["mode0"].members)
-    heavier = [_description(rng, friction=2.0, source=f"h{k}.csv") for k in range(2)]
+    # A payload: the carried load a tenth higher, within the mode's tolerance.
+    loaded = SIGNATURE * [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.1]
+    heavier = [
+        _description(rng, signature=loaded, friction=2.0, source=f"h{k}.csv") for k in range(2)
+    ]
     assert library.score(heavier[0]).alarm
     assert [library.teach(d) for d in heavier] == ["mode1", "mode1"]
     assert library.modes_["mode0"].members == members
-    assert library.score(_description(rng, friction=2.0)).mode == "mode1"
+    assert library.score(_description(rng, signature=loaded, friction=2.0)).mode == "mode1"
 
 
 def test_a_false_alarm_joins_its_mode_and_restarts_a_drifted_one() -> None:
