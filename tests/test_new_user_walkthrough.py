@@ -15,10 +15,12 @@ from typer.testing import CliRunner
 
 import axiswatch as aw
 import axiswatch.monitor as awm
+from axiswatch import IndicatorModel
 from axiswatch.cli import app
 from axiswatch.datasets import draw_robot
 from axiswatch.exceptions import ProfileError
 from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._axis import IndicatorBaseline
 from axiswatch.indicators._readings import read_indicators
 from axiswatch.monitor.report.charts import distance_chart
 from tests.conftest import settle
@@ -289,3 +291,16 @@ def test_the_indicator_distance_panel_names_its_unit() -> None:
     )
     chart = distance_chart(rows, div_id="g-l", indicators=False)
     assert "distance (indicators) in thresholds" in chart
+
+
+def test_a_capture_too_short_for_motion_names_the_time_unit() -> None:
+    # Seconds declared as milliseconds: 4 s of motion read as 4 ms. Before: "needs motion (the
+    # speed was above 5 % of its peak for 0.00 s, ...)", six times, no word of the unit.
+    t = np.arange(0, 4, 1 / 250)
+    rates = dict.fromkeys(("position", "speed", "torque"), 250_000.0)
+    signals = {"position": np.sin(t), "speed": np.cos(t), "torque": np.sign(np.cos(t))}
+    read = IndicatorBaseline(IndicatorModel()).read(aw.Capture(signals, rates), None)[1]
+    assert read is not None
+    assert read.startswith("no indicator can be read (coulomb_friction, viscous_friction, ")
+    assert read.count("needs 0.2 s of motion, and the capture spans 0.004 s at 2.5e+05 Hz") == 1
+    assert "check the time unit: the profile's [units] time" in read

@@ -3,11 +3,29 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from axiswatch._axis_model import Assessment
 
-__all__ = ["IndicatorAssessment"]
+__all__ = ["IndicatorAssessment", "grouped_reasons"]
+
+
+def grouped_reasons(reasons: Mapping[str, str]) -> str:
+    """Why indicators are not read, a reason shared by several said once.
+
+    Examples
+    --------
+    >>> grouped_reasons({"a": "needs motion", "b": "needs motion", "c": "needs torque"})
+    'a, b: each needs motion; c needs torque'
+    """
+    names: dict[str, list[str]] = {}
+    for name, why in reasons.items():
+        names.setdefault(why, []).append(name)
+    return "; ".join(
+        f"{group[0]} {why}" if len(group) == 1 else f"{', '.join(group)}: each {why}"
+        for why, group in names.items()
+    )
 
 
 @dataclass(frozen=True)
@@ -71,13 +89,7 @@ class IndicatorAssessment(Assessment):
         """One line: what moved, or why nothing could be scored."""
         if not self.scored:
             # One reason shared by every indicator (no motion) is said once, not once each.
-            names: dict[str, list[str]] = {}
-            for name, why in self.unavailable.items():
-                names.setdefault(why, []).append(name)
-            return "not scored: " + "; ".join(
-                f"{group[0]} {why}" if len(group) == 1 else f"{', '.join(group)}: each {why}"
-                for why, group in names.items()
-            )
+            return "not scored: " + grouped_reasons(self.unavailable)
         assert self.top is not None
         entry = self.indicators[self.top]
         # Without an envelope every capture is scored one way: the case says nothing (details

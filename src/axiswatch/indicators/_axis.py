@@ -18,7 +18,7 @@ from axiswatch._axis_model import Assessment, MonitoredModel
 from axiswatch._capture import Capture, rate_at_least
 from axiswatch._profiles import AxisProfile
 from axiswatch.exceptions import CalibrationError, CaptureError
-from axiswatch.indicators._assessment import IndicatorAssessment
+from axiswatch.indicators._assessment import IndicatorAssessment, grouped_reasons
 from axiswatch.indicators._fleet import (
     LEAVE_SELF_OUT_MAX_AXES,
     FleetPrior,
@@ -98,8 +98,7 @@ class IndicatorBaseline:
         )
         if read.available():
             return read, None
-        reasons = "; ".join(f"{k} {v}" for k, v in read.reasons.items())
-        return read, f"no indicator can be read ({reasons})"
+        return read, f"no indicator can be read ({grouped_reasons(read.reasons)})"
 
     def fit_read(
         self, read: Sequence[Readings], names: Sequence[tuple[str, str]]

@@ -455,7 +455,15 @@ def read_indicators(
     errors = dict.fromkeys(FRICTION, math.nan) if whole_moves else {}
     if peak <= 0 or moving.sum() < min_samples:
         still = "needs motion (the axis did not move)"
-        if peak > 0:
+        span = float(m.time_s[-1] - m.time_s[0]) if m.time_s.size else 0.0
+        if span < 0.2:
+            # Shorter than the least motion read: seconds declared as milliseconds read so.
+            still = (
+                f"needs 0.2 s of motion, and the capture spans {span:.3g} s at "
+                f"{m.rate_hz:.4g} Hz (if it is longer, check the time unit: the profile's "
+                "[units] time)"
+            )
+        elif peak > 0:
             # It moved, but its top speed is a spike (a step in the position, such as two
             # records joined end to end): say so, or "did not move" misleads.
             still = (
