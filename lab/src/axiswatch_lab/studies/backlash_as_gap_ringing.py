@@ -87,7 +87,11 @@ def reversal_bursts_before(m: Motion) -> tuple[float, str | None]:
     if seconds_moving < MIN_BAND_MOTION_S:
         return math.nan, f"needs {MIN_BAND_MOTION_S:g} s of motion (got {seconds_moving:.2g} s)"
     bursts = reversal_bursts(
-        m.torque, _band(m), m.rate_hz, moving, smoothing_hz=min(10.0, 0.05 * m.rate_hz)
+        m.torque,
+        _band(m.torque, m.rate_hz),
+        m.rate_hz,
+        moving,
+        smoothing_hz=min(10.0, 0.05 * m.rate_hz),
     )
     if not math.isfinite(bursts):
         return math.nan, "needs torque reversals while moving (none in this capture)"

@@ -122,7 +122,7 @@ def order_spectrum(m: Motion, band: str = "rate") -> OrderSpectrum | str:
     if band == "wide":
         return product_order_spectrum(m.position, m.speed, m.torque, m.rate_hz)
     low_hz, high_hz = (f * m.rate_hz for f in BAND_FRACTION)
-    torque = _band(m) if m.rate_hz >= MIN_BAND_RATE_HZ else m.torque
+    torque = _band(m.torque, m.rate_hz) if m.rate_hz >= MIN_BAND_RATE_HZ else m.torque
     return product_order_spectrum(m.position, m.speed, torque, m.rate_hz, (low_hz, high_hz))
 
 
