@@ -50,7 +50,7 @@ def test_the_former_reading_is_the_product_s_before_the_change() -> None:
     from axiswatch_lab._product import MOVING_FRACTION, _band
 
     moving = np.abs(m.speed) > MOVING_FRACTION * np.max(np.abs(m.speed))
-    expected = naive.reversal_bursts(m.torque, _band(m), m.rate_hz, moving, 10.0)
+    expected = naive.reversal_bursts(m.torque, _band(m.torque, m.rate_hz), m.rate_hz, moving, 10.0)
     assert math.isclose(value, expected, rel_tol=1e-12)
     slow = motion(draw_robot(DEVELOPMENT_ROBOTS[6]).capture(1, seed="before"))
     assert reversal_bursts_before(slow)[1] == "needs a torque rate >= 100 Hz (got 20 Hz)"
