@@ -239,7 +239,6 @@ def monitor(
         client = None if dask is None else connect_dask(dask, dask_timeout)
         try:
             with Store(store) as opened, _progress(progress) as update:
-                alarmed = opened.alarmed_captures(config.method)
                 result = monitor_fleet(
                     root, opened, config, workers=workers, dask=client, progress=update,
                     settle_s=settle, stale_after=silence,
@@ -248,7 +247,7 @@ def monitor(
                 for line in fleet_table(opened, silence, result.method):
                     echo(line)
                 verdicts = verdict_lines(opened, result.method, silence)
-                cleared = cleared_alarm_lines(opened, result.method, alarmed, store)
+                cleared = cleared_alarm_lines(opened, result.method, result.alarmed_before, store)
         finally:
             if client is not None:
                 client.close()

@@ -334,6 +334,7 @@ def monitor_fleet(
             if not r.transient and holds(run, r)
         }
         run.alarmed = store.alarmed_captures(run.method)
+        run.summary.alarmed_before = set(run.alarmed)
 
         grouped: dict[tuple[str, str], list[FleetFile]] = defaultdict(list)
         for file in files:

@@ -91,6 +91,8 @@ class MonitorSummary:
     unread: UnreadIndicators = field(default_factory=UnreadIndicators)
     #: Per axis: captures of this run with lone torque spikes repaired, and the spikes.
     repaired: dict[str, tuple[int, int]] = field(default_factory=dict)
+    #: ``(robot, axis, capture)`` of the captures in alarm before this run scored any.
+    alarmed_before: set[tuple[str, str, str]] = field(default_factory=set)
 
     def note_repairs(self, axis: str, details: Mapping[str, Any]) -> None:
         """Count a scored capture's repaired spikes (``details["repaired_spikes"]``)."""

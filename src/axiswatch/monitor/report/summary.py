@@ -136,7 +136,7 @@ def cleared_alarm_lines(
 
     A run that scores a backlog (a first run, a share mounted again) can raise an alarm and
     clear it: the state after the run is "ok", and the exit status says nothing.
-    ``alarmed_before``: ``store.alarmed_captures(method)`` before the run.
+    ``alarmed_before``: the run's ``MonitorSummary.alarmed_before``.
     """
     from axiswatch.monitor.report.results import fleet_results
 
