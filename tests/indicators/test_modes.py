@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.stats import norm
 
 from axiswatch import Capture
 from axiswatch._mode_declaration import ModeDeclaration, parse_mode_section
@@ -200,6 +201,17 @@ def test_the_threshold_grows_steadier_with_healthy_evidence() -> None:
         library.update(_description(rng))
     assert len(library.within_mode_distances()[0]) > n_early
     assert all(math.isfinite(t) for t in library.thresholds())
+
+
+def test_the_first_threshold_counts_every_tail_tested() -> None:
+    # Before 30 distances pool, the readings' threshold is a Bonferroni bound over the tails:
+    # two for coulomb and viscous friction (a change either way), one for impulsiveness.
+    rng = np.random.default_rng(9)
+    library = _learned(rng, 6)
+    assert len(library.within_mode_distances()[0]) < 30
+    assert library.tails() == 5
+    each = (1.0 - library.percentile / 100.0) / 2.0
+    assert library.thresholds()[0] == pytest.approx(norm.isf(each / 5), rel=1e-12)
 
 
 def test_declared_modes_are_kept_apart() -> None:

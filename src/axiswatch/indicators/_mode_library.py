@@ -390,13 +390,20 @@ class ModeLibrary:
         each = 100.0 - (100.0 - self.percentile) / 2.0
         pooled = [*readings, *self.fleet_distances]
         return (
-            self._young(pooled, each, len(GUARD_READINGS) + 2),
+            self._young(pooled, each, self.tails()),
             self._young(spectra, each, SPECTRUM_BANDS),
         )
 
+    def tails(self) -> int:
+        """How many one-sided shifts a capture's readings are tested for: two for a reading
+        whose change either way is abnormal, one for the others (at least 1)."""
+        both = self._stats().both
+        return max(int(both.size + both.sum()), 1)
+
     def _young(self, distances: Sequence[float], percentile: float, m: int) -> float:
         """The empirical tail from :data:`MIN_TAIL_DISTANCES` pooled distances on; before, the
-        largest of ``m`` normal shifts (the readings' shifts are put on the normal scale)."""
+        largest of ``m`` normal shifts (the readings' shifts are put on the normal scale): a
+        Bonferroni bound over the ``m`` tails tested."""
         if len(distances) >= MIN_TAIL_DISTANCES:
             return tail_threshold(distances, percentile)
         return float(norm.isf((1.0 - percentile / 100.0) / m))
