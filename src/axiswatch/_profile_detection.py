@@ -575,6 +575,8 @@ def detect_file(path: str | Path) -> FileGuess:
     ('unix', 'ms', 'A1', {'A1_Pos_deg': 'position', 'A1_Cur_A': 'torque'})
     """
     path = Path(path)
+    if not path.exists():
+        return FileGuess(path, problem="no such file or folder")
     try:
         frame, layout = _read(path)
     except Exception as exc:  # pandas, pyarrow and the registry raise many types
