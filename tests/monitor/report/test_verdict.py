@@ -154,6 +154,19 @@ def test_the_engineers_feedback_sets_the_state() -> None:
     assert _verdict(levels, by="ana").feedback == "ana saw it on 2026-04-01: looked at it."
 
 
+def test_a_confirmed_fault_no_longer_asks_to_record_a_task_change() -> None:
+    # The linear axis's friction alarm, acknowledged with --fault-confirmed. Before: "... If the
+    # tool or payload changed, record it: axiswatch ack --task-changed. After the repair: ...".
+    frame = _axis([0.2, 1.5, 1.6], top="load_forward")
+    [open_alarm] = axis_verdicts([_item(frame, "alarm")], frame, [_alarm(frame)])
+    assert "ack --task-changed" in open_alarm.action  # a payload change moves it too
+    alarm = _alarm(frame, verdict="fault-confirmed", by="ana")
+    [confirmed] = axis_verdicts([_item(frame, "acknowledged")], frame, [alarm])
+    assert confirmed.action.startswith("Check the lubrication of the gearbox or ball screw")
+    assert "--task-changed" not in confirmed.action
+    assert confirmed.action.endswith("After the repair: axiswatch ack --rebaseline.")
+
+
 def test_verdicts_rank_by_urgency_then_sureness() -> None:
     single, run = _axis([0.2, 1.2], axis="a1"), _axis([1.1, 1.1], axis="a2")
     ok = _axis([0.2], axis="a3")

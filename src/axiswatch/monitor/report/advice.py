@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ADVICE", "Advice", "advice_for", "indicator_colour", "part_words"]
+__all__ = ["ADVICE", "TASK_CHANGE_HINT", "Advice", "advice_for", "indicator_colour", "part_words"]
 
 
 @dataclass(frozen=True)
@@ -44,7 +44,8 @@ class Advice:
     colour: str
 
 
-_PAYLOAD = "If the tool or payload changed, record it: axiswatch ack --task-changed."
+#: The hint of a drive load's advice that a payload change moves it too.
+TASK_CHANGE_HINT = "If the tool or payload changed, record it: axiswatch ack --task-changed."
 _PLAY = "Check the drive train for play; a new lubricant also lowers friction."
 #: The parts that carry the load on a rotary axis and on a linear one.
 _DRIVE = "gearbox or ball screw"
@@ -59,8 +60,9 @@ def _drive_load(direction: str, colour: str) -> Advice:
         rising=f"friction rising in {direction} moves",
         falling=f"friction falling in {direction} moves",
         component="drive train lubrication",
-        action=f"Check the lubrication of the {_DRIVE}: grease level, leaks, seals. {_PAYLOAD}",
-        action_falling=f"{_PLAY} {_PAYLOAD}",
+        action=f"Check the lubrication of the {_DRIVE}: grease level, leaks, seals. "
+        + TASK_CHANGE_HINT,
+        action_falling=f"{_PLAY} {TASK_CHANGE_HINT}",
         colour=colour,
     )
 
