@@ -369,3 +369,17 @@ def test_files_of_one_axis_whose_rates_differ_past_three_digits_share_a_row(
     assert len(rows) == 1, shown.output
     assert "+2" in rows[0]
     assert "21.3" in rows[0]
+
+
+def test_a_file_without_a_whole_axis_names_the_columns_it_found(tmp_path: Path) -> None:
+    # The cobot sample's index.csv. Before: "... column; found {'-': ['torque']}": a Python
+    # dict that named no column.
+    from axiswatch._profile_detection import detect_file
+
+    path = tmp_path / "x.csv"
+    path.write_text("time;A1_Pos_deg\n0;1\n1;2\n2;3\n", encoding="utf-8")
+    problem = detect_file(path).problem
+    assert problem is not None
+    assert problem.endswith("column; found axis A1: position 'A1_Pos_deg'")
+    path.write_text("time;Note\n0;a\n1;b\n2;c\n", encoding="utf-8")
+    assert str(detect_file(path).problem).endswith("column; found none of them")
