@@ -62,3 +62,10 @@ def test_threshold_description_names_its_origin() -> None:
     )
     described = stored_threshold(fit.threshold(95.0), fit, DecisionRule(percentile=95.0))
     assert described.describe().startswith("95th pct")
+
+
+def test_a_likely_fault_names_no_gearbox_a_linear_axis_lacks() -> None:
+    # A ball-screw or linear servo axis has no gearbox. Before: "backlash in the gearbox".
+    for name, meaning in LIKELY_FAULTS.items():
+        if name != "tooth_lines":  # read only where the profile declares a gear stage
+            assert "gearbox" not in meaning or "ball screw" in meaning, (name, meaning)

@@ -197,7 +197,7 @@ def test_results_formats_and_filters(fleet: Path, tmp_path: Path) -> None:
     assert len(records) == 18
     assert {r["role"] for r in records} == {"baseline", "calibration", "monitor"}
     none = runner.invoke(app, ["results", "--store", str(store), "--robot", "robot09"])
-    assert "No scored captures." in none.output
+    assert "No scored captures for --robot robot09; the store holds " in none.output
     # A second method in the same store: --method keeps one.
     runner.invoke(app, ["monitor", str(fleet), "--method", "pca", "--store", str(store)])
     both = runner.invoke(app, ["results", "--store", str(store), "--format", "csv"])

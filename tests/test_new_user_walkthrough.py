@@ -23,6 +23,7 @@ from axiswatch.indicators._assessment import IndicatorAssessment
 from axiswatch.indicators._axis import IndicatorBaseline
 from axiswatch.indicators._readings import read_indicators
 from axiswatch.monitor.report.charts import distance_chart
+from axiswatch.monitor.report.verdict import attention_lines
 from tests.conftest import settle
 
 runner = CliRunner()
@@ -304,3 +305,81 @@ def test_a_capture_too_short_for_motion_names_the_time_unit() -> None:
     assert read.startswith("no indicator can be read (coulomb_friction, viscous_friction, ")
     assert read.count("needs 0.2 s of motion, and the capture spans 0.004 s at 2.5e+05 Hz") == 1
     assert "check the time unit: the profile's [units] time" in read
+
+
+def test_a_report_folder_that_is_a_file_is_named_as_such(tmp_path: Path) -> None:
+    # `report --out rep/index.html`, the page's own path. Before: "error: [Errno 17] File
+    # exists: 'rep/index.html'".
+    with aw.Store(tmp_path / "s.db"):
+        pass
+    page = tmp_path / "index.html"
+    page.write_text("an older report")
+    shown = runner.invoke(app, ["report", "--store", str(tmp_path / "s.db"), "--out", str(page)])
+    assert shown.exit_code == 1
+    assert f"report folder '{page}' is a file; expected a folder" in shown.output
+    assert "Errno" not in shown.output
+    assert page.read_text() == "an older report"
+
+
+def test_a_run_without_any_baseline_does_not_count_zero_of_zero_axes() -> None:
+    # The cobot sample: 6 axes calibrating, none with a baseline yet. Before: the run ended
+    # with "Needs attention (indicators): 0 of 0 axes" below "Axes calibrating (6)".
+    assert attention_lines([], "indicators") == [
+        "Needs attention (indicators): none; no axis has a baseline yet."
+    ]
+
+
+def test_results_for_a_robot_the_store_lacks_names_what_it_holds(
+    small_fleet: Path, tmp_path: Path
+) -> None:
+    # `results --robot act9` (a typo): before, "No scored captures." as for an empty store.
+    root = Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
+    store = tmp_path / "s.db"
+    with aw.Store(store) as opened:
+        aw.monitor_fleet(root, opened, aw.MonitorConfig(method="pca"), settle_s=0)
+    shown = runner.invoke(app, ["results", "--store", str(store), "--robot", "robot9"])
+    assert shown.exit_code == 0, shown.output
+    assert shown.output.strip() == (
+        "No scored captures for --robot robot9; the store holds robot01/axis1 (pca), "
+        "robot01/axis2 (pca)."
+    )
+
+
+def test_profile_of_a_missing_file_says_so_without_an_empty_table(tmp_path: Path) -> None:
+    # Before: an empty table, then "cannot be read: [Errno 2] No such file or directory".
+    missing = tmp_path / "nothere.csv"
+    shown = runner.invoke(app, ["profile", str(missing)])
+    assert shown.exit_code == 1
+    assert f"{missing}: no such file or folder" in shown.output
+    assert "What the files hold" not in shown.output
+
+
+def test_files_of_one_axis_whose_rates_differ_past_three_digits_share_a_row(
+    tmp_path: Path,
+) -> None:
+    # The linear axis's PLC log cut into 20 s files: each file's rate differs in the fourth
+    # digit (21.3354, 21.3363, ...). Before: the table had one row per file, 21 of one axis.
+    for k, step in enumerate((0.04690, 0.04688, 0.04685)):
+        t = 1_750_000_000.0 + k * 3600 + np.arange(400) * step
+        frame = pd.DataFrame({"time": t, "position": np.sin(t - t[0]), "current": np.cos(t)})
+        frame.to_csv(tmp_path / f"2025-06-02T0{k}-00-00.csv", index=False)
+    shown = runner.invoke(app, ["profile", str(tmp_path)], env={"COLUMNS": "200"})
+    assert shown.exit_code == 0, shown.output
+    rows = [line for line in shown.output.splitlines() if "2025-06-02T0" in line]
+    assert len(rows) == 1, shown.output
+    assert "+2" in rows[0]
+    assert "21.3" in rows[0]
+
+
+def test_a_file_without_a_whole_axis_names_the_columns_it_found(tmp_path: Path) -> None:
+    # The cobot sample's index.csv. Before: "... column; found {'-': ['torque']}": a Python
+    # dict that named no column.
+    from axiswatch._profile_detection import detect_file
+
+    path = tmp_path / "x.csv"
+    path.write_text("time;A1_Pos_deg\n0;1\n1;2\n2;3\n", encoding="utf-8")
+    problem = detect_file(path).problem
+    assert problem is not None
+    assert problem.endswith("column; found axis A1: position 'A1_Pos_deg'")
+    path.write_text("time;Note\n0;a\n1;b\n2;c\n", encoding="utf-8")
+    assert str(detect_file(path).problem).endswith("column; found none of them")

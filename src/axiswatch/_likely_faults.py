@@ -13,8 +13,8 @@ __all__ = ["LIKELY_FAULTS", "describe_top_indicator"]
 LIKELY_FAULTS: dict[str, str] = {
     "viscous_friction": "friction (lubrication, seals, wear)",
     "viscous_friction_deficit": "lost motion (backlash) breaking the energy balance",
-    "impulsiveness": "impacts (backlash or a damaged gear tooth)",
-    "reversal_bursts": "backlash in the gearbox",
+    "impulsiveness": "impacts (backlash, or damage in the gearbox or ball screw)",
+    "reversal_bursts": "backlash in the drive train",
     "tooth_lines": "a damaged gear tooth",
     "bearing_lines": "a bearing defect",
 }

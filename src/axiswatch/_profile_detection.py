@@ -575,6 +575,8 @@ def detect_file(path: str | Path) -> FileGuess:
     ('unix', 'ms', 'A1', {'A1_Pos_deg': 'position', 'A1_Cur_A': 'torque'})
     """
     path = Path(path)
+    if not path.exists():
+        return FileGuess(path, problem="no such file or folder")
     try:
         frame, layout = _read(path)
     except Exception as exc:  # pandas, pyarrow and the registry raise many types
@@ -613,11 +615,17 @@ def detect_file(path: str | Path) -> FileGuess:
         if "torque" in a.columns.values() and {"position", "speed"} & set(a.columns.values())
     )  # fmt: skip
     if not placed:
-        found = {a.axis or "-": sorted(a.columns.values()) for a in axes}
+        # In words, with the columns: "found {'-': ['torque']}" named neither.
+        found = "; ".join(
+            (f"axis {a.axis}: " if a.axis else "")
+            + ", ".join(f"{role} {column!r}" for column, role in sorted(a.columns.items()))
+            for a in axes
+            if a.columns
+        )  # fmt: skip
         return FileGuess(
             path, layout, time_column, kind, unit, first,
             problem=f"no axis with both a position (or speed) and a torque (or current) column; "
-            f"found {found}",
+            f"found {found or 'none of them'}",
         )  # fmt: skip
     return FileGuess(
         path, layout, time_column, kind, unit, first, placed, irregular=_irregular(stamps_s)

@@ -289,7 +289,7 @@ def profile(
         paths, empty = export_files(files)
         guesses = [detect_file(path) for path in paths]
         plan = plan_layout(guesses, fleet or Path("fleet"), robot, force=force)
-        if guesses:
+        if any(guess.axes for guess in guesses):  # an empty table says nothing
             _show_guesses(guesses)
         unplaced = [*((path, "a folder without capture files") for path in empty),
                     *plan.unplaced]  # fmt: skip
@@ -345,6 +345,7 @@ def results(
         _require_store(store)
         with Store(store, read_only=True) as opened:
             frame = fleet_results(opened, robot=robot, axis=axis)
+            known = opened.summary_table()[["robot", "axis", "method"]]
         if method is not None:
             frame = frame[frame["method"] == method].reset_index(drop=True)
         columns = ["robot", "axis", "capture", "method", "distance", "threshold", "alarm"]
@@ -354,7 +355,7 @@ def results(
             records = frame.assign(details=frame["details"].map(json.loads))
             echo(records.to_json(orient="records", indent=1))
         elif frame.empty:
-            echo("No scored captures.")
+            echo(_no_results(known, robot=robot, axis=axis, method=method))
         else:
             # The engineer's feedback on an acknowledged alarm (ack --false-alarm, ...).
             said = ["feedback"] if frame.feedback.notna().any() else []
@@ -370,6 +371,20 @@ def results(
                 echo("\nIndicators not read:")
                 for line in unread:
                     echo(f"  {line}")
+
+
+def _no_results(
+    known: pd.DataFrame, *, robot: str | None, axis: str | None, method: str | None
+) -> str:
+    """No scored captures, and the robots and axes the store holds when a filter named none."""
+    asked = {"--robot": robot, "--axis": axis, "--method": method}
+    given = {option: value for option, value in asked.items() if value is not None}
+    if not given or known.empty:
+        return "No scored captures."
+    filters = ", ".join(f"{option} {value}" for option, value in given.items())
+    held = sorted({f"{r}/{a} ({m})" for r, a, m in known.itertuples(index=False)})
+    shown = ", ".join(held[:10]) + (f" and {len(held) - 10} more" if len(held) > 10 else "")
+    return f"No scored captures for {filters}; the store holds {shown}."
 
 
 def _require_store(store: Path) -> None:

@@ -123,7 +123,9 @@ def show_guesses(guesses: list[Any]) -> None:
                 cells[0] += f" in {axis.position_unit}{assumed}"
             elif "speed" in by_role:
                 cells[1] += f" in {axis.position_unit}/s{assumed}"
-            rates = ", ".join(sorted({f"{rate:.6g}" for rate in axis.rates_hz.values()}))
+            # To 0.1 Hz: a PLC's irregular steps give each file its own rate in the next digit,
+            # and one axis took a row per file.
+            rates = ", ".join(sorted({_hz(rate) for rate in axis.rates_hz.values()}))
             time = f"{guess.time_column} ({guess.time_kind} {guess.time_unit})"
             key = (written, axis.axis or "-", time, *cells, rates)
             rows.setdefault(key, []).append(guess.path.name)
@@ -142,6 +144,17 @@ def show_guesses(guesses: list[Any]) -> None:
     for same in causes.values():
         more = f" (and {len(same) - 1} more like it)" if len(same) > 1 else ""
         echo(f"note: {same[0]}{more}")
+
+
+def _hz(rate: float) -> str:
+    """A rate to 0.1 Hz, without a trailing ``.0``.
+
+    Examples
+    --------
+    >>> _hz(21.3354), _hz(250.0), _hz(2048.0)
+    ('21.3', '250', '2048')
+    """
+    return f"{rate:.1f}".removesuffix(".0")
 
 
 def _terminal_width() -> int:

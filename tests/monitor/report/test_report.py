@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 import shutil
+import sqlite3
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
@@ -41,14 +43,61 @@ def fleet(small_fleet: Path, tmp_path: Path) -> Path:
     return Path(shutil.copytree(small_fleet, tmp_path / "fleet"))
 
 
+def _arrived_earlier(store: Store, days: float = 1 / 24) -> None:
+    """Date every axis's last new file ``days`` back (an hour): the next run's files arrive
+    later."""
+    then = (datetime.now(UTC) - timedelta(days=days)).isoformat(timespec="seconds")
+    with sqlite3.connect(store.path) as connection:
+        connection.execute("UPDATE axis_activity SET last_seen_at=?", (then,))
+
+
+def test_a_fleet_imported_at_once_is_not_stale(fleet: Path, tmp_path: Path) -> None:
+    # Units recorded on different days and imported in one run (the real hydraulic actuators,
+    # a linear axis's log of last year). Before: "Stale: no capture since 2026-03-05, 4 days
+    # 00:00:00 behind the fleet's newest", and "No new captures: check the logger".
+    axis1, axis2 = fleet / "robot01/axis1", fleet / "robot01/axis2"
+    for day in (8, 9):  # axis2 was recorded up to 03-07, axis1 up to 03-11
+        (axis2 / f"2026-03-0{day}.parquet").unlink()
+    shutil.copy(axis1 / "2026-03-09.parquet", axis1 / "2026-03-11.parquet")
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        items = _triage(store)
+    assert [i.kind for i in items.values()] == ["ok", "ok"]
+    assert not any("Stale" in i.line for i in items.values())
+
+
+def test_an_archive_read_days_later_says_how_to_stop_the_stale_flag(
+    fleet: Path, tmp_path: Path
+) -> None:
+    # Before: "Stale: no new capture file since ...", nothing for a user who imported history.
+    with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        _arrived_earlier(store, days=4)
+        items = triage(
+            fleet_summary(store, stale_after=timedelta(days=3)), fleet_results(store),
+            fleet_rejections(store), store.changed_file_table(), store.alarms(), method="pca",
+            checks=store.baseline_checks(),
+        )  # fmt: skip
+    assert [i.kind for i in items] == ["stale", "stale"]
+    assert all(i.line.endswith("An archive imported once gets no new files: --stale-after off.")
+               for i in items)  # fmt: skip
+
+
 def test_stale_and_bad_data_axes_need_attention_until_repaired(fleet: Path, tmp_path: Path) -> None:
     axis1, axis2 = fleet / "robot01/axis1", fleet / "robot01/axis2"
     held = tmp_path / "held"
     held.mkdir()
-    for day in (6, 7, 8, 9):  # axis2's captures after 03-05 arrive late
-        shutil.move(axis2 / f"2026-03-0{day}.parquet", held)
-    (axis1 / "2026-03-09T12-00-00.csv").write_bytes(b"")
+    for axis in (axis1, axis2):  # the captures after 03-05 arrive later
+        for day in (6, 7, 8, 9):
+            shutil.move(axis / f"2026-03-0{day}.parquet", held / f"{axis.name}-{day}.parquet")
     with Store(tmp_path / "s.db") as store:
+        monitor_fleet(fleet, store, PCA, settle_s=0)
+        _arrived_earlier(store)
+        # axis1's next captures arrive, one of them empty; axis2's stop.
+        for day in (6, 7, 8, 9):
+            shutil.move(held / f"axis1-{day}.parquet", axis1 / f"2026-03-0{day}.parquet")
+        (axis1 / "2026-03-09T12-00-00.csv").write_bytes(b"")
+        settle(fleet)
         monitor_fleet(fleet, store, PCA, settle_s=0)
         first = _triage(store)
         assert [i.kind for i in first.values()] == ["bad data", "stale"]  # ranked
@@ -56,15 +105,15 @@ def test_stale_and_bad_data_axes_need_attention_until_repaired(fleet: Path, tmp_
             first["robot01/axis1"].line
         )
         assert first["robot01/axis2"].line.startswith(
-            "Stale: no capture since 2026-03-05, 4 days 00:00:00 behind the fleet's newest "
-            "(4 x its usual interval of 1 days 00:00:00)."
+            "Stale: no capture since 2026-03-05, while other axes kept arriving: their newest "
+            "is 4.0 d later (4 x this axis's usual interval of 1.0 d)."
         )
         # The file is repaired (a good capture under the same name) and axis2 sends again.
         aw.write_capture(
             aw.read_capture(axis1 / "2026-03-02.parquet"), axis1 / "2026-03-09T12-00-00.csv"
         )
         for day in (6, 7, 8, 9):
-            shutil.move(held / f"2026-03-0{day}.parquet", axis2)
+            shutil.move(held / f"axis2-{day}.parquet", axis2 / f"2026-03-0{day}.parquet")
         monitor_fleet(fleet, store, PCA, settle_s=0)
         second = _triage(store)
     assert [i.kind for i in second.values()] == ["ok", "ok"]

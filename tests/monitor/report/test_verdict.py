@@ -127,9 +127,9 @@ def test_the_fault_part_and_action_come_from_the_table_in_words() -> None:
     frame = _axis([0.2, 1.5, 1.6], top="load_backward")
     [verdict] = axis_verdicts([_item(frame, "alarm")], frame, [_alarm(frame)])
     assert verdict.headline == (
-        "Friction rising in backward moves. Suspected: gearbox lubrication."
+        "Friction rising in backward moves. Suspected: drive train lubrication."
     )
-    assert verdict.action.startswith("Check the gearbox lubrication")
+    assert verdict.action.startswith("Check the lubrication of the gearbox or ball screw")
     assert verdict.indicator == "load_backward"
     assert "load_backward" in verdict.details  # the code name is kept, folded
     falling = frame.assign(details=[_details("load_backward", 1, falling=True)] * len(frame))
@@ -152,6 +152,19 @@ def test_the_engineers_feedback_sets_the_state() -> None:
     task = _verdict(levels, verdict="task-changed", by="ana")
     assert task.action.startswith("If the new task stays, re-baseline the axis")
     assert _verdict(levels, by="ana").feedback == "ana saw it on 2026-04-01: looked at it."
+
+
+def test_a_confirmed_fault_no_longer_asks_to_record_a_task_change() -> None:
+    # The linear axis's friction alarm, acknowledged with --fault-confirmed. Before: "... If the
+    # tool or payload changed, record it: axiswatch ack --task-changed. After the repair: ...".
+    frame = _axis([0.2, 1.5, 1.6], top="load_forward")
+    [open_alarm] = axis_verdicts([_item(frame, "alarm")], frame, [_alarm(frame)])
+    assert "ack --task-changed" in open_alarm.action  # a payload change moves it too
+    alarm = _alarm(frame, verdict="fault-confirmed", by="ana")
+    [confirmed] = axis_verdicts([_item(frame, "acknowledged")], frame, [alarm])
+    assert confirmed.action.startswith("Check the lubrication of the gearbox or ball screw")
+    assert "--task-changed" not in confirmed.action
+    assert confirmed.action.endswith("After the repair: axiswatch ack --rebaseline.")
 
 
 def test_verdicts_rank_by_urgency_then_sureness() -> None:
@@ -177,7 +190,7 @@ def test_verdicts_rank_by_urgency_then_sureness() -> None:
         "Needs attention (indicators): 3 of 5 axes; 1 axis with rejected or changed files "
         "('axiswatch rejections' lists them)"
     )
-    assert lines[1] == "  ACT NOW  r1/a2  Friction rising. Suspected: gearbox lubrication."
+    assert lines[1] == "  ACT NOW  r1/a2  Friction rising. Suspected: drive train lubrication."
     assert not any("r1/a4" in line for line in lines)
     assert any(line.startswith("  WATCH, UNCONFIRMED  r1/a1  ") for line in lines)
     assert lines[-1] == "  1 axis learning, 1 axis OK."
@@ -205,6 +218,19 @@ def test_every_indicator_has_words_and_its_own_colour() -> None:
     # Red, orange and green mark alarms, excursions and baselines in the charts.
     assert not {"#d62728", "#ff7f0e", "#2ca02c", "red", "orange", "green"} & set(colours)
     assert advice_for("no_such_indicator").rising == "an unusual reading"
+
+
+@pytest.mark.parametrize("top", [i.name for i in INDICATORS] + [ORDER_LINES.name])
+def test_an_indicator_read_without_gears_never_names_a_gearbox_alone(top: str) -> None:
+    # A linear axis (a ball screw, a linear servo) has no gearbox. Before: "Check the gearbox
+    # lubrication", "plan a gearbox service", "backlash in the gear train" for every axis.
+    frame = _axis([0.2, 1.3, 1.4], top=top)
+    [verdict] = axis_verdicts([_item(frame, "alarm")], frame, [_alarm(frame)])
+    row = ADVICE[top]
+    for text in (" ".join(verdict.sentences()), row.measures, row.action, row.action_falling):
+        assert "gear " not in text, text
+        assert "gear'" not in text, text
+        assert "gearbox" not in text or "gearbox or ball screw" in text, text
 
 
 def _colours(chart: str) -> dict[str, str]:

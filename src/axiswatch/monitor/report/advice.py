@@ -3,14 +3,15 @@
 The one table (:data:`ADVICE`) from an indicator's code name to words, read by the verdicts and
 the charts. Each row follows what the indicator measures (``axiswatch.indicators._readings``,
 ``axiswatch.indicators._ringing``, ``axiswatch.indicators._order_lines``). The code names stay
-in the report's details.
+in the report's details. The report does not know whether an axis turns a gearbox or a ball
+screw, so a row names the drive train and both, unless the profile declared a gear stage.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ADVICE", "Advice", "advice_for", "indicator_colour", "part_words"]
+__all__ = ["ADVICE", "TASK_CHANGE_HINT", "Advice", "advice_for", "indicator_colour", "part_words"]
 
 
 @dataclass(frozen=True)
@@ -43,8 +44,11 @@ class Advice:
     colour: str
 
 
-_PAYLOAD = "If the tool or payload changed, record it: axiswatch ack --task-changed."
-_PLAY = "Check the gear train for play; a new lubricant also lowers friction."
+#: The hint of a drive load's advice that a payload change moves it too.
+TASK_CHANGE_HINT = "If the tool or payload changed, record it: axiswatch ack --task-changed."
+_PLAY = "Check the drive train for play; a new lubricant also lowers friction."
+#: The parts that carry the load on a rotary axis and on a linear one.
+_DRIVE = "gearbox or ball screw"
 
 
 def _drive_load(direction: str, colour: str) -> Advice:
@@ -55,9 +59,10 @@ def _drive_load(direction: str, colour: str) -> Advice:
         measures=f"the torque that keeps the axis moving {direction} at steady speed",
         rising=f"friction rising in {direction} moves",
         falling=f"friction falling in {direction} moves",
-        component="gearbox lubrication",
-        action=f"Check the gearbox lubrication: grease level, leaks, seals. {_PAYLOAD}",
-        action_falling=f"{_PLAY} {_PAYLOAD}",
+        component="drive train lubrication",
+        action=f"Check the lubrication of the {_DRIVE}: grease level, leaks, seals. "
+        + TASK_CHANGE_HINT,
+        action_falling=f"{_PLAY} {TASK_CHANGE_HINT}",
         colour=colour,
     )
 
@@ -70,8 +75,8 @@ ADVICE: dict[str, Advice] = {
         measures="the friction torque that does not depend on speed",
         rising="friction rising",
         falling="friction falling",
-        component="gearbox lubrication",
-        action="Check the gearbox lubrication: grease level, leaks, seals.",
+        component="drive train lubrication",
+        action=f"Check the lubrication of the {_DRIVE}: grease level, leaks, seals.",
         action_falling=_PLAY,
         colour="#1f77b4",
     ),
@@ -90,18 +95,18 @@ ADVICE: dict[str, Advice] = {
         measures="short torque impacts while the axis moves",
         rising="impacts in the drive",
         falling="impacts in the drive",
-        component="gear teeth or gear play",
-        action="Inspect the gear train for a damaged tooth or play.",
-        action_falling="Inspect the gear train for a damaged tooth or play.",
+        component="damage or play in the drive train",
+        action=f"Inspect the {_DRIVE} for damage (a tooth, a ball track) or play.",
+        action_falling=f"Inspect the {_DRIVE} for damage (a tooth, a ball track) or play.",
         colour="#9467bd",
     ),
     "gap_ringing": Advice(
-        measures="ringing of the drive when the gear's load changes side",
+        measures="ringing of the drive when its load changes side",
         rising="impacts at reversals",
         falling="impacts at reversals",
-        component="backlash in the gear train",
-        action="Measure the play at the axis output; plan a gearbox service if it grew.",
-        action_falling="Measure the play at the axis output; plan a gearbox service if it grew.",
+        component="backlash in the drive train",
+        action=f"Measure the play at the axis output; service the {_DRIVE} if it grew.",
+        action_falling=f"Measure the play at the axis output; service the {_DRIVE} if it grew.",
         colour="#637939",
     ),
     "tooth_lines": Advice(
@@ -152,7 +157,7 @@ _SPARE_COLOURS = ("#7f7f7f", "#c49c94", "#f7b6d2", "#dbdb8d", "#aec7e8", "#ce6db
 _DEFAULT_PART = {
     "tooth_lines": "gear stages",
     "bearing_lines": "bearings",
-    "order_lines": "gears and bearings",
+    "order_lines": "rotating parts of the drive",
 }
 
 
@@ -179,7 +184,7 @@ def part_words(name: str, where: str | None = None) -> str:
     >>> part_words("order_lines", "new or grown order lines, most at order 12: bearing motor")
     'bearing motor'
     >>> part_words("order_lines", "new or grown order lines, most at order 12")
-    'gears and bearings'
+    'rotating parts of the drive'
     """
     family, _, own = name.partition(":")
     if own:

@@ -140,8 +140,10 @@ def triage(
         ``StoreBackend.baseline_checks()``: the checks of the active baselines, acknowledged or
         not (those of other methods are left out here).
     stale_factor : float, default=3.0
-        An axis is stale when its last capture is more than this many of its usual capture
-        intervals behind the fleet's newest capture (three missed captures in a row).
+        An axis is stale when its captures stopped while other axes kept arriving: its last
+        capture is more than this many of its usual capture intervals behind the newest
+        capture of the axes seen with new files after it (three missed captures in a row).
+        A fleet imported at once, its units recorded on different days, is not stale.
 
     Returns
     -------
@@ -156,7 +158,7 @@ def triage(
         | set(zip(rejected.robot, rejected.axis, strict=True))
         | set(zip(changed.robot, changed.axis, strict=True))
     )
-    newest = pd.to_datetime(own.captured_at).max() if not own.empty else None
+    arrived_later = _newest_arrived_later(rows, own)
     alarm_of = {(a.robot, a.axis): a for a in alarms if a.method == method}
     checks_of: dict[tuple[str, str], list[BaselineCheck]] = {}
     for check in checks:
@@ -224,20 +226,25 @@ def triage(
             )
         last_at = None if last is None else str(last["captured_at"])
         times = pd.to_datetime(history.captured_at)
+        newest = arrived_later.get((robot, axis))
         if newest is not None and len(times) >= 2:
             usual = times.diff().median()
             behind = newest - times.max()
             if usual > pd.Timedelta(0) and behind > stale_factor * usual:
                 problems.append("stale")
                 lines.append(
-                    f"Stale: no capture since {_day(last_at)}, {behind} behind the fleet's "
-                    f"newest ({behind / usual:.0f} x its usual interval of {usual})."
+                    f"Stale: no capture since {_day(last_at)}, while other axes kept "
+                    f"arriving: their newest is {_span(behind)} later ({behind / usual:.0f} x "
+                    f"this axis's usual interval of {_span(usual)})."
                 )
         if info is not None and info.get("state") == "stale" and "stale" not in problems:
             # The monitor's own notion of stale: no new capture file for longer than its
             # --stale-after, by the wall clock, whatever the dates of the captures say.
             problems.append("stale")
-            lines.append(f"Stale: no new capture file since {_day(str(info['last_seen']))}.")
+            lines.append(
+                f"Stale: no new capture file since {_day(str(info['last_seen']))}. An archive "
+                "imported once gets no new files: --stale-after off."
+            )
         stored = checks_of.get((robot, axis), [])
         if any(c.acknowledged_at is None for c in stored):
             problems.append("baseline check")
@@ -286,6 +293,46 @@ def triage(
             a.axis,
         ),
     )
+
+
+def _newest_arrived_later(
+    summary: pd.DataFrame, results: pd.DataFrame
+) -> dict[tuple[str, str], pd.Timestamp]:
+    """Per axis, the newest capture of the axes whose files arrived after its own last did.
+
+    Arrival is the summary's ``last_seen``: when a monitor run last saw a new file of the axis.
+    An axis missing here has no later arrival to compare with: an import, or a quiet fleet.
+    """
+    if "last_seen" not in summary.columns or results.empty:
+        return {}
+    newest = pd.to_datetime(results.captured_at).groupby([results.robot, results.axis]).max()
+    seen = summary.drop_duplicates(["robot", "axis"]).set_index(["robot", "axis"])["last_seen"]
+    table = pd.DataFrame({"seen": pd.to_datetime(seen, utc=True), "newest": newest}).dropna()
+    if table.empty:
+        return {}
+    # Sorted by arrival, latest first: the running maximum over strictly later arrivals.
+    by_arrival = table.groupby("seen")["newest"].max().sort_index(ascending=False)
+    later = by_arrival.cummax().shift(1)
+    return {
+        (str(robot), str(axis)): later[when]
+        for (robot, axis), when in table["seen"].items()
+        if pd.notna(later[when])
+    }
+
+
+def _span(span: pd.Timedelta) -> str:
+    """A time span in the unit a person reads: days, hours, minutes or seconds.
+
+    Examples
+    --------
+    >>> _span(pd.Timedelta(days=4)), _span(pd.Timedelta(minutes=73)), _span(pd.Timedelta(seconds=12))
+    ('4.0 d', '1.2 h', '12 s')
+    """
+    seconds = span.total_seconds()
+    for unit, size in (("d", 86_400.0), ("h", 3_600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.1f} {unit}"
+    return f"{seconds:.0f} s"
 
 
 def by_axis(frame: pd.DataFrame) -> dict[tuple[str, str], pd.DataFrame]:

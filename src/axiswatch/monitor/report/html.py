@@ -340,6 +340,11 @@ def write_report(
     Path
     """
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(
+            f"report folder '{out}' is a file; expected a folder, the report is written to "
+            "FOLDER/index.html."
+        )
     out.mkdir(parents=True, exist_ok=True)
     summary = fleet_summary(store, stale_after=stale_after)
     results = fleet_results(store)

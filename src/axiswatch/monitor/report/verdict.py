@@ -19,7 +19,7 @@ from typing import Any
 import pandas as pd
 
 from axiswatch.monitor._feedback import feedback_words
-from axiswatch.monitor.report.advice import advice_for, part_words
+from axiswatch.monitor.report.advice import TASK_CHANGE_HINT, advice_for, part_words
 from axiswatch.monitor.report.attention import AxisAttention, triage
 from axiswatch.monitor.report.results import fleet_rejections, fleet_results, fleet_summary
 from axiswatch.monitor.store import AlarmState, StoreBackend
@@ -323,7 +323,9 @@ def _fault_verdict(item: AxisAttention, own: pd.DataFrame, alarm: AlarmState | N
         # A person judged it: more captures no longer decide, the judgement does.
         state, confirmed = "watch", True
         if alarm.verdict == "fault-confirmed":
-            state, action = "act now", f"{advice} After the repair: axiswatch ack --rebaseline."
+            # The engineer found a fault: no longer a payload change to record.
+            repair = advice.replace(f" {TASK_CHANGE_HINT}", "")
+            state, action = "act now", f"{repair} After the repair: axiswatch ack --rebaseline."
         elif alarm.verdict == "false-alarm":
             action = "None while it stays as seen; an alarm raised again is news."
         elif alarm.verdict == "task-changed":
@@ -455,6 +457,8 @@ def attention_lines(verdicts: Sequence[Verdict], method: str) -> list[str]:
     files were rejected or changed are only counted: the run lists their files, which a first
     run of a misread export does by the hundred.
     """
+    if not verdicts:  # not "0 of 0 axes" while axes calibrate before their baseline is set
+        return [f"Needs attention ({method}): none; no axis has a baseline yet."]
     urgent = [v for v in verdicts if v.needs_attention]
     files = [v for v in urgent if v.state == "bad data" and v.kind == "bad data"]
     lines = [f"Needs attention ({method}): {len(urgent)} of {_axes(len(verdicts))}"]
