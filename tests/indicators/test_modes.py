@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from axiswatch._mode_declaration import ModeDeclaration, parse_mode_section
 from axiswatch.datasets import draw_robot
 from axiswatch.datasets._robot import Fault
 from axiswatch.exceptions import CaptureError
+from axiswatch.indicators._drift import cusum_limit
 from axiswatch.indicators._mode_library import ModeLibrary
 from axiswatch.indicators._modes import (
     PRIOR_MODE_TOLERANCE,
@@ -231,6 +233,7 @@ def test_declared_modes_are_kept_apart() -> None:
         ({"n_fit": 2}, "'n_fit' parameter must be an int >= 3"),
         ({"percentile": 100.0}, "'percentile' parameter must be a float in"),
         ({"n_fit": 5, "window": 4}, "'window' parameter must be an int >= n_fit"),
+        ({"drift_test": "mean"}, "'drift_test' parameter must be 'medians' or 'cusum'"),
     ],
 )
 def test_library_rejects_bad_parameters(kwargs: dict[str, float], match: str) -> None:
@@ -325,6 +328,40 @@ def test_a_false_alarm_joins_its_mode_and_restarts_a_drifted_one() -> None:
     assert len(mode.members) == library.n_fit + 1
     # The engineer's new level is the mode's normal: its like is healthy.
     assert not library.score(_description(rng, friction=1.3)).alarm
+
+
+def test_the_cusum_drift_test_finds_a_slow_fault_and_restarts_on_a_false_alarm() -> None:
+    rng = np.random.default_rng(13)
+    library = ModeLibrary(n_fit=5, drift_test="cusum")
+    for _ in range(6):
+        library.update(_description(rng))
+    verdicts = [library.update(_description(rng, friction=1.0 + 0.01 * k)) for k in range(30)]
+    first = next(k for k, v in enumerate(verdicts) if v.alarm)
+    assert verdicts[first].state == "drift"
+    assert verdicts[first].score < 1.0, "each capture alone is under the threshold"
+    level = _description(rng, friction=1.3, source="level.csv")
+    assert library.accept(level) == "mode0"
+    mode = library.modes_["mode0"]
+    assert not mode.drifted
+    # The drift test starts again from the captures kept.
+    assert mode.drift is not None
+    assert max(c.total for c in mode.drift.values()) < cusum_limit(1000.0)
+    assert not library.score(_description(rng, friction=1.3)).alarm
+
+
+def test_a_stored_library_takes_up_the_cusum_drift_test_from_its_captures() -> None:
+    rng = np.random.default_rng(15)
+    library = _learned(rng, 8)
+    assert library.modes_["mode0"].drift is None  # the medians' test keeps no state
+    del library.__dict__["drift_test"]  # as pickled before the drift test was an option
+    stored = pickle.loads(pickle.dumps(library))
+    assert stored.drift_test == "medians"
+    stored.drift_test = "cusum"
+    assert stored.update(_description(rng)).state == "known"
+    drift = stored.modes_["mode0"].drift
+    assert drift is not None
+    assert sorted(drift) == ["coulomb_friction", "impulsiveness", "viscous_friction"]
+    assert len(drift["coulomb_friction"].reference) == 9
 
 
 def test_teaching_a_declared_mode_not_yet_seen_keeps_its_name() -> None:

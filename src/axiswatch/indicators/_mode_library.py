@@ -3,6 +3,7 @@
 A capture of a known mode is scored in that mode's within-mode spreads. A capture of a new mode
 is scored by a guard: readings that grow with a fault whatever the mode. The threshold pools
 the within-mode distances of all the axis's modes (half-Laplace, :mod:`axiswatch._calibration`).
+A drift test keeps a slow fault from being learned into a mode's normal.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from numpy.typing import NDArray
 from scipy.stats import norm
 
 from axiswatch._calibration import HalfLaplaceFit
+from axiswatch.indicators._drift import ReadingCusum, cusum_limit
 from axiswatch.indicators._mode_normals import (
     ModeBlock,
     NormalStats,
@@ -47,11 +49,11 @@ GUARD_READINGS: tuple[str, ...] = (
 #: Readings compared in decades; and those where a change either way is abnormal.
 _LOG = {i.name for i in INDICATORS if i.log}
 _BOTH = {i.name for i in INDICATORS if i.sided == "both"}
+#: The median's standard error over the mean's, for Gaussian readings (sqrt(pi / 2)).
+_MEDIAN_EFFICIENCY = math.sqrt(math.pi / 2.0)
 #: Pooled within-mode distances from which their own tail sets the threshold: fewer left a
 #: tail of a handful of excesses, and thresholds of 8-14 spreads on development robots.
 MIN_TAIL_DISTANCES = 30
-#: The median's standard error over the mean's, for Gaussian readings (sqrt(pi / 2)).
-_MEDIAN_EFFICIENCY = math.sqrt(math.pi / 2.0)
 
 State = Literal["known", "learning", "drift", "still"]
 
@@ -187,6 +189,8 @@ class _Mode:
     reference: dict[str, float] | None = None
     drifted: bool = False
     joined: int = 0
+    #: The CUSUM drift test's state per guard reading; None until that test reads it.
+    drift: dict[str, ReadingCusum] | None = None
 
     @property
     def seen(self) -> int:
@@ -204,15 +208,31 @@ class _Mode:
         members = state.get("members", [])
         if isinstance(members, dict):  # columns (a library stored earlier kept a list)
             state = {**state, "members": _descriptions(members)}
-        self.__dict__.update(state)
+        self.__dict__.update({"drift": None, **state})
 
     def join(self, description: CaptureDescription, window: int) -> None:
-        """Add a capture; keep the first ``window`` (the first fit, the drift test's start)
-        and the latest ``window`` (the normal), so a stored library stays the same size."""
+        """Add a capture (to the CUSUM drift test too, once it reads the mode); keep the first
+        ``window`` (the first fit) and the latest ``window`` (the normal), so a stored library
+        stays the same size."""
         self.joined = self.seen + 1
         self.members.append(description)
+        if self.drift is not None:
+            self._track(description, window)
         if len(self.members) > 2 * window:
             del self.members[window:-window]
+
+    def track(self, window: int) -> dict[str, ReadingCusum]:
+        """The CUSUM drift test started again from the captures kept."""
+        self.drift = {}
+        for description in self.members:
+            self._track(description, window)
+        return self.drift
+
+    def _track(self, description: CaptureDescription, window: int) -> None:
+        assert self.drift is not None
+        for name, value in _row(description).items():
+            if _guarded(name) and math.isfinite(value):
+                self.drift.setdefault(name, ReadingCusum(window)).add(value)
 
 
 def tail_threshold(healthy_distances: Sequence[float], percentile: float) -> float:
@@ -274,6 +294,11 @@ class ModeLibrary:
     learn_below : float, default=1.0
         A known mode learns a capture scored at most this (in thresholds): one nearer the
         threshold is not an alarm, and does not widen the normal either.
+    drift_test : {"medians", "cusum"}, default="medians"
+        How a known mode's drift from its first fit is found: the medians of its first and
+        latest ``n_fit`` values in its spread now, or a self-starting CUSUM per reading
+        (:mod:`._drift`). The CUSUM finds a slow fault sooner, and a healthy drift too (real
+        hydraulic actuators warming up).
 
     Examples
     --------
@@ -292,6 +317,7 @@ class ModeLibrary:
         learn_below: float = 1.0,
         first_window: bool = False,
         motion_match: bool = False,
+        drift_test: Literal["medians", "cusum"] = "medians",
     ) -> None:
         if not (isinstance(n_fit, int) and n_fit >= 3):
             raise ValueError(f"The 'n_fit' parameter must be an int >= 3. Got {n_fit!r}.")
@@ -309,6 +335,11 @@ class ModeLibrary:
         self.learn_below = learn_below
         self.first_window = first_window
         self.motion_match = motion_match
+        if drift_test not in ("medians", "cusum"):
+            raise ValueError(
+                f"The 'drift_test' parameter must be 'medians' or 'cusum'. Got {drift_test!r}."
+            )
+        self.drift_test = drift_test
         self.modes_: dict[str, _Mode] = {}
         # What the learned captures give, cached until a capture is learned.
         self._cache: dict[str, object] = {}
@@ -317,6 +348,10 @@ class ModeLibrary:
     def __getstate__(self) -> dict[str, object]:
         # What the learned captures give is recomputed: a stored library keeps the captures.
         return {**self.__dict__, "_cache": {}, "_normals": {}}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        # A library stored before the drift test was an option used the medians.
+        self.__dict__.update({"drift_test": "medians", **state})
 
     # -- the modes' normals ------------------------------------------------------------------
     def _known(self) -> list[_Mode]:
@@ -600,6 +635,8 @@ class ModeLibrary:
             mode.members = mode.members[-self.n_fit :]
             mode.drifted = False
             mode.reference = None
+            if mode.drift is not None:
+                mode.track(self.window)
         return self._told(description, name)
 
     def _taught_mode(self, description: CaptureDescription) -> str | None:
@@ -620,6 +657,24 @@ class ModeLibrary:
         return name
 
     def _drifted(self, mode: _Mode) -> bool:
+        """Whether a known mode drifted from its first fit, by :attr:`drift_test`."""
+        if self.drift_test == "cusum":
+            return self._drifted_cusum(mode)
+        return self._drifted_medians(mode)
+
+    def _drifted_cusum(self, mode: _Mode) -> bool:
+        """Whether a guard reading's CUSUM passed its limit (:mod:`._drift`): its values rose
+        above the mode's first ``window``, in their own spread, for longer than chance allows.
+        The limit's in-control run length is ``1 / (1 - percentile / 100)`` captures of the
+        mode (1,000 at 99.9), Bonferroni over the readings tested; only rises of the guard
+        readings, as :meth:`_drifted_medians`."""
+        drift = mode.track(self.window) if mode.drift is None else mode.drift
+        if not drift:
+            return False
+        run_length = len(drift) / (1.0 - self.percentile / 100.0)
+        return max(c.total for c in drift.values()) > cusum_limit(run_length)
+
+    def _drifted_medians(self, mode: _Mode) -> bool:
         """Whether a guard reading's latest ``n_fit`` values rose above its first ``n_fit``:
         a one-sided z of the two medians' difference, Bonferroni over the guard readings.
 
