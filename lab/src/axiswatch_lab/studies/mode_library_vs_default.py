@@ -128,6 +128,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "first 30": {"first_window": True},
     "first 30, learn under 0.5": {"first_window": True, "learn_below": 0.5},
     "motion match": {"motion_match": True},
+    "CUSUM drift test": {"drift_test": "cusum"},
 }
 #: Days after a change the engineer made within which they teach its alarms (``teach=True``).
 TEACH_DAYS = 5
