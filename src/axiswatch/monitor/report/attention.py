@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import pandas as pd
 
@@ -313,11 +313,12 @@ def _newest_arrived_later(
     # Sorted by arrival, latest first: the running maximum over strictly later arrivals.
     by_arrival = table.groupby("seen")["newest"].max().sort_index(ascending=False)
     later = by_arrival.cummax().shift(1)
-    return {
-        (str(robot), str(axis)): later[when]
-        for (robot, axis), when in table["seen"].items()
-        if pd.notna(later[when])
-    }
+    out: dict[tuple[str, str], pd.Timestamp] = {}
+    for key, when in table["seen"].items():
+        robot, axis = cast("tuple[str, str]", key)
+        if pd.notna(later[when]):
+            out[str(robot), str(axis)] = later[when]
+    return out
 
 
 def _span(span: pd.Timedelta) -> str:
