@@ -325,7 +325,7 @@ def test_a_run_without_any_baseline_does_not_count_zero_of_zero_axes() -> None:
     # The cobot sample: 6 axes calibrating, none with a baseline yet. Before: the run ended
     # with "Needs attention (indicators): 0 of 0 axes" below "Axes calibrating (6)".
     assert attention_lines([], "indicators") == [
-        "Needs attention (indicators): none; no axis has finished calibrating yet."
+        "Needs attention (indicators): none; no axis has a baseline yet."
     ]
 
 

@@ -34,7 +34,7 @@ def cusum_run_length(limit: float, k: float = CUSUM_REFERENCE_SHIFT) -> float:
     Examples
     --------
     >>> round(cusum_run_length(4.0, 0.5))
-    336
+    338
     """
     b = limit + 1.166
     return (math.exp(2.0 * k * b) - 2.0 * k * b - 1.0) / (2.0 * k * k)
@@ -46,7 +46,7 @@ def cusum_limit(run_length: float, k: float = CUSUM_REFERENCE_SHIFT) -> float:
 
     Examples
     --------
-    >>> round(cusum_limit(336.0), 2)
+    >>> round(cusum_limit(338.0), 2)
     4.0
     """
     if not run_length > 1.0:

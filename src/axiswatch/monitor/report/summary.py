@@ -52,7 +52,7 @@ def fleet_table(store: StoreBackend, stale_after: timedelta | None, method: str)
     summary = fleet_summary(store, stale_after=stale_after)
     summary = summary[summary.method == method].reset_index(drop=True)
     if summary.empty:
-        return ["No axis has finished calibrating yet."]
+        return ["No axis has a baseline yet."]
     # What fits a terminal; `axiswatch report` and `fleet_summary` have every column.
     columns = ["robot", "axis", "method", "state", "alarm_since", "scored", "over",
                "last_capture", "last_distance", "threshold", "rejected"]  # fmt: skip

@@ -458,7 +458,7 @@ def attention_lines(verdicts: Sequence[Verdict], method: str) -> list[str]:
     run of a misread export does by the hundred.
     """
     if not verdicts:  # not "0 of 0 axes" while axes calibrate before their baseline is set
-        return [f"Needs attention ({method}): none; no axis has finished calibrating yet."]
+        return [f"Needs attention ({method}): none; no axis has a baseline yet."]
     urgent = [v for v in verdicts if v.needs_attention]
     files = [v for v in urgent if v.state == "bad data" and v.kind == "bad data"]
     lines = [f"Needs attention ({method}): {len(urgent)} of {_axes(len(verdicts))}"]
