@@ -213,6 +213,7 @@ def _monitor_row(found: dict[str, object], scenario: str, robot: str) -> dict[st
         false_alarms=counts.get("false_alarms", 0),
         healthy=counts.get("healthy_monitored", 0),
         no_verdict=counts["files"] - answered,
+        auroc=counts.get("auroc", float("nan")),
     )
 
 

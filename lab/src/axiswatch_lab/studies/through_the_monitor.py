@@ -88,6 +88,21 @@ def _rates(scores: pd.DataFrame, selected: pd.Series) -> tuple[int, int]:
     return int(monitored["over"].astype(bool).sum()), len(monitored)
 
 
+def _auroc(scores: pd.DataFrame, faulty: pd.Series) -> float:
+    """AUROC of the monitored captures' distances (the threshold's units), ``faulty`` against
+    the others; a capture without a distance counts 0, as in the library's cases."""
+    from sklearn.metrics import roc_auc_score
+
+    order = scores.sort_values("captured_at", kind="stable").groupby(["robot", "axis"]).cumcount()
+    monitored = (order.reindex(scores.index) >= _CALIBRATION) & scores["role"].isin(
+        ["monitor", "calibration"]
+    )
+    labels = faulty[monitored].astype(int)
+    if labels.nunique() < 2:
+        return float("nan")
+    return float(roc_auc_score(labels, scores.loc[monitored, "distance"].fillna(0.0)))
+
+
 def monitor_robot(
     seed: int,
     scratch: Path,
@@ -204,10 +219,12 @@ def monitor_real_data(
                 impaired = (scores["axis"] == "normal") & (order >= impaired_from)
                 row["false_alarms"], row["healthy_monitored"] = _rates(scores, ~impaired)
                 row["detected"], row["faulty_monitored"] = _rates(scores, impaired)
+                row["auroc"] = _auroc(scores, impaired)
             elif not scores.empty:
                 unit_faulty = scores["axis"].isin(faulty)
                 row["false_alarms"], row["healthy_monitored"] = _rates(scores, ~unit_faulty)
                 row["faulty_axis_over"], row["faulty_monitored"] = _rates(scores, unit_faulty)
+                row["auroc"] = _auroc(scores, unit_faulty)
                 baselines = scores[(scores["role"] == "baseline") & unit_faulty]
                 row["faulty_axis_notes"] = " | ".join(
                     "; ".join(json.loads(d)["indicator_model"]["notes"])
