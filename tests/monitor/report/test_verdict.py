@@ -167,6 +167,14 @@ def test_a_confirmed_fault_no_longer_asks_to_record_a_task_change() -> None:
     assert confirmed.action.endswith("After the repair: axiswatch ack --rebaseline.")
 
 
+def test_rising_friction_asks_whether_the_payload_changed() -> None:
+    # A heavier payload raises the Coulomb friction too: the engineer who changed it says so.
+    frame = _axis([0.2, 1.5, 1.6], top="coulomb_friction")
+    [open_alarm] = axis_verdicts([_item(frame, "alarm")], frame, [_alarm(frame)])
+    assert open_alarm.action.startswith("Check the lubrication")
+    assert "If the tool or payload changed, record it" in open_alarm.action
+
+
 def test_verdicts_rank_by_urgency_then_sureness() -> None:
     single, run = _axis([0.2, 1.2], axis="a1"), _axis([1.1, 1.1], axis="a2")
     ok = _axis([0.2], axis="a3")

@@ -76,7 +76,10 @@ ADVICE: dict[str, Advice] = {
         rising="friction rising",
         falling="friction falling",
         component="drive train lubrication",
-        action=f"Check the lubrication of the {_DRIVE}: grease level, leaks, seals.",
+        # A heavier payload raises the Coulomb friction of a gear train too (development
+        # robots: a 5 kg payload alarmed a lone axis for as long as it was carried).
+        action=f"Check the lubrication of the {_DRIVE}: grease level, leaks, seals. "
+        + TASK_CHANGE_HINT,
         action_falling=_PLAY,
         colour="#1f77b4",
     ),
