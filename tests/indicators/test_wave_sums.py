@@ -118,13 +118,9 @@ def test_shared_phasors_give_the_same_waves_bit_for_bit(rng: np.random.Generator
         assert np.array_equal(moved, signals._shifted_rows(alone, angle, shift, out, half))
 
 
-def test_a_captures_lines_share_their_exponentials(
-    rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    # exp(1j f angle) costs about fifty complex products: the whole orders' exp(1j angle) serves
-    # the bearing's grid of step 1, and the shifts -0.25 and 0.25 share one. Was 8 a capture.
-    import axiswatch.indicators._wave_sums as wave_sums
-
+@pytest.fixture
+def cis_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """The sizes of the angles each ``cis`` call of the lines is given, as they come."""
     calls: list[int] = []
     cis = wave_sums.cis
 
@@ -134,6 +130,15 @@ def test_a_captures_lines_share_their_exponentials(
 
     monkeypatch.setattr(wave_sums, "cis", counted)
     monkeypatch.setattr(signals, "cis", counted)
+    return calls
+
+
+def test_a_captures_lines_share_their_exponentials(
+    rng: np.random.Generator, cis_calls: list[int]
+) -> None:
+    # exp(1j f angle) costs about fifty complex products: the whole orders' exp(1j angle) serves
+    # the bearing's grid of step 1, and the shifts -0.25 and 0.25 share one. Was 8 a capture.
+    calls = cis_calls
     angle = np.sort(rng.uniform(40.0, 400.0, 2000))
     torque = rng.normal(size=angle.size)
     shared = signals.whole_orders(angle)
@@ -266,22 +271,14 @@ def test_a_seeded_base_gives_its_multiples_as_powers(rng: np.random.Generator) -
 
 
 def test_a_captures_kinematic_lines_take_one_cis_and_the_bearings_own(
-    monkeypatch: pytest.MonkeyPatch,
+    cis_calls: list[int],
 ) -> None:
     # The whole orders, the tooth set's half step and the bearing's shift are multiples of
     # 0.05: one cis of it, their phasors as its powers. The bearing's start (3.43) takes its own.
     import axiswatch.datasets as awd
     from axiswatch.indicators._readings import read_indicators
 
-    calls: list[int] = []
-    cis = wave_sums.cis
-
-    def counted(angle: np.ndarray) -> np.ndarray:
-        calls.append(angle.size)
-        return cis(angle)
-
-    monkeypatch.setattr(wave_sums, "cis", counted)
-    monkeypatch.setattr(signals, "cis", counted)
+    calls = cis_calls
     read = read_indicators(
         awd.simulate_capture("heavy", seed=2),
         gear_ratio=100.0,

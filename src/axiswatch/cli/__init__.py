@@ -345,16 +345,17 @@ def results(
         _require_store(store)
         with Store(store, read_only=True) as opened:
             frame = fleet_results(opened, robot=robot, axis=axis)
-            known = opened.summary_table()[["robot", "axis", "method"]]
-        if method is not None:
-            frame = frame[frame["method"] == method].reset_index(drop=True)
+            if method is not None:
+                frame = frame[frame["method"] == method].reset_index(drop=True)
+            # What the store holds, read only to say it when the filters matched nothing.
+            known = opened.summary_table()[["robot", "axis", "method"]] if frame.empty else None
         columns = ["robot", "axis", "capture", "method", "distance", "threshold", "alarm"]
         if output is Format.csv:
             echo(frame.to_csv(index=False, float_format="%.17g"), nl=False)
         elif output is Format.json:
             records = frame.assign(details=frame["details"].map(json.loads))
             echo(records.to_json(orient="records", indent=1))
-        elif frame.empty:
+        elif known is not None:
             echo(_no_results(known, robot=robot, axis=axis, method=method))
         else:
             # The engineer's feedback on an acknowledged alarm (ack --false-alarm, ...).

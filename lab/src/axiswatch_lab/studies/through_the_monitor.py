@@ -76,27 +76,30 @@ def _run(root: Path, variant: str) -> tuple[pd.DataFrame, list[str], str]:
         return store.score_table(), summary.rejected, ""
 
 
+def _monitored(scores: pd.DataFrame) -> pd.Series:
+    """The captures after each axis's baseline and calibration: the same captures for every
+    method (with modes, the calibration captures are scored too, as a new mode's)."""
+    order = scores.sort_values("captured_at", kind="stable").groupby(["robot", "axis"]).cumcount()
+    return (order.reindex(scores.index) >= _CALIBRATION) & scores["role"].isin(
+        ["monitor", "calibration"]
+    )
+
+
 def _rates(scores: pd.DataFrame, selected: pd.Series) -> tuple[int, int]:
-    """Captures among ``selected`` after each axis's baseline and calibration over the
-    threshold, and how many there are: the same captures for every method (with modes, the
-    calibration captures are scored too, as a new mode's)."""
+    """Captures among ``selected`` and :func:`_monitored` over the threshold, and how many
+    there are."""
     if scores.empty:
         return 0, 0
-    order = scores.sort_values("captured_at", kind="stable").groupby(["robot", "axis"]).cumcount()
-    monitored = scores[(order.reindex(scores.index) >= _CALIBRATION) & selected]
-    monitored = monitored[monitored["role"].isin(["monitor", "calibration"])]
+    monitored = scores[_monitored(scores) & selected]
     return int(monitored["over"].astype(bool).sum()), len(monitored)
 
 
 def _auroc(scores: pd.DataFrame, faulty: pd.Series) -> float:
-    """AUROC of the monitored captures' distances (the threshold's units), ``faulty`` against
-    the others; a capture without a distance counts 0, as in the library's cases."""
+    """AUROC of the :func:`_monitored` captures' distances (the threshold's units), ``faulty``
+    against the others; a capture without a distance counts 0, as in the library's cases."""
     from sklearn.metrics import roc_auc_score
 
-    order = scores.sort_values("captured_at", kind="stable").groupby(["robot", "axis"]).cumcount()
-    monitored = (order.reindex(scores.index) >= _CALIBRATION) & scores["role"].isin(
-        ["monitor", "calibration"]
-    )
+    monitored = _monitored(scores)
     labels = faulty[monitored].astype(int)
     if labels.nunique() < 2:
         return float("nan")
